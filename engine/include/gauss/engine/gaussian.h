@@ -1,0 +1,42 @@
+#pragma once
+// The core scene primitive, stored exactly as 3DGS trainers write it (log-scales,
+// opacity logit, SH coefficients), so reading and writing a PLY is lossless.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include "gauss/engine/ids.h"
+
+namespace gauss {
+
+inline constexpr int kMaxShDegree = 3;
+// Non-DC SH coefficients per colour channel for degree d: (d+1)^2 - 1.
+constexpr int sh_rest_count(int degree) { return (degree + 1) * (degree + 1) - 1; }
+inline constexpr int kMaxShRest = sh_rest_count(kMaxShDegree);  // 15
+
+struct Gaussian {
+  glm::vec3 position{0.0f};
+  glm::vec3 log_scale{0.0f};               // scale = exp(log_scale), metres
+  glm::vec4 rotation{1.0f, 0.0f, 0.0f, 0.0f};  // rotation[0..3] = w, x, y, z (PLY rot_0..3); unit after load
+  float opacity_logit{0.0f};               // opacity = sigmoid(opacity_logit)
+  glm::vec3 sh_dc{0.0f};                   // degree-0 SH coefficient per channel (f_dc_0..2)
+  // Higher SH coefficients, coefficient-major: sh_rest[k] is the RGB triple of
+  // coefficient k+1. (The PLY stores f_rest channel-major; I/O transposes.)
+  // Entries beyond the scene's degree are zero.
+  std::array<glm::vec3, kMaxShRest> sh_rest{};
+  GaussianId id{0};                        // persistent id
+  ObjectId object{kNoObject};              // semantic instance, kNoObject when unlabelled
+  std::uint32_t support{0};                // observation count (reconstruction support)
+  bool carrier{false};  // upstream semantic carrier: never counts as appearance residency
+};
+
+// A set of Gaussians with the SH degree they actually carry.
+struct GaussianCloud {
+  int sh_degree{0};
+  std::vector<Gaussian> gaussians;
+};
+
+}  // namespace gauss
