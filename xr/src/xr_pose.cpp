@@ -1,0 +1,55 @@
+#include "gauss/xr/xr_pose.h"
+
+#include <cmath>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+namespace gauss::xr {
+namespace {
+
+// OpenXR view axes -> OpenCV camera axes: x stays, y and z flip.
+const glm::dmat4 kCvFromXrView = glm::scale(glm::dmat4(1.0), glm::dvec3(1.0, -1.0, -1.0));
+
+bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+}  // namespace
+
+bool eye_camera(const XrPose& pose, const XrFov& fov, std::uint32_t width, std::uint32_t height,
+                const glm::dmat4& T_scene_space, Camera& out_camera) {
+  const glm::dquat& q = pose.orientation;
+  const double qn = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
+  if (!finite(pose.position) || !std::isfinite(qn) || qn < 1e-9 || width == 0 || height == 0) return false;
+  constexpr double kMaxHalfAngle = 1.5707963267948966 - 1e-6;
+  if (!(fov.angle_right > fov.angle_left) || !(fov.angle_up > fov.angle_down) ||
+      std::abs(fov.angle_left) >= kMaxHalfAngle || std::abs(fov.angle_right) >= kMaxHalfAngle ||
+      std::abs(fov.angle_up) >= kMaxHalfAngle || std::abs(fov.angle_down) >= kMaxHalfAngle)
+    return false;
+
+  const double tl = std::tan(fov.angle_left), tr = std::tan(fov.angle_right);
+  const double tu = std::tan(fov.angle_up), td = std::tan(fov.angle_down);
+  Camera cam = out_camera;
+  cam.width = width;
+  cam.height = height;
+  cam.fx = double(width) / (tr - tl);
+  cam.cx = -tl * cam.fx;               // the left edge (u = 0) is at x/z = tan(left)
+  cam.fy = double(height) / (tu - td);
+  cam.cy = tu * cam.fy;                // OpenCV v grows downward: the top edge is at -y/z = tan(up)
+
+  glm::dmat4 T_space_xrview = glm::mat4_cast(q / qn);
+  T_space_xrview[3] = glm::dvec4(pose.position, 1.0);
+  const glm::dmat4 T_scene_cvcam = T_scene_space * T_space_xrview * kCvFromXrView;
+  cam.world_to_camera = glm::inverse(T_scene_cvcam);
+  out_camera = cam;
+  return true;
+}
+
+XrPose pose_of_camera(const Camera& camera, const glm::dmat4& T_scene_space) {
+  const glm::dmat4 T_scene_cvcam = glm::inverse(camera.world_to_camera);
+  const glm::dmat4 T_space_xrview = glm::inverse(T_scene_space) * T_scene_cvcam * kCvFromXrView;
+  XrPose pose;
+  pose.orientation = glm::normalize(glm::quat_cast(glm::dmat3(T_space_xrview)));
+  pose.position = glm::dvec3(T_space_xrview[3]);
+  return pose;
+}
+
+}  // namespace gauss::xr
