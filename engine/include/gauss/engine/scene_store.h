@@ -1,0 +1,177 @@
+#pragma once
+// SceneStore: the host's evolving scene, epoch by epoch.
+//
+// Contents: Gaussians keyed by persistent GaussianId, the semantic object table, and
+// surface mesh chunks. Every mutation happens inside an open epoch
+// (begin_epoch ... commit_epoch); the change log records, per committed epoch, which ids
+// were inserted / modified / removed so consumers (selector, differ) can be incremental.
+//
+// Storage contract (what readers may rely on):
+// - gaussians() is one contiguous, dense span. Its order is stable between epochs:
+//   Gaussians keep their relative order, new ones are appended at the end, and removed
+//   ones are erased at commit (the survivors close ranks without reordering).
+// - While an epoch is open, mutations are applied at once to find(), but removed
+//   Gaussians stay in the span until commit_epoch(); read the span between epochs.
+// - Carriers (Gaussian::carrier) are stored and iterable (they carry object ids for
+//   upstream semantic association) but never count as appearance: they are excluded from
+//   appearance_count(), object members, object centroids/extents and bounds().
+// - Ids are never reused within a session: inserting an id that is live or was removed
+//   before is an error. allocate_id() hands out fresh ids above every id seen.
+// Not thread-safe: one writer, readers between epochs (the host loop owns it).
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <limits>
+#include <span>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "gauss/engine/gaussian.h"
+#include "gauss/engine/ids.h"
+#include "gauss/engine/mesh.h"
+#include "gauss/engine/result.h"
+#include "gauss/engine/semantic.h"
+
+namespace gauss {
+
+// A piece of the surface mesh with the source epoch it came from.
+struct SurfaceChunk {
+  std::uint32_t chunk_id{0};
+  Epoch epoch{0};
+  TriangleMesh mesh;
+};
+
+// Axis-aligned box; empty (min > max) until a point is added.
+struct Aabb {
+  glm::vec3 min{std::numeric_limits<float>::max()};
+  glm::vec3 max{std::numeric_limits<float>::lowest()};
+  bool empty() const { return min.x > max.x || min.y > max.y || min.z > max.z; }
+  void extend(const glm::vec3& p);
+};
+
+// What one committed epoch changed. An id appears in at most one of the three lists:
+// inserted then modified in the same epoch is "inserted"; inserted then removed in the
+// same epoch appears nowhere; modified then removed is "removed". Lists are sorted by id.
+struct EpochChanges {
+  Epoch epoch{0};
+  std::vector<GaussianId> inserted;
+  std::vector<GaussianId> modified;
+  std::vector<GaussianId> removed;
+  bool objects_changed{false};                  // object table or any membership changed
+  std::vector<std::uint32_t> chunks_changed;    // surface chunk ids set or removed (sorted)
+};
+
+class SceneStore {
+ public:
+  // How many committed epochs the change log keeps (oldest dropped first).
+  explicit SceneStore(std::size_t change_log_capacity = 64);
+
+  // --- epochs -------------------------------------------------------------------------
+  // Last committed epoch; Epoch{0} before the first commit.
+  Epoch epoch() const { return epoch_; }
+  bool in_epoch() const { return open_; }
+  // Opens epoch `e`. Fails when an epoch is already open or e <= epoch().
+  Status begin_epoch(Epoch e);
+  // Opens epoch() + 1.
+  Status begin_next_epoch();
+  // Compacts removals, recomputes object membership/centroids/extents and bounds,
+  // appends the change log entry and makes the epoch current. Fails when none is open.
+  Status commit_epoch();
+
+  // --- Gaussians (inside an open epoch only) -------------------------------------------
+  // Fails when no epoch is open, the id is live or was used before, or a field is
+  // non-finite / the SH degree of the Gaussian's non-zero rest exceeds sh_degree().
+  Status insert(const Gaussian& g);
+  // Replaces the record of live id g.id. Fails when g.id is not live or g is not finite.
+  // A modify whose record is bit-identical to the stored one is not logged.
+  Status modify(const Gaussian& g);
+  // Removes live id. Fails when it is not live.
+  Status remove(GaussianId id);
+  // A fresh id: larger than any id ever inserted or allocated in this store.
+  GaussianId allocate_id();
+
+  // --- reading ----------------------------------------------------------------------
+  const Gaussian* find(GaussianId id) const;
+  bool contains(GaussianId id) const { return find(id) != nullptr; }
+  // All stored Gaussians (carriers included), see the storage contract above.
+  std::span<const Gaussian> gaussians() const { return gaussians_; }
+  // Live Gaussians (carriers included).
+  std::size_t size() const { return index_.size(); }
+  // Live non-carrier Gaussians: what appearance residency is measured against.
+  std::size_t appearance_count() const { return appearance_count_; }
+  std::size_t carrier_count() const { return size() - appearance_count_; }
+  // Bounds of the live appearance Gaussians' centres at the last commit.
+  const Aabb& bounds() const { return bounds_; }
+
+  // SH degree the scene carries (0..3); rest coefficients beyond it must be zero.
+  int sh_degree() const { return sh_degree_; }
+  // Fails when degree is outside 0..3 or a stored Gaussian has non-zero rest above it.
+  Status set_sh_degree(int degree);
+
+  // --- semantic objects ---------------------------------------------------------------
+  // Sorted by object id. Members (sorted ids), centroid, extent are derived from the
+  // appearance Gaussians whose `object` is the object's id, recomputed at commit.
+  // An object id used by Gaussians but never declared appears with an empty label.
+  const std::vector<SemanticObject>& objects() const { return objects_; }
+  const SemanticObject* find_object(ObjectId id) const;
+  // Declares or relabels an object (inside an open epoch). quality in [0, 1].
+  // Fails on kNoObject / negative id, an empty label, or quality outside [0, 1].
+  Status set_object(ObjectId id, std::string label, float quality = 1.0f);
+  // Forgets a declared object. Gaussians keep their object id (it reappears unlabelled).
+  Status remove_object(ObjectId id);
+
+  // --- surface ------------------------------------------------------------------------
+  // Sets or replaces chunk `chunk.chunk_id` (inside an open epoch). The chunk's epoch is
+  // forced to the open epoch. Fails on indices out of range, a colours/positions length
+  // mismatch, an index count that is not a multiple of 3, or a non-finite position.
+  Status set_surface_chunk(SurfaceChunk chunk);
+  Status remove_surface_chunk(std::uint32_t chunk_id);
+  // Sorted by chunk id.
+  const std::vector<SurfaceChunk>& surface_chunks() const { return chunks_; }
+
+  // --- change log ---------------------------------------------------------------------
+  // Oldest first; at most change_log_capacity entries.
+  const std::deque<EpochChanges>& change_log() const { return log_; }
+  // The entry for epoch e, or nullptr when it is older than the log keeps or never was.
+  const EpochChanges* changes(Epoch e) const;
+
+ private:
+  struct PendingChange {
+    enum Kind : std::uint8_t { Inserted, Modified, Removed, InsertedThenRemoved } kind;
+  };
+  Status require_open(const char* what) const;
+  void recompute_derived();
+
+  Epoch epoch_{0};
+  bool open_{false};
+  Epoch open_epoch_{0};
+  int sh_degree_{0};
+  std::size_t log_capacity_;
+  std::uint64_t next_id_{1};
+
+  std::vector<Gaussian> gaussians_;
+  std::vector<std::uint8_t> dead_;  // parallel to gaussians_: removed, erased at commit
+  std::unordered_map<GaussianId, std::uint32_t> index_;  // live id -> position in gaussians_
+  std::unordered_set<GaussianId> retired_;               // removed ids, never reused
+  std::size_t appearance_count_{0};
+  Aabb bounds_;
+
+  struct DeclaredObject {
+    std::string label;
+    float quality{1.0f};
+  };
+  std::unordered_map<ObjectId, DeclaredObject> declared_;
+  std::vector<SemanticObject> objects_;
+  std::vector<SurfaceChunk> chunks_;
+
+  std::unordered_map<GaussianId, PendingChange> pending_;
+  bool pending_objects_changed_{false};
+  std::vector<std::uint32_t> pending_chunks_;
+  std::deque<EpochChanges> log_;
+};
+
+}  // namespace gauss
