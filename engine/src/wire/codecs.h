@@ -1,0 +1,45 @@
+#pragma once
+// Per-message pieces the frame encoder dispatches to (private to engine/src/wire).
+// check(): the schema's semantic rules, used by the encoder (never write what the
+// decoder refuses) and by the decoder after the structural read.
+// write(): the body, fields in schema order; assumes check() passed.
+#include "byte_io.h"
+#include "gauss/engine/messages.h"
+
+namespace gauss::wire::detail {
+
+Status check(const msg::Hello& m);
+Status check(const msg::Welcome& m);
+Status check(const msg::Refuse& m);
+Status check(const msg::SceneInfo& m);
+Status check(const msg::EditBatchMsg& m);
+Status check(const msg::SurfacePatch& m);
+Status check(const msg::ObjectTableUpdate& m);
+Status check(const msg::HeadPose& m);
+Status check(const msg::Query& m);
+Status check(const msg::QueryReply& m);
+Status check(const msg::Ack& m);
+Status check(const msg::ClientStats& m);
+
+void write(const msg::Hello& m, Writer& w);
+void write(const msg::Welcome& m, Writer& w);
+void write(const msg::Refuse& m, Writer& w);
+void write(const msg::SceneInfo& m, Writer& w);
+void write(const msg::EditBatchMsg& m, Writer& w);
+// The surface patch compresses its mesh, which can fail (zstd error): hence Status.
+Status write(const msg::SurfacePatch& m, Writer& w);
+void write(const msg::ObjectTableUpdate& m, Writer& w);
+void write(const msg::HeadPose& m, Writer& w);
+void write(const msg::Query& m, Writer& w);
+void write(const msg::QueryReply& m, Writer& w);
+void write(const msg::Ack& m, Writer& w);
+void write(const msg::ClientStats& m, Writer& w);
+
+// Runs check() on a structurally decoded message: the decoder's last step.
+template <class T>
+Expected<T> checked(T m) {
+  if (auto s = check(m); !s) return s.error();
+  return m;
+}
+
+}  // namespace gauss::wire::detail

@@ -1,0 +1,192 @@
+// Model-stream messages: SceneInfo, EditBatch, ObjectTableUpdate (and the
+// ObjectInfo record they share).
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "codecs.h"
+#include "gauss/engine/wire.h"
+
+namespace gauss::wire {
+namespace detail {
+namespace {
+
+// id, label length, centroid, extent_min, extent_max, quality, member_count
+constexpr std::size_t kObjectInfoMinBytes = 4 + 4 + 3 * 12 + 4 + 4;
+
+Status check_object(const char* message, const std::string& where, const msg::ObjectInfo& o) {
+  if (to_underlying(o.id) < 0) return field_error(message, where + ".id", "negative object id " + std::to_string(to_underlying(o.id)));
+  if (o.label.size() > msg::kMaxLabelBytes)
+    return field_error(message, where + ".label", "longer than " + std::to_string(msg::kMaxLabelBytes) + " bytes");
+  if (!finite3(o.centroid) || !finite3(o.extent_min) || !finite3(o.extent_max))
+    return field_error(message, where, "non-finite centroid or extent");
+  if (o.extent_min.x > o.extent_max.x || o.extent_min.y > o.extent_max.y || o.extent_min.z > o.extent_max.z)
+    return field_error(message, where + ".extent_min", "greater than extent_max");
+  if (!(o.quality >= 0.0f && o.quality <= 1.0f))
+    return field_error(message, where + ".quality", "outside [0, 1]");
+  return Ok{};
+}
+
+Status check_objects(const char* message, const char* field, const std::vector<msg::ObjectInfo>& objects) {
+  if (objects.size() > msg::kMaxObjects)
+    return field_error(message, field, std::to_string(objects.size()) + " objects exceed " + std::to_string(msg::kMaxObjects));
+  std::vector<std::int32_t> ids;
+  ids.reserve(objects.size());
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    if (auto s = check_object(message, std::string(field) + "[" + std::to_string(i) + "]", objects[i]); !s) return s;
+    ids.push_back(to_underlying(objects[i].id));
+  }
+  std::sort(ids.begin(), ids.end());
+  if (auto dup = std::adjacent_find(ids.begin(), ids.end()); dup != ids.end())
+    return field_error(message, field, "object id " + std::to_string(*dup) + " appears twice");
+  return Ok{};
+}
+
+void write_object(const msg::ObjectInfo& o, Writer& w) {
+  w.i32(to_underlying(o.id));
+  w.str(o.label);
+  w.vec3(o.centroid);
+  w.vec3(o.extent_min);
+  w.vec3(o.extent_max);
+  w.f32(o.quality);
+  w.u32(o.member_count);
+}
+
+bool read_objects(Reader& r, const char* field, std::vector<msg::ObjectInfo>& out) {
+  std::uint32_t n = 0;
+  if (!r.count(field, n, msg::kMaxObjects, kObjectInfoMinBytes)) return false;
+  out.resize(n);
+  for (auto& o : out) {
+    std::int32_t id = 0;
+    r.i32(field, id);
+    o.id = ObjectId{id};
+    r.str(field, o.label, msg::kMaxLabelBytes);
+    r.vec3(field, o.centroid);
+    r.vec3(field, o.extent_min);
+    r.vec3(field, o.extent_max);
+    r.f32(field, o.quality);
+    r.u32(field, o.member_count);
+    if (!r.ok()) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+Status check(const msg::SceneInfo& m) {
+  if (m.sh_degree > 3) return field_error("SceneInfo", "sh_degree", std::to_string(m.sh_degree) + " > 3");
+  if (!finite3(m.bounds_min) || !finite3(m.bounds_max)) return field_error("SceneInfo", "bounds", "not finite");
+  if (m.bounds_min.x > m.bounds_max.x || m.bounds_min.y > m.bounds_max.y || m.bounds_min.z > m.bounds_max.z)
+    return field_error("SceneInfo", "bounds_min", "greater than bounds_max");
+  return check_objects("SceneInfo", "objects", m.objects);
+}
+
+Status check(const msg::EditBatchMsg& m) {
+  if (m.edit_count > msg::kMaxEditsPerBatch)
+    return field_error("EditBatch", "edit_count", std::to_string(m.edit_count) + " exceeds " + std::to_string(msg::kMaxEditsPerBatch));
+  if ((m.flags & ~msg::kBatchKnownFlags) != 0)
+    return field_error("EditBatch", "flags", "unknown bits " + std::to_string(m.flags & ~msg::kBatchKnownFlags));
+  if (m.payload.size() > msg::kMaxMessageBytes - kHeaderBytes)
+    return field_error("EditBatch", "payload", std::to_string(m.payload.size()) + " bytes exceed the message limit");
+  return Ok{};
+}
+
+Status check(const msg::ObjectTableUpdate& m) {
+  if (auto s = check_objects("ObjectTableUpdate", "upserts", m.upserts); !s) return s;
+  if (m.removed.size() > msg::kMaxObjects)
+    return field_error("ObjectTableUpdate", "removed", std::to_string(m.removed.size()) + " ids exceed " + std::to_string(msg::kMaxObjects));
+  std::vector<std::int32_t> removed;
+  removed.reserve(m.removed.size());
+  for (ObjectId id : m.removed) {
+    if (to_underlying(id) < 0) return field_error("ObjectTableUpdate", "removed", "negative object id " + std::to_string(to_underlying(id)));
+    removed.push_back(to_underlying(id));
+  }
+  std::sort(removed.begin(), removed.end());
+  if (auto dup = std::adjacent_find(removed.begin(), removed.end()); dup != removed.end())
+    return field_error("ObjectTableUpdate", "removed", "object id " + std::to_string(*dup) + " appears twice");
+  for (const auto& o : m.upserts)
+    if (std::binary_search(removed.begin(), removed.end(), to_underlying(o.id)))
+      return field_error("ObjectTableUpdate", "removed", "object id " + std::to_string(to_underlying(o.id)) + " is also upserted");
+  return Ok{};
+}
+
+void write(const msg::SceneInfo& m, Writer& w) {
+  w.u64(to_underlying(m.epoch));
+  w.vec3(m.bounds_min);
+  w.vec3(m.bounds_max);
+  w.u8(m.sh_degree);
+  w.u64(m.total_gaussians);
+  w.u32(static_cast<std::uint32_t>(m.objects.size()));
+  for (const auto& o : m.objects) write_object(o, w);
+}
+
+void write(const msg::EditBatchMsg& m, Writer& w) {
+  w.u64(to_underlying(m.epoch));
+  w.u64(m.batch_id);
+  w.u32(m.edit_count);
+  w.u8(m.flags);
+  w.u64(m.host_time_us);
+  w.bytes(m.payload);
+}
+
+void write(const msg::ObjectTableUpdate& m, Writer& w) {
+  w.u64(to_underlying(m.epoch));
+  w.u32(static_cast<std::uint32_t>(m.upserts.size()));
+  for (const auto& o : m.upserts) write_object(o, w);
+  w.u32(static_cast<std::uint32_t>(m.removed.size()));
+  for (ObjectId id : m.removed) w.i32(to_underlying(id));
+}
+
+}  // namespace detail
+
+Expected<msg::SceneInfo> decode_scene_info(std::span<const std::uint8_t> body) {
+  detail::Reader r(body, "SceneInfo");
+  msg::SceneInfo m;
+  std::uint64_t epoch = 0;
+  r.u64("epoch", epoch);
+  m.epoch = Epoch{epoch};
+  r.vec3("bounds_min", m.bounds_min);
+  r.vec3("bounds_max", m.bounds_max);
+  r.u8("sh_degree", m.sh_degree);
+  r.u64("total_gaussians", m.total_gaussians);
+  if (r.ok()) detail::read_objects(r, "objects", m.objects);
+  if (!r.finish()) return r.error();
+  return detail::checked(std::move(m));
+}
+
+Expected<msg::EditBatchMsg> decode_edit_batch_msg(std::span<const std::uint8_t> body) {
+  detail::Reader r(body, "EditBatch");
+  msg::EditBatchMsg m;
+  std::uint64_t epoch = 0;
+  r.u64("epoch", epoch);
+  m.epoch = Epoch{epoch};
+  r.u64("batch_id", m.batch_id);
+  r.u32("edit_count", m.edit_count);
+  r.u8("flags", m.flags);
+  r.u64("host_time_us", m.host_time_us);
+  r.bytes("payload", m.payload, msg::kMaxMessageBytes - kHeaderBytes);
+  if (!r.finish()) return r.error();
+  return detail::checked(std::move(m));
+}
+
+Expected<msg::ObjectTableUpdate> decode_object_table_update(std::span<const std::uint8_t> body) {
+  detail::Reader r(body, "ObjectTableUpdate");
+  msg::ObjectTableUpdate m;
+  std::uint64_t epoch = 0;
+  r.u64("epoch", epoch);
+  m.epoch = Epoch{epoch};
+  if (r.ok()) detail::read_objects(r, "upserts", m.upserts);
+  std::uint32_t n = 0;
+  if (r.count("removed", n, msg::kMaxObjects, 4)) {
+    m.removed.resize(n);
+    for (auto& id : m.removed) {
+      std::int32_t v = 0;
+      r.i32("removed", v);
+      id = ObjectId{v};
+    }
+  }
+  if (!r.finish()) return r.error();
+  return detail::checked(std::move(m));
+}
+
+}  // namespace gauss::wire
