@@ -140,9 +140,8 @@ class SceneStore {
   const EpochChanges* changes(Epoch e) const;
 
  private:
-  struct PendingChange {
-    enum Kind : std::uint8_t { Inserted, Modified, Removed, InsertedThenRemoved } kind;
-  };
+  // What happened to an id during the open epoch (collapsed to one entry per id).
+  enum class Pending : std::uint8_t { Inserted, Modified, Removed, InsertedThenRemoved };
   Status require_open(const char* what) const;
   void recompute_derived();
 
@@ -168,7 +167,7 @@ class SceneStore {
   std::vector<SemanticObject> objects_;
   std::vector<SurfaceChunk> chunks_;
 
-  std::unordered_map<GaussianId, PendingChange> pending_;
+  std::unordered_map<GaussianId, Pending> pending_;
   bool pending_objects_changed_{false};
   std::vector<std::uint32_t> pending_chunks_;
   std::deque<EpochChanges> log_;

@@ -1,0 +1,315 @@
+#include "gauss/engine/scene_store.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include <glm/common.hpp>
+
+namespace gauss {
+namespace {
+
+std::string id_text(GaussianId id) { return std::to_string(to_underlying(id)); }
+
+bool finite3(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+// Names the first non-finite or out-of-contract field, or returns an empty string.
+std::string invalid_field(const Gaussian& g, int sh_degree) {
+  if (!finite3(g.position)) return "position is not finite";
+  if (!finite3(g.log_scale)) return "log_scale is not finite";
+  for (int k = 0; k < 4; ++k)
+    if (!std::isfinite(g.rotation[k])) return "rotation is not finite";
+  if (!std::isfinite(g.opacity_logit)) return "opacity_logit is not finite";
+  if (!finite3(g.sh_dc)) return "sh_dc is not finite";
+  for (int k = 0; k < kMaxShRest; ++k) {
+    if (!finite3(g.sh_rest[k])) return "sh_rest[" + std::to_string(k) + "] is not finite";
+    if (k >= sh_rest_count(sh_degree) && g.sh_rest[k] != glm::vec3(0.0f))
+      return "sh_rest[" + std::to_string(k) + "] is non-zero above the scene's SH degree " +
+             std::to_string(sh_degree);
+  }
+  if (to_underlying(g.object) < -1) return "object id " + std::to_string(to_underlying(g.object)) + " is negative";
+  return {};
+}
+
+// Field-wise equality: a bit-identical modify is not a change (and Gaussian has padding,
+// so memcmp would be wrong).
+bool same_record(const Gaussian& a, const Gaussian& b) {
+  return a.position == b.position && a.log_scale == b.log_scale && a.rotation == b.rotation &&
+         a.opacity_logit == b.opacity_logit && a.sh_dc == b.sh_dc && a.sh_rest == b.sh_rest &&
+         a.object == b.object && a.support == b.support && a.carrier == b.carrier;
+}
+
+bool same_object(const SemanticObject& a, const SemanticObject& b) {
+  return a.id == b.id && a.label == b.label && a.members == b.members && a.centroid == b.centroid &&
+         a.extent_min == b.extent_min && a.extent_max == b.extent_max && a.quality == b.quality;
+}
+
+}  // namespace
+
+void Aabb::extend(const glm::vec3& p) {
+  min = glm::min(min, p);
+  max = glm::max(max, p);
+}
+
+SceneStore::SceneStore(std::size_t change_log_capacity) : log_capacity_(std::max<std::size_t>(1, change_log_capacity)) {}
+
+Status SceneStore::require_open(const char* what) const {
+  if (!open_) return Error{std::string("SceneStore::") + what + ": no epoch is open (call begin_epoch first)"};
+  return Ok{};
+}
+
+Status SceneStore::begin_epoch(Epoch e) {
+  if (open_)
+    return Error{"SceneStore::begin_epoch(" + std::to_string(to_underlying(e)) + "): epoch " +
+                 std::to_string(to_underlying(open_epoch_)) + " is still open"};
+  if (to_underlying(e) <= to_underlying(epoch_))
+    return Error{"SceneStore::begin_epoch(" + std::to_string(to_underlying(e)) +
+                 "): epochs must increase; current epoch is " + std::to_string(to_underlying(epoch_))};
+  open_ = true;
+  open_epoch_ = e;
+  return Ok{};
+}
+
+Status SceneStore::begin_next_epoch() { return begin_epoch(Epoch{to_underlying(epoch_) + 1}); }
+
+GaussianId SceneStore::allocate_id() { return GaussianId{next_id_++}; }
+
+Status SceneStore::insert(const Gaussian& g) {
+  if (auto s = require_open("insert"); !s) return s;
+  if (index_.count(g.id)) return Error{"SceneStore::insert: Gaussian id " + id_text(g.id) + " is already live"};
+  if (retired_.count(g.id))
+    return Error{"SceneStore::insert: Gaussian id " + id_text(g.id) + " was removed before; ids are never reused"};
+  if (auto why = invalid_field(g, sh_degree_); !why.empty())
+    return Error{"SceneStore::insert: Gaussian id " + id_text(g.id) + ": " + why};
+  index_.emplace(g.id, static_cast<std::uint32_t>(gaussians_.size()));
+  gaussians_.push_back(g);
+  dead_.push_back(0);
+  next_id_ = std::max(next_id_, to_underlying(g.id) + 1);
+  if (!g.carrier) ++appearance_count_;
+  pending_[g.id] = Pending::Inserted;
+  return Ok{};
+}
+
+Status SceneStore::modify(const Gaussian& g) {
+  if (auto s = require_open("modify"); !s) return s;
+  auto it = index_.find(g.id);
+  if (it == index_.end()) return Error{"SceneStore::modify: Gaussian id " + id_text(g.id) + " is not live"};
+  if (auto why = invalid_field(g, sh_degree_); !why.empty())
+    return Error{"SceneStore::modify: Gaussian id " + id_text(g.id) + ": " + why};
+  Gaussian& stored = gaussians_[it->second];
+  if (same_record(stored, g)) return Ok{};
+  if (stored.carrier != g.carrier) {
+    if (g.carrier)
+      --appearance_count_;
+    else
+      ++appearance_count_;
+  }
+  stored = g;
+  // An id inserted in this epoch stays "inserted"; consumers see only its final record.
+  pending_.try_emplace(g.id, Pending::Modified);
+  return Ok{};
+}
+
+Status SceneStore::remove(GaussianId id) {
+  if (auto s = require_open("remove"); !s) return s;
+  auto it = index_.find(id);
+  if (it == index_.end()) return Error{"SceneStore::remove: Gaussian id " + id_text(id) + " is not live"};
+  const std::uint32_t i = it->second;
+  if (!gaussians_[i].carrier) --appearance_count_;
+  dead_[i] = 1;
+  index_.erase(it);
+  retired_.insert(id);
+  auto [p, fresh] = pending_.try_emplace(id, Pending::Removed);
+  if (!fresh) p->second = (p->second == Pending::Inserted) ? Pending::InsertedThenRemoved : Pending::Removed;
+  return Ok{};
+}
+
+const Gaussian* SceneStore::find(GaussianId id) const {
+  auto it = index_.find(id);
+  return it == index_.end() ? nullptr : &gaussians_[it->second];
+}
+
+Status SceneStore::set_sh_degree(int degree) {
+  if (degree < 0 || degree > kMaxShDegree)
+    return Error{"SceneStore::set_sh_degree: degree " + std::to_string(degree) + " is outside 0.." +
+                 std::to_string(kMaxShDegree)};
+  for (std::size_t i = 0; i < gaussians_.size(); ++i) {
+    if (dead_[i]) continue;
+    for (int k = sh_rest_count(degree); k < kMaxShRest; ++k)
+      if (gaussians_[i].sh_rest[k] != glm::vec3(0.0f))
+        return Error{"SceneStore::set_sh_degree(" + std::to_string(degree) + "): Gaussian id " +
+                     id_text(gaussians_[i].id) + " has non-zero sh_rest[" + std::to_string(k) + "]"};
+  }
+  sh_degree_ = degree;
+  return Ok{};
+}
+
+const SemanticObject* SceneStore::find_object(ObjectId id) const {
+  auto it = std::lower_bound(objects_.begin(), objects_.end(), id,
+                             [](const SemanticObject& o, ObjectId v) { return to_underlying(o.id) < to_underlying(v); });
+  return (it != objects_.end() && it->id == id) ? &*it : nullptr;
+}
+
+Status SceneStore::set_object(ObjectId id, std::string label, float quality) {
+  if (auto s = require_open("set_object"); !s) return s;
+  if (to_underlying(id) < 0)
+    return Error{"SceneStore::set_object: object id " + std::to_string(to_underlying(id)) + " is negative"};
+  if (label.empty()) return Error{"SceneStore::set_object: object " + std::to_string(to_underlying(id)) + " has an empty label"};
+  if (!(quality >= 0.0f && quality <= 1.0f))
+    return Error{"SceneStore::set_object: object " + std::to_string(to_underlying(id)) + " quality " +
+                 std::to_string(quality) + " is outside [0, 1]"};
+  auto& d = declared_[id];
+  if (d.label != label || d.quality != quality) pending_objects_changed_ = true;
+  d.label = std::move(label);
+  d.quality = quality;
+  return Ok{};
+}
+
+Status SceneStore::remove_object(ObjectId id) {
+  if (auto s = require_open("remove_object"); !s) return s;
+  if (declared_.erase(id) == 0)
+    return Error{"SceneStore::remove_object: object " + std::to_string(to_underlying(id)) + " is not declared"};
+  pending_objects_changed_ = true;
+  return Ok{};
+}
+
+Status SceneStore::set_surface_chunk(SurfaceChunk chunk) {
+  if (auto s = require_open("set_surface_chunk"); !s) return s;
+  const std::string where = "SceneStore::set_surface_chunk: chunk " + std::to_string(chunk.chunk_id) + ": ";
+  const auto& m = chunk.mesh;
+  if (m.colors.size() != m.positions.size())
+    return Error{where + std::to_string(m.colors.size()) + " colours for " + std::to_string(m.positions.size()) +
+                 " positions"};
+  if (m.indices.size() % 3 != 0)
+    return Error{where + "index count " + std::to_string(m.indices.size()) + " is not a multiple of 3"};
+  for (std::size_t i = 0; i < m.positions.size(); ++i)
+    if (!finite3(m.positions[i])) return Error{where + "vertex " + std::to_string(i) + " is not finite"};
+  for (std::size_t i = 0; i < m.indices.size(); ++i)
+    if (m.indices[i] >= m.positions.size())
+      return Error{where + "index " + std::to_string(i) + " = " + std::to_string(m.indices[i]) + " is out of range (" +
+                   std::to_string(m.positions.size()) + " vertices)"};
+  chunk.epoch = open_epoch_;
+  auto it = std::lower_bound(chunks_.begin(), chunks_.end(), chunk.chunk_id,
+                             [](const SurfaceChunk& c, std::uint32_t v) { return c.chunk_id < v; });
+  pending_chunks_.push_back(chunk.chunk_id);
+  if (it != chunks_.end() && it->chunk_id == chunk.chunk_id)
+    *it = std::move(chunk);
+  else
+    chunks_.insert(it, std::move(chunk));
+  return Ok{};
+}
+
+Status SceneStore::remove_surface_chunk(std::uint32_t chunk_id) {
+  if (auto s = require_open("remove_surface_chunk"); !s) return s;
+  auto it = std::lower_bound(chunks_.begin(), chunks_.end(), chunk_id,
+                             [](const SurfaceChunk& c, std::uint32_t v) { return c.chunk_id < v; });
+  if (it == chunks_.end() || it->chunk_id != chunk_id)
+    return Error{"SceneStore::remove_surface_chunk: chunk " + std::to_string(chunk_id) + " does not exist"};
+  chunks_.erase(it);
+  pending_chunks_.push_back(chunk_id);
+  return Ok{};
+}
+
+void SceneStore::recompute_derived() {
+  bounds_ = Aabb{};
+  struct Acc {
+    std::vector<GaussianId> members;
+    glm::dvec3 sum{0.0};
+    Aabb box;
+  };
+  std::unordered_map<ObjectId, Acc> acc;
+  for (const Gaussian& g : gaussians_) {
+    if (g.carrier) continue;
+    bounds_.extend(g.position);
+    if (g.object == kNoObject) continue;
+    Acc& a = acc[g.object];
+    a.members.push_back(g.id);
+    a.sum += glm::dvec3(g.position);
+    a.box.extend(g.position);
+  }
+  std::vector<SemanticObject> next;
+  next.reserve(declared_.size() + acc.size());
+  for (const auto& [id, d] : declared_) {
+    SemanticObject o;
+    o.id = id;
+    o.label = d.label;
+    o.quality = d.quality;
+    next.push_back(std::move(o));
+  }
+  for (const auto& [id, a] : acc)
+    if (!declared_.count(id)) {
+      SemanticObject o;
+      o.id = id;
+      o.quality = 0.0f;  // undeclared: nothing upstream vouched for it
+      next.push_back(std::move(o));
+    }
+  for (SemanticObject& o : next) {
+    auto it = acc.find(o.id);
+    if (it == acc.end()) continue;
+    Acc& a = it->second;
+    std::sort(a.members.begin(), a.members.end());
+    o.centroid = glm::vec3(a.sum / double(a.members.size()));
+    o.extent_min = a.box.min;
+    o.extent_max = a.box.max;
+    o.members = std::move(a.members);
+  }
+  std::sort(next.begin(), next.end(),
+            [](const SemanticObject& x, const SemanticObject& y) { return to_underlying(x.id) < to_underlying(y.id); });
+  bool changed = pending_objects_changed_ || next.size() != objects_.size();
+  for (std::size_t i = 0; !changed && i < next.size(); ++i) changed = !same_object(next[i], objects_[i]);
+  pending_objects_changed_ = changed;
+  objects_ = std::move(next);
+}
+
+Status SceneStore::commit_epoch() {
+  if (auto s = require_open("commit_epoch"); !s) return s;
+  // Stable compaction: survivors keep their relative order (the documented contract).
+  auto first_dead = std::find(dead_.begin(), dead_.end(), std::uint8_t{1});
+  if (first_dead != dead_.end()) {
+    std::size_t w = static_cast<std::size_t>(first_dead - dead_.begin());
+    for (std::size_t r = w; r < gaussians_.size(); ++r) {
+      if (dead_[r]) continue;
+      gaussians_[w] = std::move(gaussians_[r]);
+      index_[gaussians_[w].id] = static_cast<std::uint32_t>(w);
+      ++w;
+    }
+    gaussians_.resize(w);
+    dead_.assign(w, 0);
+  }
+  if (!pending_.empty() || pending_objects_changed_) recompute_derived();
+
+  EpochChanges c;
+  c.epoch = open_epoch_;
+  for (const auto& [id, kind] : pending_) {
+    switch (kind) {
+      case Pending::Inserted: c.inserted.push_back(id); break;
+      case Pending::Modified: c.modified.push_back(id); break;
+      case Pending::Removed: c.removed.push_back(id); break;
+      case Pending::InsertedThenRemoved: break;
+    }
+  }
+  std::sort(c.inserted.begin(), c.inserted.end());
+  std::sort(c.modified.begin(), c.modified.end());
+  std::sort(c.removed.begin(), c.removed.end());
+  c.objects_changed = pending_objects_changed_;
+  std::sort(pending_chunks_.begin(), pending_chunks_.end());
+  pending_chunks_.erase(std::unique(pending_chunks_.begin(), pending_chunks_.end()), pending_chunks_.end());
+  c.chunks_changed = std::move(pending_chunks_);
+  log_.push_back(std::move(c));
+  while (log_.size() > log_capacity_) log_.pop_front();
+
+  pending_.clear();
+  pending_chunks_.clear();
+  pending_objects_changed_ = false;
+  epoch_ = open_epoch_;
+  open_ = false;
+  return Ok{};
+}
+
+const EpochChanges* SceneStore::changes(Epoch e) const {
+  for (const auto& c : log_)
+    if (c.epoch == e) return &c;
+  return nullptr;
+}
+
+}  // namespace gauss
