@@ -1,0 +1,338 @@
+// Per-Gaussian quantisation: the 16-byte record (+ SH rest bytes), its inverse, the
+// record hash the differ compares, and fitting quantiser ranges to a scene.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <glm/common.hpp>
+
+#include "codec/record_bits.h"
+#include "gauss/engine/codec.h"
+
+namespace gauss {
+namespace {
+
+constexpr double kInvSqrt2 = 0.70710678118654752440;
+
+// Largest code of a `bits`-bit field. Symmetric ranges ([-a, a]: rotation, SH rest) use
+// one code fewer so the odd code count puts a code exactly on 0: identity rotations and
+// zero SH coefficients are common and must survive exactly.
+constexpr std::uint32_t max_code_of(int bits, bool symmetric) {
+  return (1u << bits) - (symmetric ? 2u : 1u);
+}
+
+// Uniform quantiser of x in [lo, hi] to a code in [0, max_code]: out-of-range input
+// clamps to the end codes (counted), never wraps; NaN maps to the middle code (counted).
+std::uint32_t quantize_uniform(double x, double lo, double hi, std::uint32_t max_code, std::uint64_t* clamped,
+                               std::uint64_t* non_finite) {
+  if (!std::isfinite(x)) {
+    if (std::isnan(x)) {
+      if (non_finite) ++*non_finite;
+      return max_code / 2u;
+    }
+    if (clamped) ++*clamped;
+    return x > 0 ? max_code : 0u;
+  }
+  if (x < lo || x > hi) {
+    if (clamped) ++*clamped;
+    return x < lo ? 0u : max_code;
+  }
+  const double t = (hi > lo) ? (x - lo) / (hi - lo) : 0.0;
+  const double code = std::nearbyint(t * max_code);
+  return static_cast<std::uint32_t>(std::clamp(code, 0.0, static_cast<double>(max_code)));
+}
+
+double dequantize_uniform(std::uint32_t code, double lo, double hi, std::uint32_t max_code) {
+  // A hostile record may hold the one unused code of a symmetric field: clamp it.
+  code = std::min(code, max_code);
+  return lo + (hi - lo) * static_cast<double>(code) / static_cast<double>(max_code);
+}
+
+// Smallest-three: the largest-magnitude component is dropped (its index kept) and
+// made non-negative (q and -q are the same rotation), so the other three lie in
+// [-1/sqrt2, 1/sqrt2].
+void quantize_rotation(const glm::vec4& q_in, std::uint32_t& index, std::uint32_t codes[3], CodecStats* stats) {
+  double q[4] = {q_in[0], q_in[1], q_in[2], q_in[3]};
+  bool finite = true;
+  for (double c : q) finite = finite && std::isfinite(c);
+  double len2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+  if (!finite || !(len2 > 0.0) || !std::isfinite(len2)) {
+    if (!finite && stats) ++stats->non_finite;
+    q[0] = 1.0;  // identity: the documented choice for an undefined rotation
+    q[1] = q[2] = q[3] = 0.0;
+    len2 = 1.0;
+  }
+  const double inv = 1.0 / std::sqrt(len2);
+  for (double& c : q) c *= inv;
+  index = 0;
+  for (std::uint32_t i = 1; i < 4; ++i) {
+    if (std::fabs(q[i]) > std::fabs(q[index])) index = i;
+  }
+  const double sign = q[index] < 0.0 ? -1.0 : 1.0;
+  int k = 0;
+  for (std::uint32_t i = 0; i < 4; ++i) {
+    if (i == index) continue;
+    // |component| <= 1/sqrt2 by construction; rounding cannot leave the range.
+    codes[k++] = quantize_uniform(sign * q[i], -kInvSqrt2, kInvSqrt2, max_code_of(kRotationBits, true), nullptr, nullptr);
+  }
+}
+
+glm::vec4 dequantize_rotation(std::uint32_t index, const std::uint32_t codes[3]) {
+  double q[4];
+  double sum = 0.0;
+  int k = 0;
+  for (std::uint32_t i = 0; i < 4; ++i) {
+    if (i == index) continue;
+    q[i] = dequantize_uniform(codes[k++], -kInvSqrt2, kInvSqrt2, max_code_of(kRotationBits, true));
+    sum += q[i] * q[i];
+  }
+  q[index] = std::sqrt(std::max(0.0, 1.0 - sum));
+  const double len = std::sqrt(sum + q[index] * q[index]);
+  glm::vec4 out;
+  for (int i = 0; i < 4; ++i) out[i] = static_cast<float>(q[i] / len);
+  return out;
+}
+
+double sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
+
+std::uint32_t quantize_support(std::uint32_t s, CodecStats* stats) {
+  const double code = std::nearbyint(16.0 * std::log2(1.0 + static_cast<double>(s)));
+  if (code > 255.0) {
+    if (stats) ++stats->support_clamped;
+    return 255u;
+  }
+  return static_cast<std::uint32_t>(code);
+}
+
+}  // namespace
+
+namespace codec_detail {
+
+std::uint32_t dequantize_support(std::uint8_t code) {
+  return static_cast<std::uint32_t>(std::nearbyint(std::exp2(code / 16.0) - 1.0));
+}
+
+std::uint8_t support_code(std::uint32_t support, CodecStats* stats) {
+  return static_cast<std::uint8_t>(quantize_support(support, stats));
+}
+
+void write_record(const Gaussian& g, const CodecParams& p, std::uint8_t* out, CodecStats* stats) {
+  std::uint64_t* pos_clamp = stats ? &stats->position_clamped : nullptr;
+  std::uint64_t* nf = stats ? &stats->non_finite : nullptr;
+  BitWriter128 w;
+  for (int a = 0; a < 3; ++a) {
+    const double lo = p.box.min[a];
+    const double hi = p.box.max[a];
+    double x = g.position[a];
+    if (std::isnan(x)) {  // NaN position: the box centre, counted
+      if (nf) ++*nf;
+      x = 0.5 * (lo + hi);
+    }
+    w.put(quantize_uniform(x, lo, hi, max_code_of(kPositionBits, false), pos_clamp, nf), kPositionBits);
+  }
+  std::uint32_t rot_index = 0;
+  std::uint32_t rot_codes[3];
+  quantize_rotation(g.rotation, rot_index, rot_codes, stats);
+  w.put(rot_index, 2);
+  for (std::uint32_t c : rot_codes) w.put(c, kRotationBits);
+  for (int a = 0; a < 3; ++a) {
+    w.put(quantize_uniform(g.log_scale[a], p.log_scale_min, p.log_scale_max, max_code_of(kLogScaleBits, false),
+                           stats ? &stats->log_scale_clamped : nullptr, nf),
+          kLogScaleBits);
+  }
+  // Opacity in sigmoid space: +-Inf logits are legitimate limits (0 and 1), NaN is not.
+  double logit = g.opacity_logit;
+  if (std::isnan(logit)) {
+    if (nf) ++*nf;
+    logit = 0.0;
+  }
+  w.put(quantize_uniform(sigmoid(logit), 0.0, 1.0, max_code_of(kOpacityBits, false), nullptr, nullptr), kOpacityBits);
+  const int dc_bits[3] = {kDcBitsRB, kDcBitsG, kDcBitsRB};
+  for (int c = 0; c < 3; ++c) {
+    w.put(quantize_uniform(g.sh_dc[c], p.dc_min, p.dc_max, max_code_of(dc_bits[c], false), stats ? &stats->dc_clamped : nullptr, nf),
+          dc_bits[c]);
+  }
+  w.store(out);
+  const int rest = sh_rest_count(std::clamp(p.sh_degree, 0, kMaxShDegree));
+  std::uint8_t* r = out + kRecordBytesSh0;
+  for (int k = 0; k < rest; ++k) {
+    for (int c = 0; c < 3; ++c) {
+      *r++ = static_cast<std::uint8_t>(quantize_uniform(g.sh_rest[static_cast<std::size_t>(k)][c],
+                                                        -p.sh_rest_abs_max, p.sh_rest_abs_max, max_code_of(kShRestBits, true),
+                                                        stats ? &stats->sh_rest_clamped : nullptr, nf));
+    }
+  }
+}
+
+void read_record(const std::uint8_t* in, const CodecParams& p, Gaussian& g) {
+  BitReader128 r(in);
+  for (int a = 0; a < 3; ++a) {
+    g.position[a] = static_cast<float>(dequantize_uniform(r.get(kPositionBits), p.box.min[a], p.box.max[a],
+                                                          max_code_of(kPositionBits, false)));
+  }
+  const std::uint32_t rot_index = r.get(2);
+  std::uint32_t rot_codes[3];
+  for (std::uint32_t& c : rot_codes) c = r.get(kRotationBits);
+  g.rotation = dequantize_rotation(rot_index, rot_codes);
+  for (int a = 0; a < 3; ++a) {
+    g.log_scale[a] = static_cast<float>(
+        dequantize_uniform(r.get(kLogScaleBits), p.log_scale_min, p.log_scale_max, max_code_of(kLogScaleBits, false)));
+  }
+  // Code 0 and 255 would decode to logits of -Inf/+Inf; a quarter step inside keeps the
+  // value finite and still within the stated half-step bound.
+  const double lim = 0.25 / 255.0;
+  const double opacity =
+      std::clamp(dequantize_uniform(r.get(kOpacityBits), 0.0, 1.0, max_code_of(kOpacityBits, false)), lim, 1.0 - lim);
+  g.opacity_logit = static_cast<float>(std::log(opacity / (1.0 - opacity)));
+  const int dc_bits[3] = {kDcBitsRB, kDcBitsG, kDcBitsRB};
+  for (int c = 0; c < 3; ++c) {
+    g.sh_dc[c] = static_cast<float>(dequantize_uniform(r.get(dc_bits[c]), p.dc_min, p.dc_max, max_code_of(dc_bits[c], false)));
+  }
+  g.sh_rest = {};
+  const int rest = sh_rest_count(std::clamp(p.sh_degree, 0, kMaxShDegree));
+  const std::uint8_t* s = in + kRecordBytesSh0;
+  for (int k = 0; k < rest; ++k) {
+    for (int c = 0; c < 3; ++c) {
+      g.sh_rest[static_cast<std::size_t>(k)][c] = static_cast<float>(
+          dequantize_uniform(*s++, -p.sh_rest_abs_max, p.sh_rest_abs_max, max_code_of(kShRestBits, true)));
+    }
+  }
+  g.carrier = false;
+}
+
+}  // namespace codec_detail
+
+void quantize_record(const Gaussian& g, const CodecParams& params, std::uint8_t* out, CodecStats* stats) {
+  codec_detail::write_record(g, params, out, stats);
+}
+
+std::uint64_t quantized_hash(const Gaussian& g, const CodecParams& params) {
+  std::uint8_t buf[record_bytes(kMaxShDegree)];
+  codec_detail::write_record(g, params, buf, nullptr);
+  const std::size_t n = record_bytes(std::clamp(params.sh_degree, 0, kMaxShDegree));
+  // FNV-1a over the record, then the object id and support code: any byte that
+  // reaches the client changes the hash.
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  auto mix = [&h](std::uint8_t b) {
+    h ^= b;
+    h *= 0x100000001b3ull;
+  };
+  for (std::size_t i = 0; i < n; ++i) mix(buf[i]);
+  const auto obj = static_cast<std::uint32_t>(to_underlying(g.object));
+  for (int s = 0; s < 32; s += 8) mix(static_cast<std::uint8_t>(obj >> s));
+  mix(codec_detail::support_code(g.support, nullptr));
+  return h;
+}
+
+Gaussian quantize_roundtrip(const Gaussian& g, const CodecParams& params) {
+  std::uint8_t buf[record_bytes(kMaxShDegree)];
+  codec_detail::write_record(g, params, buf, nullptr);
+  Gaussian out;
+  codec_detail::read_record(buf, params, out);
+  out.id = g.id;
+  out.object = g.object;
+  out.support = codec_detail::dequantize_support(codec_detail::support_code(g.support, nullptr));
+  return out;
+}
+
+Status validate_codec_params(const CodecParams& p) {
+  auto bad = [](const std::string& what) { return Status(Error{"codec params: " + what}); };
+  if (p.sh_degree < 0 || p.sh_degree > kMaxShDegree) {
+    return bad("sh_degree " + std::to_string(p.sh_degree) + " outside 0..3");
+  }
+  for (int a = 0; a < 3; ++a) {
+    if (!std::isfinite(p.box.min[a]) || !std::isfinite(p.box.max[a]) || !(p.box.min[a] < p.box.max[a])) {
+      return bad("box axis " + std::to_string(a) + " is empty or not finite");
+    }
+  }
+  auto range_ok = [](float lo, float hi) { return std::isfinite(lo) && std::isfinite(hi) && lo < hi; };
+  if (!range_ok(p.log_scale_min, p.log_scale_max)) return bad("log-scale range empty or not finite");
+  if (!range_ok(p.dc_min, p.dc_max)) return bad("SH0 range empty or not finite");
+  if (!std::isfinite(p.sh_rest_abs_max) || !(p.sh_rest_abs_max > 0.0f)) {
+    return bad("sh_rest_abs_max must be finite and > 0");
+  }
+  return Ok{};
+}
+
+namespace {
+
+// Value at quantile q of the finite values (nth_element: O(n)); fallback when none.
+float quantile(std::vector<float>& v, double q, float fallback) {
+  if (v.empty()) return fallback;
+  const auto k = static_cast<std::size_t>(std::clamp(q, 0.0, 1.0) * static_cast<double>(v.size() - 1));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+}  // namespace
+
+CodecParams fit_codec_params(std::span<const Gaussian> gaussians, int sh_degree) {
+  CodecParams p;
+  p.sh_degree = std::clamp(sh_degree, 0, kMaxShDegree);
+  constexpr double kLo = 0.0005;
+  constexpr double kHi = 0.9995;
+  std::vector<float> v;
+  v.reserve(gaussians.size() * 3);
+  // Box: exact bounds of the finite positions (a position outside the box costs its
+  // Gaussian a clamp; a wide box costs every Gaussian precision, but the box is the
+  // scene's, so no Gaussian should be clamped).
+  glm::vec3 lo(std::numeric_limits<float>::max());
+  glm::vec3 hi(std::numeric_limits<float>::lowest());
+  bool any = false;
+  for (const Gaussian& g : gaussians) {
+    if (!std::isfinite(g.position.x) || !std::isfinite(g.position.y) || !std::isfinite(g.position.z)) continue;
+    lo = glm::min(lo, g.position);
+    hi = glm::max(hi, g.position);
+    any = true;
+  }
+  if (any) {
+    const glm::vec3 pad = glm::max((hi - lo) * 0.01f, glm::vec3(1e-3f));
+    p.box.min = lo - pad;
+    p.box.max = hi + pad;
+  }
+  auto fit = [&](auto&& extract, float& out_lo, float& out_hi, float min_span) {
+    v.clear();
+    for (const Gaussian& g : gaussians) extract(g, v);
+    if (v.empty()) return;
+    float a = quantile(v, kLo, out_lo);
+    float b = quantile(v, kHi, out_hi);
+    if (!(b - a >= min_span)) {
+      const float mid = 0.5f * (a + b);
+      a = mid - 0.5f * min_span;
+      b = mid + 0.5f * min_span;
+    }
+    out_lo = a;
+    out_hi = b;
+  };
+  fit(
+      [](const Gaussian& g, std::vector<float>& out) {
+        for (int a = 0; a < 3; ++a)
+          if (std::isfinite(g.log_scale[a])) out.push_back(g.log_scale[a]);
+      },
+      p.log_scale_min, p.log_scale_max, 1.0f);
+  fit(
+      [](const Gaussian& g, std::vector<float>& out) {
+        for (int c = 0; c < 3; ++c)
+          if (std::isfinite(g.sh_dc[c])) out.push_back(g.sh_dc[c]);
+      },
+      p.dc_min, p.dc_max, 0.5f);
+  if (p.sh_degree > 0) {
+    const int rest = sh_rest_count(p.sh_degree);
+    v.clear();
+    for (const Gaussian& g : gaussians) {
+      for (int k = 0; k < rest; ++k) {
+        for (int c = 0; c < 3; ++c) {
+          const float x = g.sh_rest[static_cast<std::size_t>(k)][c];
+          if (std::isfinite(x)) v.push_back(std::fabs(x));
+        }
+      }
+    }
+    if (!v.empty()) p.sh_rest_abs_max = std::max(quantile(v, kHi, 1.0f), 1e-3f);
+  }
+  return p;
+}
+
+}  // namespace gauss

@@ -1,0 +1,327 @@
+// Edit-batch codec: exact ids/kinds/epoch, the stated decode error bounds, clamping
+// (never wrapping) of out-of-range values, and hostile payloads rejected cleanly.
+#include <cmath>
+#include <algorithm>
+#include <cstring>
+#include <limits>
+#include <map>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <zstd.h>
+
+#include "gauss/engine/codec.h"
+
+namespace gauss {
+namespace {
+
+double sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
+
+Gaussian random_gaussian(std::mt19937_64& rng, const CodecParams& p, std::uint64_t id) {
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::normal_distribution<float> n(0.0f, 1.0f);
+  Gaussian g;
+  for (int a = 0; a < 3; ++a) {
+    g.position[a] = p.box.min[a] + u(rng) * (p.box.max[a] - p.box.min[a]);
+    g.log_scale[a] = p.log_scale_min + u(rng) * (p.log_scale_max - p.log_scale_min);
+    g.sh_dc[a] = p.dc_min + u(rng) * (p.dc_max - p.dc_min);
+  }
+  glm::vec4 q(n(rng), n(rng), n(rng), n(rng));
+  g.rotation = q / std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  g.opacity_logit = n(rng) * 4.0f;
+  for (int k = 0; k < sh_rest_count(p.sh_degree); ++k) {
+    for (int c = 0; c < 3; ++c) g.sh_rest[static_cast<std::size_t>(k)][c] = (u(rng) * 2.0f - 1.0f) * p.sh_rest_abs_max;
+  }
+  g.id = GaussianId{id};
+  g.object = ObjectId{static_cast<std::int32_t>(rng() % 20) - 1};
+  g.support = static_cast<std::uint32_t>(rng() % 5000);
+  return g;
+}
+
+CodecParams test_params(int degree) {
+  CodecParams p;
+  p.box = {glm::vec3(-4.0f, -1.0f, -6.0f), glm::vec3(5.0f, 3.0f, 2.0f)};
+  p.sh_degree = degree;
+  p.log_scale_min = -9.0f;
+  p.log_scale_max = 0.5f;
+  p.dc_min = -1.7f;
+  p.dc_max = 2.1f;
+  p.sh_rest_abs_max = 0.6f;
+  return p;
+}
+
+void expect_within_bounds(const Gaussian& in, const Gaussian& out, const CodecParams& p) {
+  const float slack = 1e-6f;  // float rounding of the dequantised value
+  for (int a = 0; a < 3; ++a) {
+    const double step = (p.box.max[a] - p.box.min[a]) / ((1 << kPositionBits) - 1);
+    EXPECT_LE(std::fabs(out.position[a] - in.position[a]), 0.5 * step + slack * 10);
+    const double ls = (p.log_scale_max - p.log_scale_min) / 255.0;
+    EXPECT_LE(std::fabs(out.log_scale[a] - in.log_scale[a]), 0.5 * ls + slack);
+    const int bits = a == 1 ? kDcBitsG : kDcBitsRB;
+    const double dc = (p.dc_max - p.dc_min) / ((1 << bits) - 1);
+    EXPECT_LE(std::fabs(out.sh_dc[a] - in.sh_dc[a]), 0.5 * dc + slack);
+  }
+  EXPECT_LE(std::fabs(sigmoid(out.opacity_logit) - sigmoid(in.opacity_logit)), 0.5 / 255.0 + 1e-6);
+  double same = 0.0;
+  double flip = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    same = std::max(same, static_cast<double>(std::fabs(out.rotation[i] - in.rotation[i])));
+    flip = std::max(flip, static_cast<double>(std::fabs(out.rotation[i] + in.rotation[i])));
+  }
+  EXPECT_LE(std::min(same, flip), kRotationMaxError);
+  for (int k = 0; k < sh_rest_count(p.sh_degree); ++k) {
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_LE(std::fabs(out.sh_rest[static_cast<std::size_t>(k)][c] - in.sh_rest[static_cast<std::size_t>(k)][c]),
+                p.sh_rest_abs_max / 254.0 + slack);
+    }
+  }
+  const double s_in = 1.0 + in.support;
+  const double s_out = 1.0 + out.support;
+  EXPECT_LE(std::fabs(s_out / s_in - 1.0), std::exp2(1.0 / 32.0) - 1.0 + 0.5 / s_in);
+  EXPECT_EQ(out.object, in.object);
+  EXPECT_EQ(out.id, in.id);
+}
+
+EditBatch random_batch(std::mt19937_64& rng, const CodecParams& p, std::size_t n) {
+  EditBatch b;
+  b.epoch = Epoch{rng() % 100000};
+  std::uint64_t id = rng() % 1000;
+  for (std::size_t i = 0; i < n; ++i) {
+    id += 1 + rng() % 50;
+    Edit e;
+    e.kind = static_cast<EditKind>(rng() % 4);
+    e.id = GaussianId{id};
+    if (e.kind == EditKind::Replace) e.leaving = GaussianId{rng() % 1000000};
+    if (e.kind != EditKind::Remove) e.value = random_gaussian(rng, p, id);
+    b.edits.push_back(e);
+  }
+  std::shuffle(b.edits.begin(), b.edits.end(), rng);
+  return b;
+}
+
+TEST(CodecRoundtrip, BatchIdsKindsEpochExactAndValuesAsQuantizeRoundtrip) {
+  std::mt19937_64 rng(7);
+  for (int degree = 0; degree <= 3; ++degree) {
+    const CodecParams p = test_params(degree);
+    const EditBatch in = random_batch(rng, p, 3000);
+    CodecStats stats;
+    const auto bytes = encode_edit_batch(in, p, &stats);
+    EXPECT_EQ(stats.clamped_total(), 0u);
+    auto out = decode_edit_batch(bytes, p);
+    ASSERT_TRUE(out.ok()) << out.message();
+    EXPECT_EQ(out->epoch, in.epoch);
+    ASSERT_EQ(out->edits.size(), in.edits.size());
+    std::map<std::uint64_t, const Edit*> by_id;
+    for (const Edit& e : in.edits) by_id[to_underlying(e.id)] = &e;
+    int last_group = -1;
+    const int group_of[4] = {3, 0, 2, 1};  // Insert, Remove, Update, Replace -> wire order
+    for (const Edit& e : out->edits) {
+      const Edit* src = by_id.at(to_underlying(e.id));
+      EXPECT_EQ(e.kind, src->kind);
+      EXPECT_GE(group_of[static_cast<int>(e.kind)], last_group) << "removes, replaces, updates, inserts";
+      last_group = group_of[static_cast<int>(e.kind)];
+      if (e.kind == EditKind::Replace) {
+        EXPECT_EQ(e.leaving, src->leaving);
+      }
+      if (e.kind == EditKind::Remove) continue;
+      const Gaussian expect = quantize_roundtrip(src->value, p);
+      EXPECT_EQ(std::memcmp(&e.value.position, &expect.position, sizeof(glm::vec3)), 0);
+      EXPECT_EQ(e.value.rotation, expect.rotation);
+      EXPECT_EQ(e.value.log_scale, expect.log_scale);
+      EXPECT_EQ(e.value.opacity_logit, expect.opacity_logit);
+      EXPECT_EQ(e.value.sh_dc, expect.sh_dc);
+      EXPECT_EQ(e.value.sh_rest, expect.sh_rest);
+      EXPECT_EQ(e.value.support, expect.support);
+      expect_within_bounds(src->value, e.value, p);
+    }
+  }
+}
+
+TEST(CodecRoundtrip, ErrorBoundsHoldForRandomGaussians) {
+  std::mt19937_64 rng(11);
+  for (int degree = 0; degree <= 3; ++degree) {
+    const CodecParams p = test_params(degree);
+    for (int i = 0; i < 20000; ++i) {
+      const Gaussian g = random_gaussian(rng, p, static_cast<std::uint64_t>(i));
+      expect_within_bounds(g, quantize_roundtrip(g, p), p);
+      if (HasFailure()) return;
+    }
+  }
+}
+
+TEST(CodecRoundtrip, RecordIsSixteenBytesAtShZero) {
+  EXPECT_EQ(record_bytes(0), 16u);
+  EXPECT_EQ(record_bytes(3), 16u + 45u);
+  // 1000 inserts with consecutive ids and one object: record + 1 id byte + 1 object byte
+  // + 1 support byte each, plus a small header.
+  const CodecParams p = test_params(0);
+  std::mt19937_64 rng(3);
+  EditBatch b;
+  for (int i = 0; i < 1000; ++i) {
+    Gaussian g = random_gaussian(rng, p, static_cast<std::uint64_t>(i + 1));
+    g.object = ObjectId{2};
+    b.edits.push_back(Edit{EditKind::Insert, g.id, GaussianId{0}, g});
+  }
+  const auto raw = encode_edit_batch_raw(b, p);
+  EXPECT_LE(raw.size(), 1000u * 19u + 32u);
+  EXPECT_GE(raw.size(), 1000u * 19u);
+}
+
+TEST(CodecRoundtrip, OutOfRangeValuesClampAndCountNeverWrap) {
+  const CodecParams p = test_params(1);
+  Gaussian g;
+  g.position = glm::vec3(1e6f, -1e6f, 0.0f);
+  g.log_scale = glm::vec3(50.0f, -50.0f, 0.0f);
+  g.sh_dc = glm::vec3(9.0f, -9.0f, 0.0f);
+  g.sh_rest[0] = glm::vec3(100.0f, -100.0f, 0.0f);
+  g.support = 10'000'000;
+  CodecStats stats;
+  std::uint8_t rec[record_bytes(1)];
+  quantize_record(g, p, rec, &stats);
+  EXPECT_EQ(stats.position_clamped, 2u);
+  EXPECT_EQ(stats.log_scale_clamped, 2u);
+  EXPECT_EQ(stats.dc_clamped, 2u);
+  EXPECT_EQ(stats.sh_rest_clamped, 2u);
+  EXPECT_EQ(stats.support_clamped, 0u);  // support travels in its own column
+  EXPECT_EQ(stats.non_finite, 0u);
+  EditBatch b;
+  b.edits.push_back(Edit{EditKind::Insert, GaussianId{1}, GaussianId{0}, g});
+  CodecStats batch_stats;
+  (void)encode_edit_batch(b, p, &batch_stats);
+  EXPECT_EQ(batch_stats.support_clamped, 1u);
+  EXPECT_EQ(batch_stats.clamped_total(), 9u);
+  const Gaussian q = quantize_roundtrip(g, p);
+  EXPECT_FLOAT_EQ(q.position.x, p.box.max.x);
+  EXPECT_FLOAT_EQ(q.position.y, p.box.min.y);
+  EXPECT_FLOAT_EQ(q.log_scale.x, p.log_scale_max);
+  EXPECT_FLOAT_EQ(q.log_scale.y, p.log_scale_min);
+  EXPECT_FLOAT_EQ(q.sh_dc.x, p.dc_max);
+  EXPECT_FLOAT_EQ(q.sh_dc.y, p.dc_min);
+  EXPECT_FLOAT_EQ(q.sh_rest[0].x, p.sh_rest_abs_max);
+  EXPECT_FLOAT_EQ(q.sh_rest[0].y, -p.sh_rest_abs_max);
+  EXPECT_EQ(q.support, kMaxSupport);
+}
+
+TEST(CodecRoundtrip, NonFiniteValuesAreReplacedAndCounted) {
+  const CodecParams p = test_params(0);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  Gaussian g;
+  g.position = glm::vec3(nan, 0.0f, 0.0f);
+  g.rotation = glm::vec4(nan, 0.0f, 0.0f, 0.0f);
+  g.opacity_logit = nan;
+  g.log_scale = glm::vec3(nan, -1.0f, -1.0f);
+  CodecStats stats;
+  std::uint8_t rec[16];
+  quantize_record(g, p, rec, &stats);
+  EXPECT_EQ(stats.non_finite, 4u);
+  const Gaussian q = quantize_roundtrip(g, p);
+  EXPECT_TRUE(std::isfinite(q.position.x));
+  EXPECT_NEAR(q.position.x, 0.5f * (p.box.min.x + p.box.max.x), 1e-3f);
+  EXPECT_EQ(q.rotation, glm::vec4(1.0f, 0.0f, 0.0f, 0.0f));  // identity is exact
+  EXPECT_TRUE(std::isfinite(q.opacity_logit));
+  // Infinite opacity logits are legitimate limits: decoded finite, near 0 and 1.
+  g = Gaussian{};
+  g.opacity_logit = std::numeric_limits<float>::infinity();
+  EXPECT_GT(sigmoid(quantize_roundtrip(g, p).opacity_logit), 0.999);
+  g.opacity_logit = -std::numeric_limits<float>::infinity();
+  EXPECT_LT(sigmoid(quantize_roundtrip(g, p).opacity_logit), 0.001);
+}
+
+TEST(CodecRoundtrip, FitParamsCoverTheScene) {
+  std::mt19937_64 rng(5);
+  const CodecParams wide = test_params(3);
+  std::vector<Gaussian> scene;
+  for (int i = 0; i < 5000; ++i) scene.push_back(random_gaussian(rng, wide, static_cast<std::uint64_t>(i)));
+  const CodecParams p = fit_codec_params(scene, 3);
+  ASSERT_TRUE(validate_codec_params(p).ok());
+  CodecStats stats;
+  std::uint8_t rec[record_bytes(3)];
+  for (const Gaussian& g : scene) quantize_record(g, p, rec, &stats);
+  EXPECT_EQ(stats.position_clamped, 0u);
+  // Only the 0.05 % tails per range may clamp.
+  EXPECT_LE(stats.log_scale_clamped, 5000u * 3u / 1000u + 2u);
+  EXPECT_LE(stats.dc_clamped, 5000u * 3u / 1000u + 2u);
+  EXPECT_LE(stats.sh_rest_clamped, 5000u * 45u / 1000u + 2u);
+  EXPECT_FALSE(validate_codec_params(CodecParams{CodecBox{glm::vec3(1.0f), glm::vec3(1.0f)}, 0}).ok());
+  CodecParams bad;
+  bad.sh_degree = 4;
+  EXPECT_FALSE(validate_codec_params(bad).ok());
+}
+
+TEST(CodecHostile, TruncatedAndCorruptPayloadsAreRejected) {
+  std::mt19937_64 rng(13);
+  const CodecParams p = test_params(1);
+  const EditBatch in = random_batch(rng, p, 40);
+  const auto raw = encode_edit_batch_raw(in, p);
+  ASSERT_TRUE(decode_edit_batch_raw(raw, p).ok());
+  for (std::size_t len = 0; len < raw.size(); ++len) {
+    auto r = decode_edit_batch_raw(std::span(raw.data(), len), p);
+    EXPECT_FALSE(r.ok()) << "prefix of " << len << " bytes accepted";
+    if (!r.ok()) {
+      EXPECT_NE(r.message().find("edit batch"), std::string::npos);
+    }
+  }
+  // Trailing garbage, wrong magic, version or SH degree.
+  auto extra = raw;
+  extra.push_back(0);
+  EXPECT_FALSE(decode_edit_batch_raw(extra, p).ok());
+  auto bad = raw;
+  bad[0] = 'X';
+  EXPECT_FALSE(decode_edit_batch_raw(bad, p).ok());
+  bad = raw;
+  bad[4] = 99;
+  EXPECT_FALSE(decode_edit_batch_raw(bad, p).ok());
+  CodecParams other = p;
+  other.sh_degree = 2;
+  EXPECT_FALSE(decode_edit_batch_raw(raw, other).ok());
+  // Random byte flips: any result is fine as long as it does not crash.
+  for (int i = 0; i < 2000; ++i) {
+    auto m = raw;
+    const int flips = 1 + static_cast<int>(rng() % 4);
+    for (int f = 0; f < flips; ++f) m[rng() % m.size()] = static_cast<std::uint8_t>(rng());
+    (void)decode_edit_batch_raw(m, p);
+  }
+}
+
+TEST(CodecHostile, LyingCountsAndSizesAreRejectedBeforeAllocating) {
+  const CodecParams p = test_params(0);
+  // Header claiming 2^60 removes in a 20-byte payload.
+  std::vector<std::uint8_t> m = {'G', 'A', 'E', 'B', 1, 0, 0};
+  for (int i = 0; i < 8; ++i) m.push_back(0xFF);
+  m.push_back(0x0F);
+  m.push_back(0);
+  m.push_back(0);
+  m.push_back(0);
+  auto r = decode_edit_batch_raw(m, p);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.message().find("count"), std::string::npos) << r.message();
+  // Value edits that need more record bytes than present.
+  m = {'G', 'A', 'E', 'B', 1, 0, 0, 0, 0, 0, 5, 1, 2, 3, 4, 5};
+  EXPECT_FALSE(decode_edit_batch_raw(m, p).ok());
+  // A zstd frame that declares a 1 GiB payload.
+  std::vector<std::uint8_t> big(1 << 20, 0);
+  std::vector<std::uint8_t> z(ZSTD_compressBound(big.size()));
+  z.resize(ZSTD_compress(z.data(), z.size(), big.data(), big.size(), 1));
+  EXPECT_FALSE(decode_edit_batch(z, p).ok());  // valid frame, not a batch
+  std::vector<std::uint8_t> fake = {0x28, 0xB5, 0x2F, 0xFD, 0xA4, 0x00, 0x00, 0x00, 0x40, 0x00, 0x00};
+  auto rz = decode_edit_batch(fake, p);
+  ASSERT_FALSE(rz.ok());
+  EXPECT_FALSE(decode_edit_batch(std::span<const std::uint8_t>(), p).ok());
+  // Overlong varint (11 continuation bytes) in the epoch.
+  m = {'G', 'A', 'E', 'B', 1, 0};
+  for (int i = 0; i < 11; ++i) m.push_back(0x80);
+  EXPECT_FALSE(decode_edit_batch_raw(m, p).ok());
+}
+
+TEST(CodecHostile, EmptyBatchRoundTrips) {
+  const CodecParams p = test_params(2);
+  EditBatch b;
+  b.epoch = Epoch{42};
+  auto r = decode_edit_batch(encode_edit_batch(b, p), p);
+  ASSERT_TRUE(r.ok()) << r.message();
+  EXPECT_EQ(r->epoch, Epoch{42});
+  EXPECT_TRUE(r->edits.empty());
+}
+
+}  // namespace
+}  // namespace gauss
