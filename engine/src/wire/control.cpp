@@ -65,7 +65,7 @@ Status check(const msg::Ack& m) {
 Status check(const msg::ClientStats& m) {
   if (!std::isfinite(m.frame_ms) || m.frame_ms < 0.0f) return field_error("ClientStats", "frame_ms", "negative or not finite");
   if (!std::isfinite(m.slack_ms)) return field_error("ClientStats", "slack_ms", "not finite");
-  if (m.capacity > msg::kMaxSlotCapacity) return field_error("ClientStats", "capacity", "exceeds the slot limit");
+  if (m.capacity > gauss::kMaxSlotCapacity) return field_error("ClientStats", "capacity", "exceeds the slot limit");
   if (m.resident > m.capacity) return field_error("ClientStats", "resident", "exceeds capacity");
   return Ok{};
 }

@@ -9,9 +9,9 @@ namespace gauss::wire {
 namespace detail {
 
 Status check(const msg::Hello& m) {
-  if (m.slot_capacity < 1 || m.slot_capacity > msg::kMaxSlotCapacity)
+  if (m.slot_capacity < 1 || m.slot_capacity > gauss::kMaxSlotCapacity)
     return field_error("Hello", "slot_capacity",
-                       std::to_string(m.slot_capacity) + " outside [1, " + std::to_string(msg::kMaxSlotCapacity) + "]");
+                       std::to_string(m.slot_capacity) + " outside [1, " + std::to_string(gauss::kMaxSlotCapacity) + "]");
   if (m.access_token.size() > msg::kMaxTokenBytes)
     return field_error("Hello", "access_token", "longer than " + std::to_string(msg::kMaxTokenBytes) + " bytes");
   if (m.client_name.size() > msg::kMaxLabelBytes)
@@ -20,9 +20,9 @@ Status check(const msg::Hello& m) {
 }
 
 Status check(const msg::Welcome& m) {
-  if (m.slot_capacity < 1 || m.slot_capacity > msg::kMaxSlotCapacity)
+  if (m.slot_capacity < 1 || m.slot_capacity > gauss::kMaxSlotCapacity)
     return field_error("Welcome", "slot_capacity",
-                       std::to_string(m.slot_capacity) + " outside [1, " + std::to_string(msg::kMaxSlotCapacity) + "]");
+                       std::to_string(m.slot_capacity) + " outside [1, " + std::to_string(gauss::kMaxSlotCapacity) + "]");
   return Ok{};
 }
 

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "codecs.h"
+#include "gauss/engine/codec.h"
 #include "gauss/engine/wire.h"
 
 namespace gauss::wire {
@@ -74,7 +75,7 @@ bool read_objects(Reader& r, const char* field, std::vector<msg::ObjectInfo>& ou
 }  // namespace
 
 Status check(const msg::SceneInfo& m) {
-  if (m.sh_degree > 3) return field_error("SceneInfo", "sh_degree", std::to_string(m.sh_degree) + " > 3");
+  if (auto s = validate_codec_params(m.codec); !s) return field_error("SceneInfo", "codec", s.message());
   if (!finite3(m.bounds_min) || !finite3(m.bounds_max)) return field_error("SceneInfo", "bounds", "not finite");
   if (m.bounds_min.x > m.bounds_max.x || m.bounds_min.y > m.bounds_max.y || m.bounds_min.z > m.bounds_max.z)
     return field_error("SceneInfo", "bounds_min", "greater than bounds_max");
@@ -114,7 +115,14 @@ void write(const msg::SceneInfo& m, Writer& w) {
   w.u64(to_underlying(m.epoch));
   w.vec3(m.bounds_min);
   w.vec3(m.bounds_max);
-  w.u8(m.sh_degree);
+  w.vec3(m.codec.box.min);
+  w.vec3(m.codec.box.max);
+  w.u8(static_cast<std::uint8_t>(m.codec.sh_degree));
+  w.f32(m.codec.log_scale_min);
+  w.f32(m.codec.log_scale_max);
+  w.f32(m.codec.dc_min);
+  w.f32(m.codec.dc_max);
+  w.f32(m.codec.sh_rest_abs_max);
   w.u64(m.total_gaussians);
   w.u32(static_cast<std::uint32_t>(m.objects.size()));
   for (const auto& o : m.objects) write_object(o, w);
@@ -147,7 +155,16 @@ Expected<msg::SceneInfo> decode_scene_info(std::span<const std::uint8_t> body) {
   m.epoch = Epoch{epoch};
   r.vec3("bounds_min", m.bounds_min);
   r.vec3("bounds_max", m.bounds_max);
-  r.u8("sh_degree", m.sh_degree);
+  r.vec3("codec.box.min", m.codec.box.min);
+  r.vec3("codec.box.max", m.codec.box.max);
+  std::uint8_t degree = 0;
+  r.u8("codec.sh_degree", degree);
+  m.codec.sh_degree = degree;
+  r.f32("codec.log_scale_min", m.codec.log_scale_min);
+  r.f32("codec.log_scale_max", m.codec.log_scale_max);
+  r.f32("codec.dc_min", m.codec.dc_min);
+  r.f32("codec.dc_max", m.codec.dc_max);
+  r.f32("codec.sh_rest_abs_max", m.codec.sh_rest_abs_max);
   r.u64("total_gaussians", m.total_gaussians);
   if (r.ok()) detail::read_objects(r, "objects", m.objects);
   if (!r.finish()) return r.error();
@@ -190,3 +207,17 @@ Expected<msg::ObjectTableUpdate> decode_object_table_update(std::span<const std:
 }
 
 }  // namespace gauss::wire
+
+namespace gauss::msg {
+
+bool operator==(const SceneInfo& a, const SceneInfo& b) {
+  const auto& p = a.codec;
+  const auto& q = b.codec;
+  return a.epoch == b.epoch && a.bounds_min == b.bounds_min && a.bounds_max == b.bounds_max &&
+         p.box.min == q.box.min && p.box.max == q.box.max && p.sh_degree == q.sh_degree &&
+         p.log_scale_min == q.log_scale_min && p.log_scale_max == q.log_scale_max && p.dc_min == q.dc_min &&
+         p.dc_max == q.dc_max && p.sh_rest_abs_max == q.sh_rest_abs_max && a.total_gaussians == b.total_gaussians &&
+         a.objects == b.objects;
+}
+
+}  // namespace gauss::msg

@@ -26,8 +26,10 @@
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
+#include "gauss/engine/codec.h"
 #include "gauss/engine/ids.h"
 #include "gauss/engine/mesh.h"
+#include "gauss/engine/slot_table.h"
 
 namespace gauss::msg {
 
@@ -36,13 +38,13 @@ namespace gauss::msg {
 inline constexpr std::uint32_t kProtocolVersion = 1;
 
 // ---- Bounds (each enforced by the decoder) ----------------------------------
-// Largest encoded message, header included. ENet's default packet limit is 32 MiB;
-// 16 MiB keeps one edit batch well inside it (a full 400k resident set at
-// ~30 B/record compressed is ~12 MiB; the host session splits larger batches).
-inline constexpr std::size_t kMaxMessageBytes = 16u << 20;
-// Slot capacity a client may ask for. The design's largest budget is 400k; 2^22
-// leaves headroom while refusing absurd requests (10^9 slots would be ~250 GB).
-inline constexpr std::uint32_t kMaxSlotCapacity = 1u << 22;
+// Largest encoded message, header included. The host sends one edit batch per
+// epoch per client, and a resync snapshot holds the whole desired set: 400k SH3
+// records are ~26 MiB before zstd, so 64 MiB leaves room without letting a peer
+// claim an unbounded packet (the transport sets ENet's packet limit to this).
+inline constexpr std::size_t kMaxMessageBytes = 64u << 20;
+// Slot capacity a client may ask for: gauss::kMaxSlotCapacity (slot_table.h), the
+// same bound SlotTable::create enforces, so a Hello the host accepts always fits.
 inline constexpr std::size_t kMaxTokenBytes = 256;      // access token (opaque bytes)
 inline constexpr std::size_t kMaxLabelBytes = 256;      // object class label, UTF-8
 inline constexpr std::size_t kMaxQueryTextBytes = 256;  // query class text, UTF-8
@@ -114,7 +116,7 @@ const char* to_string(MessageType t);
 // First message of every connection, also of every reconnect.
 struct Hello {
   std::uint32_t protocol_version{kProtocolVersion};
-  std::uint32_t slot_capacity{0};  // M: most Gaussians the client can hold, in [1, kMaxSlotCapacity]
+  std::uint32_t slot_capacity{0};  // M: most Gaussians the client can hold, in [1, gauss::kMaxSlotCapacity]
   std::string access_token;        // empty when none; at most kMaxTokenBytes
   std::string client_name;         // for logs only; at most kMaxLabelBytes
   bool operator==(const Hello&) const = default;
@@ -165,26 +167,31 @@ struct ObjectInfo {
   bool operator==(const ObjectInfo&) const = default;
 };
 
-// Sent after Welcome and whenever the scene's frame changes. Replaces the client's
-// whole object table.
+// Sent after Welcome (before any EditBatch) and whenever the scene's frame
+// changes. Replaces the client's whole object table. `codec` holds the
+// quantisation ranges every later EditBatch payload is decoded with; its
+// sh_degree is the scene's SH degree.
 struct SceneInfo {
   Epoch epoch{0};
   glm::vec3 bounds_min{0.0f};
   glm::vec3 bounds_max{0.0f};
-  std::uint8_t sh_degree{0};          // [0, kMaxShDegree]
+  CodecParams codec{};                // must pass validate_codec_params()
   std::uint64_t total_gaussians{0};   // host scene size (informational)
   std::vector<ObjectInfo> objects;    // ids unique; at most kMaxObjects
-  bool operator==(const SceneInfo&) const = default;
 };
+bool operator==(const SceneInfo& a, const SceneInfo& b);
 
 // EditBatch flags.
-inline constexpr std::uint8_t kBatchEpochComplete = 1u << 0;  // last batch of `epoch` for this client
-inline constexpr std::uint8_t kBatchResync = 1u << 1;         // part of the resend after a Welcome
-inline constexpr std::uint8_t kBatchKnownFlags = kBatchEpochComplete | kBatchResync;
+// A snapshot: the payload is the client's complete desired set at `epoch`, inserts
+// only (DesiredState::apply_resync). The host sends one after every Welcome.
+inline constexpr std::uint8_t kBatchResync = 1u << 0;
+inline constexpr std::uint8_t kBatchKnownFlags = kBatchResync;
 
 // One edit batch: the epoch it came from and the "select" codec's bytes
-// (encode_edit_batch output: quantised records, zstd). The wire keeps the payload
-// opaque; the client decodes it with decode_edit_batch.
+// (encode_edit_batch output: quantised records, zstd). The host sends exactly one
+// batch per epoch per client (possibly empty), in epoch order on the reliable
+// channel. The wire keeps the payload opaque; the client decodes it with
+// decode_edit_batch and the SceneInfo's codec params.
 struct EditBatchMsg {
   Epoch epoch{0};
   std::uint64_t batch_id{0};       // per client, strictly increasing (stage events, acks)
