@@ -77,10 +77,11 @@ TEST(SceneStore, InsertModifyRemoveAndChangeLog) {
   EXPECT_EQ(s.find(GaussianId{10})->support, 7u);
   EXPECT_EQ(s.find(GaussianId{2})->opacity_logit, 3.0f);
 
-  // Dense span, survivors in their old relative order, new ones appended.
+  // Dense span: new ones were appended (1 2 3 4 5 10 11); each removal's place is filled by
+  // the last Gaussian, highest place first: 11 drops, 10 fills 5's place, then 3's place.
   std::vector<std::uint64_t> order;
   for (const Gaussian& g : s.gaussians()) order.push_back(to_underlying(g.id));
-  EXPECT_EQ(order, (std::vector<std::uint64_t>{1, 2, 4, 10}));
+  EXPECT_EQ(order, (std::vector<std::uint64_t>{1, 2, 10, 4}));
   for (const Gaussian& g : s.gaussians()) EXPECT_EQ(s.find(g.id), &g);
 }
 

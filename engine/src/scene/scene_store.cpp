@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <string>
 
 #include <glm/common.hpp>
@@ -81,12 +82,13 @@ Status SceneStore::insert(const Gaussian& g) {
     return Error{"SceneStore::insert: Gaussian id " + id_text(g.id) + " was removed before; ids are never reused"};
   if (auto why = invalid_field(g, sh_degree_); !why.empty())
     return Error{"SceneStore::insert: Gaussian id " + id_text(g.id) + ": " + why};
-  index_.emplace(g.id, static_cast<std::uint32_t>(gaussians_.size()));
+  const auto slot = static_cast<std::uint32_t>(gaussians_.size());
+  index_.emplace(g.id, slot);
   gaussians_.push_back(g);
-  dead_.push_back(0);
+  pending_.push_back(Pending::Inserted);
+  touched_.push_back(slot);
   next_id_ = std::max(next_id_, to_underlying(g.id) + 1);
   if (!g.carrier) ++appearance_count_;
-  pending_[g.id] = Pending::Inserted;
   return Ok{};
 }
 
@@ -106,7 +108,10 @@ Status SceneStore::modify(const Gaussian& g) {
   }
   stored = g;
   // An id inserted in this epoch stays "inserted"; consumers see only its final record.
-  pending_.try_emplace(g.id, Pending::Modified);
+  if (pending_[it->second] == Pending::None) {
+    pending_[it->second] = Pending::Modified;
+    touched_.push_back(it->second);
+  }
   return Ok{};
 }
 
@@ -116,11 +121,11 @@ Status SceneStore::remove(GaussianId id) {
   if (it == index_.end()) return Error{"SceneStore::remove: Gaussian id " + id_text(id) + " is not live"};
   const std::uint32_t i = it->second;
   if (!gaussians_[i].carrier) --appearance_count_;
-  dead_[i] = 1;
   index_.erase(it);
   retired_.insert(id);
-  auto [p, fresh] = pending_.try_emplace(id, Pending::Removed);
-  if (!fresh) p->second = (p->second == Pending::Inserted) ? Pending::InsertedThenRemoved : Pending::Removed;
+  Pending& p = pending_[i];
+  if (p == Pending::None) touched_.push_back(i);
+  p = (p == Pending::Inserted) ? Pending::InsertedThenRemoved : Pending::Removed;
   return Ok{};
 }
 
@@ -134,7 +139,7 @@ Status SceneStore::set_sh_degree(int degree) {
     return Error{"SceneStore::set_sh_degree: degree " + std::to_string(degree) + " is outside 0.." +
                  std::to_string(kMaxShDegree)};
   for (std::size_t i = 0; i < gaussians_.size(); ++i) {
-    if (dead_[i]) continue;
+    if (dead(pending_[i])) continue;
     for (int k = sh_rest_count(degree); k < kMaxShRest; ++k)
       if (gaussians_[i].sh_rest[k] != glm::vec3(0.0f))
         return Error{"SceneStore::set_sh_degree(" + std::to_string(degree) + "): Gaussian id " +
@@ -263,31 +268,36 @@ void SceneStore::recompute_derived() {
 
 Status SceneStore::commit_epoch() {
   if (auto s = require_open("commit_epoch"); !s) return s;
-  // Stable compaction: survivors keep their relative order (the documented contract).
-  auto first_dead = std::find(dead_.begin(), dead_.end(), std::uint8_t{1});
-  if (first_dead != dead_.end()) {
-    std::size_t w = static_cast<std::size_t>(first_dead - dead_.begin());
-    for (std::size_t r = w; r < gaussians_.size(); ++r) {
-      if (dead_[r]) continue;
-      gaussians_[w] = std::move(gaussians_[r]);
-      index_[gaussians_[w].id] = static_cast<std::uint32_t>(w);
-      ++w;
-    }
-    gaussians_.resize(w);
-    dead_.assign(w, 0);
-  }
-  if (!pending_.empty() || pending_objects_changed_) recompute_derived();
-
   EpochChanges c;
   c.epoch = open_epoch_;
-  for (const auto& [id, kind] : pending_) {
-    switch (kind) {
-      case Pending::Inserted: c.inserted.push_back(id); break;
-      case Pending::Modified: c.modified.push_back(id); break;
-      case Pending::Removed: c.removed.push_back(id); break;
-      case Pending::InsertedThenRemoved: break;
+  std::vector<std::uint32_t> holes;
+  for (std::uint32_t slot : touched_) {
+    switch (pending_[slot]) {
+      case Pending::Inserted: c.inserted.push_back(gaussians_[slot].id); break;
+      case Pending::Modified: c.modified.push_back(gaussians_[slot].id); break;
+      case Pending::Removed: c.removed.push_back(gaussians_[slot].id); break;
+      case Pending::InsertedThenRemoved:
+      case Pending::None: break;
     }
+    if (dead(pending_[slot])) holes.push_back(slot);
   }
+  const bool gaussians_changed = !touched_.empty();
+  for (std::uint32_t slot : touched_) pending_[slot] = Pending::None;
+  touched_.clear();
+  // Fill each hole (highest first) with the last Gaussian: O(removed), and only the moved
+  // Gaussian's index entry changes. A hole that is itself last just shrinks the span.
+  std::sort(holes.begin(), holes.end(), std::greater<>());
+  for (std::uint32_t hole : holes) {
+    const std::size_t last = gaussians_.size() - 1;
+    if (hole != last) {
+      gaussians_[hole] = std::move(gaussians_[last]);
+      index_[gaussians_[hole].id] = hole;
+    }
+    gaussians_.pop_back();
+    pending_.pop_back();
+  }
+  if (gaussians_changed || pending_objects_changed_) recompute_derived();
+
   std::sort(c.inserted.begin(), c.inserted.end());
   std::sort(c.modified.begin(), c.modified.end());
   std::sort(c.removed.begin(), c.removed.end());
@@ -298,7 +308,6 @@ Status SceneStore::commit_epoch() {
   log_.push_back(std::move(c));
   while (log_.size() > log_capacity_) log_.pop_front();
 
-  pending_.clear();
   pending_chunks_.clear();
   pending_objects_changed_ = false;
   epoch_ = open_epoch_;

@@ -7,9 +7,10 @@
 // were inserted / modified / removed so consumers (selector, differ) can be incremental.
 //
 // Storage contract (what readers may rely on):
-// - gaussians() is one contiguous, dense span. Its order is stable between epochs:
-//   Gaussians keep their relative order, new ones are appended at the end, and removed
-//   ones are erased at commit (the survivors close ranks without reordering).
+// - gaussians() is one contiguous, dense span. Its order is stable between epochs except
+//   for removals: new Gaussians are appended at the end; at commit each removed Gaussian's
+//   place is filled by the last Gaussian of the span (so a removal moves at most one other
+//   Gaussian, and commit costs O(changes), not O(N)).
 // - While an epoch is open, mutations are applied at once to find(), but removed
 //   Gaussians stay in the span until commit_epoch(); read the span between epochs.
 // - Carriers (Gaussian::carrier) are stored and iterable (they carry object ids for
@@ -78,7 +79,7 @@ class SceneStore {
   Status begin_epoch(Epoch e);
   // Opens epoch() + 1.
   Status begin_next_epoch();
-  // Compacts removals, recomputes object membership/centroids/extents and bounds,
+  // Fills removed places (see above), recomputes object membership/centroids/extents and bounds,
   // appends the change log entry and makes the epoch current. Fails when none is open.
   Status commit_epoch();
 
@@ -141,7 +142,8 @@ class SceneStore {
 
  private:
   // What happened to an id during the open epoch (collapsed to one entry per id).
-  enum class Pending : std::uint8_t { Inserted, Modified, Removed, InsertedThenRemoved };
+  enum class Pending : std::uint8_t { None, Inserted, Modified, Removed, InsertedThenRemoved };
+  static bool dead(Pending p) { return p == Pending::Removed || p == Pending::InsertedThenRemoved; }
   Status require_open(const char* what) const;
   void recompute_derived();
 
@@ -153,7 +155,8 @@ class SceneStore {
   std::uint64_t next_id_{1};
 
   std::vector<Gaussian> gaussians_;
-  std::vector<std::uint8_t> dead_;  // parallel to gaussians_: removed, erased at commit
+  std::vector<Pending> pending_;       // parallel to gaussians_: what the open epoch did to it
+  std::vector<std::uint32_t> touched_; // places whose pending_ left None this epoch (each once)
   std::unordered_map<GaussianId, std::uint32_t> index_;  // live id -> position in gaussians_
   std::unordered_set<GaussianId> retired_;               // removed ids, never reused
   std::size_t appearance_count_{0};
@@ -167,7 +170,6 @@ class SceneStore {
   std::vector<SemanticObject> objects_;
   std::vector<SurfaceChunk> chunks_;
 
-  std::unordered_map<GaussianId, Pending> pending_;
   bool pending_objects_changed_{false};
   std::vector<std::uint32_t> pending_chunks_;
   std::deque<EpochChanges> log_;
