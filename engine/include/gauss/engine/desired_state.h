@@ -1,0 +1,150 @@
+#pragma once
+// DesiredState: the client's newest desired record per persistent id, kept apart from
+// what is published (resident in GPU slots). Received edits are coalesced by latest
+// value: a newer value replaces an older pending one, a remove after a pending
+// (unpublished) insert cancels both, so the client converges straight to the newest
+// target without publishing intermediate states.
+//
+// Contract of a batch: edits apply in order. Each edit that is wrong is rejected and
+// counted (reason in stats and the first message), the state of its id untouched:
+//   - insert of an id already desired, update/remove/replace of an id never inserted
+//     (or already removed), a replace whose entering id is already desired;
+//   - a record with a non-finite field;
+//   - an insert that would make the desired set larger than the capacity M at that
+//     point (the host's differ emits removes before inserts, or Replace).
+// A whole batch is rejected, state untouched, when its epoch does not increase.
+// Epochs: the host sends exactly one batch per epoch per client (possibly empty), so
+// receiving batch e means every Gaussian edit of epochs <= e has arrived.
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "gauss/engine/edit.h"
+#include "gauss/engine/gaussian.h"
+#include "gauss/engine/ids.h"
+#include "gauss/engine/result.h"
+
+namespace gauss {
+
+enum class PendingKind : std::uint8_t { None = 0, Insert, Update, Remove };
+
+// Counters of everything accepted, coalesced and rejected, by reason.
+struct DesiredStats {
+  std::uint64_t accepted{0};             // edits applied to the desired state
+  std::uint64_t superseded{0};           // pending values replaced by a newer one
+  std::uint64_t cancelled{0};            // pending inserts cancelled by a remove
+  std::uint64_t rejected_unknown_id{0};  // update/remove/replace of an id not desired
+  std::uint64_t rejected_duplicate{0};   // insert of an id already desired
+  std::uint64_t rejected_bad_value{0};   // non-finite field
+  std::uint64_t rejected_capacity{0};    // insert beyond the budget M
+  std::uint64_t rejected_batches{0};     // whole batches refused (epoch not increasing)
+  std::uint64_t rejected_edits() const {
+    return rejected_unknown_id + rejected_duplicate + rejected_bad_value + rejected_capacity;
+  }
+};
+
+struct ApplyReport {
+  std::uint32_t accepted{0};
+  std::uint32_t rejected{0};
+  std::uint32_t newly_pending{0};  // ids that had nothing pending before this batch
+  std::string first_rejection;     // reason of the first rejected edit, empty if none
+};
+
+// One persistent id's state. Kept while the id is desired, published or pending.
+struct DesiredEntry {
+  GaussianId id{0};
+  Gaussian value{};                 // newest desired record (last published one after a remove)
+  glm::vec3 published_position{0.0f};  // of the published record: view relevance of a remove
+  Epoch epoch{0};                   // epoch of the newest edit of this id
+  double pending_since{0.0};        // when the id first had something pending (age)
+  float magnitude{0.0f};            // change size of the pending edit in [0, 1]
+  bool desired{false};              // in the desired set
+  bool published{false};            // resident in a slot
+  bool dirty{false};                // desired record differs from the published one
+  std::uint32_t pending_pos{kNotPending};  // position in the pending list
+  static constexpr std::uint32_t kNotPending = 0xFFFFFFFFu;
+
+  PendingKind pending_kind() const {
+    if (desired && !published) return PendingKind::Insert;
+    if (!desired && published) return PendingKind::Remove;
+    if (desired && dirty) return PendingKind::Update;
+    return PendingKind::None;
+  }
+};
+
+class DesiredState {
+ public:
+  // capacity = the client's budget M (validated by SlotTable::create beforehand).
+  explicit DesiredState(std::uint32_t capacity);
+
+  // Applies one received batch at time `now` (seconds, for the age of pending edits).
+  // Error (state untouched) only when the whole batch is refused.
+  Expected<ApplyReport> apply(const EditBatch& batch, double now);
+  // A resynchronisation: `snapshot` is the complete desired set of its epoch (inserts
+  // only). Ids desired now but absent from it are removed; ids present with the same
+  // record stay published untouched (no flicker on reconnect). Same rejection rules.
+  Expected<ApplyReport> apply_resync(const EditBatch& snapshot, double now);
+
+  // Publication side: called by the Publisher after it wrote the entry's slot.
+  void mark_published(std::uint32_t entry_index);
+
+  std::uint32_t capacity() const noexcept { return capacity_; }
+  std::size_t desired_count() const noexcept { return desired_count_; }
+  std::size_t published_count() const noexcept { return published_count_; }
+  std::size_t pending_count() const noexcept { return pending_.size(); }
+  const std::vector<std::uint32_t>& pending() const noexcept { return pending_; }
+  const DesiredEntry& entry(std::uint32_t index) const { return entries_[index]; }
+  // Size of the entry pool: every entry index is below this (for per-entry scratch).
+  std::size_t entry_slots() const noexcept { return entries_.size(); }
+  const DesiredEntry* find(GaussianId id) const;
+
+  // Highest epoch whose batch has arrived (nullopt before the first).
+  std::optional<Epoch> received_epoch() const noexcept { return received_; }
+  // Highest epoch e such that every received Gaussian edit of epochs <= e has been
+  // published or superseded: the Gaussian side of the surface epoch barrier.
+  std::optional<Epoch> published_epoch() const;
+
+  // Order-independent checksums (see record_hash) of the desired set and of the
+  // published set as this state believes it to be.
+  std::uint64_t desired_checksum() const;
+
+  const DesiredStats& stats() const noexcept { return stats_; }
+
+  // Internal consistency (counts, pending list, epoch histogram). O(n); for tests.
+  Status check() const;
+
+ private:
+  enum class Op { Insert, Update, Remove };
+  // Returns an empty string on success, else the rejection reason.
+  std::string apply_one(Op op, GaussianId id, const Gaussian* value, Epoch epoch, double now, ApplyReport& rep);
+  std::uint32_t new_entry(GaussianId id);
+  void release_entry(std::uint32_t index);
+  void refresh_pending(std::uint32_t index, Epoch old_epoch, bool was_pending);
+  void count_epoch(Epoch e, int delta);
+
+  std::uint32_t capacity_;
+  std::unordered_map<GaussianId, std::uint32_t> index_;
+  std::vector<DesiredEntry> entries_;
+  std::vector<std::uint32_t> free_entries_;
+  std::vector<std::uint32_t> pending_;
+  // Pending entries per epoch: the oldest pending epoch bounds the barrier. Few distinct
+  // epochs are pending at once, so the map stays tiny.
+  std::map<std::uint64_t, std::uint32_t> epoch_counts_;
+  std::optional<Epoch> received_;
+  std::size_t desired_count_{0};
+  std::size_t published_count_{0};
+  DesiredStats stats_;
+};
+
+// Change size of replacing `from` by `to`, in [0, 1]: position shift relative to the
+// Gaussian's own size plus colour and opacity change. Drives progressive priority.
+float change_magnitude(const Gaussian& from, const Gaussian& to);
+
+bool gaussian_is_finite(const Gaussian& g);
+
+}  // namespace gauss

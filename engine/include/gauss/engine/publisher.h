@@ -1,0 +1,96 @@
+#pragma once
+// Publisher: once per display frame, moves pending edits from the DesiredState into
+// the SlotTable (the published state) under a work allowance.
+//   immediate:   every pending edit, now.
+//   progressive: the highest-priority pending edits up to the allowance. Priority mixes
+//                reconstruction support, relevance to the current view, change magnitude
+//                and age. The allowance adapts to recent display slack within bounds, and
+//                an age escape serves edits older than a limit even at low priority.
+// The published total never exceeds the SlotTable's capacity: an insert that finds no
+// free slot takes over the slot of a pending remove (one slot write, like Replace).
+#include <cstdint>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "gauss/engine/desired_state.h"
+#include "gauss/engine/slot_table.h"
+
+namespace gauss {
+
+enum class PublishMode : std::uint8_t { Immediate = 0, Progressive = 1 };
+
+struct PublisherConfig {
+  PublishMode mode{PublishMode::Progressive};
+  // Edits per frame. The allowance starts at `initial` and stays in [min, max].
+  std::uint32_t allowance_min{1000};
+  std::uint32_t allowance_max{60000};
+  std::uint32_t allowance_initial{8000};
+  double display_period_s{1.0 / 72.0};  // the frame deadline the slack is measured against
+  // Slack = 1 - frame_cost / period, smoothed over ~8 frames. Above `slack_high` the
+  // allowance grows by `grow`; below `slack_low` it shrinks by `shrink`.
+  double slack_high{0.25};
+  double slack_low{0.10};
+  double grow{1.25};
+  double shrink{0.7};
+  double slack_smoothing{0.125};
+  // Age escape: pending edits older than this are served ahead of priority order, at
+  // most `escape_quota` per frame on top of the allowance.
+  double age_escape_s{0.5};
+  std::uint32_t escape_quota{2000};
+  // Priority weights (each term lies in [0, 1]).
+  float w_support{0.2f};
+  float w_view{0.5f};
+  float w_magnitude{0.2f};
+  float w_age{0.1f};
+  float support_reference{32.0f};  // support at which the support term saturates
+  float age_reference_s{1.0f};     // age at which the age term saturates
+  float view_distance_reference{4.0f};  // metres: relevance halves at this distance
+  float view_cos_half_fov{0.5f};   // cos of the half field of view counted as "in view"
+};
+
+struct ViewState {
+  glm::vec3 eye{0.0f};
+  glm::vec3 forward{0.0f, 0.0f, 1.0f};  // unit, world space
+};
+
+struct PublishReport {
+  std::uint32_t inserted{0};
+  std::uint32_t updated{0};
+  std::uint32_t removed{0};
+  std::uint32_t replaced{0};   // insert + remove sharing one slot write
+  std::uint32_t escaped{0};    // slot writes spent on the age escape
+  std::uint32_t allowance{0};  // allowance in force this frame (0 = unbounded)
+  std::uint32_t pending_after{0};
+  std::uint32_t slot_writes() const { return inserted + updated + removed + replaced; }
+  std::uint32_t edits() const { return inserted + updated + removed + 2 * replaced; }
+};
+
+class Publisher {
+ public:
+  explicit Publisher(PublisherConfig config = {});
+
+  // Publishes one frame's edits. `now` in seconds (the clock of DesiredState::apply).
+  // Fails only if the slot table and desired state disagree (a bug, named).
+  Expected<PublishReport> publish(DesiredState& desired, SlotTable& slots, const ViewState& view, double now);
+  // Reports the cost of the last displayed frame (render + publication) so the
+  // allowance can follow the display slack.
+  void report_frame_cost(double seconds);
+
+  std::uint32_t allowance() const noexcept { return allowance_; }
+  double smoothed_slack() const noexcept { return slack_; }
+  const PublisherConfig& config() const noexcept { return config_; }
+  float priority(const DesiredEntry& e, const ViewState& view, double now) const;
+
+ private:
+  Status publish_entry(DesiredState& desired, SlotTable& slots, std::uint32_t index, PublishReport& rep);
+  Status apply_chosen(DesiredState& desired, SlotTable& slots, std::size_t begin, std::size_t end, PublishReport& rep);
+
+  PublisherConfig config_;
+  std::uint32_t allowance_;
+  double slack_{0.5};
+  std::vector<std::uint32_t> scratch_;  // pending entry indices, in selection order
+  std::vector<float> prio_;             // priority per entry index, this frame
+};
+
+}  // namespace gauss

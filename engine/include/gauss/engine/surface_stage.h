@@ -1,0 +1,58 @@
+#pragma once
+// SurfaceStage: holds received surface (TSDF mesh) chunk patches until the epoch
+// barrier lets them through. A chunk of epoch e is committed only when every Gaussian
+// edit of epochs <= e has been published or superseded, so at every frame
+//   epoch(published surface) <= epoch(published Gaussians).
+// Per chunk, a newer patch replaces an older pending one (latest value wins); a patch
+// not newer than what is pending or committed for that chunk is rejected and counted.
+#include <cstdint>
+#include <map>
+#include <optional>
+
+#include "gauss/engine/ids.h"
+#include "gauss/engine/mesh.h"
+#include "gauss/engine/result.h"
+
+namespace gauss {
+
+// One chunk patch (msg::SurfacePatch's content). An empty mesh removes the chunk.
+struct SurfaceChunk {
+  std::uint64_t chunk_id{0};
+  Epoch epoch{0};
+  TriangleMesh mesh;
+};
+
+struct SurfaceStats {
+  std::uint64_t offered{0};
+  std::uint64_t superseded{0};      // pending patch replaced by a newer one
+  std::uint64_t rejected_stale{0};  // not newer than the chunk's pending/committed epoch
+  std::uint64_t rejected_bad{0};    // malformed mesh (index out of range, colour count)
+  std::uint64_t committed{0};
+};
+
+class SurfaceStage {
+ public:
+  // Queues a received patch. Errors name the chunk and why; the stage is untouched.
+  Status offer(SurfaceChunk chunk);
+  // Commits every pending patch whose epoch <= the Gaussian published epoch; returns
+  // the number committed. nullopt (nothing published yet) commits nothing.
+  std::uint32_t commit(std::optional<Epoch> published_gaussian_epoch);
+
+  // Highest epoch among committed chunks (nullopt before the first commit).
+  std::optional<Epoch> committed_epoch() const noexcept { return committed_epoch_; }
+  const std::map<std::uint64_t, SurfaceChunk>& committed() const noexcept { return committed_; }
+  std::size_t pending_count() const noexcept { return pending_.size(); }
+  // Bumped on every commit that changed the committed surface (the renderer re-uploads).
+  std::uint64_t revision() const noexcept { return revision_; }
+  const SurfaceStats& stats() const noexcept { return stats_; }
+
+ private:
+  std::map<std::uint64_t, SurfaceChunk> pending_;
+  std::map<std::uint64_t, SurfaceChunk> committed_;
+  std::map<std::uint64_t, Epoch> latest_;  // newest epoch accepted per chunk, removed ones too
+  std::optional<Epoch> committed_epoch_;
+  std::uint64_t revision_{0};
+  SurfaceStats stats_;
+};
+
+}  // namespace gauss

@@ -1,0 +1,361 @@
+#include "gauss/engine/desired_state.h"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_set>
+
+#include <glm/geometric.hpp>
+
+#include "gauss/engine/slot_table.h"
+
+namespace gauss {
+
+namespace {
+
+std::string id_str(GaussianId id) { return std::to_string(to_underlying(id)); }
+
+bool finite3(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+bool same_record(const Gaussian& a, const Gaussian& b) {
+  return a.position == b.position && a.log_scale == b.log_scale && a.rotation == b.rotation &&
+         a.opacity_logit == b.opacity_logit && a.sh_dc == b.sh_dc && a.sh_rest == b.sh_rest && a.id == b.id &&
+         a.object == b.object && a.support == b.support && a.carrier == b.carrier;
+}
+
+}  // namespace
+
+bool gaussian_is_finite(const Gaussian& g) {
+  if (!finite3(g.position) || !finite3(g.log_scale) || !finite3(g.sh_dc)) return false;
+  for (int i = 0; i < 4; ++i)
+    if (!std::isfinite(g.rotation[i])) return false;
+  if (!std::isfinite(g.opacity_logit)) return false;
+  for (const auto& c : g.sh_rest)
+    if (!finite3(c)) return false;
+  return true;
+}
+
+float change_magnitude(const Gaussian& from, const Gaussian& to) {
+  // Shift measured in the Gaussian's own largest axis: moving a 1 cm splat by 1 cm is a
+  // big visible change, moving a 50 cm splat by 1 cm is not.
+  const float size = std::exp(std::max({to.log_scale.x, to.log_scale.y, to.log_scale.z, -10.0f}));
+  const float shift = glm::length(to.position - from.position) / std::max(size, 1e-4f);
+  const float colour = glm::length(to.sh_dc - from.sh_dc);  // SH DC units (~0.28 per unit of RGB)
+  const float opacity = std::abs(to.opacity_logit - from.opacity_logit) * 0.25f;
+  const float m = shift + colour + opacity;
+  return std::isfinite(m) ? std::min(1.0f, m) : 1.0f;
+}
+
+DesiredState::DesiredState(std::uint32_t capacity) : capacity_(capacity) {}
+
+const DesiredEntry* DesiredState::find(GaussianId id) const {
+  auto it = index_.find(id);
+  return it == index_.end() ? nullptr : &entries_[it->second];
+}
+
+std::uint32_t DesiredState::new_entry(GaussianId id) {
+  std::uint32_t idx;
+  if (!free_entries_.empty()) {
+    idx = free_entries_.back();
+    free_entries_.pop_back();
+    entries_[idx] = DesiredEntry{};
+  } else {
+    idx = static_cast<std::uint32_t>(entries_.size());
+    entries_.emplace_back();
+  }
+  entries_[idx].id = id;
+  index_.emplace(id, idx);
+  return idx;
+}
+
+void DesiredState::release_entry(std::uint32_t index) {
+  index_.erase(entries_[index].id);
+  entries_[index].desired = entries_[index].published = entries_[index].dirty = false;
+  free_entries_.push_back(index);
+}
+
+void DesiredState::count_epoch(Epoch e, int delta) {
+  auto& c = epoch_counts_[to_underlying(e)];
+  c = static_cast<std::uint32_t>(static_cast<std::int64_t>(c) + delta);
+  if (c == 0) epoch_counts_.erase(to_underlying(e));
+}
+
+// Brings the pending list and the epoch histogram in line with the entry's new state.
+void DesiredState::refresh_pending(std::uint32_t index, Epoch old_epoch, bool was_pending) {
+  DesiredEntry& e = entries_[index];
+  const bool now_pending = e.pending_kind() != PendingKind::None;
+  if (was_pending) count_epoch(old_epoch, -1);
+  if (now_pending) count_epoch(e.epoch, +1);
+  if (was_pending && !now_pending) {
+    const std::uint32_t pos = e.pending_pos;
+    const std::uint32_t moved = pending_.back();
+    pending_[pos] = moved;
+    entries_[moved].pending_pos = pos;
+    pending_.pop_back();
+    e.pending_pos = DesiredEntry::kNotPending;
+  } else if (!was_pending && now_pending) {
+    e.pending_pos = static_cast<std::uint32_t>(pending_.size());
+    pending_.push_back(index);
+  }
+}
+
+std::string DesiredState::apply_one(Op op, GaussianId id, const Gaussian* value, Epoch epoch, double now,
+                                    ApplyReport& rep) {
+  if (value && !gaussian_is_finite(*value)) {
+    ++stats_.rejected_bad_value;
+    return "id " + id_str(id) + ": record has a non-finite field";
+  }
+  auto it = index_.find(id);
+  std::uint32_t idx = it == index_.end() ? DesiredEntry::kNotPending : it->second;
+  if (op == Op::Insert) {
+    if (it != index_.end() && entries_[idx].desired) {
+      ++stats_.rejected_duplicate;
+      return "insert of id " + id_str(id) + " that is already desired";
+    }
+    if (desired_count_ >= capacity_) {
+      ++stats_.rejected_capacity;
+      return "insert of id " + id_str(id) + " beyond the capacity " + std::to_string(capacity_);
+    }
+  } else if (it == index_.end() || !entries_[idx].desired) {
+    ++stats_.rejected_unknown_id;
+    return std::string(op == Op::Update ? "update" : "remove") + " of id " + id_str(id) + " that is not desired";
+  }
+
+  bool was_pending = false;
+  Epoch old_epoch{0};
+  if (idx == DesiredEntry::kNotPending) {
+    idx = new_entry(id);
+  } else {
+    was_pending = entries_[idx].pending_kind() != PendingKind::None;
+    old_epoch = entries_[idx].epoch;
+  }
+  DesiredEntry& e = entries_[idx];
+  if (!was_pending) {
+    e.pending_since = now;
+    e.magnitude = 0.0f;
+    ++rep.newly_pending;
+  }
+  switch (op) {
+    case Op::Insert:
+      // Either a fresh id, or a published id whose pending remove this insert supersedes.
+      if (was_pending) ++stats_.superseded;
+      e.magnitude = e.published ? std::max(e.magnitude, change_magnitude(e.value, *value)) : 1.0f;
+      e.value = *value;
+      e.desired = true;
+      e.dirty = true;
+      ++desired_count_;
+      break;
+    case Op::Update:
+      if (was_pending) ++stats_.superseded;
+      e.magnitude = e.published ? std::max(e.magnitude, change_magnitude(e.value, *value)) : 1.0f;
+      e.value = *value;
+      e.dirty = true;
+      break;
+    case Op::Remove:
+      e.desired = false;
+      e.dirty = false;
+      --desired_count_;
+      if (!e.published) {
+        // Remove after a pending insert: both vanish, nothing ever reaches a slot.
+        ++stats_.cancelled;
+        e.epoch = epoch;
+        refresh_pending(idx, old_epoch, was_pending);
+        release_entry(idx);
+        ++stats_.accepted;
+        return {};
+      }
+      if (was_pending) ++stats_.superseded;
+      e.magnitude = 1.0f;
+      break;
+  }
+  e.epoch = epoch;
+  refresh_pending(idx, old_epoch, was_pending);
+  ++stats_.accepted;
+  return {};
+}
+
+Expected<ApplyReport> DesiredState::apply(const EditBatch& batch, double now) {
+  if (received_ && to_underlying(batch.epoch) <= to_underlying(*received_)) {
+    ++stats_.rejected_batches;
+    return Error{"edit batch of epoch " + std::to_string(to_underlying(batch.epoch)) +
+                 " refused: epoch does not increase (last received " + std::to_string(to_underlying(*received_)) + ")"};
+  }
+  ApplyReport rep;
+  auto note = [&rep](std::string reason) {
+    if (reason.empty()) {
+      ++rep.accepted;
+      return;
+    }
+    ++rep.rejected;
+    if (rep.first_rejection.empty()) rep.first_rejection = std::move(reason);
+  };
+  for (const Edit& ed : batch.edits) {
+    switch (ed.kind) {
+      case EditKind::Insert: note(apply_one(Op::Insert, ed.id, &ed.value, batch.epoch, now, rep)); break;
+      case EditKind::Update: note(apply_one(Op::Update, ed.id, &ed.value, batch.epoch, now, rep)); break;
+      case EditKind::Remove: note(apply_one(Op::Remove, ed.id, nullptr, batch.epoch, now, rep)); break;
+      case EditKind::Replace: {
+        // Validate both halves first so a bad replace changes nothing.
+        const DesiredEntry* leaving = find(ed.leaving);
+        const DesiredEntry* entering = find(ed.id);
+        std::string reason;
+        if (!gaussian_is_finite(ed.value)) {
+          ++stats_.rejected_bad_value;
+          reason = "replace into id " + id_str(ed.id) + ": record has a non-finite field";
+        } else if (!leaving || !leaving->desired) {
+          ++stats_.rejected_unknown_id;
+          reason = "replace of id " + id_str(ed.leaving) + " that is not desired";
+        } else if (ed.leaving != ed.id && entering && entering->desired) {
+          ++stats_.rejected_duplicate;
+          reason = "replace into id " + id_str(ed.id) + " that is already desired";
+        }
+        if (!reason.empty()) {
+          note(std::move(reason));
+          break;
+        }
+        if (ed.leaving == ed.id) {
+          note(apply_one(Op::Update, ed.id, &ed.value, batch.epoch, now, rep));
+          break;
+        }
+        ApplyReport inner;
+        (void)apply_one(Op::Remove, ed.leaving, nullptr, batch.epoch, now, inner);
+        --stats_.accepted;  // the two halves count as one edit
+        note(apply_one(Op::Insert, ed.id, &ed.value, batch.epoch, now, rep));
+        rep.newly_pending += inner.newly_pending;
+        break;
+      }
+      default:
+        ++stats_.rejected_unknown_id;
+        note("edit of id " + id_str(ed.id) + " has an unknown kind " + std::to_string(static_cast<int>(ed.kind)));
+    }
+  }
+  received_ = batch.epoch;
+  return rep;
+}
+
+Expected<ApplyReport> DesiredState::apply_resync(const EditBatch& snapshot, double now) {
+  if (received_ && to_underlying(snapshot.epoch) < to_underlying(*received_)) {
+    ++stats_.rejected_batches;
+    return Error{"resync snapshot of epoch " + std::to_string(to_underlying(snapshot.epoch)) +
+                 " refused: older than the last received epoch " + std::to_string(to_underlying(*received_))};
+  }
+  ApplyReport rep;
+  auto note = [&rep](std::string reason) {
+    if (reason.empty()) {
+      ++rep.accepted;
+      return;
+    }
+    ++rep.rejected;
+    if (rep.first_rejection.empty()) rep.first_rejection = std::move(reason);
+  };
+  std::unordered_set<GaussianId> in_snapshot;
+  in_snapshot.reserve(snapshot.edits.size());
+  for (const Edit& ed : snapshot.edits)
+    if (ed.kind == EditKind::Insert) in_snapshot.insert(ed.id);
+  // Drop what the snapshot no longer holds first, so the budget has room for the rest.
+  std::vector<GaussianId> stale;
+  for (const auto& [id, idx] : index_)
+    if (entries_[idx].desired && !in_snapshot.count(id)) stale.push_back(id);
+  for (GaussianId id : stale) {
+    ApplyReport inner;
+    (void)apply_one(Op::Remove, id, nullptr, snapshot.epoch, now, inner);
+    rep.newly_pending += inner.newly_pending;
+  }
+  std::unordered_set<GaussianId> seen;
+  seen.reserve(snapshot.edits.size());
+  for (const Edit& ed : snapshot.edits) {
+    if (ed.kind != EditKind::Insert) {
+      ++stats_.rejected_unknown_id;
+      note("resync snapshot holds a non-insert edit for id " + id_str(ed.id));
+      continue;
+    }
+    if (!seen.insert(ed.id).second) {
+      ++stats_.rejected_duplicate;
+      note("resync snapshot names id " + id_str(ed.id) + " twice");
+      continue;
+    }
+    const DesiredEntry* cur = find(ed.id);
+    if (cur && cur->desired) {
+      if (same_record(cur->value, ed.value)) {
+        ++stats_.accepted;
+        note({});
+      } else {
+        note(apply_one(Op::Update, ed.id, &ed.value, snapshot.epoch, now, rep));
+      }
+    } else {
+      note(apply_one(Op::Insert, ed.id, &ed.value, snapshot.epoch, now, rep));
+    }
+  }
+  // The snapshot is the complete state of its epoch: whatever is still pending is
+  // pending towards that epoch.
+  epoch_counts_.clear();
+  for (std::uint32_t idx : pending_) entries_[idx].epoch = snapshot.epoch;
+  if (!pending_.empty()) epoch_counts_[to_underlying(snapshot.epoch)] = static_cast<std::uint32_t>(pending_.size());
+  received_ = snapshot.epoch;
+  return rep;
+}
+
+void DesiredState::mark_published(std::uint32_t index) {
+  DesiredEntry& e = entries_[index];
+  const PendingKind kind = e.pending_kind();
+  if (kind == PendingKind::None) return;
+  const Epoch old_epoch = e.epoch;
+  if (kind == PendingKind::Remove) {
+    e.published = false;
+    --published_count_;
+    refresh_pending(index, old_epoch, true);
+    release_entry(index);
+    return;
+  }
+  if (kind == PendingKind::Insert) {
+    e.published = true;
+    ++published_count_;
+  }
+  e.dirty = false;
+  e.published_position = e.value.position;
+  refresh_pending(index, old_epoch, true);
+}
+
+std::optional<Epoch> DesiredState::published_epoch() const {
+  if (!received_) return std::nullopt;
+  if (epoch_counts_.empty()) return received_;
+  const std::uint64_t oldest = epoch_counts_.begin()->first;
+  if (oldest == 0) return std::nullopt;
+  return Epoch{oldest - 1};
+}
+
+std::uint64_t DesiredState::desired_checksum() const {
+  std::uint64_t sum = 0;
+  for (const auto& [id, idx] : index_)
+    if (entries_[idx].desired) sum += record_hash(id, entries_[idx].value);
+  return sum;
+}
+
+Status DesiredState::check() const {
+  std::size_t desired = 0, published = 0, pending = 0;
+  std::map<std::uint64_t, std::uint32_t> counts;
+  for (const auto& [id, idx] : index_) {
+    const DesiredEntry& e = entries_[idx];
+    if (e.id != id) return Error{"desired state: index of id " + id_str(id) + " points at another entry"};
+    if (!e.desired && !e.published) return Error{"desired state: id " + id_str(id) + " kept though neither desired nor published"};
+    desired += e.desired;
+    published += e.published;
+    const bool is_pending = e.pending_kind() != PendingKind::None;
+    if (is_pending) {
+      ++pending;
+      ++counts[to_underlying(e.epoch)];
+      if (e.pending_pos >= pending_.size() || pending_[e.pending_pos] != idx)
+        return Error{"desired state: pending id " + id_str(id) + " missing from the pending list"};
+    } else if (e.pending_pos != DesiredEntry::kNotPending) {
+      return Error{"desired state: id " + id_str(id) + " listed pending but has nothing pending"};
+    }
+  }
+  if (desired != desired_count_ || published != published_count_ || pending != pending_.size())
+    return Error{"desired state: counts disagree (desired " + std::to_string(desired) + "/" + std::to_string(desired_count_) +
+                 ", published " + std::to_string(published) + "/" + std::to_string(published_count_) + ", pending " +
+                 std::to_string(pending) + "/" + std::to_string(pending_.size()) + ")"};
+  if (counts != epoch_counts_) return Error{"desired state: pending-per-epoch histogram disagrees"};
+  if (desired_count_ > capacity_) return Error{"desired state: " + std::to_string(desired_count_) + " desired exceeds capacity"};
+  return Ok{};
+}
+
+}  // namespace gauss

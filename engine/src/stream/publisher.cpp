@@ -1,0 +1,205 @@
+#include "gauss/engine/publisher.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <glm/geometric.hpp>
+
+namespace gauss {
+
+Publisher::Publisher(PublisherConfig config) : config_(config) {
+  // A config with min > max would make the clamp ill-defined: order the bounds.
+  if (config_.allowance_min == 0) config_.allowance_min = 1;
+  if (config_.allowance_max < config_.allowance_min) config_.allowance_max = config_.allowance_min;
+  allowance_ = std::clamp(config_.allowance_initial, config_.allowance_min, config_.allowance_max);
+}
+
+float Publisher::priority(const DesiredEntry& e, const ViewState& view, double now) const {
+  const float support = std::min(1.0f, std::log1p(static_cast<float>(e.value.support)) /
+                                           std::log1p(std::max(config_.support_reference, 1.0f)));
+  // A remove matters where the published Gaussian is; anything else where it will be.
+  const glm::vec3 pos = e.pending_kind() == PendingKind::Remove ? e.published_position : e.value.position;
+  const glm::vec3 d = pos - view.eye;
+  const float dist = glm::length(d);
+  const float c = dist > 1e-6f ? glm::dot(d, view.forward) / dist : 1.0f;
+  const float in_view = c >= config_.view_cos_half_fov ? 1.0f : std::max(0.0f, c) * 0.5f;
+  const float relevance = in_view / (1.0f + dist / std::max(config_.view_distance_reference, 1e-3f));
+  const float age = std::min(1.0f, static_cast<float>(now - e.pending_since) / std::max(config_.age_reference_s, 1e-3f));
+  const float p = config_.w_support * support + config_.w_view * relevance + config_.w_magnitude * e.magnitude +
+                  config_.w_age * std::max(0.0f, age);
+  return std::isfinite(p) ? p : 0.0f;
+}
+
+Status Publisher::publish_entry(DesiredState& desired, SlotTable& slots, std::uint32_t index, PublishReport& rep) {
+  const DesiredEntry& e = desired.entry(index);
+  switch (e.pending_kind()) {
+    case PendingKind::Remove: {
+      Status s = slots.remove(e.id);
+      if (!s) return s;
+      ++rep.removed;
+      break;
+    }
+    case PendingKind::Update: {
+      Status s = slots.update(e.id, e.value);
+      if (!s) return s;
+      ++rep.updated;
+      break;
+    }
+    case PendingKind::Insert: {
+      auto s = slots.insert(e.id, e.value);
+      if (!s) return s.error();
+      ++rep.inserted;
+      break;
+    }
+    case PendingKind::None: return Ok{};
+  }
+  desired.mark_published(index);
+  return Ok{};
+}
+
+Expected<PublishReport> Publisher::publish(DesiredState& desired, SlotTable& slots, const ViewState& view, double now) {
+  PublishReport rep;
+  const std::vector<std::uint32_t>& pending = desired.pending();
+  scratch_.assign(pending.begin(), pending.end());
+  prio_.resize(desired.entry_slots());
+  if (config_.mode == PublishMode::Immediate) {
+    for (std::uint32_t i : scratch_) prio_[i] = priority(desired.entry(i), view, now);
+    Status s = apply_chosen(desired, slots, 0, scratch_.size(), rep);
+    if (!s) return s.error();
+    rep.pending_after = static_cast<std::uint32_t>(desired.pending_count());
+    return rep;
+  }
+  rep.allowance = allowance_;
+  for (std::uint32_t i : scratch_) prio_[i] = priority(desired.entry(i), view, now);
+  // Age escape first: the oldest edits past the limit, up to the quota, on top of the allowance.
+  auto old_end = std::partition(scratch_.begin(), scratch_.end(), [&](std::uint32_t i) {
+    return now - desired.entry(i).pending_since >= config_.age_escape_s;
+  });
+  std::size_t escaped = static_cast<std::size_t>(old_end - scratch_.begin());
+  if (escaped > config_.escape_quota) {
+    std::nth_element(scratch_.begin(), scratch_.begin() + config_.escape_quota, old_end, [&](std::uint32_t a, std::uint32_t b) {
+      return desired.entry(a).pending_since < desired.entry(b).pending_since;
+    });
+    escaped = config_.escape_quota;
+  }
+  if (escaped > 0) {
+    Status s = apply_chosen(desired, slots, 0, escaped, rep);
+    if (!s) return s.error();
+    rep.escaped = rep.slot_writes();
+  }
+  // Then the highest priorities, up to the allowance in slot writes. Paired edits (an
+  // insert into a leaving Gaussian's slot) cost one write for two edits, so a round can
+  // leave allowance over; the next round takes the next-best of what is still pending.
+  std::size_t pos = escaped;
+  while (rep.slot_writes() - rep.escaped < allowance_) {
+    auto live_end = std::partition(scratch_.begin() + static_cast<std::ptrdiff_t>(pos), scratch_.end(),
+                                   [&](std::uint32_t i) { return desired.entry(i).pending_kind() != PendingKind::None; });
+    const std::size_t live = static_cast<std::size_t>(live_end - scratch_.begin()) - pos;
+    if (live == 0) break;
+    scratch_.resize(pos + live);
+    const std::size_t take = std::min<std::size_t>(live, allowance_ - (rep.slot_writes() - rep.escaped));
+    if (take < live)
+      std::nth_element(scratch_.begin() + static_cast<std::ptrdiff_t>(pos), scratch_.begin() + static_cast<std::ptrdiff_t>(pos + take),
+                       scratch_.end(), [&](std::uint32_t a, std::uint32_t b) { return prio_[a] > prio_[b]; });
+    Status s = apply_chosen(desired, slots, pos, pos + take, rep);
+    if (!s) return s.error();
+    pos += take;
+  }
+  rep.pending_after = static_cast<std::uint32_t>(desired.pending_count());
+  return rep;
+}
+
+// Publishes scratch_[begin, end). Chosen inserts pair with chosen removes first (one
+// slot write each); an insert finding the table full takes the slot of an unchosen
+// remove (least relevant first, so what vanishes early is what the viewer is least
+// likely to see); a chosen remove left over takes an unchosen insert (most relevant
+// first) rather than leaving a hole a later frame refills. Unchosen candidates come
+// from scratch_[end, size).
+Status Publisher::apply_chosen(DesiredState& desired, SlotTable& slots, std::size_t begin, std::size_t end,
+                               PublishReport& rep) {
+  std::vector<std::uint32_t> inserts, removes;
+  for (std::size_t k = begin; k < end; ++k) {
+    const std::uint32_t i = scratch_[k];
+    switch (desired.entry(i).pending_kind()) {
+      case PendingKind::Insert: inserts.push_back(i); break;
+      case PendingKind::Remove: removes.push_back(i); break;
+      case PendingKind::Update: {
+        Status s = publish_entry(desired, slots, i, rep);
+        if (!s) return s;
+        break;
+      }
+      case PendingKind::None: break;
+    }
+  }
+  auto pair = [&](std::uint32_t leaving, std::uint32_t entering) -> Status {
+    const DesiredEntry& e = desired.entry(entering);
+    auto s = slots.replace(desired.entry(leaving).id, e.id, e.value);
+    if (!s) return s.error();
+    desired.mark_published(leaving);
+    desired.mark_published(entering);
+    ++rep.replaced;
+    return Ok{};
+  };
+  // Unchosen candidates of one kind, sorted so the preferred one is at the back.
+  auto spares = [&](PendingKind kind, bool prefer_low) {
+    std::vector<std::uint32_t> out;
+    for (std::size_t k = end; k < scratch_.size(); ++k)
+      if (desired.entry(scratch_[k]).pending_kind() == kind) out.push_back(scratch_[k]);
+    std::sort(out.begin(), out.end(), [&](std::uint32_t a, std::uint32_t b) {
+      return prefer_low ? prio_[a] > prio_[b] : prio_[a] < prio_[b];
+    });
+    return out;
+  };
+  std::vector<std::uint32_t> spare_removes;
+  bool spare_removes_listed = false;
+  for (std::uint32_t ins : inserts) {
+    if (!removes.empty()) {
+      const std::uint32_t r = removes.back();
+      removes.pop_back();
+      Status s = pair(r, ins);
+      if (!s) return s;
+      continue;
+    }
+    if (slots.free_count() == 0) {
+      if (!spare_removes_listed) {
+        spare_removes = spares(PendingKind::Remove, true);
+        spare_removes_listed = true;
+      }
+      if (spare_removes.empty()) return Error{"publisher: slot table full and no pending remove to make room"};
+      const std::uint32_t r = spare_removes.back();
+      spare_removes.pop_back();
+      Status s = pair(r, ins);
+      if (!s) return s;
+      continue;
+    }
+    Status s = publish_entry(desired, slots, ins, rep);
+    if (!s) return s;
+  }
+  std::vector<std::uint32_t> spare_inserts;
+  if (!removes.empty()) spare_inserts = spares(PendingKind::Insert, false);
+  for (std::uint32_t r : removes) {
+    if (!spare_inserts.empty()) {
+      const std::uint32_t ins = spare_inserts.back();
+      spare_inserts.pop_back();
+      Status s = pair(r, ins);
+      if (!s) return s;
+      continue;
+    }
+    Status s = publish_entry(desired, slots, r, rep);
+    if (!s) return s;
+  }
+  return Ok{};
+}
+
+void Publisher::report_frame_cost(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0.0) return;  // a broken timer must not steer the allowance
+  const double sample = 1.0 - seconds / config_.display_period_s;
+  slack_ += config_.slack_smoothing * (sample - slack_);
+  if (slack_ > config_.slack_high) {
+    allowance_ = static_cast<std::uint32_t>(std::min<double>(config_.allowance_max, std::ceil(allowance_ * config_.grow)));
+  } else if (slack_ < config_.slack_low) {
+    allowance_ = static_cast<std::uint32_t>(std::max<double>(config_.allowance_min, std::floor(allowance_ * config_.shrink)));
+  }
+}
+
+}  // namespace gauss

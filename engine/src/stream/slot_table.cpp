@@ -1,0 +1,170 @@
+#include "gauss/engine/slot_table.h"
+
+#include <algorithm>
+#include <bit>
+#include <cstring>
+
+namespace gauss {
+
+namespace {
+
+std::string id_str(GaussianId id) { return std::to_string(to_underlying(id)); }
+
+// splitmix64 finaliser: a well-mixed 64-bit value per field, so the sum over a set
+// (order independent) still separates sets that differ in one bit of one record.
+std::uint64_t mix(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ull;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  return x ^ (x >> 31);
+}
+
+}  // namespace
+
+std::uint64_t record_hash(GaussianId id, const Gaussian& g) {
+  std::uint64_t h = mix(to_underlying(id));
+  auto add = [&h](std::uint64_t v) { h = mix(h ^ v); };
+  auto add_f = [&add](float f) { add(std::bit_cast<std::uint32_t>(f)); };
+  for (int i = 0; i < 3; ++i) add_f(g.position[i]);
+  for (int i = 0; i < 3; ++i) add_f(g.log_scale[i]);
+  for (int i = 0; i < 4; ++i) add_f(g.rotation[i]);
+  add_f(g.opacity_logit);
+  for (int i = 0; i < 3; ++i) add_f(g.sh_dc[i]);
+  for (const auto& c : g.sh_rest)
+    for (int i = 0; i < 3; ++i) add_f(c[i]);
+  add(to_underlying(g.id));
+  add(static_cast<std::uint32_t>(to_underlying(g.object)));
+  add(g.support);
+  add(g.carrier ? 1u : 0u);
+  return h;
+}
+
+Expected<SlotTable> SlotTable::create(std::uint32_t capacity) {
+  if (capacity == 0) return Error{"slot table: capacity 0 (a client must hold at least one Gaussian)"};
+  if (capacity > kMaxSlotCapacity)
+    return Error{"slot table: capacity " + std::to_string(capacity) + " exceeds the maximum " +
+                 std::to_string(kMaxSlotCapacity)};
+  return SlotTable(capacity);
+}
+
+SlotTable::SlotTable(std::uint32_t capacity)
+    : slot_ids_(capacity, kEmpty), records_(capacity), dirty_(capacity, 0) {
+  free_.resize(capacity);
+  // Stack top is the back: push high slots first so slot 0 is handed out first and the
+  // resident set stays packed at the front of the buffer.
+  for (std::uint32_t i = 0; i < capacity; ++i) free_[i] = capacity - 1 - i;
+  index_.reserve(capacity);
+}
+
+void SlotTable::mark_dirty(std::uint32_t slot) {
+  if (!dirty_[slot]) {
+    dirty_[slot] = 1;
+    dirty_list_.push_back(slot);
+  }
+}
+
+Expected<SlotIndex> SlotTable::insert(GaussianId id, const Gaussian& value) {
+  if (free_.empty()) return Error{"slot table: full (" + std::to_string(capacity()) + " slots) inserting id " + id_str(id)};
+  auto [it, inserted] = index_.try_emplace(id, 0u);
+  if (!inserted) return Error{"slot table: id " + id_str(id) + " already holds slot " + std::to_string(it->second)};
+  const std::uint32_t slot = free_.back();
+  free_.pop_back();
+  it->second = slot;
+  slot_ids_[slot] = to_underlying(id);
+  records_[slot] = value;
+  mark_dirty(slot);
+  return SlotIndex{slot};
+}
+
+Status SlotTable::update(GaussianId id, const Gaussian& value) {
+  auto it = index_.find(id);
+  if (it == index_.end()) return Error{"slot table: update of non-resident id " + id_str(id)};
+  records_[it->second] = value;
+  mark_dirty(it->second);
+  return Ok{};
+}
+
+Status SlotTable::remove(GaussianId id) {
+  auto it = index_.find(id);
+  if (it == index_.end()) return Error{"slot table: remove of non-resident id " + id_str(id)};
+  const std::uint32_t slot = it->second;
+  index_.erase(it);
+  slot_ids_[slot] = kEmpty;
+  // An empty record (opacity logit -inf would be NaN-prone on GPUs; zero scale and the
+  // renderer's empty-slot check are what skip it).
+  records_[slot] = Gaussian{};
+  records_[slot].opacity_logit = -1e4f;
+  records_[slot].log_scale = glm::vec3(-1e4f);
+  free_.push_back(slot);
+  mark_dirty(slot);
+  return Ok{};
+}
+
+Expected<SlotIndex> SlotTable::replace(GaussianId leaving, GaussianId entering, const Gaussian& value) {
+  auto it = index_.find(leaving);
+  if (it == index_.end()) return Error{"slot table: replace of non-resident id " + id_str(leaving)};
+  if (leaving != entering && index_.count(entering) != 0)
+    return Error{"slot table: replace into id " + id_str(entering) + " that is already resident"};
+  const std::uint32_t slot = it->second;
+  index_.erase(it);
+  index_.emplace(entering, slot);
+  slot_ids_[slot] = to_underlying(entering);
+  records_[slot] = value;
+  mark_dirty(slot);
+  return SlotIndex{slot};
+}
+
+SlotIndex SlotTable::slot_of(GaussianId id) const {
+  auto it = index_.find(id);
+  return it == index_.end() ? kNoSlot : SlotIndex{it->second};
+}
+
+bool SlotTable::occupant(SlotIndex slot, GaussianId& out_id) const {
+  const auto s = to_underlying(slot);
+  if (s >= slot_ids_.size() || slot_ids_[s] == kEmpty) return false;
+  out_id = GaussianId{slot_ids_[s]};
+  return true;
+}
+
+std::vector<SlotRange> SlotTable::take_dirty_ranges(std::uint32_t max_gap) {
+  std::sort(dirty_list_.begin(), dirty_list_.end());
+  std::vector<SlotRange> ranges;
+  for (std::uint32_t s : dirty_list_) {
+    dirty_[s] = 0;
+    if (!ranges.empty()) {
+      SlotRange& last = ranges.back();
+      const std::uint64_t end = std::uint64_t{last.first} + last.count;  // one past the last
+      if (std::uint64_t{s} <= end + max_gap) {
+        last.count = s + 1 - last.first;
+        continue;
+      }
+    }
+    ranges.push_back({s, 1});
+  }
+  dirty_list_.clear();
+  return ranges;
+}
+
+Status SlotTable::check() const {
+  std::vector<std::uint8_t> seen(capacity(), 0);
+  for (const auto& [id, slot] : index_) {
+    if (slot >= capacity()) return Error{"slot table: id " + id_str(id) + " maps to slot " + std::to_string(slot) + " beyond capacity"};
+    if (seen[slot]) return Error{"slot table: slot " + std::to_string(slot) + " used twice"};
+    seen[slot] = 1;
+    if (slot_ids_[slot] != to_underlying(id))
+      return Error{"slot table: slot " + std::to_string(slot) + " records a different id than id " + id_str(id)};
+  }
+  for (std::uint32_t s : free_) {
+    if (s >= capacity()) return Error{"slot table: free slot " + std::to_string(s) + " beyond capacity"};
+    if (seen[s] == 1) return Error{"slot table: slot " + std::to_string(s) + " is both used and free"};
+    if (seen[s] == 2) return Error{"slot table: slot " + std::to_string(s) + " is free twice"};
+    if (slot_ids_[s] != kEmpty) return Error{"slot table: free slot " + std::to_string(s) + " still names an id"};
+    seen[s] = 2;
+  }
+  if (index_.size() + free_.size() != capacity())
+    return Error{"slot table: " + std::to_string(index_.size()) + " used + " + std::to_string(free_.size()) +
+                 " free != capacity " + std::to_string(capacity())};
+  return Ok{};
+}
+
+}  // namespace gauss

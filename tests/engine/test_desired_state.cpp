@@ -1,0 +1,235 @@
+// DesiredState: latest-value coalescing, rejections that leave state untouched,
+// resync, the Gaussian published epoch, and a property test against a reference model.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <random>
+
+#include "gauss/engine/desired_state.h"
+#include "gauss/engine/publisher.h"
+#include "gauss/engine/slot_table.h"
+
+using namespace gauss;
+
+namespace {
+
+Gaussian val(float x) {
+  Gaussian g;
+  g.position = {x, 0.0f, 1.0f};
+  return g;
+}
+Edit ins(std::uint64_t id, float x) { return Edit{EditKind::Insert, GaussianId{id}, GaussianId{0}, val(x)}; }
+Edit upd(std::uint64_t id, float x) { return Edit{EditKind::Update, GaussianId{id}, GaussianId{0}, val(x)}; }
+Edit rem(std::uint64_t id) { return Edit{EditKind::Remove, GaussianId{id}, GaussianId{0}, {}}; }
+Edit rep(std::uint64_t leaving, std::uint64_t id, float x) {
+  return Edit{EditKind::Replace, GaussianId{id}, GaussianId{leaving}, val(x)};
+}
+EditBatch batch(std::uint64_t epoch, std::vector<Edit> edits) { return EditBatch{Epoch{epoch}, std::move(edits)}; }
+
+// Publishes everything pending (immediate mode).
+void publish_all(DesiredState& d, SlotTable& t) {
+  Publisher p(PublisherConfig{.mode = PublishMode::Immediate});
+  auto r = p.publish(d, t, ViewState{}, 0.0);
+  ASSERT_TRUE(r.ok()) << r.message();
+}
+
+}  // namespace
+
+TEST(DesiredState, NewerValueReplacesPendingOne) {
+  DesiredState d(8);
+  ASSERT_TRUE(d.apply(batch(1, {ins(1, 1.0f)}), 0.0).ok());
+  ASSERT_TRUE(d.apply(batch(2, {upd(1, 2.0f)}), 0.1).ok());
+  ASSERT_TRUE(d.apply(batch(3, {upd(1, 3.0f)}), 0.2).ok());
+  EXPECT_EQ(d.pending_count(), 1u);
+  const DesiredEntry* e = d.find(GaussianId{1});
+  ASSERT_NE(e, nullptr);
+  EXPECT_EQ(e->pending_kind(), PendingKind::Insert);  // still an insert, now with the newest value
+  EXPECT_EQ(e->value.position.x, 3.0f);
+  EXPECT_EQ(e->pending_since, 0.0);  // age counts from the first pending edit
+  EXPECT_EQ(to_underlying(e->epoch), 3u);
+  EXPECT_EQ(d.stats().superseded, 2u);
+  EXPECT_TRUE(d.check().ok()) << d.check().message();
+}
+
+TEST(DesiredState, RemoveAfterPendingInsertCancelsBoth) {
+  DesiredState d(8);
+  ASSERT_TRUE(d.apply(batch(1, {ins(1, 1.0f), ins(2, 2.0f)}), 0.0).ok());
+  ASSERT_TRUE(d.apply(batch(2, {rem(1)}), 0.0).ok());
+  EXPECT_EQ(d.find(GaussianId{1}), nullptr);
+  EXPECT_EQ(d.pending_count(), 1u);
+  EXPECT_EQ(d.desired_count(), 1u);
+  EXPECT_EQ(d.stats().cancelled, 1u);
+  // The id may come back later (the host would use a new id; the state must not care).
+  ASSERT_TRUE(d.apply(batch(3, {ins(1, 5.0f)}), 0.0).ok());
+  EXPECT_EQ(d.find(GaussianId{1})->pending_kind(), PendingKind::Insert);
+  EXPECT_TRUE(d.check().ok());
+}
+
+TEST(DesiredState, RemoveThenInsertOfPublishedIdBecomesUpdate) {
+  DesiredState d(8);
+  auto t = SlotTable::create(8).value();
+  ASSERT_TRUE(d.apply(batch(1, {ins(1, 1.0f)}), 0.0).ok());
+  publish_all(d, t);
+  ASSERT_TRUE(d.apply(batch(2, {rem(1)}), 0.0).ok());
+  EXPECT_EQ(d.find(GaussianId{1})->pending_kind(), PendingKind::Remove);
+  ASSERT_TRUE(d.apply(batch(3, {ins(1, 4.0f)}), 0.0).ok());
+  EXPECT_EQ(d.find(GaussianId{1})->pending_kind(), PendingKind::Update);
+  publish_all(d, t);
+  EXPECT_EQ(t.records()[to_underlying(t.slot_of(GaussianId{1}))].position.x, 4.0f);
+  EXPECT_EQ(d.pending_count(), 0u);
+}
+
+TEST(DesiredState, BadEditsAreRejectedCountedAndLeaveStateUntouched) {
+  DesiredState d(2);
+  ASSERT_TRUE(d.apply(batch(1, {ins(1, 1.0f)}), 0.0).ok());
+  const std::uint64_t before = d.desired_checksum();
+  Edit nan_edit = upd(1, 0.0f);
+  nan_edit.value.opacity_logit = std::numeric_limits<float>::quiet_NaN();
+  auto r = d.apply(batch(2, {upd(99, 1.0f), rem(98), ins(1, 7.0f), nan_edit, rep(97, 5, 1.0f)}), 0.0);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->accepted, 0u);
+  EXPECT_EQ(r->rejected, 5u);
+  EXPECT_NE(r->first_rejection.find("99"), std::string::npos);
+  EXPECT_EQ(d.stats().rejected_unknown_id, 3u);
+  EXPECT_EQ(d.stats().rejected_duplicate, 1u);
+  EXPECT_EQ(d.stats().rejected_bad_value, 1u);
+  EXPECT_EQ(d.desired_checksum(), before);
+  EXPECT_EQ(d.find(GaussianId{1})->value.position.x, 1.0f);
+  EXPECT_TRUE(d.check().ok());
+}
+
+TEST(DesiredState, CapacityIsNeverExceeded) {
+  DesiredState d(2);
+  auto r = d.apply(batch(1, {ins(1, 1.0f), ins(2, 2.0f), ins(3, 3.0f)}), 0.0);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->rejected, 1u);
+  EXPECT_EQ(d.stats().rejected_capacity, 1u);
+  EXPECT_EQ(d.desired_count(), 2u);
+  // Removes first (the codec's order) or Replace keep a full budget usable.
+  ASSERT_TRUE(d.apply(batch(2, {rem(1), ins(3, 3.0f)}), 0.0).ok());
+  ASSERT_TRUE(d.apply(batch(3, {rep(2, 4, 4.0f)}), 0.0).ok());
+  EXPECT_EQ(d.desired_count(), 2u);
+  EXPECT_EQ(d.stats().rejected_capacity, 1u);
+  EXPECT_TRUE(d.check().ok());
+}
+
+TEST(DesiredState, BatchWithoutIncreasingEpochIsRefused) {
+  DesiredState d(4);
+  ASSERT_TRUE(d.apply(batch(5, {ins(1, 1.0f)}), 0.0).ok());
+  auto again = d.apply(batch(5, {ins(2, 1.0f)}), 0.0);
+  ASSERT_FALSE(again.ok());
+  EXPECT_NE(again.message().find("epoch 5"), std::string::npos);
+  EXPECT_FALSE(d.apply(batch(3, {ins(2, 1.0f)}), 0.0).ok());
+  EXPECT_EQ(d.stats().rejected_batches, 2u);
+  EXPECT_EQ(d.desired_count(), 1u);
+}
+
+TEST(DesiredState, PublishedEpochFollowsPendingEdits) {
+  DesiredState d(8);
+  auto t = SlotTable::create(8).value();
+  EXPECT_FALSE(d.published_epoch().has_value());
+  ASSERT_TRUE(d.apply(batch(1, {ins(1, 1.0f), ins(2, 1.0f)}), 0.0).ok());
+  // Epoch 1 is not published; epoch 0 is, vacuously (batches arrive in epoch order).
+  EXPECT_EQ(d.published_epoch(), Epoch{0});
+  publish_all(d, t);
+  EXPECT_EQ(d.published_epoch(), Epoch{1});
+  ASSERT_TRUE(d.apply(batch(2, {upd(1, 2.0f)}), 0.0).ok());
+  ASSERT_TRUE(d.apply(batch(3, {upd(2, 2.0f)}), 0.0).ok());
+  EXPECT_EQ(d.published_epoch(), Epoch{1});
+  // Superseding epoch 2's pending edit by epoch 4 completes epoch 2 (and 3 is pending).
+  ASSERT_TRUE(d.apply(batch(4, {upd(1, 3.0f)}), 0.0).ok());
+  EXPECT_EQ(d.published_epoch(), Epoch{2});
+  ASSERT_TRUE(d.apply(batch(5, {}), 0.0).ok());  // empty batches advance the received epoch
+  publish_all(d, t);
+  EXPECT_EQ(d.published_epoch(), Epoch{5});
+}
+
+TEST(DesiredState, ResyncKeepsEqualRecordsAndDropsTheRest) {
+  DesiredState d(4);
+  auto t = SlotTable::create(4).value();
+  ASSERT_TRUE(d.apply(batch(1, {ins(1, 1.0f), ins(2, 2.0f), ins(3, 3.0f)}), 0.0).ok());
+  publish_all(d, t);
+  (void)t.take_dirty_ranges();
+  // After a reconnect the host resends its complete desired set: 1 same, 2 changed, 3 gone, 4 new.
+  auto r = d.apply_resync(batch(7, {ins(1, 1.0f), ins(2, 9.0f), ins(4, 4.0f), ins(4, 4.0f)}), 1.0);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->rejected, 1u);  // id 4 twice
+  EXPECT_EQ(d.pending_count(), 3u);  // update 2, remove 3, insert 4: id 1 untouched
+  EXPECT_EQ(d.find(GaussianId{1})->pending_kind(), PendingKind::None);
+  EXPECT_FALSE(d.published_epoch().has_value() && to_underlying(*d.published_epoch()) >= 7u);
+  publish_all(d, t);
+  EXPECT_EQ(d.published_epoch(), Epoch{7});
+  EXPECT_EQ(d.desired_count(), 3u);
+  EXPECT_FALSE(t.contains(GaussianId{3}));
+  EXPECT_EQ(t.slot_of(GaussianId{1}), SlotIndex{0});  // kept its slot: no flicker on reconnect
+  EXPECT_TRUE(d.check().ok());
+}
+
+// Reference model: a map of the desired set; after publishing everything, the slot
+// table must hold exactly that map. Random batches with bad edits mixed in, random
+// partial publication between them.
+TEST(DesiredState, PropertyMatchesReferenceModel) {
+  for (std::uint64_t seed = 1; seed <= 40; ++seed) {
+    std::mt19937_64 rng(seed);
+    const std::uint32_t cap = 1 + static_cast<std::uint32_t>(rng() % 40);
+    DesiredState d(cap);
+    auto t = SlotTable::create(cap).value();
+    Publisher pub(PublisherConfig{.mode = PublishMode::Progressive, .allowance_min = 1, .allowance_max = 3, .allowance_initial = 2});
+    std::map<std::uint64_t, float> model;
+    std::uint64_t next = 1;
+    for (std::uint64_t epoch = 1; epoch <= 60; ++epoch) {
+      std::vector<Edit> edits;
+      std::map<std::uint64_t, float> after = model;
+      const int n = static_cast<int>(rng() % 8);
+      for (int k = 0; k < n; ++k) {
+        const float x = static_cast<float>(rng() % 1000);
+        const int op = static_cast<int>(rng() % 5);
+        if (op == 0 && after.size() < cap) {
+          edits.push_back(ins(next, x));
+          after[next++] = x;
+        } else if (op == 1 && !after.empty()) {
+          auto it = std::next(after.begin(), static_cast<long>(rng() % after.size()));
+          edits.push_back(upd(it->first, x));
+          it->second = x;
+        } else if (op == 2 && !after.empty()) {
+          auto it = std::next(after.begin(), static_cast<long>(rng() % after.size()));
+          edits.push_back(rem(it->first));
+          after.erase(it);
+        } else if (op == 3 && !after.empty()) {
+          auto it = std::next(after.begin(), static_cast<long>(rng() % after.size()));
+          edits.push_back(rep(it->first, next, x));
+          after.erase(it);
+          after[next++] = x;
+        } else {
+          edits.push_back(upd(1000000 + rng() % 5, x));  // never inserted: rejected
+        }
+      }
+      ASSERT_TRUE(d.apply(batch(epoch, edits), static_cast<double>(epoch)).ok());
+      model = after;
+      ASSERT_TRUE(d.check().ok()) << "seed " << seed << ": " << d.check().message();
+      ASSERT_EQ(d.desired_count(), model.size());
+      ASSERT_LE(d.desired_count(), cap);
+      if (rng() % 2) {
+        auto r = pub.publish(d, t, ViewState{}, static_cast<double>(epoch));
+        ASSERT_TRUE(r.ok()) << r.message();
+        ASSERT_TRUE(t.check().ok());
+        ASSERT_EQ(t.size(), d.published_count());
+      }
+    }
+    publish_all(d, t);
+    ASSERT_EQ(t.size(), model.size()) << "seed " << seed;
+    std::uint64_t model_sum = 0, slot_sum = 0;
+    for (const auto& [id, x] : model) {
+      const SlotIndex s = t.slot_of(GaussianId{id});
+      ASSERT_NE(s, kNoSlot) << "seed " << seed << " id " << id;
+      ASSERT_EQ(t.records()[to_underlying(s)].position.x, x);
+      model_sum += record_hash(GaussianId{id}, val(x));
+      slot_sum += record_hash(GaussianId{id}, t.records()[to_underlying(s)]);
+    }
+    EXPECT_EQ(model_sum, slot_sum);
+    EXPECT_EQ(d.desired_checksum(), model_sum);
+    EXPECT_EQ(d.published_epoch(), Epoch{60});
+  }
+}

@@ -1,0 +1,130 @@
+// Publisher: immediate vs progressive, allowance bound, view priority, age escape,
+// slack-adaptive allowance, and the budget held during a full replacement.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "gauss/engine/publisher.h"
+
+using namespace gauss;
+
+namespace {
+
+Edit ins(std::uint64_t id, glm::vec3 p) {
+  Edit e{EditKind::Insert, GaussianId{id}, GaussianId{0}, {}};
+  e.value.position = p;
+  e.value.id = GaussianId{id};
+  return e;
+}
+
+struct Fixture {
+  explicit Fixture(std::uint32_t cap) : desired(cap), slots(SlotTable::create(cap).value()) {}
+  DesiredState desired;
+  SlotTable slots;
+};
+
+}  // namespace
+
+TEST(Publisher, ImmediatePublishesEverything) {
+  Fixture f(1000);
+  std::vector<Edit> edits;
+  for (std::uint64_t i = 0; i < 1000; ++i) edits.push_back(ins(i + 1, {0, 0, 1}));
+  ASSERT_TRUE(f.desired.apply({Epoch{1}, edits}, 0.0).ok());
+  Publisher p(PublisherConfig{.mode = PublishMode::Immediate});
+  auto r = p.publish(f.desired, f.slots, {}, 0.0);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->inserted, 1000u);
+  EXPECT_EQ(r->allowance, 0u);
+  EXPECT_EQ(f.desired.pending_count(), 0u);
+  EXPECT_EQ(f.slots.size(), 1000u);
+}
+
+TEST(Publisher, ProgressiveRespectsAllowanceAndPrefersTheView) {
+  Fixture f(200);
+  std::vector<Edit> edits;
+  // 100 Gaussians ahead of the viewer (+z), 100 behind.
+  for (std::uint64_t i = 0; i < 100; ++i) edits.push_back(ins(i + 1, {0, 0, 2}));
+  for (std::uint64_t i = 0; i < 100; ++i) edits.push_back(ins(i + 101, {0, 0, -2}));
+  ASSERT_TRUE(f.desired.apply({Epoch{1}, edits}, 0.0).ok());
+  Publisher p(PublisherConfig{.mode = PublishMode::Progressive, .allowance_min = 10, .allowance_max = 50, .allowance_initial = 50});
+  auto r = p.publish(f.desired, f.slots, ViewState{{0, 0, 0}, {0, 0, 1}}, 0.0);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->slot_writes(), 50u);
+  for (std::uint64_t i = 101; i <= 200; ++i) EXPECT_FALSE(f.slots.contains(GaussianId{i})) << i;
+  // Turning around flips the preference.
+  r = p.publish(f.desired, f.slots, ViewState{{0, 0, 0}, {0, 0, -1}}, 0.0);
+  ASSERT_TRUE(r.ok());
+  int behind = 0;
+  for (std::uint64_t i = 101; i <= 200; ++i) behind += f.slots.contains(GaussianId{i});
+  EXPECT_EQ(behind, 50);
+  EXPECT_EQ(f.slots.size(), 100u);
+}
+
+TEST(Publisher, AgeEscapeServesOldLowPriorityEdits) {
+  Fixture f(100);
+  ASSERT_TRUE(f.desired.apply({Epoch{1}, {ins(1, {0, 0, -50})}}, 0.0).ok());  // far behind: lowest priority
+  std::vector<Edit> fresh;
+  for (std::uint64_t i = 0; i < 50; ++i) fresh.push_back(ins(i + 2, {0, 0, 1}));
+  ASSERT_TRUE(f.desired.apply({Epoch{2}, fresh}, 0.9).ok());
+  PublisherConfig cfg{.mode = PublishMode::Progressive, .allowance_min = 5, .allowance_max = 5, .allowance_initial = 5};
+  cfg.age_escape_s = 0.5;
+  cfg.w_age = 0.0f;  // only the escape can serve it
+  Publisher p(cfg);
+  auto r = p.publish(f.desired, f.slots, ViewState{{0, 0, 0}, {0, 0, 1}}, 1.0);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->escaped, 1u);
+  EXPECT_TRUE(f.slots.contains(GaussianId{1}));
+  EXPECT_EQ(r->slot_writes(), 6u);  // allowance plus the escaped edit
+  // Without the escape the old edit waits behind the fresh ones.
+  Fixture g(100);
+  ASSERT_TRUE(g.desired.apply({Epoch{1}, {ins(1, {0, 0, -50})}}, 0.0).ok());
+  ASSERT_TRUE(g.desired.apply({Epoch{2}, fresh}, 0.9).ok());
+  cfg.age_escape_s = 1e9;
+  Publisher q(cfg);
+  ASSERT_TRUE(q.publish(g.desired, g.slots, ViewState{{0, 0, 0}, {0, 0, 1}}, 1.0).ok());
+  EXPECT_FALSE(g.slots.contains(GaussianId{1}));
+}
+
+TEST(Publisher, AllowanceFollowsDisplaySlackWithinBounds) {
+  PublisherConfig cfg{.mode = PublishMode::Progressive, .allowance_min = 100, .allowance_max = 1000, .allowance_initial = 400};
+  cfg.display_period_s = 0.010;
+  Publisher p(cfg);
+  for (int i = 0; i < 200; ++i) p.report_frame_cost(0.002);  // lots of slack
+  EXPECT_EQ(p.allowance(), 1000u);
+  for (int i = 0; i < 200; ++i) p.report_frame_cost(0.0099);  // hardly any
+  EXPECT_EQ(p.allowance(), 100u);
+  p.report_frame_cost(std::numeric_limits<double>::quiet_NaN());  // ignored
+  EXPECT_EQ(p.allowance(), 100u);
+  Publisher bad(PublisherConfig{.allowance_min = 50, .allowance_max = 10, .allowance_initial = 5});
+  EXPECT_EQ(bad.allowance(), 50u);  // bounds put in order
+}
+
+TEST(Publisher, FullReplacementNeverExceedsTheBudget) {
+  const std::uint32_t cap = 300;
+  Fixture f(cap);
+  std::vector<Edit> first;
+  for (std::uint64_t i = 0; i < cap; ++i) first.push_back(ins(i + 1, {0, 0, 1}));
+  ASSERT_TRUE(f.desired.apply({Epoch{1}, first}, 0.0).ok());
+  Publisher imm(PublisherConfig{.mode = PublishMode::Immediate});
+  ASSERT_TRUE(imm.publish(f.desired, f.slots, {}, 0.0).ok());
+  (void)f.slots.take_dirty_ranges();
+  // A far teleport: every id leaves, as many new ones enter (removes first, as the codec orders them).
+  std::vector<Edit> second;
+  for (std::uint64_t i = 0; i < cap; ++i) second.push_back(Edit{EditKind::Remove, GaussianId{i + 1}, GaussianId{0}, {}});
+  for (std::uint64_t i = 0; i < cap; ++i) second.push_back(ins(i + 1001, {0, 0, 1}));
+  ASSERT_TRUE(f.desired.apply({Epoch{2}, second}, 0.0).ok());
+  Publisher p(PublisherConfig{.mode = PublishMode::Progressive, .allowance_min = 7, .allowance_max = 7, .allowance_initial = 7});
+  int frames = 0;
+  while (f.desired.pending_count() > 0) {
+    auto r = p.publish(f.desired, f.slots, ViewState{{0, 0, 0}, {0, 0, 1}}, 0.0);
+    ASSERT_TRUE(r.ok()) << r.message();
+    ASSERT_LE(f.slots.size(), cap);
+    ASSERT_LE(r->slot_writes(), 7u);
+    ASSERT_TRUE(f.slots.check().ok());
+    // Inserts take over the slots of leaving Gaussians: no frame leaves holes.
+    ASSERT_EQ(f.slots.size(), cap);
+    ASSERT_LT(++frames, 1000);
+  }
+  for (std::uint64_t i = 0; i < cap; ++i) ASSERT_TRUE(f.slots.contains(GaussianId{i + 1001}));
+  EXPECT_EQ(frames, (cap + 6) / 7);
+}
