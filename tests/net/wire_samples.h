@@ -113,7 +113,8 @@ inline std::vector<wire::Message> sample_messages() {
   pose.client_time_us = 5000000;
   pose.position = {0.1f, -1.6f, 0.3f};
   pose.rotation = {std::sqrt(0.5f), 0.0f, std::sqrt(0.5f), 0.0f};
-  pose.vertical_fov_rad = 1.6f;
+  pose.tan_half_fov_x = 1.2f;
+  pose.tan_half_fov_y = 0.9f;
   out.push_back(pose);
   msg::Query q;
   q.query_id = 1;

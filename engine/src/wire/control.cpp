@@ -1,6 +1,5 @@
 // Control-channel messages: HeadPose, Query, QueryReply, Ack, ClientStats.
 #include <cmath>
-#include <numbers>
 #include <string>
 
 #include "codecs.h"
@@ -16,8 +15,11 @@ Status check(const msg::HeadPose& m) {
                                double(m.rotation.z) * m.rotation.z + double(m.rotation.w) * m.rotation.w);
   // Senders normalise; a quaternion far from unit length is a corrupt pose, not a rotation.
   if (std::abs(len - 1.0) > 1e-3) return field_error("HeadPose", "rotation", "length " + std::to_string(len) + " is not 1");
-  if (!(m.vertical_fov_rad > 0.0f && m.vertical_fov_rad < static_cast<float>(std::numbers::pi)))
-    return field_error("HeadPose", "vertical_fov_rad", "outside (0, pi)");
+  // tan(half FOV) of 100 is a 179-degree view: anything wider is not a head-mounted display.
+  if (!(m.tan_half_fov_x > 0.0f && m.tan_half_fov_x <= 100.0f))
+    return field_error("HeadPose", "tan_half_fov_x", "outside (0, 100]");
+  if (!(m.tan_half_fov_y > 0.0f && m.tan_half_fov_y <= 100.0f))
+    return field_error("HeadPose", "tan_half_fov_y", "outside (0, 100]");
   return Ok{};
 }
 
@@ -75,7 +77,8 @@ void write(const msg::HeadPose& m, Writer& w) {
   w.u64(m.client_time_us);
   w.vec3(m.position);
   w.vec4(m.rotation);
-  w.f32(m.vertical_fov_rad);
+  w.f32(m.tan_half_fov_x);
+  w.f32(m.tan_half_fov_y);
 }
 
 void write(const msg::Query& m, Writer& w) {
@@ -123,7 +126,8 @@ Expected<msg::HeadPose> decode_head_pose(std::span<const std::uint8_t> body) {
   r.u64("client_time_us", m.client_time_us);
   r.vec3("position", m.position);
   r.vec4("rotation", m.rotation);
-  r.f32("vertical_fov_rad", m.vertical_fov_rad);
+  r.f32("tan_half_fov_x", m.tan_half_fov_x);
+  r.f32("tan_half_fov_y", m.tan_half_fov_y);
   if (!r.finish()) return r.error();
   return detail::checked(std::move(m));
 }

@@ -229,7 +229,8 @@ struct HeadPose {
   std::uint64_t client_time_us{0};
   glm::vec3 position{0.0f};                     // finite
   glm::vec4 rotation{1.0f, 0.0f, 0.0f, 0.0f};   // w, x, y, z; finite, |q| within 1e-3 of 1
-  float vertical_fov_rad{1.5f};                 // (0, pi)
+  float tan_half_fov_x{1.0f};                   // tan of half the horizontal FOV, (0, 100]
+  float tan_half_fov_y{1.0f};                   // tan of half the vertical FOV, (0, 100]
   bool operator==(const HeadPose&) const = default;
 };
 
