@@ -12,6 +12,7 @@
 layout(local_size_x = TEST_PATTERN_WORKGROUP, local_size_y = TEST_PATTERN_WORKGROUP) in;
 layout(constant_id = TEST_PATTERN_SPEC_R_MUL) const uint r_mul = 1u;
 layout(rgba8, binding = TEST_PATTERN_BINDING_IMAGE) uniform writeonly image2D out_image;
+layout(std430, binding = TEST_PATTERN_BINDING_TILE_SUMS) writeonly buffer TileSums { uint tile_sums[]; };
 layout(push_constant) uniform Push { TestPatternPush pc; };
 
 shared uint s_tile_sum;
@@ -34,6 +35,10 @@ void main() {
     atomicAdd(s_tile_count, sub_count);
   }
   barrier();
+  if (gl_LocalInvocationIndex == 0u) {
+    const uint tile = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    if (tile < uint(tile_sums.length())) tile_sums[tile] = s_tile_sum;
+  }
   if (!inside) return;
 
   const uint r = (p.x * r_mul + p.y * 3u + pc.seed) & 255u;

@@ -9,6 +9,8 @@
 //       tile_count = number of pixels of the tile   subgroups: independent of the
 //       that lie inside the image                   subgroup size
 //   A = 255 for even tiles (tile_x + tile_y), 191 for odd ones
+// and, per tile, tile_sums[tile_y * tiles_x + tile_x] = tile_sum (a storage buffer;
+// tiles past the buffer's end are not written).
 #ifndef GAUSS_SHADERS_SHARED_TEST_PATTERN_LAYOUT_H
 #define GAUSS_SHADERS_SHARED_TEST_PATTERN_LAYOUT_H
 
@@ -20,6 +22,8 @@ GAUSS_SHARED_BEGIN
 GAUSS_CONST(uint, TEST_PATTERN_WORKGROUP, 16u)
 // The output: an rgba8 storage image (OffscreenTarget colour, GENERAL layout).
 GAUSS_BINDING(TEST_PATTERN_BINDING_IMAGE, 0u)
+// Per-tile sums: a storage buffer of uint.
+GAUSS_BINDING(TEST_PATTERN_BINDING_TILE_SUMS, 1u)
 // Specialization constant id of r_mul.
 GAUSS_CONST(uint, TEST_PATTERN_SPEC_R_MUL, 0u)
 

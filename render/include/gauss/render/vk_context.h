@@ -104,6 +104,16 @@ class Context {
   // maxStorageBufferRange: the most bytes one storage-buffer binding may cover.
   VkDeviceSize max_storage_buffer_range() const noexcept { return properties_.limits.maxStorageBufferRange; }
 
+  // Features enabled on the device: always dynamicRendering + synchronization2; the
+  // rest of a curated list (shaderInt64/Int16, 8/16-bit storage, shaderFloat16, Int8,
+  // scalarBlockLayout, hostQueryReset, subgroupSizeControl, computeFullSubgroups,
+  // storage-image read/write without format, fragment/vertex stores and atomics)
+  // whenever the device supports them. Check here before relying on one.
+  const VkPhysicalDeviceFeatures& enabled_features() const noexcept { return enabled_features_; }
+  const VkPhysicalDeviceVulkan11Features& enabled_features11() const noexcept { return enabled_features11_; }
+  const VkPhysicalDeviceVulkan12Features& enabled_features12() const noexcept { return enabled_features12_; }
+  const VkPhysicalDeviceVulkan13Features& enabled_features13() const noexcept { return enabled_features13_; }
+
   bool validation_enabled() const noexcept { return messenger_ != VK_NULL_HANDLE; }
   // Validation errors reported for this context since creation.
   std::uint64_t validation_error_count() const noexcept;
@@ -141,7 +151,6 @@ class Context {
 
  private:
   Context();
-  friend struct ContextBuilder;
 
   VkInstance instance_{VK_NULL_HANDLE};
   VkDebugUtilsMessengerEXT messenger_{VK_NULL_HANDLE};
@@ -158,6 +167,10 @@ class Context {
   std::uint32_t subgroup_size_{0};
   VkSubgroupFeatureFlags subgroup_operations_{0};
   std::uint32_t timestamp_valid_bits_{0};
+  VkPhysicalDeviceFeatures enabled_features_{};
+  VkPhysicalDeviceVulkan11Features enabled_features11_{};
+  VkPhysicalDeviceVulkan12Features enabled_features12_{};
+  VkPhysicalDeviceVulkan13Features enabled_features13_{};
   std::unique_ptr<State> state_;
 };
 

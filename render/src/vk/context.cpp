@@ -1,0 +1,545 @@
+// Context: instance (+ validation), device choice, logical device, queue, and the
+// one-shot submit path. Device selection rules are in vk_context.h.
+#include "gauss/render/vk_context.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cctype>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <mutex>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "gauss/render/vk_check.h"
+#include "vk/debug_messenger.h"
+
+namespace gauss::vk {
+namespace {
+
+constexpr const char* kValidationLayer = "VK_LAYER_KHRONOS_validation";
+constexpr std::uint32_t kRequiredApi = VK_API_VERSION_1_3;
+
+// volk keeps process-wide function pointers. They are loaded once from the first
+// instance: vkGetInstanceProcAddr hands out loader trampolines that dispatch on the
+// handle they are called with, so they serve every later instance and device too
+// (every instance enables the same extensions, see create_instance()).
+std::mutex g_volk_mutex;
+bool g_volk_loaded = false;
+
+Status init_loader() {
+  std::lock_guard lock(g_volk_mutex);
+  static VkResult init_result = volkInitialize();
+  if (init_result != VK_SUCCESS) {
+    return Error{"no Vulkan loader found (libvulkan.so.1 could not be loaded): install a Vulkan driver "
+                 "(e.g. mesa-vulkan-drivers for the lavapipe CPU device)"};
+  }
+  return Ok{};
+}
+
+void load_instance_functions(VkInstance instance) {
+  std::lock_guard lock(g_volk_mutex);
+  if (!g_volk_loaded) {
+    volkLoadInstance(instance);
+    g_volk_loaded = true;
+  }
+}
+
+std::string version_string(std::uint32_t v) {
+  return std::to_string(VK_API_VERSION_MAJOR(v)) + "." + std::to_string(VK_API_VERSION_MINOR(v)) + "." +
+         std::to_string(VK_API_VERSION_PATCH(v));
+}
+
+std::string lower(std::string_view s) {
+  std::string out(s);
+  std::transform(out.begin(), out.end(), out.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return out;
+}
+
+bool env_flag(const char* name) {
+  const char* v = std::getenv(name);
+  return v != nullptr && *v != '\0' && std::strcmp(v, "0") != 0;
+}
+
+bool has_layer(const char* name) {
+  std::uint32_t count = 0;
+  if (vkEnumerateInstanceLayerProperties(&count, nullptr) != VK_SUCCESS) return false;
+  std::vector<VkLayerProperties> layers(count);
+  if (vkEnumerateInstanceLayerProperties(&count, layers.data()) != VK_SUCCESS) return false;
+  return std::any_of(layers.begin(), layers.end(), [&](const VkLayerProperties& l) { return std::strcmp(l.layerName, name) == 0; });
+}
+
+bool has_instance_extension(const char* name) {
+  std::uint32_t count = 0;
+  if (vkEnumerateInstanceExtensionProperties(nullptr, &count, nullptr) != VK_SUCCESS) return false;
+  std::vector<VkExtensionProperties> exts(count);
+  if (vkEnumerateInstanceExtensionProperties(nullptr, &count, exts.data()) != VK_SUCCESS) return false;
+  return std::any_of(exts.begin(), exts.end(), [&](const VkExtensionProperties& e) { return std::strcmp(e.extensionName, name) == 0; });
+}
+
+bool has_device_extension(VkPhysicalDevice pd, const char* name) {
+  std::uint32_t count = 0;
+  if (vkEnumerateDeviceExtensionProperties(pd, nullptr, &count, nullptr) != VK_SUCCESS) return false;
+  std::vector<VkExtensionProperties> exts(count);
+  if (vkEnumerateDeviceExtensionProperties(pd, nullptr, &count, exts.data()) != VK_SUCCESS) return false;
+  return std::any_of(exts.begin(), exts.end(), [&](const VkExtensionProperties& e) { return std::strcmp(e.extensionName, name) == 0; });
+}
+
+// Queue family with graphics + compute and timestamps, or ~0u.
+std::uint32_t pick_queue_family(VkPhysicalDevice pd, std::uint32_t* out_timestamp_bits) {
+  std::uint32_t count = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(pd, &count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(count);
+  vkGetPhysicalDeviceQueueFamilyProperties(pd, &count, families.data());
+  for (std::uint32_t i = 0; i < count; ++i) {
+    const VkQueueFlags need = VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT;
+    if ((families[i].queueFlags & need) == need && families[i].timestampValidBits > 0) {
+      if (out_timestamp_bits) *out_timestamp_bits = families[i].timestampValidBits;
+      return i;
+    }
+  }
+  return ~0u;
+}
+
+struct FeatureChain {
+  VkPhysicalDeviceFeatures2 f2{};
+  VkPhysicalDeviceVulkan11Features f11{};
+  VkPhysicalDeviceVulkan12Features f12{};
+  VkPhysicalDeviceVulkan13Features f13{};
+  FeatureChain() {
+    f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+    f11.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_1_FEATURES;
+    f12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
+    f13.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES;
+    link();
+  }
+  FeatureChain(const FeatureChain&) = delete;
+  FeatureChain& operator=(const FeatureChain&) = delete;
+  void link() {
+    f2.pNext = &f11;
+    f11.pNext = &f12;
+    f12.pNext = &f13;
+    f13.pNext = nullptr;
+  }
+};
+
+// Why a device cannot be used ("" when it can).
+std::string unsuitable_reason(VkPhysicalDevice pd, const VkPhysicalDeviceProperties& props) {
+  if (props.apiVersion < kRequiredApi) {
+    return "Vulkan " + version_string(props.apiVersion) + " < 1.3";
+  }
+  if (pick_queue_family(pd, nullptr) == ~0u) return "no queue family with graphics + compute + timestamps";
+  if (!has_device_extension(pd, VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME)) return "no VK_KHR_push_descriptor";
+  FeatureChain fc;
+  vkGetPhysicalDeviceFeatures2(pd, &fc.f2);
+  if (!fc.f13.dynamicRendering) return "no dynamicRendering";
+  if (!fc.f13.synchronization2) return "no synchronization2";
+  return "";
+}
+
+int type_rank(VkPhysicalDeviceType t) {
+  switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 4;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 3;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 1;
+    default: return 0;
+  }
+}
+
+struct Candidate {
+  VkPhysicalDevice handle{VK_NULL_HANDLE};
+  DeviceInfo info;
+};
+
+Expected<std::vector<Candidate>> enumerate(VkInstance instance) {
+  std::uint32_t count = 0;
+  GAUSS_VK_TRY(vkEnumeratePhysicalDevices(instance, &count, nullptr));
+  std::vector<VkPhysicalDevice> devices(count);
+  GAUSS_VK_TRY(vkEnumeratePhysicalDevices(instance, &count, devices.data()));
+  std::vector<Candidate> out;
+  for (std::uint32_t i = 0; i < count; ++i) {
+    VkPhysicalDeviceProperties props{};
+    vkGetPhysicalDeviceProperties(devices[i], &props);
+    Candidate c;
+    c.handle = devices[i];
+    c.info.index = i;
+    c.info.name = props.deviceName;
+    c.info.type = props.deviceType;
+    c.info.api_version = props.apiVersion;
+    c.info.unsuitable_reason = unsuitable_reason(devices[i], props);
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+std::string describe(const std::vector<Candidate>& candidates) {
+  std::string s;
+  for (const auto& c : candidates) {
+    s += "\n  [" + std::to_string(c.info.index) + "] " + c.info.name + " (" + device_type_name(c.info.type) +
+         ", Vulkan " + version_string(c.info.api_version) + ")";
+    if (!c.info.unsuitable_reason.empty()) s += " unsuitable: " + c.info.unsuitable_reason;
+  }
+  return s;
+}
+
+Expected<Candidate> choose_device(const std::vector<Candidate>& candidates, const std::string& override_value,
+                                  const char* override_source) {
+  if (candidates.empty()) {
+    return Error{"no Vulkan physical device found (is a Vulkan driver installed? lavapipe: mesa-vulkan-drivers)"};
+  }
+  if (!override_value.empty()) {
+    const bool numeric = std::all_of(override_value.begin(), override_value.end(),
+                                     [](unsigned char ch) { return std::isdigit(ch) != 0; });
+    const std::string needle = lower(override_value);
+    for (const auto& c : candidates) {
+      const bool match = numeric ? std::to_string(c.info.index) == override_value
+                                 : lower(c.info.name).find(needle) != std::string::npos;
+      if (!match) continue;
+      if (!c.info.unsuitable_reason.empty()) {
+        return Error{std::string("device '") + c.info.name + "' chosen by " + override_source + "='" + override_value +
+                     "' is unsuitable: " + c.info.unsuitable_reason + "; available devices:" + describe(candidates)};
+      }
+      return c;
+    }
+    return Error{std::string("no Vulkan device matches ") + override_source + "='" + override_value +
+                 "' (an index or a case-insensitive part of the device name); available devices:" +
+                 describe(candidates)};
+  }
+  const Candidate* best = nullptr;
+  for (const auto& c : candidates) {
+    if (!c.info.unsuitable_reason.empty()) continue;
+    if (best == nullptr || type_rank(c.info.type) > type_rank(best->info.type)) best = &c;
+  }
+  if (best == nullptr) return Error{"no suitable Vulkan device; available devices:" + describe(candidates)};
+  return *best;
+}
+
+struct InstanceResult {
+  VkInstance instance{VK_NULL_HANDLE};
+  bool debug_utils{false};
+};
+
+Expected<InstanceResult> create_instance(const std::string& app_name, bool validation, bool sync_validation,
+                                         const VkDebugUtilsMessengerCreateInfoEXT* messenger_info) {
+  if (auto st = init_loader(); !st) return st.error();
+  std::uint32_t loader_version = 0;
+  if (vkEnumerateInstanceVersion == nullptr || vkEnumerateInstanceVersion(&loader_version) != VK_SUCCESS ||
+      loader_version < kRequiredApi) {
+    return Error{"the Vulkan loader supports only Vulkan " + version_string(loader_version) + "; 1.3 is required"};
+  }
+  std::vector<const char*> layers;
+  std::vector<const char*> extensions;
+  // Debug utils whenever available, validation or not: object names, and every
+  // instance gets the same function pointers (see load_instance_functions()).
+  const bool debug_utils = has_instance_extension(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  if (debug_utils) extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  if (validation) {
+    if (!has_layer(kValidationLayer)) {
+      return Error{std::string("validation was requested (GAUSS_VALIDATION=1 or enable_validation) but ") +
+                   kValidationLayer +
+                   " is not installed (Debian: vulkan-validationlayers); set GAUSS_VALIDATION=0 to run without it"};
+    }
+    if (!debug_utils) {
+      return Error{"validation was requested but VK_EXT_debug_utils is unavailable, so errors could not be counted"};
+    }
+    layers.push_back(kValidationLayer);
+  }
+
+  VkApplicationInfo app{};
+
+  app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
+  app.pApplicationName = app_name.c_str();
+  app.applicationVersion = 1;
+  app.pEngineName = "GaussAnything";
+  app.engineVersion = 1;
+  app.apiVersion = kRequiredApi;
+
+  VkInstanceCreateInfo ci{};
+
+  ci.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
+  ci.pApplicationInfo = &app;
+  ci.enabledLayerCount = static_cast<std::uint32_t>(layers.size());
+  ci.ppEnabledLayerNames = layers.data();
+  ci.enabledExtensionCount = static_cast<std::uint32_t>(extensions.size());
+  ci.ppEnabledExtensionNames = extensions.data();
+
+  // Chained messenger: also reports problems during vkCreateInstance/vkDestroyInstance.
+  VkDebugUtilsMessengerCreateInfoEXT chained{};
+  VkValidationFeaturesEXT features{};
+  features.sType = VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT;
+  const VkValidationFeatureEnableEXT sync_enable = VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
+  if (validation && messenger_info != nullptr) {
+    chained = *messenger_info;
+    chained.pNext = nullptr;
+    if (sync_validation) {
+      features.enabledValidationFeatureCount = 1;
+      features.pEnabledValidationFeatures = &sync_enable;
+      chained.pNext = &features;
+    }
+    ci.pNext = &chained;
+  }
+
+  InstanceResult out;
+  GAUSS_VK_TRY(vkCreateInstance(&ci, nullptr, &out.instance));
+  out.debug_utils = debug_utils;
+  load_instance_functions(out.instance);
+  return out;
+}
+
+}  // namespace
+
+const char* device_type_name(VkPhysicalDeviceType type) noexcept {
+  switch (type) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return "discrete";
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return "integrated";
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return "virtual";
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return "cpu";
+    default: return "other";
+  }
+}
+
+std::string device_override_from_args(int argc, const char* const* argv) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view arg = argv[i] ? argv[i] : "";
+    if (arg == "--device" && i + 1 < argc && argv[i + 1]) return argv[i + 1];
+    if (arg.rfind("--device=", 0) == 0) return std::string(arg.substr(9));
+  }
+  return "";
+}
+
+std::uint64_t process_validation_error_count() noexcept { return detail::process_error_count(); }
+
+Context::Context() : state_(std::make_unique<State>()) {}
+
+Expected<std::vector<DeviceInfo>> Context::list_devices() {
+  auto inst = create_instance("gauss-list-devices", false, false, nullptr);
+  if (!inst) return inst.error();
+  auto candidates = enumerate(inst->instance);
+  vkDestroyInstance(inst->instance, nullptr);
+  if (!candidates) return candidates.error();
+  std::vector<DeviceInfo> out;
+  for (auto& c : *candidates) out.push_back(c.info);
+  return out;
+}
+
+Expected<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info) {
+  std::unique_ptr<Context> ctx(new Context());
+  const char* validation_env = std::getenv("GAUSS_VALIDATION");
+  const bool validation = info.enable_validation || env_flag("GAUSS_VALIDATION");
+  const bool sync_validation = validation && validation_env && std::strcmp(validation_env, "sync") == 0;
+
+  const VkDebugUtilsMessengerCreateInfoEXT messenger_info = detail::messenger_create_info(ctx->state_.get());
+  auto inst = create_instance(info.app_name, validation, sync_validation, &messenger_info);
+  if (!inst) return inst.error();
+  ctx->instance_ = inst->instance;
+  if (validation) {
+    GAUSS_VK_TRY(vkCreateDebugUtilsMessengerEXT(ctx->instance_, &messenger_info, nullptr, &ctx->messenger_));
+  }
+  ctx->state_->debug_utils = inst->debug_utils;
+
+  auto candidates = enumerate(ctx->instance_);
+  if (!candidates) return candidates.error();
+  std::string override_value = info.device_override;
+  const char* source = "--device";
+  if (override_value.empty()) {
+    if (const char* env = std::getenv("GAUSS_DEVICE"); env && *env) {
+      override_value = env;
+      source = "GAUSS_DEVICE";
+    }
+  }
+  auto chosen = choose_device(*candidates, override_value, source);
+  if (!chosen) return chosen.error();
+  ctx->physical_device_ = chosen->handle;
+  ctx->device_info_ = chosen->info;
+
+  VkPhysicalDeviceSubgroupProperties subgroup{};
+
+  subgroup.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES;
+  VkPhysicalDeviceProperties2 props2{};
+  props2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+  props2.pNext = &subgroup;
+  vkGetPhysicalDeviceProperties2(ctx->physical_device_, &props2);
+  ctx->properties_ = props2.properties;
+  ctx->subgroup_size_ = subgroup.subgroupSize;
+  ctx->subgroup_operations_ = (subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) ? subgroup.supportedOperations : 0;
+  vkGetPhysicalDeviceMemoryProperties(ctx->physical_device_, &ctx->memory_properties_);
+  ctx->queue_family_ = pick_queue_family(ctx->physical_device_, &ctx->timestamp_valid_bits_);
+
+  // Enable the required features plus every supported one of a curated list.
+  FeatureChain supported;
+  vkGetPhysicalDeviceFeatures2(ctx->physical_device_, &supported.f2);
+  FeatureChain enable;
+  const VkPhysicalDeviceFeatures& s10 = supported.f2.features;
+  VkPhysicalDeviceFeatures& e10 = enable.f2.features;
+  e10.shaderInt64 = s10.shaderInt64;
+  e10.shaderInt16 = s10.shaderInt16;
+  e10.shaderStorageImageReadWithoutFormat = s10.shaderStorageImageReadWithoutFormat;
+  e10.shaderStorageImageWriteWithoutFormat = s10.shaderStorageImageWriteWithoutFormat;
+  e10.fragmentStoresAndAtomics = s10.fragmentStoresAndAtomics;
+  e10.vertexPipelineStoresAndAtomics = s10.vertexPipelineStoresAndAtomics;
+  enable.f11.storageBuffer16BitAccess = supported.f11.storageBuffer16BitAccess;
+  enable.f11.uniformAndStorageBuffer16BitAccess = supported.f11.uniformAndStorageBuffer16BitAccess;
+  enable.f11.storagePushConstant16 = supported.f11.storagePushConstant16;
+  enable.f12.storageBuffer8BitAccess = supported.f12.storageBuffer8BitAccess;
+  enable.f12.uniformAndStorageBuffer8BitAccess = supported.f12.uniformAndStorageBuffer8BitAccess;
+  enable.f12.shaderInt8 = supported.f12.shaderInt8;
+  enable.f12.shaderFloat16 = supported.f12.shaderFloat16;
+  enable.f12.scalarBlockLayout = supported.f12.scalarBlockLayout;
+  enable.f12.hostQueryReset = supported.f12.hostQueryReset;
+  enable.f12.shaderSubgroupExtendedTypes = supported.f12.shaderSubgroupExtendedTypes;
+  enable.f13.dynamicRendering = VK_TRUE;
+  enable.f13.synchronization2 = VK_TRUE;
+  enable.f13.subgroupSizeControl = supported.f13.subgroupSizeControl;
+  enable.f13.computeFullSubgroups = supported.f13.computeFullSubgroups;
+  enable.f13.maintenance4 = supported.f13.maintenance4;
+
+  const float priority = 1.0f;
+  VkDeviceQueueCreateInfo qci{};
+  qci.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
+  qci.queueFamilyIndex = ctx->queue_family_;
+  qci.queueCount = 1;
+  qci.pQueuePriorities = &priority;
+  const char* device_extensions[] = {VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME};
+  VkDeviceCreateInfo dci{};
+  dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+  dci.pNext = &enable.f2;
+  dci.queueCreateInfoCount = 1;
+  dci.pQueueCreateInfos = &qci;
+  dci.enabledExtensionCount = 1;
+  dci.ppEnabledExtensionNames = device_extensions;
+  GAUSS_VK_TRY(vkCreateDevice(ctx->physical_device_, &dci, nullptr, &ctx->device_));
+  ctx->enabled_features_ = enable.f2.features;
+  ctx->enabled_features11_ = enable.f11;
+  ctx->enabled_features12_ = enable.f12;
+  ctx->enabled_features13_ = enable.f13;
+  ctx->enabled_features11_.pNext = nullptr;
+  ctx->enabled_features12_.pNext = nullptr;
+  ctx->enabled_features13_.pNext = nullptr;
+  vkGetDeviceQueue(ctx->device_, ctx->queue_family_, 0, &ctx->queue_);
+
+  VkCommandPoolCreateInfo pci{};
+
+  pci.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+  pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  pci.queueFamilyIndex = ctx->queue_family_;
+  GAUSS_VK_TRY(vkCreateCommandPool(ctx->device_, &pci, nullptr, &ctx->command_pool_));
+  VkFenceCreateInfo fci{};
+  fci.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+  GAUSS_VK_TRY(vkCreateFence(ctx->device_, &fci, nullptr, &ctx->submit_fence_));
+
+  VkSamplerCreateInfo sci{};
+
+  sci.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+  sci.magFilter = VK_FILTER_NEAREST;
+  sci.minFilter = VK_FILTER_NEAREST;
+  sci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+  sci.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  sci.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  sci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  sci.maxLod = 0.0f;
+  GAUSS_VK_TRY(vkCreateSampler(ctx->device_, &sci, nullptr, &ctx->nearest_sampler_));
+  ctx->set_debug_name(VK_OBJECT_TYPE_SAMPLER, reinterpret_cast<std::uint64_t>(ctx->nearest_sampler_),
+                      "context nearest sampler");
+  return ctx;
+}
+
+Context::~Context() {
+  if (device_ != VK_NULL_HANDLE) {
+    // Destruction cannot report an error; a lost device is printed, not fatal.
+    if (VkResult r = vkDeviceWaitIdle(device_); r != VK_SUCCESS) {
+      std::fprintf(stderr, "gauss::vk::Context: vkDeviceWaitIdle failed with %s during destruction\n", result_name(r));
+    }
+    if (nearest_sampler_) vkDestroySampler(device_, nearest_sampler_, nullptr);
+    if (submit_fence_) vkDestroyFence(device_, submit_fence_, nullptr);
+    if (command_pool_) vkDestroyCommandPool(device_, command_pool_, nullptr);
+    vkDestroyDevice(device_, nullptr);
+  }
+  if (instance_ != VK_NULL_HANDLE) {
+    if (messenger_ != VK_NULL_HANDLE) vkDestroyDebugUtilsMessengerEXT(instance_, messenger_, nullptr);
+    vkDestroyInstance(instance_, nullptr);
+  }
+}
+
+std::uint64_t Context::validation_error_count() const noexcept { return state_->error_count.load(); }
+
+std::string Context::last_validation_error() const {
+  std::lock_guard lock(state_->mutex);
+  return state_->last_error;
+}
+
+Status Context::submit(VkCommandBuffer cmd, VkFence fence) {
+  VkCommandBufferSubmitInfo cbi{};
+  cbi.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO;
+  cbi.commandBuffer = cmd;
+  VkSubmitInfo2 si{};
+  si.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO_2;
+  si.commandBufferInfoCount = 1;
+  si.pCommandBufferInfos = &cbi;
+  std::lock_guard lock(state_->queue_mutex);
+  GAUSS_VK_TRY(vkQueueSubmit2(queue_, 1, &si, fence));
+  return Ok{};
+}
+
+Status Context::submit_and_wait(const std::function<void(VkCommandBuffer)>& record) {
+  VkCommandBufferAllocateInfo ai{};
+  ai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+  ai.commandPool = command_pool_;
+  ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  ai.commandBufferCount = 1;
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  // One one-shot submission at a time: they share submit_fence_.
+  std::lock_guard lock(state_->oneshot_mutex);
+  GAUSS_VK_TRY(vkAllocateCommandBuffers(device_, &ai, &cmd));
+  struct FreeOnExit {
+    VkDevice device;
+    VkCommandPool pool;
+    VkCommandBuffer cmd;
+    ~FreeOnExit() { vkFreeCommandBuffers(device, pool, 1, &cmd); }
+  } free_on_exit{device_, command_pool_, cmd};
+
+  VkCommandBufferBeginInfo bi{};
+
+  bi.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  GAUSS_VK_TRY(vkBeginCommandBuffer(cmd, &bi));
+  record(cmd);
+  GAUSS_VK_TRY(vkEndCommandBuffer(cmd));
+  GAUSS_VK_TRY(vkResetFences(device_, 1, &submit_fence_));
+  if (auto st = submit(cmd, submit_fence_); !st) return st;
+  GAUSS_VK_TRY(vkWaitForFences(device_, 1, &submit_fence_, VK_TRUE, UINT64_MAX));
+  return Ok{};
+}
+
+Status Context::wait_idle() {
+  GAUSS_VK_TRY(vkDeviceWaitIdle(device_));
+  return Ok{};
+}
+
+std::uint32_t Context::find_memory_type(std::uint32_t type_bits, VkMemoryPropertyFlags required,
+                                        VkMemoryPropertyFlags preferred) const noexcept {
+  std::uint32_t fallback = kNoMemoryType;
+  for (std::uint32_t i = 0; i < memory_properties_.memoryTypeCount; ++i) {
+    if ((type_bits & (1u << i)) == 0) continue;
+    const VkMemoryPropertyFlags flags = memory_properties_.memoryTypes[i].propertyFlags;
+    if ((flags & required) != required) continue;
+    if ((flags & preferred) == preferred) return i;
+    if (fallback == kNoMemoryType) fallback = i;
+  }
+  return fallback;
+}
+
+void Context::set_debug_name(VkObjectType type, std::uint64_t handle, const char* name) const noexcept {
+  if (!state_->debug_utils || vkSetDebugUtilsObjectNameEXT == nullptr || handle == 0 || name == nullptr) return;
+  VkDebugUtilsObjectNameInfoEXT ni{};
+  ni.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_OBJECT_NAME_INFO_EXT;
+  ni.objectType = type;
+  ni.objectHandle = handle;
+  ni.pObjectName = name;
+  // Naming is a debugging aid; its failure must not fail the caller.
+  (void)vkSetDebugUtilsObjectNameEXT(device_, &ni);
+}
+
+}  // namespace gauss::vk
