@@ -10,8 +10,8 @@
 using namespace gauss;
 
 namespace {
-SurfaceChunk chunk(std::uint64_t id, std::uint64_t epoch, std::size_t tris = 1) {
-  SurfaceChunk c;
+StagedChunk chunk(std::uint64_t id, std::uint64_t epoch, std::size_t tris = 1) {
+  StagedChunk c;
   c.chunk_id = id;
   c.epoch = Epoch{epoch};
   for (std::size_t t = 0; t < tris; ++t) {
@@ -28,7 +28,7 @@ SurfaceChunk chunk(std::uint64_t id, std::uint64_t epoch, std::size_t tris = 1) 
 
 TEST(SurfaceStage, RejectsMalformedAndStalePatches) {
   SurfaceStage s;
-  SurfaceChunk bad = chunk(1, 3);
+  StagedChunk bad = chunk(1, 3);
   bad.mesh.indices[2] = 77;
   auto r = s.offer(bad);
   ASSERT_FALSE(r.ok());
@@ -57,7 +57,7 @@ TEST(SurfaceStage, CommitsOnlyBehindThePublishedGaussians) {
   EXPECT_EQ(s.commit(Epoch{5}), 1u);
   EXPECT_EQ(s.committed_epoch(), Epoch{5});
   // An empty mesh removes the chunk once its epoch is published.
-  SurfaceChunk gone;
+  StagedChunk gone;
   gone.chunk_id = 1;
   gone.epoch = Epoch{6};
   ASSERT_TRUE(s.offer(gone).ok());
@@ -82,7 +82,7 @@ TEST(SurfaceStage, EpochBarrierHoldsOverRandomInterleavings) {
                                   .allowance_initial = 1 + static_cast<std::uint32_t>(rng() % 4)});
     // Host side: generate all epochs up front.
     std::vector<EditBatch> batches;
-    std::vector<SurfaceChunk> patches;
+    std::vector<StagedChunk> patches;
     std::vector<std::uint64_t> live;
     std::uint64_t next = 1;
     const std::uint64_t epochs = 5 + rng() % 20;

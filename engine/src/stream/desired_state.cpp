@@ -174,10 +174,10 @@ std::string DesiredState::apply_one(Op op, GaussianId id, const Gaussian* value,
 }
 
 Expected<ApplyReport> DesiredState::apply(const EditBatch& batch, double now) {
-  if (received_ && to_underlying(batch.epoch) <= to_underlying(*received_)) {
+  if (received_ && to_underlying(batch.epoch) < to_underlying(*received_)) {
     ++stats_.rejected_batches;
     return Error{"edit batch of epoch " + std::to_string(to_underlying(batch.epoch)) +
-                 " refused: epoch does not increase (last received " + std::to_string(to_underlying(*received_)) + ")"};
+                 " refused: epoch goes backwards (last received " + std::to_string(to_underlying(*received_)) + ")"};
   }
   ApplyReport rep;
   auto note = [&rep](std::string reason) {
@@ -316,11 +316,16 @@ void DesiredState::mark_published(std::uint32_t index) {
 }
 
 std::optional<Epoch> DesiredState::published_epoch() const {
-  if (!received_) return std::nullopt;
-  if (epoch_counts_.empty()) return received_;
-  const std::uint64_t oldest = epoch_counts_.begin()->first;
-  if (oldest == 0) return std::nullopt;
-  return Epoch{oldest - 1};
+  std::optional<Epoch> now;
+  if (received_) {
+    if (epoch_counts_.empty()) {
+      now = received_;
+    } else if (const std::uint64_t oldest = epoch_counts_.begin()->first; oldest > 0) {
+      now = Epoch{oldest - 1};
+    }
+  }
+  if (now && (!published_floor_ || to_underlying(*now) > to_underlying(*published_floor_))) published_floor_ = now;
+  return published_floor_;
 }
 
 std::uint64_t DesiredState::desired_checksum() const {

@@ -4,7 +4,7 @@
 
 namespace gauss {
 
-Status SurfaceStage::offer(SurfaceChunk chunk) {
+Status SurfaceStage::offer(StagedChunk chunk) {
   ++stats_.offered;
   const std::string name = "surface chunk " + std::to_string(chunk.chunk_id) + " (epoch " +
                            std::to_string(to_underlying(chunk.epoch)) + ")";

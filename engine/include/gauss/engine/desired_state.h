@@ -12,9 +12,12 @@
 //   - a record with a non-finite field;
 //   - an insert that would make the desired set larger than the capacity M at that
 //     point (the host's differ emits removes before inserts, or Replace).
-// A whole batch is rejected, state untouched, when its epoch does not increase.
-// Epochs: the host sends exactly one batch per epoch per client (possibly empty), so
-// receiving batch e means every Gaussian edit of epochs <= e has arrived.
+// A whole batch is rejected, state untouched, when its epoch goes backwards.
+// Epochs: batches arrive in non-decreasing epoch order. The first batch of epoch e
+// carries every scene change of epoch e for this client (possibly none); later batches
+// of the same epoch carry selection changes only (the pose or query moved, the scene
+// did not), so receiving a batch of epoch e means every scene edit of epochs <= e has
+// arrived.
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -42,7 +45,7 @@ struct DesiredStats {
   std::uint64_t rejected_duplicate{0};   // insert of an id already desired
   std::uint64_t rejected_bad_value{0};   // non-finite field
   std::uint64_t rejected_capacity{0};    // insert beyond the budget M
-  std::uint64_t rejected_batches{0};     // whole batches refused (epoch not increasing)
+  std::uint64_t rejected_batches{0};     // whole batches refused (epoch going backwards)
   std::uint64_t rejected_edits() const {
     return rejected_unknown_id + rejected_duplicate + rejected_bad_value + rejected_capacity;
   }
@@ -106,7 +109,9 @@ class DesiredState {
   // Highest epoch whose batch has arrived (nullopt before the first).
   std::optional<Epoch> received_epoch() const noexcept { return received_; }
   // Highest epoch e such that every received Gaussian edit of epochs <= e has been
-  // published or superseded: the Gaussian side of the surface epoch barrier.
+  // published or superseded: the Gaussian side of the surface epoch barrier. Never
+  // decreases: once epoch e's scene changes are published, a later selection-only
+  // batch of the same epoch (records of epoch e) does not make the published state older.
   std::optional<Epoch> published_epoch() const;
 
   // Order-independent checksums (see record_hash) of the desired set and of the
@@ -136,6 +141,7 @@ class DesiredState {
   // epochs are pending at once, so the map stays tiny.
   std::map<std::uint64_t, std::uint32_t> epoch_counts_;
   std::optional<Epoch> received_;
+  mutable std::optional<Epoch> published_floor_;  // highest published epoch reported so far
   std::size_t desired_count_{0};
   std::size_t published_count_{0};
   DesiredStats stats_;

@@ -16,7 +16,7 @@
 namespace gauss {
 
 // One chunk patch (msg::SurfacePatch's content). An empty mesh removes the chunk.
-struct SurfaceChunk {
+struct StagedChunk {
   std::uint64_t chunk_id{0};
   Epoch epoch{0};
   TriangleMesh mesh;
@@ -33,22 +33,22 @@ struct SurfaceStats {
 class SurfaceStage {
  public:
   // Queues a received patch. Errors name the chunk and why; the stage is untouched.
-  Status offer(SurfaceChunk chunk);
+  Status offer(StagedChunk chunk);
   // Commits every pending patch whose epoch <= the Gaussian published epoch; returns
   // the number committed. nullopt (nothing published yet) commits nothing.
   std::uint32_t commit(std::optional<Epoch> published_gaussian_epoch);
 
   // Highest epoch among committed chunks (nullopt before the first commit).
   std::optional<Epoch> committed_epoch() const noexcept { return committed_epoch_; }
-  const std::map<std::uint64_t, SurfaceChunk>& committed() const noexcept { return committed_; }
+  const std::map<std::uint64_t, StagedChunk>& committed() const noexcept { return committed_; }
   std::size_t pending_count() const noexcept { return pending_.size(); }
   // Bumped on every commit that changed the committed surface (the renderer re-uploads).
   std::uint64_t revision() const noexcept { return revision_; }
   const SurfaceStats& stats() const noexcept { return stats_; }
 
  private:
-  std::map<std::uint64_t, SurfaceChunk> pending_;
-  std::map<std::uint64_t, SurfaceChunk> committed_;
+  std::map<std::uint64_t, StagedChunk> pending_;
+  std::map<std::uint64_t, StagedChunk> committed_;
   std::map<std::uint64_t, Epoch> latest_;  // newest epoch accepted per chunk, removed ones too
   std::optional<Epoch> committed_epoch_;
   std::uint64_t revision_{0};
