@@ -1,0 +1,543 @@
+// gauss-bench render: the splat renderer on the "box" scene (/work/shared/bench/box_scene.c,
+// ported here draw for draw), GPU ms per pass and wall ms per frame, each beside the error
+// of the frame against the CPU reference rasterizer (PSNR, max abs error).
+//
+// Sizes are "N@WxH" (N with k/M suffixes) or "N@WxH:stereo" (two eyes, 64 mm apart, one
+// render_stereo call per frame). Cameras: shared/bench/box_camera_WxH.json when it exists,
+// else the 1280x720 one rescaled keeping its horizontal field of view, square pixels and
+// the principal point at the image centre (equal to the file cameras at their sizes).
+// Timing never decides a test; this prints a table and optionally writes JSON.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "bench_registry.h"
+#include "gauss/engine/camera_io.h"
+#include "gauss/engine/ply_gaussian.h"
+#include "gauss/render/image_metrics.h"
+#include "gauss/render/reference_rasterizer.h"
+#include "gauss/render/splat_renderer.h"
+#include "gauss/render/vk_context.h"
+
+namespace {
+
+using namespace gauss;
+namespace fs = std::filesystem;
+
+// ---- The box scene: a port of box_scene.c (same xorshift, same order of draws) ----------
+
+constexpr int kBoxFloats = 62;  // x y z nx ny nz f_dc(3) f_rest(45) opacity scale(3) rot(4)
+
+class BoxRng {
+ public:
+  double rnd() {
+    s_ ^= s_ << 13;
+    s_ ^= s_ >> 7;
+    s_ ^= s_ << 17;
+    return double(s_ >> 11) * (1.0 / 9007199254740992.0);
+  }
+  double uniform(double a, double b) { return a + (b - a) * rnd(); }
+
+ private:
+  std::uint64_t s_{88172645463325252ULL};
+};
+
+// One vertex's 62 floats, exactly as box_scene.c writes them.
+void box_vertex(BoxRng& rng, float v[kBoxFloats]) {
+  std::fill(v, v + kBoxFloats, 0.0f);
+  v[0] = float(rng.uniform(-4, 4));
+  v[1] = float(rng.uniform(-2.5, 2.5));
+  v[2] = float(rng.uniform(-12, -3));
+  for (int i = 0; i < 3; ++i) v[6 + i] = float(rng.uniform(-1.5, 1.5));
+  for (int i = 0; i < 45; ++i) v[9 + i] = float(rng.uniform(-0.1, 0.1));
+  v[54] = float(rng.uniform(-2, 3));
+  for (int i = 0; i < 3; ++i) v[55 + i] = float(rng.uniform(-4.5, -3.0));
+  double q[4], nn = 0;
+  for (int i = 0; i < 4; ++i) {
+    q[i] = rng.uniform(-1, 1);
+    nn += q[i] * q[i];
+  }
+  nn = std::sqrt(nn);
+  for (int i = 0; i < 4; ++i) v[58 + i] = float(q[i] / nn);
+}
+
+// The PLY file box_scene.c writes for n (header + little-endian floats), byte for byte.
+std::vector<std::uint8_t> box_ply_bytes(long n) {
+  std::string h = "ply\nformat binary_little_endian 1.0\nelement vertex " + std::to_string(n) + "\n";
+  for (const char* p : {"x", "y", "z", "nx", "ny", "nz"}) h += std::string("property float ") + p + "\n";
+  for (int i = 0; i < 3; ++i) h += "property float f_dc_" + std::to_string(i) + "\n";
+  for (int i = 0; i < 45; ++i) h += "property float f_rest_" + std::to_string(i) + "\n";
+  h += "property float opacity\n";
+  for (int i = 0; i < 3; ++i) h += "property float scale_" + std::to_string(i) + "\n";
+  for (int i = 0; i < 4; ++i) h += "property float rot_" + std::to_string(i) + "\n";
+  h += "end_header\n";
+  std::vector<std::uint8_t> out(h.begin(), h.end());
+  BoxRng rng;
+  float v[kBoxFloats];
+  for (long k = 0; k < n; ++k) {
+    box_vertex(rng, v);
+    const auto* b = reinterpret_cast<const std::uint8_t*>(v);  // x86/ARM: little endian
+    out.insert(out.end(), b, b + sizeof v);
+  }
+  return out;
+}
+
+// The same Gaussians as read_gaussian_ply would produce from that file, without the file:
+// f_rest transposed to coefficient-major, quaternions kept bit for bit when within the
+// loader's unit tolerance (they are: box_scene.c normalises them) else normalised.
+std::vector<Gaussian> box_gaussians(long n) {
+  std::vector<Gaussian> out(static_cast<std::size_t>(n));
+  BoxRng rng;
+  float v[kBoxFloats];
+  for (auto& g : out) {
+    box_vertex(rng, v);
+    g.position = {v[0], v[1], v[2]};
+    g.sh_dc = {v[6], v[7], v[8]};
+    for (int k = 0; k < 15; ++k) g.sh_rest[std::size_t(k)] = {v[9 + k], v[9 + 15 + k], v[9 + 30 + k]};
+    g.opacity_logit = v[54];
+    g.log_scale = {v[55], v[56], v[57]};
+    g.rotation = {v[58], v[59], v[60], v[61]};
+    const double len = std::sqrt(double(v[58]) * v[58] + double(v[59]) * v[59] + double(v[60]) * v[60] +
+                                 double(v[61]) * v[61]);
+    if (std::abs(len - 1.0) > kQuaternionUnitTolerance) g.rotation = g.rotation / float(len);
+  }
+  return out;
+}
+
+// Checks the port against box_scene.c's own output for the same N: the file bytes, then the
+// Gaussians (the loader's reading of the file vs box_gaussians).
+bool verify_box(const fs::path& c_output) {
+  std::ifstream f(c_output, std::ios::binary);
+  if (!f) {
+    std::fprintf(stderr, "gauss-bench render: cannot read %s\n", c_output.c_str());
+    return false;
+  }
+  const std::vector<std::uint8_t> file((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  auto scene = parse_gaussian_ply(file, c_output.string());
+  if (!scene) {
+    std::fprintf(stderr, "gauss-bench render: %s\n", scene.message().c_str());
+    return false;
+  }
+  const long n = long(scene->cloud.gaussians.size());
+  if (box_ply_bytes(n) != file) {
+    std::fprintf(stderr, "gauss-bench render: box scene port differs from %s (N=%ld)\n", c_output.c_str(), n);
+    return false;
+  }
+  const std::vector<Gaussian> mine = box_gaussians(n);
+  for (long k = 0; k < n; ++k) {
+    const Gaussian& a = mine[std::size_t(k)];
+    const Gaussian& b = scene->cloud.gaussians[std::size_t(k)];
+    bool same = a.position == b.position && a.log_scale == b.log_scale && a.rotation == b.rotation &&
+                a.opacity_logit == b.opacity_logit && a.sh_dc == b.sh_dc && a.sh_rest == b.sh_rest;
+    if (!same) {
+      std::fprintf(stderr, "gauss-bench render: box Gaussian %ld differs from the loader's reading of %s\n", k,
+                   c_output.c_str());
+      return false;
+    }
+  }
+  std::printf("box scene port: %ld Gaussians bit-identical to %s (file bytes and loaded values)\n", n,
+              c_output.c_str());
+  return true;
+}
+
+// ---- Configurations ------------------------------------------------------------------------
+
+struct Config {
+  std::string label;
+  long n{0};
+  std::uint32_t width{0}, height{0};
+  bool stereo{false};
+};
+
+std::optional<long> parse_count(const std::string& s) {
+  if (s.empty()) return std::nullopt;
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  double mul = 1.0;
+  const std::string suffix(end);
+  if (suffix == "k" || suffix == "K") mul = 1e3;
+  else if (suffix == "m" || suffix == "M") mul = 1e6;
+  else if (!suffix.empty()) return std::nullopt;
+  const double n = v * mul;
+  if (!std::isfinite(n) || n < 1 || n > 1e8 || n != std::floor(n)) return std::nullopt;
+  return long(n);
+}
+
+std::optional<Config> parse_config(const std::string& s) {
+  Config c;
+  c.label = s;
+  std::string body = s;
+  if (const auto colon = body.find(':'); colon != std::string::npos) {
+    if (body.substr(colon) != ":stereo") return std::nullopt;
+    c.stereo = true;
+    body = body.substr(0, colon);
+  }
+  const auto at = body.find('@'), x = body.find('x', at == std::string::npos ? 0 : at);
+  if (at == std::string::npos || x == std::string::npos) return std::nullopt;
+  const auto n = parse_count(body.substr(0, at));
+  char* end = nullptr;
+  const std::string ws = body.substr(at + 1, x - at - 1), hs = body.substr(x + 1);
+  const long w = std::strtol(ws.c_str(), &end, 10);
+  if (ws.empty() || *end) return std::nullopt;
+  const long h = std::strtol(hs.c_str(), &end, 10);
+  if (hs.empty() || *end || !n || w < 16 || h < 16 || w > 4096 || h > 4096) return std::nullopt;
+  c.n = *n;
+  c.width = std::uint32_t(w);
+  c.height = std::uint32_t(h);
+  return c;
+}
+
+Expected<Camera> box_camera(const fs::path& dir, std::uint32_t w, std::uint32_t h) {
+  const fs::path exact = dir / ("box_camera_" + std::to_string(w) + "x" + std::to_string(h) + ".json");
+  if (fs::exists(exact)) return read_camera_json(exact);
+  auto base = read_camera_json(dir / "box_camera_1280x720.json");
+  if (!base) return base.error();
+  Camera c = *base;
+  const double s = double(w) / double(base->width);
+  c.width = w;
+  c.height = h;
+  c.fx = base->fx * s;
+  c.fy = base->fx * s;
+  c.cx = 0.5 * w;
+  c.cy = 0.5 * h;
+  return c;
+}
+
+// Published per-frame wall times of a public Vulkan compute splat renderer of this design
+// on lavapipe (renderer spec), for the ratio column; 0 = not published.
+double baseline_ms(const Config& c) {
+  if (c.stereo) return 0.0;
+  struct B {
+    long n;
+    std::uint32_t w, h;
+    double ms;
+  };
+  static const B table[] = {{10'000, 320, 180, 36},      {100'000, 640, 360, 597},    {100'000, 1280, 720, 1397},
+                            {250'000, 1280, 720, 2076}, {500'000, 1280, 720, 2841}, {1'000'000, 1280, 720, 6800}};
+  for (const B& b : table)
+    if (b.n == c.n && b.w == c.width && b.h == c.height) return b.ms;
+  return 0.0;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+// $GAUSS_BENCH_DIR, else shared/bench beside the checkout (as the tests find shared/data).
+fs::path default_bench_dir() {
+  if (const char* env = std::getenv("GAUSS_BENCH_DIR"); env && *env) return env;
+  return fs::path(__FILE__).parent_path() / ".." / ".." / ".." / "shared" / "bench";
+}
+
+struct Options {
+  std::vector<Config> configs;
+  fs::path json_out;
+  fs::path bench_dir{default_bench_dir()};
+  fs::path verify_box_file;
+  int frames{5};
+  std::string device;
+  bool reference{true};
+  std::uint32_t ref_rows{0};  // 0 = automatic
+  unsigned ref_threads{2};
+};
+
+// Rows of the reference comparison: the whole image when the reference is affordable
+// (about 100k Gaussians at 640x360), else a centred band of whole tile rows.
+std::pair<std::uint32_t, std::uint32_t> reference_rows(const Options& o, const Config& c) {
+  std::uint32_t rows = o.ref_rows;
+  if (rows == 0) {
+    const double work = double(c.n) * c.width * c.height * (c.stereo ? 2 : 1);
+    rows = work <= 1.0e5 * 640 * 360 * 1.01 ? c.height : 96;
+  }
+  rows = std::min(rows, c.height);
+  std::uint32_t begin = (c.height - rows) / 2 / render::kTileSize * render::kTileSize;
+  return {begin, std::min(c.height, begin + rows)};
+}
+
+}  // namespace
+
+namespace {
+
+constexpr const char* kBenchUsage =
+    "usage: gauss-bench render [--sizes N@WxH[:stereo],...] [--frames K] [--json out.json]\n"
+    "                          [--device NAME] [--no-reference] [--ref-rows R] [--ref-threads T]\n"
+    "                          [--bench-dir DIR] [--verify-box box_scene_output.ply]\n"
+    "  default sizes: 10k@320x180,100k@640x360,100k@1280x720,250k@1280x720,400k@1280x720,\n"
+    "                 200k@1024x1024:stereo,500k@1280x720,1M@1280x720\n"
+    "  --frames K     measured frames per size after one warm-up frame (default 5)\n"
+    "  --ref-rows R   rows compared with the CPU reference (default: all when cheap, else 96)\n";
+
+int parse_options(int argc, char** argv, Options& o) {
+  std::string sizes = "10k@320x180,100k@640x360,100k@1280x720,250k@1280x720,400k@1280x720,"
+                      "200k@1024x1024:stereo,500k@1280x720,1M@1280x720";
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&](std::string& out) {
+      if (i + 1 >= argc) return false;
+      out = argv[++i];
+      return true;
+    };
+    std::string v;
+    char* end = nullptr;
+    if (a == "--no-reference") o.reference = false;
+    else if (a == "--sizes" && value(v)) sizes = v;
+    else if (a == "--json" && value(v)) o.json_out = v;
+    else if (a == "--device" && value(v)) o.device = v;
+    else if (a == "--bench-dir" && value(v)) o.bench_dir = v;
+    else if (a == "--verify-box" && value(v)) o.verify_box_file = v;
+    else if (a == "--frames" && value(v) && (o.frames = int(std::strtol(v.c_str(), &end, 10)), !*end) && o.frames >= 1 &&
+             o.frames <= 1000) {
+    } else if (a == "--ref-rows" && value(v) && (o.ref_rows = std::uint32_t(std::strtoul(v.c_str(), &end, 10)), !*end) &&
+               o.ref_rows >= 1) {
+    } else if (a == "--ref-threads" && value(v) &&
+               (o.ref_threads = unsigned(std::strtoul(v.c_str(), &end, 10)), !*end) && o.ref_threads >= 1 &&
+               o.ref_threads <= 64) {
+    } else {
+      std::fprintf(stderr, "gauss-bench render: bad argument '%s'\n%s", a.c_str(), kBenchUsage);
+      return 2;
+    }
+  }
+  std::size_t start = 0;
+  while (start <= sizes.size()) {
+    const std::size_t comma = std::min(sizes.find(',', start), sizes.size());
+    const std::string item = sizes.substr(start, comma - start);
+    auto c = parse_config(item);
+    if (!c) {
+      std::fprintf(stderr, "gauss-bench render: bad size '%s' (want N@WxH or N@WxH:stereo)\n%s", item.c_str(),
+                   kBenchUsage);
+      return 2;
+    }
+    o.configs.push_back(*c);
+    start = comma + 1;
+  }
+  return 0;
+}
+
+// Per-pass GPU ms of one frame, summed over the views of the frame.
+struct FrameTimes {
+  double wall{0}, total{0}, mesh{0}, preprocess{0}, compact{0}, depth_sort{0}, emit{0}, tile_sort{0}, ranges{0},
+      blend{0};
+  std::uint32_t visible{0}, pairs{0};
+  bool overflow{false};
+  void add(const render::SplatFrameStats& s) {
+    total += s.gpu.total_ms;
+    mesh += s.gpu.mesh_ms;
+    preprocess += s.gpu.preprocess_ms;
+    compact += s.gpu.compact_ms;
+    depth_sort += s.gpu.depth_sort_ms;
+    emit += s.gpu.emit_ms;
+    tile_sort += s.gpu.tile_sort_ms;
+    ranges += s.gpu.ranges_ms;
+    blend += s.gpu.blend_ms;
+    visible += s.visible;
+    pairs += s.pairs;
+    overflow = overflow || s.pair_overflow;
+  }
+};
+
+template <class F>
+double median_of(const std::vector<FrameTimes>& v, F f) {
+  std::vector<double> x;
+  for (const auto& t : v) x.push_back(f(t));
+  return median(x);
+}
+
+int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<const Gaussian> scene,
+               nlohmann::json& out) {
+  out = {{"size", c.label}, {"n", c.n}, {"width", c.width}, {"height", c.height}, {"stereo", c.stereo}};
+  const double base = baseline_ms(c);
+  if (base > 0) out["baseline_wall_ms"] = base;
+  if (c.n > long(render::kMaxSplatCapacity)) {
+    std::printf("%-22s skipped: %ld Gaussians exceed the renderer capacity %u\n", c.label.c_str(), c.n,
+                render::kMaxSplatCapacity);
+    out["skipped"] = "exceeds renderer capacity " + std::to_string(render::kMaxSplatCapacity);
+    return 0;
+  }
+  auto cam = box_camera(o.bench_dir, c.width, c.height);
+  if (!cam) {
+    std::fprintf(stderr, "gauss-bench render: %s\n", cam.message().c_str());
+    return 1;
+  }
+  const std::uint32_t n = std::uint32_t(c.n);
+  auto renderer = render::SplatRenderer::create(
+      ctx, {.capacity = n, .sh_degree = 3, .max_width = c.width, .max_height = c.height, .max_pairs = 0});
+  if (!renderer) {
+    std::fprintf(stderr, "gauss-bench render: %s: %s\n", c.label.c_str(), renderer.message().c_str());
+    return 1;
+  }
+  auto& r = **renderer;
+  if (auto st = r.write_slots(0, scene.first(n)); !st) {
+    std::fprintf(stderr, "gauss-bench render: %s\n", st.message().c_str());
+    return 1;
+  }
+  const double ipd = 0.064;
+  const Camera left = render::stereo_eye_camera(*cam, ipd, render::Eye::Left);
+  const Camera right = render::stereo_eye_camera(*cam, ipd, render::Eye::Right);
+  std::vector<FrameTimes> frames;
+  for (int f = 0; f <= o.frames; ++f) {  // frame 0: warm-up, not measured
+    FrameTimes t;
+    const auto t0 = std::chrono::steady_clock::now();
+    if (c.stereo) {
+      auto st = r.render_stereo(left, right);
+      if (!st) {
+        std::fprintf(stderr, "gauss-bench render: %s\n", st.message().c_str());
+        return 1;
+      }
+      t.add((*st)[0]);
+      t.add((*st)[1]);
+    } else {
+      auto st = r.render(*cam);
+      if (!st) {
+        std::fprintf(stderr, "gauss-bench render: %s\n", st.message().c_str());
+        return 1;
+      }
+      t.add(*st);
+    }
+    t.wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (f > 0) frames.push_back(t);
+  }
+  const FrameTimes& last = frames.back();
+  const double wall_med = median_of(frames, [](const FrameTimes& t) { return t.wall; });
+  double wall_min = frames[0].wall;
+  for (const auto& t : frames) wall_min = std::min(wall_min, t.wall);
+  out["frames"] = o.frames;
+  out["wall_ms_median"] = wall_med;
+  out["wall_ms_min"] = wall_min;
+  out["gpu_ms_median"] = {
+      {"total", median_of(frames, [](const FrameTimes& t) { return t.total; })},
+      {"mesh", median_of(frames, [](const FrameTimes& t) { return t.mesh; })},
+      {"preprocess", median_of(frames, [](const FrameTimes& t) { return t.preprocess; })},
+      {"compact", median_of(frames, [](const FrameTimes& t) { return t.compact; })},
+      {"depth_sort", median_of(frames, [](const FrameTimes& t) { return t.depth_sort; })},
+      {"emit", median_of(frames, [](const FrameTimes& t) { return t.emit; })},
+      {"tile_sort", median_of(frames, [](const FrameTimes& t) { return t.tile_sort; })},
+      {"ranges", median_of(frames, [](const FrameTimes& t) { return t.ranges; })},
+      {"blend", median_of(frames, [](const FrameTimes& t) { return t.blend; })}};
+  out["visible"] = last.visible;
+  out["pairs"] = last.pairs;
+  out["pair_overflow"] = last.overflow;
+  if (base > 0) out["wall_vs_baseline"] = wall_med / base;
+
+  std::string err_text = "reference skipped";
+  if (o.reference) {
+    const auto [row_begin, row_end] = reference_rows(o, c);
+    double worst_psnr = std::numeric_limits<double>::infinity(), ref_ms = 0.0;
+    int worst_err = 0;
+    std::uint64_t ref_pairs = 0;
+    for (int v = 0; v < (c.stereo ? 2 : 1); ++v) {
+      auto gpu_image = r.read_image(std::uint32_t(v));
+      if (!gpu_image) {
+        std::fprintf(stderr, "gauss-bench render: %s\n", gpu_image.message().c_str());
+        return 1;
+      }
+      render::ReferenceOptions ro;
+      ro.row_begin = row_begin;
+      ro.row_end = row_end;
+      ro.threads = o.ref_threads;
+      const auto t0 = std::chrono::steady_clock::now();
+      auto ref = render::render_reference(scene.first(n), {}, 3, c.stereo ? (v == 0 ? left : right) : *cam, ro);
+      ref_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      if (!ref) {
+        std::fprintf(stderr, "gauss-bench render: %s\n", ref.message().c_str());
+        return 1;
+      }
+      auto d = render::compare_images(ref->rgba8, *gpu_image, row_begin, row_end);
+      if (!d) {
+        std::fprintf(stderr, "gauss-bench render: %s\n", d.message().c_str());
+        return 1;
+      }
+      worst_psnr = std::min(worst_psnr, d->psnr_db);
+      worst_err = std::max(worst_err, d->max_abs_error);
+      ref_pairs += ref->stats.tile_pairs;
+    }
+    out["reference"] = {{"rows", {row_begin, row_end}},
+                        {"psnr_db", std::isinf(worst_psnr) ? nlohmann::json("inf") : nlohmann::json(worst_psnr)},
+                        {"max_abs_error", worst_err},
+                        {"cpu_ms", ref_ms},
+                        {"reference_pairs", ref_pairs}};
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%6.1f dB max %d/255 rows %u-%u%s", std::isinf(worst_psnr) ? 999.0 : worst_psnr,
+                  worst_err, row_begin, row_end, row_end - row_begin < c.height ? " (subset)" : "");
+    err_text = buf;
+  }
+  const double gpu_total = out["gpu_ms_median"]["total"];
+  const double sort_ms = double(out["gpu_ms_median"]["depth_sort"]) + double(out["gpu_ms_median"]["tile_sort"]);
+  const double blend_ms = out["gpu_ms_median"]["blend"];
+  char ratio[32] = "    -";
+  if (base > 0) std::snprintf(ratio, sizeof ratio, "%5.2f", wall_med / base);
+  std::printf("%-22s %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %9u %10u %7.0f %s | %s%s\n", c.label.c_str(), wall_med,
+              wall_min, gpu_total, double(out["gpu_ms_median"]["preprocess"]), sort_ms, blend_ms, last.visible,
+              last.pairs, base, ratio, err_text.c_str(), last.overflow ? " PAIR OVERFLOW" : "");
+  std::fflush(stdout);
+  return 0;
+}
+
+}  // namespace
+
+int bench_render_main(int argc, char** argv) {
+  Options o;
+  if (int rc = parse_options(argc, argv, o); rc != 0) return rc;
+  if (!o.verify_box_file.empty() && !verify_box(o.verify_box_file)) return 1;
+  auto ctx = vk::Context::create({.app_name = "gauss-bench render", .device_override = o.device});
+  if (!ctx) {
+    std::fprintf(stderr, "gauss-bench render: no usable Vulkan device: %s\n", ctx.message().c_str());
+    return 1;
+  }
+  long max_n = 0;
+  for (const Config& c : o.configs)
+    if (c.n <= long(render::kMaxSplatCapacity)) max_n = std::max(max_n, c.n);
+  // The box scene for N is the first N Gaussians of the scene for any larger N.
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<Gaussian> scene = box_gaussians(max_n);
+  const double gen_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("gauss-bench render | device %s | box scene SH3, %ld Gaussians generated in %.0f ms | %d frames after "
+              "1 warm-up\nwall = render call incl. submit + wait (no readback); gpu = timestamps, medians; "
+              "stereo rows sum both eyes; times taken on a shared machine (under load)\n\n",
+              (*ctx)->device_name().c_str(), max_n, gen_ms, o.frames);
+  std::printf("%-22s %8s %8s %8s %8s %8s %8s %9s %10s %7s %5s | %s\n", "size", "wall_med", "wall_min", "gpu_tot",
+              "preproc", "sorts", "blend", "visible", "pairs", "base_ms", "ratio", "vs CPU reference (PSNR, max err)");
+  nlohmann::json results = nlohmann::json::array();
+  int rc = 0;
+  for (const Config& c : o.configs) {
+    nlohmann::json row;
+    if (run_config(**ctx, o, c, scene, row) != 0) {
+      rc = 1;
+      row["error"] = true;
+    }
+    results.push_back(row);
+  }
+  if (!o.json_out.empty()) {
+    nlohmann::json doc = {{"bench", "render"},
+                          {"device", (*ctx)->device_name()},
+                          {"frames", o.frames},
+                          {"note", "wall and gpu ms are medians over the measured frames on a shared, loaded machine"},
+                          {"results", results}};
+    std::ofstream f(o.json_out);
+    f << doc.dump(2) << "\n";
+    if (!f) {
+      std::fprintf(stderr, "gauss-bench render: cannot write %s\n", o.json_out.c_str());
+      return 1;
+    }
+    std::printf("\nwrote %s\n", o.json_out.c_str());
+  }
+  return rc;
+}
+
+GAUSS_BENCH("render", "splat renderer on the box scene: GPU ms per pass, wall ms, PSNR vs the CPU reference",
+            bench_render_main);

@@ -1,0 +1,338 @@
+// gauss-render: renders one view (or a stereo pair) of a 3DGS scene to PNG, on the GPU
+// (SplatRenderer) or with the CPU reference rasterizer (--reference).
+//
+// Exit status: 0 written; 1 a file could not be read or written, no usable Vulkan device,
+// or a render error (the message says which); 2 bad arguments (usage printed).
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "gauss/engine/camera_io.h"
+#include "gauss/engine/image_io.h"
+#include "gauss/engine/ply_gaussian.h"
+#include "gauss/engine/ply_mesh.h"
+#include "gauss/render/mesh_pass.h"
+#include "gauss/render/reference_rasterizer.h"
+#include "gauss/render/splat_renderer.h"
+#include "gauss/render/vk_context.h"
+#include "gauss/render/vk_image.h"
+
+namespace {
+
+using namespace gauss;
+namespace fs = std::filesystem;
+
+constexpr const char* kUsage =
+    "usage: gauss-render --scene S.ply [--mesh M.ply] --camera C.json --out O.png\n"
+    "                    [--reference] [--stereo IPD] [--device NAME] [--clear R,G,B]\n"
+    "                    [--frames K] [--threads N]\n"
+    "  --reference   CPU reference rasterizer (double precision); with --mesh the mesh layer\n"
+    "                is still rasterized by the GPU mesh pass (the splats are blended on the CPU)\n"
+    "  --stereo IPD  left/right eyes IPD metres apart; writes O_left.png and O_right.png\n"
+    "  --device NAME Vulkan device index or name substring (else $GAUSS_DEVICE, else the best)\n"
+    "  --clear R,G,B background without a mesh, each in [0, 1] (default 0,0,0)\n"
+    "  --frames K    GPU: render K times, print every frame's pass times (first = cold)\n"
+    "  --threads N   --reference: blend threads (default 1)\n";
+
+struct Args {
+  fs::path scene, mesh, camera, out;
+  bool reference{false};
+  bool stereo{false};
+  double ipd{0.0};
+  std::string device;
+  glm::dvec3 clear{0.0};
+  int frames{1};
+  unsigned threads{1};
+};
+
+bool parse_double(const std::string& s, double& out) {
+  char* end = nullptr;
+  out = std::strtod(s.c_str(), &end);
+  return !s.empty() && end == s.c_str() + s.size() && std::isfinite(out);
+}
+
+bool parse_int(const std::string& s, long lo, long hi, long& out) {
+  char* end = nullptr;
+  out = std::strtol(s.c_str(), &end, 10);
+  return !s.empty() && end == s.c_str() + s.size() && out >= lo && out <= hi;
+}
+
+// Returns an empty string on success, else what is wrong with the arguments.
+std::string parse_args(int argc, char** argv, Args& a) {
+  for (int i = 1; i < argc; ++i) {
+    std::string key = argv[i], value;
+    const bool has_eq = key.rfind("--", 0) == 0 && key.find('=') != std::string::npos;
+    if (has_eq) {
+      value = key.substr(key.find('=') + 1);
+      key = key.substr(0, key.find('='));
+    }
+    if (key == "--reference" && !has_eq) {
+      a.reference = true;
+      continue;
+    }
+    static const char* kWithValue[] = {"--scene", "--mesh", "--camera", "--out", "--stereo",
+                                       "--device", "--clear", "--frames", "--threads"};
+    bool known = false;
+    for (const char* k : kWithValue) known = known || key == k;
+    if (!known) return "unknown argument '" + std::string(argv[i]) + "'";
+    if (!has_eq) {
+      if (i + 1 >= argc) return key + " needs a value";
+      value = argv[++i];
+    }
+    if (key == "--scene") a.scene = value;
+    else if (key == "--mesh") a.mesh = value;
+    else if (key == "--camera") a.camera = value;
+    else if (key == "--out") a.out = value;
+    else if (key == "--device") a.device = value;
+    else if (key == "--stereo") {
+      if (!parse_double(value, a.ipd) || a.ipd < 0.0 || a.ipd > 1.0)
+        return "--stereo wants an IPD in metres in [0, 1], got '" + value + "'";
+      a.stereo = true;
+    } else if (key == "--clear") {
+      double c[3];
+      std::size_t start = 0;
+      for (int k = 0; k < 3; ++k) {
+        const std::size_t comma = value.find(',', start);
+        if ((k < 2) != (comma != std::string::npos) ||
+            !parse_double(value.substr(start, k < 2 ? comma - start : std::string::npos), c[k]) || c[k] < 0.0 ||
+            c[k] > 1.0)
+          return "--clear wants R,G,B in [0, 1], got '" + value + "'";
+        start = comma + 1;
+      }
+      a.clear = glm::dvec3(c[0], c[1], c[2]);
+    } else if (key == "--frames") {
+      long v = 0;
+      if (!parse_int(value, 1, 1000, v)) return "--frames wants 1..1000, got '" + value + "'";
+      a.frames = int(v);
+    } else if (key == "--threads") {
+      long v = 0;
+      if (!parse_int(value, 1, 64, v)) return "--threads wants 1..64, got '" + value + "'";
+      a.threads = unsigned(v);
+    }
+  }
+  if (a.scene.empty()) return "--scene is required";
+  if (a.camera.empty()) return "--camera is required";
+  if (a.out.empty()) return "--out is required";
+  if (a.reference && a.frames != 1) return "--frames applies to the GPU path only";
+  return {};
+}
+
+fs::path eye_path(const fs::path& out, const char* eye) {
+  fs::path p = out;
+  p.replace_filename(out.stem().string() + "_" + eye + out.extension().string());
+  return p;
+}
+
+void print_timings(const char* view, int frame, const render::SplatFrameStats& s) {
+  const auto& g = s.gpu;
+  std::printf("%s frame %d: gpu ms mesh %.3f preprocess %.3f compact %.3f depth_sort %.3f emit %.3f "
+              "tile_sort %.3f ranges %.3f blend %.3f total %.3f | visible %u pairs %u%s\n",
+              view, frame, g.mesh_ms, g.preprocess_ms, g.compact_ms, g.depth_sort_ms, g.emit_ms, g.tile_sort_ms,
+              g.ranges_ms, g.blend_ms, g.total_ms, s.visible, s.pairs, s.pair_overflow ? " (PAIR OVERFLOW)" : "");
+}
+
+Expected<std::unique_ptr<vk::Context>> make_context(const Args& a) {
+  auto ctx = vk::Context::create({.app_name = "gauss-render", .device_override = a.device});
+  if (!ctx) return Error{"no usable Vulkan device: " + ctx.message()};
+  return ctx;
+}
+
+int run_gpu(const Args& a, const PlyGaussianScene& scene, const TriangleMesh* mesh, const Camera& cam) {
+  auto ctx = make_context(a);
+  if (!ctx) {
+    std::fprintf(stderr, "gauss-render: %s\n", ctx.message().c_str());
+    return 1;
+  }
+  const auto& gs = scene.cloud.gaussians;
+  render::SplatRendererCreateInfo ci;
+  ci.capacity = static_cast<std::uint32_t>(std::max<std::size_t>(1, gs.size()));
+  ci.sh_degree = scene.cloud.sh_degree;
+  ci.max_width = cam.width;
+  ci.max_height = cam.height;
+  if (gs.size() > render::kMaxSplatCapacity) {
+    std::fprintf(stderr, "gauss-render: %zu Gaussians exceed the renderer capacity %u\n", gs.size(),
+                 render::kMaxSplatCapacity);
+    return 1;
+  }
+  auto renderer = render::SplatRenderer::create(**ctx, ci);
+  if (!renderer) {
+    std::fprintf(stderr, "gauss-render: %s\n", renderer.message().c_str());
+    return 1;
+  }
+  auto& r = **renderer;
+  if (auto st = r.write_slots(0, gs); !st) {
+    std::fprintf(stderr, "gauss-render: %s\n", st.message().c_str());
+    return 1;
+  }
+  if (mesh) {
+    if (auto st = r.set_mesh(*mesh); !st) {
+      std::fprintf(stderr, "gauss-render: mesh %s: %s\n", a.mesh.c_str(), st.message().c_str());
+      return 1;
+    }
+  }
+  std::printf("device: %s | %zu Gaussians (SH degree %d), %ux%u%s\n", (*ctx)->device_name().c_str(), gs.size(),
+              scene.cloud.sh_degree, cam.width, cam.height, mesh ? ", with mesh" : "");
+  render::SplatRenderOptions opt;
+  opt.clear_colour = glm::vec3(a.clear);
+  for (int f = 0; f < a.frames; ++f) {
+    if (a.stereo) {
+      const Camera left = render::stereo_eye_camera(cam, a.ipd, render::Eye::Left);
+      const Camera right = render::stereo_eye_camera(cam, a.ipd, render::Eye::Right);
+      auto st = r.render_stereo(left, right, opt);
+      if (!st) {
+        std::fprintf(stderr, "gauss-render: %s\n", st.message().c_str());
+        return 1;
+      }
+      print_timings("left ", f, (*st)[0]);
+      print_timings("right", f, (*st)[1]);
+    } else {
+      auto st = r.render(cam, opt);
+      if (!st) {
+        std::fprintf(stderr, "gauss-render: %s\n", st.message().c_str());
+        return 1;
+      }
+      print_timings("view", f, *st);
+    }
+  }
+  const int views = a.stereo ? 2 : 1;
+  for (int v = 0; v < views; ++v) {
+    const fs::path path = a.stereo ? eye_path(a.out, v == 0 ? "left" : "right") : a.out;
+    auto image = r.read_image(std::uint32_t(v));
+    if (!image) {
+      std::fprintf(stderr, "gauss-render: %s\n", image.message().c_str());
+      return 1;
+    }
+    if (auto st = write_png(path, *image); !st) {
+      std::fprintf(stderr, "gauss-render: %s\n", st.message().c_str());
+      return 1;
+    }
+    std::printf("wrote %s\n", path.c_str());
+  }
+  return 0;
+}
+
+// The mesh layer for the CPU path: the GPU mesh pass's colour and view depth, read back.
+struct MeshImages {
+  ImageRGBA8 colour;
+  std::vector<float> depth;
+};
+
+Expected<MeshImages> rasterize_mesh(vk::Context& ctx, const TriangleMesh& mesh, const Camera& cam,
+                                    const glm::dvec3& clear) {
+  auto pass = render::MeshPass::create(ctx);
+  if (!pass) return pass.error();
+  if (auto st = pass->set_mesh(ctx, mesh); !st) return st.error();
+  auto target = vk::OffscreenTarget::create(ctx, cam.width, cam.height, "gauss-render mesh");
+  if (!target) return target.error();
+  if (auto st = ctx.submit_and_wait([&](VkCommandBuffer cmd) { pass->record(cmd, *target, cam, glm::vec3(clear)); });
+      !st)
+    return st.error();
+  auto colour = target->read_color(ctx);
+  if (!colour) return colour.error();
+  auto depth = target->read_depth(ctx);
+  if (!depth) return depth.error();
+  for (float& d : *depth) d = render::MeshPass::stored_to_view_depth(d);
+  return MeshImages{std::move(*colour), std::move(*depth)};
+}
+
+int run_reference(const Args& a, const PlyGaussianScene& scene, const TriangleMesh* mesh, const Camera& cam) {
+  const auto& gs = scene.cloud.gaussians;
+  std::unique_ptr<vk::Context> ctx;
+  if (mesh) {
+    auto c = make_context(a);
+    if (!c) {
+      std::fprintf(stderr, "gauss-render: --reference with --mesh rasterizes the mesh on the GPU: %s\n",
+                   c.message().c_str());
+      return 1;
+    }
+    ctx = std::move(*c);
+  }
+  const int views = a.stereo ? 2 : 1;
+  for (int v = 0; v < views; ++v) {
+    const Camera view_cam =
+        a.stereo ? render::stereo_eye_camera(cam, a.ipd, v == 0 ? render::Eye::Left : render::Eye::Right) : cam;
+    MeshImages mesh_images;
+    render::MeshLayer layer;
+    render::ReferenceOptions opt;
+    opt.clear_colour = a.clear;
+    opt.threads = a.threads;
+    if (mesh) {
+      auto m = rasterize_mesh(*ctx, *mesh, view_cam, a.clear);
+      if (!m) {
+        std::fprintf(stderr, "gauss-render: mesh pass: %s\n", m.message().c_str());
+        return 1;
+      }
+      mesh_images = std::move(*m);
+      layer.colour = &mesh_images.colour;
+      layer.view_depth = mesh_images.depth;
+      opt.mesh = &layer;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    auto im = render::render_reference(gs, {}, scene.cloud.sh_degree, view_cam, opt);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (!im) {
+      std::fprintf(stderr, "gauss-render: %s\n", im.message().c_str());
+      return 1;
+    }
+    const auto& s = im->stats;
+    std::printf("reference %s: cpu ms %.1f (%u threads) | visible %llu pairs %llu, culled near %llu offscreen %llu "
+                "degenerate %llu mesh %llu, non-finite %llu\n",
+                a.stereo ? (v == 0 ? "left " : "right") : "view", ms, a.threads, (unsigned long long)s.visible,
+                (unsigned long long)s.tile_pairs, (unsigned long long)s.culled_near,
+                (unsigned long long)s.culled_offscreen, (unsigned long long)s.culled_degenerate,
+                (unsigned long long)s.culled_mesh, (unsigned long long)s.rejected_nonfinite);
+    const fs::path path = a.stereo ? eye_path(a.out, v == 0 ? "left" : "right") : a.out;
+    if (auto st = write_png(path, im->rgba8); !st) {
+      std::fprintf(stderr, "gauss-render: %s\n", st.message().c_str());
+      return 1;
+    }
+    std::printf("wrote %s\n", path.c_str());
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::fputs(kUsage, stdout);
+      return 0;
+    }
+  Args args;
+  if (const std::string err = parse_args(argc, argv, args); !err.empty()) {
+    std::fprintf(stderr, "gauss-render: %s\n%s", err.c_str(), kUsage);
+    return 2;
+  }
+  auto scene = read_gaussian_ply(args.scene);
+  if (!scene) {
+    std::fprintf(stderr, "gauss-render: %s\n", scene.message().c_str());
+    return 1;
+  }
+  auto camera = read_camera_json(args.camera);
+  if (!camera) {
+    std::fprintf(stderr, "gauss-render: %s\n", camera.message().c_str());
+    return 1;
+  }
+  if (auto st = render::validate_camera(*camera); !st) {
+    std::fprintf(stderr, "gauss-render: %s: %s\n", args.camera.c_str(), st.message().c_str());
+    return 1;
+  }
+  std::optional<PlyMeshScene> mesh;
+  if (!args.mesh.empty()) {
+    auto m = read_mesh_ply(args.mesh);
+    if (!m) {
+      std::fprintf(stderr, "gauss-render: %s\n", m.message().c_str());
+      return 1;
+    }
+    mesh = std::move(*m);
+  }
+  const TriangleMesh* mesh_ptr = mesh ? &mesh->mesh : nullptr;
+  return args.reference ? run_reference(args, *scene, mesh_ptr, *camera) : run_gpu(args, *scene, mesh_ptr, *camera);
+}
