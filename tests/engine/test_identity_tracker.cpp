@@ -1,0 +1,217 @@
+// Identity tracking: a snapshot pair differing by 5 % perturbed, 2 % new and 2 % removed
+// Gaussians under a random permutation keeps >= 99 % of the unchanged Gaussians' ids.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numeric>
+#include <unordered_map>
+
+#include <gtest/gtest.h>
+
+#include <glm/geometric.hpp>
+
+#include "gauss/engine/identity_tracker.h"
+#include "gauss/engine/ply_gaussian.h"
+#include "gauss/engine/scene_store.h"
+#include "gauss/engine/synthetic_scene.h"
+#include "test_data.h"
+
+namespace gauss {
+namespace {
+
+// Test-local deterministic randomness (SplitMix64).
+struct Rng {
+  std::uint64_t s;
+  std::uint64_t next() {
+    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  float unit() { return float(next() >> 40) / 16777216.0f; }
+  float sym() { return unit() * 2.0f - 1.0f; }
+  glm::vec3 sym3() { return {sym(), sym(), sym()}; }
+};
+
+std::vector<Gaussian> synthetic_epoch(std::size_t n) {
+  SyntheticSceneConfig c;
+  c.target_gaussians = n;
+  c.epochs = 6;
+  c.converge_epochs = 2;
+  c.image_width = 160;
+  c.image_height = 120;
+  c.focal_px = 120.0;
+  auto scene = SyntheticScene::create(c);
+  EXPECT_TRUE(scene.ok());
+  SceneStore store;
+  while (!scene->finished()) EXPECT_TRUE(scene->produce(store).ok());
+  return {store.gaussians().begin(), store.gaussians().end()};
+}
+
+enum class Fate { Unchanged, Perturbed, New };
+
+struct SnapshotPair {
+  std::vector<Gaussian> snapshot;  // ids stripped, permuted
+  std::vector<Fate> fate;          // per snapshot Gaussian
+  std::vector<GaussianId> truth;   // original id (Unchanged/Perturbed), 0 for New
+  std::size_t removed{0};
+};
+
+// `drift`: every surviving Gaussian also moves by this many sigmas (a trainer updates all
+// of them between snapshots), so nothing is bit-identical and all go through similarity.
+SnapshotPair make_pair_of(const std::vector<Gaussian>& previous, std::uint64_t seed, float drift = 0.0f) {
+  Rng rng{seed};
+  SnapshotPair out;
+  for (const Gaussian& g : previous) {
+    const float r = rng.unit();
+    if (r < 0.02f) {  // removed
+      ++out.removed;
+      continue;
+    }
+    Gaussian h = g;
+    Fate f = Fate::Unchanged;
+    if (drift > 0.0f) {
+      const float sigma = std::exp(std::max(g.log_scale.x, std::max(g.log_scale.y, g.log_scale.z)));
+      h.position += drift * sigma * glm::normalize(rng.sym3() + glm::vec3(1e-3f));
+      h.sh_dc += 0.01f * rng.sym3();
+    }
+    if (r < 0.07f) {  // perturbed: a slight optimiser step
+      const float sigma = std::exp(std::max(g.log_scale.x, std::max(g.log_scale.y, g.log_scale.z)));
+      h.position += 0.3f * sigma * glm::normalize(rng.sym3() + glm::vec3(1e-3f));
+      h.log_scale += 0.05f * rng.sym3();
+      h.sh_dc += 0.05f * rng.sym3();
+      h.opacity_logit += 0.2f * rng.sym();
+      f = Fate::Perturbed;
+    }
+    out.snapshot.push_back(h);
+    out.fate.push_back(f);
+    out.truth.push_back(g.id);
+  }
+  const std::size_t n_new = previous.size() / 50;
+  for (std::size_t k = 0; k < n_new; ++k) {  // new: a clone moved away with its own look
+    Gaussian h = previous[std::size_t(rng.next() % previous.size())];
+    const float sigma = std::exp(std::max(h.log_scale.x, std::max(h.log_scale.y, h.log_scale.z)));
+    h.position += (3.0f + 3.0f * rng.unit()) * sigma * glm::normalize(rng.sym3() + glm::vec3(1e-3f));
+    h.sh_dc = 1.5f * rng.sym3();
+    out.snapshot.push_back(h);
+    out.fate.push_back(Fate::New);
+    out.truth.push_back(GaussianId{0});
+  }
+  // Random permutation (Fisher-Yates), ids stripped as a trainer writes them.
+  for (std::size_t i = out.snapshot.size(); i > 1; --i) {
+    const std::size_t j = std::size_t(rng.next() % i);
+    std::swap(out.snapshot[i - 1], out.snapshot[j]);
+    std::swap(out.fate[i - 1], out.fate[j]);
+    std::swap(out.truth[i - 1], out.truth[j]);
+  }
+  for (Gaussian& g : out.snapshot) g.id = GaussianId{0};
+  return out;
+}
+
+std::function<GaussianId()> counter_from(std::uint64_t start) {
+  auto next = std::make_shared<std::uint64_t>(start);
+  return [next] { return GaussianId{(*next)++}; };
+}
+
+TEST(IdentityTracker, KeepsIdsOfUnchangedAndSlightlyChangedGaussiansUnderPermutation) {
+  const std::vector<Gaussian> previous = synthetic_epoch(60000);
+  std::uint64_t max_id = 0;
+  for (const Gaussian& g : previous) max_id = std::max(max_id, to_underlying(g.id));
+  for (std::uint64_t seed : {1u, 2u, 3u, 4u}) {
+    const float drift = seed == 4 ? 0.1f : 0.0f;
+    SnapshotPair pair = make_pair_of(previous, seed, drift);
+    auto r = track_identity(previous, pair.snapshot, {}, counter_from(max_id + 1));
+    ASSERT_TRUE(r.ok()) << r.message();
+    std::size_t unchanged = 0, unchanged_kept = 0, perturbed = 0, perturbed_kept = 0, fresh_new = 0, n_new = 0;
+    for (std::size_t i = 0; i < pair.snapshot.size(); ++i) {
+      const bool kept = pair.snapshot[i].id == pair.truth[i];
+      switch (pair.fate[i]) {
+        case Fate::Unchanged: ++unchanged; unchanged_kept += kept; break;
+        case Fate::Perturbed: ++perturbed; perturbed_kept += kept; break;
+        case Fate::New: ++n_new; fresh_new += to_underlying(pair.snapshot[i].id) > max_id; break;
+      }
+    }
+    std::printf("seed %llu drift %.1f sigma: previous %zu snapshot %zu | kept %zu (exact %zu) fresh %zu removed %zu | "
+                "unchanged kept %zu/%zu, perturbed kept %zu/%zu, new given fresh ids %zu/%zu (truth: %zu removed)\n",
+                static_cast<unsigned long long>(seed), double(drift), r->previous, r->current, r->kept, r->exact, r->fresh,
+                r->removed, unchanged_kept, unchanged, perturbed_kept, perturbed, fresh_new, n_new, pair.removed);
+    EXPECT_GE(double(unchanged_kept), 0.99 * double(unchanged));
+    EXPECT_GE(double(perturbed_kept), 0.95 * double(perturbed));
+    EXPECT_GE(double(fresh_new), 0.9 * double(n_new));
+    EXPECT_EQ(r->kept + r->fresh, pair.snapshot.size());
+    EXPECT_EQ(r->kept + r->removed, previous.size());
+    // One-to-one: no id handed out twice.
+    std::vector<std::uint64_t> ids;
+    for (const Gaussian& g : pair.snapshot) ids.push_back(to_underlying(g.id));
+    std::sort(ids.begin(), ids.end());
+    EXPECT_EQ(std::adjacent_find(ids.begin(), ids.end()), ids.end());
+  }
+}
+
+TEST(IdentityTracker, DeterministicAndCarriersMatchOnlyCarriers) {
+  std::vector<Gaussian> prev(2);
+  prev[0].id = GaussianId{10};
+  prev[0].carrier = true;
+  prev[1].id = GaussianId{11};
+  prev[1].position = glm::vec3(5.0f);
+  std::vector<Gaussian> cur(2);
+  cur[0].position = glm::vec3(0.01f);  // near the carrier, but it is an appearance Gaussian
+  cur[1] = prev[1];
+  auto r = track_identity(prev, cur, {}, counter_from(100));
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(cur[0].id, GaussianId{100});
+  EXPECT_EQ(cur[1].id, GaussianId{11});
+  EXPECT_EQ(r->removed, 1u);
+  // Same input, same answer.
+  std::vector<Gaussian> cur2 = cur;
+  auto r2 = track_identity(prev, cur2, {}, counter_from(100));
+  ASSERT_TRUE(r2.ok());
+  for (std::size_t i = 0; i < cur.size(); ++i) EXPECT_EQ(cur[i].id, cur2[i].id);
+}
+
+TEST(IdentityTracker, EmptySidesAndBadInput) {
+  std::vector<Gaussian> some(3);
+  for (std::size_t i = 0; i < 3; ++i) some[i].position = glm::vec3(float(i));
+  auto a = track_identity({}, some, {}, counter_from(1));
+  ASSERT_TRUE(a.ok());
+  EXPECT_EQ(a->fresh, 3u);
+  auto b = track_identity(some, std::span<Gaussian>{}, {}, counter_from(1));
+  ASSERT_TRUE(b.ok());
+  EXPECT_EQ(b->removed, 3u);
+
+  std::vector<Gaussian> bad = some;
+  bad[1].opacity_logit = std::numeric_limits<float>::quiet_NaN();
+  for (Gaussian& g : bad) g.id = GaussianId{77};
+  auto c = track_identity(some, bad, {}, counter_from(1));
+  ASSERT_FALSE(c.ok());
+  EXPECT_NE(c.message().find("snapshot Gaussian 1"), std::string::npos) << c.message();
+  EXPECT_NE(c.message().find("opacity"), std::string::npos) << c.message();
+  for (const Gaussian& g : bad) EXPECT_EQ(g.id, GaussianId{77}) << "ids changed on failure";
+  IdentityTrackerConfig cfg;
+  cfg.max_distance_sigmas = -1.0f;
+  EXPECT_FALSE(track_identity(some, some, cfg, counter_from(1)).ok());
+}
+
+TEST(IdentityTracker, RealSceneReorderedKeepsEveryId) {
+  GAUSS_REQUIRE_DATA(path, "splats/fruit_drops_sh3.ply");
+  auto scene = read_gaussian_ply(path);
+  ASSERT_TRUE(scene.ok()) << scene.message();
+  std::vector<Gaussian> prev = scene->cloud.gaussians;
+  for (std::size_t i = 0; i < prev.size(); ++i) prev[i].id = GaussianId{i + 1};
+  std::vector<Gaussian> cur = prev;
+  Rng rng{9};
+  for (std::size_t i = cur.size(); i > 1; --i) std::swap(cur[i - 1], cur[std::size_t(rng.next() % i)]);
+  std::vector<GaussianId> truth;
+  for (Gaussian& g : cur) {
+    truth.push_back(g.id);
+    g.id = GaussianId{0};
+  }
+  auto r = track_identity(prev, cur, {}, counter_from(1'000'000));
+  ASSERT_TRUE(r.ok()) << r.message();
+  EXPECT_EQ(r->kept, prev.size());
+  for (std::size_t i = 0; i < cur.size(); ++i) ASSERT_EQ(cur[i].id, truth[i]) << i;
+}
+
+}  // namespace
+}  // namespace gauss
