@@ -1,0 +1,72 @@
+#pragma once
+// Differ: the previously sent set -> the new desired set as one edit batch.
+//
+// Edits: Remove (sent, no longer desired), Insert (desired, not sent), Update (sent and
+// still desired, and its quantised record -- what the client would see -- changed), and
+// Replace (one leaves and one enters in a single edit, reusing the leaver's slot).
+// Leavers and enterers are paired into Replaces in ascending id order; the surplus of
+// either stays Remove / Insert. Every batch carries the scene epoch. After diff() the
+// differ's sent state is the desired set with the records just sent, so applying the
+// batch to the previous client set reproduces the desired set exactly.
+//
+// Cost: O(|sent| + |desired|) per call with dense id tables (no hashing for host ids).
+// Update detection quantises a staying Gaussian only when the scene says it may have
+// changed: SceneStore's change log since the last diff (all of them when the log does not
+// reach back that far); for plain spans the caller passes the modified ids or asks for all.
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "gauss/engine/codec.h"
+#include "gauss/engine/edit.h"
+#include "gauss/engine/gaussian.h"
+#include "gauss/engine/ids.h"
+#include "gauss/engine/result.h"
+#include "gauss/engine/scene_store.h"
+#include "gauss/engine/selector.h"
+
+namespace gauss {
+
+struct DiffStats {
+  std::size_t inserts{0};
+  std::size_t removes{0};
+  std::size_t updates{0};
+  std::size_t replaces{0};
+  std::size_t rehashed{0};  // staying Gaussians whose record was re-quantised to check
+  std::size_t edits() const { return inserts + removes + updates + replaces; }
+};
+
+class Differ {
+ public:
+  // `params` are the session's codec parameters: they define "the quantised record".
+  explicit Differ(CodecParams params);
+  Differ(Differ&&) noexcept;
+  Differ& operator=(Differ&&) noexcept;
+  ~Differ();
+
+  // Diffs against `scene`, which must be the scene `desired` was selected from (same
+  // epoch and size; ids are checked at the selection's indices). Epoch of the batch:
+  // scene.epoch().
+  Expected<EditBatch> diff(const Selection& desired, const SceneStore& scene);
+  // Plain-data form. `modified`: ids whose records may have changed since the previous
+  // diff; nullopt means any may have (every staying Gaussian is re-quantised).
+  Expected<EditBatch> diff(const Selection& desired, std::span<const Gaussian> gaussians, Epoch epoch,
+                           std::optional<std::span<const GaussianId>> modified);
+
+  const CodecParams& params() const;
+  const DiffStats& last_stats() const;
+  std::size_t sent_count() const;
+  bool is_sent(GaussianId id) const;
+  std::vector<GaussianId> sent_ids() const;  // sorted
+  // Forgets the sent state (e.g. the client reconnected with an empty set).
+  void reset();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace gauss

@@ -1,0 +1,121 @@
+#pragma once
+// Selector: the desired client set R* (|R*| <= M) for a client's coarse head pose.
+//
+// Ranking (deterministic: ties broken by lower id):
+// - global layer: a pose-independent share of each partition's budget
+//   (SelectorConfig::global_fraction) goes to the Gaussians with the highest global
+//   utility opacity * support_weight * world radius, so coarse context everywhere
+//   survives head turns;
+// - view layer: the rest goes by view utility opacity * support_weight * angular radius
+//   (world radius / distance) times a facing factor: 1 inside the frustum, ramping down
+//   linearly to out_of_view_weight over margin_deg outside it (a ramp, not an edge, so a
+//   small head turn changes no utility by more than the retention bonus absorbs);
+// - hysteresis: a Gaussian resident after the previous select() (or set_resident())
+//   has both utilities multiplied by 1 + retention_bonus, so small pose changes do not
+//   churn the set.
+// Semantic reservation: with a query, eligible appearance Gaussians split into the
+// object partition (object id in the resolved set) and the background. Exactly
+// M_obj = min(|G_obj|, floor(rho M)) come from the object partition and
+// min(|G_bg|, M - M_obj) from the background (no spill between partitions, so the object
+// share is exactly M_obj / M). Without a query everything is background.
+// Carriers and Gaussians marked ineligible never enter the set.
+// Cost: O(N) per call (histogram threshold selection, no sort of N); per-Gaussian static
+// terms are cached per scene version and rebuilt when it changes; no allocation per call
+// once warm.
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include <glm/gtc/quaternion.hpp>
+#include <glm/vec3.hpp>
+
+#include "gauss/engine/camera.h"
+#include "gauss/engine/gaussian.h"
+#include "gauss/engine/ids.h"
+#include "gauss/engine/query.h"
+#include "gauss/engine/result.h"
+#include "gauss/engine/scene_store.h"
+#include "gauss/engine/semantic.h"
+
+namespace gauss {
+
+// The client's coarse head pose as the host sees it, in the OpenCV camera convention
+// (x right, y down, z forward) so it matches gauss::Camera.
+struct ClientPose {
+  glm::dvec3 position{0.0};                      // head centre, world metres
+  glm::dquat orientation{1.0, 0.0, 0.0, 0.0};    // rotation head -> world (R_world_head)
+  double tan_half_fov_x{1.0};                    // tan of half the horizontal FOV (1 = 90 deg)
+  double tan_half_fov_y{1.0};
+
+  // Pose and FOV of a pinhole camera (FOV from its intrinsics and image size).
+  static ClientPose from_camera(const Camera& camera);
+};
+
+struct SelectionRequest {
+  std::size_t budget{200000};            // M
+  std::size_t client_capacity{400000};   // the client's stable slots; budget must fit
+  std::optional<SemanticQuery> query;    // none: ordinary view-dependent selection
+  double rho{0.0};                       // reservation fraction in [0, 1]
+};
+
+struct SelectorConfig {
+  double global_fraction{0.2};      // share of each partition's budget chosen pose-independently
+  double retention_bonus{0.3};      // hysteresis: resident utility multiplier is 1 + bonus
+  double margin_deg{20.0};          // width of the facing ramp outside the frustum (head-turn headroom)
+  double out_of_view_weight{0.02};  // utility factor beyond the ramp (behind / far aside)
+  double near_distance{0.05};       // distances below this count as this (metres)
+};
+
+struct Selection {
+  Epoch epoch{0};                        // scene epoch the selection was made from
+  std::vector<GaussianId> ids;           // the desired set, sorted ascending
+  std::vector<std::uint32_t> indices;    // positions in the scene span, parallel to ids
+  std::size_t scene_size{0};             // size of the span the indices refer to
+  std::size_t budget{0};                 // M
+  std::size_t object_budget{0};          // M_obj (0 without a query)
+  std::size_t object_candidates{0};      // |G_obj|: eligible appearance Gaussians of the query
+  std::size_t background_candidates{0};  // |G_bg|
+  std::size_t object_selected{0};        // == object_budget
+  std::size_t background_selected{0};
+  std::size_t global_selected{0};        // chosen by the global layer (both partitions)
+  std::size_t retained{0};               // selected and resident before this call
+  std::optional<QueryResolution> query;  // resolution of request.query
+};
+
+// Checks M, capacity and rho (also without a query): M = 0, M above the client's
+// capacity, or rho outside [0, 1] / NaN are errors.
+Status validate_request(const SelectionRequest& request);
+
+class Selector {
+ public:
+  explicit Selector(SelectorConfig config = {});
+  Selector(Selector&&) noexcept;
+  Selector& operator=(Selector&&) noexcept;
+  ~Selector();
+
+  const SelectorConfig& config() const;
+
+  // Selects from a SceneStore between epochs. `eligible`, when not empty, is parallel to
+  // scene.gaussians(): 0 excludes a Gaussian (the eligibility filter's verdict).
+  Expected<Selection> select(const SceneStore& scene, const ClientPose& pose, const SelectionRequest& request,
+                             std::span<const std::uint8_t> eligible = {});
+  // Same on plain data. `scene_version` must change whenever the span's contents change
+  // (static terms are cached per version; SceneStore's overload uses its epoch).
+  Expected<Selection> select(std::span<const Gaussian> gaussians, std::span<const SemanticObject> objects,
+                             std::uint64_t scene_version, Epoch epoch, const ClientPose& pose,
+                             const SelectionRequest& request, std::span<const std::uint8_t> eligible = {});
+
+  // Hysteresis state: by default the previous selection. A host that tracks what the
+  // client acknowledged may set it explicitly; clear_resident() forgets it.
+  void set_resident(std::span<const GaussianId> ids);
+  void clear_resident();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace gauss

@@ -1,0 +1,176 @@
+// Differ: applying its edits (also through the codec) to the previous client set gives the
+// desired set exactly, over random epochs, poses and queries; updates only when the
+// quantised record changed; replaces pair leavers and enterers; every batch has its epoch.
+#include <algorithm>
+#include <map>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "gauss/engine/codec.h"
+#include "gauss/engine/differ.h"
+#include "gauss/engine/selector.h"
+#include "select_test_scene.h"
+
+namespace gauss {
+namespace {
+
+// What a client holds: id -> the record it received.
+using ClientSet = std::map<std::uint64_t, Gaussian>;
+
+void apply_batch(ClientSet& client, const EditBatch& batch) {
+  for (const Edit& e : batch.edits) {
+    const std::uint64_t id = to_underlying(e.id);
+    switch (e.kind) {
+      case EditKind::Insert:
+        ASSERT_EQ(client.count(id), 0u) << "insert of resident id " << id;
+        client[id] = e.value;
+        break;
+      case EditKind::Remove:
+        ASSERT_EQ(client.erase(id), 1u) << "remove of absent id " << id;
+        break;
+      case EditKind::Update:
+        ASSERT_EQ(client.count(id), 1u) << "update of absent id " << id;
+        client[id] = e.value;
+        break;
+      case EditKind::Replace:
+        ASSERT_EQ(client.erase(to_underlying(e.leaving)), 1u) << "replace of absent id";
+        ASSERT_EQ(client.count(id), 0u);
+        client[id] = e.value;
+        break;
+    }
+  }
+}
+
+bool same_record(const Gaussian& a, const Gaussian& b) {
+  return a.position == b.position && a.rotation == b.rotation && a.log_scale == b.log_scale &&
+         a.opacity_logit == b.opacity_logit && a.sh_dc == b.sh_dc && a.sh_rest == b.sh_rest && a.object == b.object &&
+         a.support == b.support;
+}
+
+TEST(DifferProperty, EditsReproduceTheDesiredSetExactly) {
+  SceneStore store;
+  test::fill_test_scene(store, 8000, 31);
+  const CodecParams params = fit_codec_params(store.gaussians(), store.sh_degree());
+  std::mt19937_64 rng(32);
+  Selector selector;
+  Differ differ(params);
+  ClientSet client;  // receives decoded wire batches
+  const SemanticQuery queries[] = {SemanticQuery::for_class("chair"), SemanticQuery::for_instance(ObjectId{2})};
+  std::size_t total_updates = 0;
+  std::size_t total_replaces = 0;
+  for (int step = 0; step < 40; ++step) {
+    if (step % 3 == 1) test::evolve_test_scene(store, rng, 0.03);
+    SelectionRequest req;
+    req.budget = 500 + rng() % 3000;
+    req.client_capacity = 4000;
+    if (rng() % 2) {
+      req.query = queries[rng() % 2];
+      req.rho = static_cast<double>(rng() % 101) / 100.0;
+    }
+    auto sel = selector.select(store, test::random_test_pose(rng), req);
+    ASSERT_TRUE(sel.ok()) << sel.message();
+    auto batch = differ.diff(*sel, store);
+    ASSERT_TRUE(batch.ok()) << batch.message();
+    EXPECT_EQ(batch->epoch, store.epoch());
+    total_updates += differ.last_stats().updates;
+    total_replaces += differ.last_stats().replaces;
+    CodecStats cs;
+    auto decoded = decode_edit_batch(encode_edit_batch(*batch, params, &cs), params);
+    ASSERT_TRUE(decoded.ok()) << decoded.message();
+    EXPECT_EQ(decoded->edits.size(), batch->edits.size());
+    apply_batch(client, *decoded);
+    ASSERT_FALSE(HasFatalFailure());
+    // Same ids, and each record is what quantising the current scene value gives.
+    ASSERT_EQ(client.size(), sel->ids.size());
+    std::size_t k = 0;
+    for (const auto& [id, value] : client) {
+      ASSERT_EQ(id, to_underlying(sel->ids[k]));
+      const Gaussian expect = quantize_roundtrip(store.gaussians()[sel->indices[k]], params);
+      EXPECT_TRUE(same_record(value, expect)) << "id " << id << " at step " << step;
+      ++k;
+    }
+    EXPECT_EQ(differ.sent_ids(), sel->ids);
+  }
+  EXPECT_GT(total_updates, 0u);   // the evolving epochs changed resident records
+  EXPECT_GT(total_replaces, 0u);  // pose changes swapped Gaussians
+}
+
+TEST(DifferProperty, UpdatesOnlyWhenTheQuantisedRecordChanges) {
+  SceneStore store;
+  test::fill_test_scene(store, 2000, 41);
+  const CodecParams params = fit_codec_params(store.gaussians(), store.sh_degree());
+  Selector selector;
+  Differ differ(params);
+  SelectionRequest req;
+  req.budget = 2000;
+  req.client_capacity = 2000;
+  auto sel = selector.select(store, ClientPose{}, req);
+  ASSERT_TRUE(sel.ok());
+  auto first = differ.diff(*sel, store);
+  ASSERT_TRUE(first.ok());
+  EXPECT_EQ(differ.last_stats().inserts, sel->ids.size());
+  // Same selection again: nothing to send.
+  auto again = differ.diff(*sel, store);
+  ASSERT_TRUE(again.ok());
+  EXPECT_TRUE(again->edits.empty());
+  // Modify two resident Gaussians: one far below a quantisation step, one by a lot.
+  const Gaussian a = store.gaussians()[sel->indices[0]];
+  const Gaussian b = store.gaussians()[sel->indices[1]];
+  ASSERT_TRUE(store.begin_next_epoch().ok());
+  Gaussian a2 = a;
+  a2.position.x = std::nextafter(a.position.x, 1e9f);
+  ASSERT_EQ(quantized_hash(a2, params), quantized_hash(a, params));
+  Gaussian b2 = b;
+  b2.sh_dc += glm::vec3(0.5f);
+  ASSERT_TRUE(store.modify(a2).ok());
+  ASSERT_TRUE(store.modify(b2).ok());
+  ASSERT_TRUE(store.commit_epoch().ok());
+  sel = selector.select(store, ClientPose{}, req);
+  ASSERT_TRUE(sel.ok());
+  auto upd = differ.diff(*sel, store);
+  ASSERT_TRUE(upd.ok());
+  ASSERT_EQ(upd->edits.size(), 1u);
+  EXPECT_EQ(upd->edits[0].kind, EditKind::Update);
+  EXPECT_EQ(upd->edits[0].id, b.id);
+  EXPECT_EQ(upd->epoch, store.epoch());
+  EXPECT_EQ(differ.last_stats().rehashed, 2u);  // only the logged modifications were checked
+}
+
+TEST(DifferProperty, PairsLeaversAndEnterersIntoReplaces) {
+  SceneStore store;
+  test::fill_test_scene(store, 100, 51);
+  Differ differ(fit_codec_params(store.gaussians(), 0));
+  auto make = [&](std::uint32_t from, std::uint32_t to) {
+    Selection s;
+    s.scene_size = store.gaussians().size();
+    s.epoch = store.epoch();
+    for (std::uint32_t i = from; i < to; ++i) {
+      s.indices.push_back(i);
+      s.ids.push_back(store.gaussians()[i].id);
+    }
+    return s;
+  };
+  ASSERT_TRUE(differ.diff(make(0, 50), store).ok());
+  auto b = differ.diff(make(10, 70), store);  // 10 leave, 20 enter
+  ASSERT_TRUE(b.ok());
+  EXPECT_EQ(differ.last_stats().replaces, 10u);
+  EXPECT_EQ(differ.last_stats().inserts, 10u);
+  EXPECT_EQ(differ.last_stats().removes, 0u);
+  auto c = differ.diff(make(30, 40), store);  // 50 leave, 0 enter
+  ASSERT_TRUE(c.ok());
+  EXPECT_EQ(differ.last_stats().removes, 50u);
+  EXPECT_EQ(differ.sent_count(), 10u);
+  // A selection that does not match the scene is refused, and the sent state is kept.
+  Selection wrong = make(0, 5);
+  wrong.ids[2] = GaussianId{999999};
+  EXPECT_FALSE(differ.diff(wrong, store).ok());
+  Selection dup = make(0, 5);
+  dup.ids[1] = dup.ids[0];
+  dup.indices[1] = dup.indices[0];
+  EXPECT_FALSE(differ.diff(dup, store).ok());
+  EXPECT_EQ(differ.sent_count(), 10u);
+}
+
+}  // namespace
+}  // namespace gauss
