@@ -17,6 +17,7 @@
 #include "gauss/engine/image_io.h"
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/ply_mesh.h"
+#include "gauss/render/image_metrics.h"
 #include "gauss/render/mesh_pass.h"
 #include "gauss/render/reference_rasterizer.h"
 #include "gauss/render/splat_renderer.h"
@@ -31,17 +32,18 @@ namespace fs = std::filesystem;
 constexpr const char* kUsage =
     "usage: gauss-render --scene S.ply [--mesh M.ply] --camera C.json --out O.png\n"
     "                    [--reference] [--stereo IPD] [--device NAME] [--clear R,G,B]\n"
-    "                    [--frames K] [--threads N]\n"
+    "                    [--frames K] [--threads N] [--compare A.png]\n"
     "  --reference   CPU reference rasterizer (double precision); with --mesh the mesh layer\n"
     "                is still rasterized by the GPU mesh pass (the splats are blended on the CPU)\n"
     "  --stereo IPD  left/right eyes IPD metres apart; writes O_left.png and O_right.png\n"
     "  --device NAME Vulkan device index or name substring (else $GAUSS_DEVICE, else the best)\n"
     "  --clear R,G,B background without a mesh, each in [0, 1] (default 0,0,0)\n"
     "  --frames K    GPU: render K times, print every frame's pass times (first = cold)\n"
-    "  --threads N   --reference: blend threads (default 1)\n";
+    "  --threads N   --reference: blend threads (default 1)\n"
+    "  --compare A   print PSNR and max error of the written image against A.png (mono only)\n";
 
 struct Args {
-  fs::path scene, mesh, camera, out;
+  fs::path scene, mesh, camera, out, compare;
   bool reference{false};
   bool stereo{false};
   double ipd{0.0};
@@ -77,7 +79,7 @@ std::string parse_args(int argc, char** argv, Args& a) {
       continue;
     }
     static const char* kWithValue[] = {"--scene", "--mesh", "--camera", "--out", "--stereo",
-                                       "--device", "--clear", "--frames", "--threads"};
+                                       "--device", "--clear", "--frames", "--threads", "--compare"};
     bool known = false;
     for (const char* k : kWithValue) known = known || key == k;
     if (!known) return "unknown argument '" + std::string(argv[i]) + "'";
@@ -90,6 +92,7 @@ std::string parse_args(int argc, char** argv, Args& a) {
     else if (key == "--camera") a.camera = value;
     else if (key == "--out") a.out = value;
     else if (key == "--device") a.device = value;
+    else if (key == "--compare") a.compare = value;
     else if (key == "--stereo") {
       if (!parse_double(value, a.ipd) || a.ipd < 0.0 || a.ipd > 1.0)
         return "--stereo wants an IPD in metres in [0, 1], got '" + value + "'";
@@ -120,7 +123,31 @@ std::string parse_args(int argc, char** argv, Args& a) {
   if (a.camera.empty()) return "--camera is required";
   if (a.out.empty()) return "--out is required";
   if (a.reference && a.frames != 1) return "--frames applies to the GPU path only";
+  if (a.stereo && !a.compare.empty()) return "--compare applies to mono renders only";
   return {};
+}
+
+// Writes the image, then (with --compare) prints its difference to another PNG.
+int write_and_compare(const Args& a, const fs::path& path, const ImageRGBA8& image) {
+  if (auto st = write_png(path, image); !st) {
+    std::fprintf(stderr, "gauss-render: %s\n", st.message().c_str());
+    return 1;
+  }
+  std::printf("wrote %s\n", path.c_str());
+  if (a.compare.empty()) return 0;
+  auto other = read_png_rgba8(a.compare);
+  if (!other) {
+    std::fprintf(stderr, "gauss-render: %s\n", other.message().c_str());
+    return 1;
+  }
+  auto d = render::compare_images(image, *other);
+  if (!d) {
+    std::fprintf(stderr, "gauss-render: %s\n", d.message().c_str());
+    return 1;
+  }
+  std::printf("vs %s: PSNR %.2f dB, max abs error %d/255, %llu of %llu pixels differ\n", a.compare.c_str(),
+              d->psnr_db, d->max_abs_error, (unsigned long long)d->pixels_differing, (unsigned long long)d->pixels);
+  return 0;
 }
 
 fs::path eye_path(const fs::path& out, const char* eye) {
@@ -208,11 +235,7 @@ int run_gpu(const Args& a, const PlyGaussianScene& scene, const TriangleMesh* me
       std::fprintf(stderr, "gauss-render: %s\n", image.message().c_str());
       return 1;
     }
-    if (auto st = write_png(path, *image); !st) {
-      std::fprintf(stderr, "gauss-render: %s\n", st.message().c_str());
-      return 1;
-    }
-    std::printf("wrote %s\n", path.c_str());
+    if (int rc = write_and_compare(a, path, *image); rc != 0) return rc;
   }
   return 0;
 }
@@ -288,11 +311,7 @@ int run_reference(const Args& a, const PlyGaussianScene& scene, const TriangleMe
                 (unsigned long long)s.culled_offscreen, (unsigned long long)s.culled_degenerate,
                 (unsigned long long)s.culled_mesh, (unsigned long long)s.rejected_nonfinite);
     const fs::path path = a.stereo ? eye_path(a.out, v == 0 ? "left" : "right") : a.out;
-    if (auto st = write_png(path, im->rgba8); !st) {
-      std::fprintf(stderr, "gauss-render: %s\n", st.message().c_str());
-      return 1;
-    }
-    std::printf("wrote %s\n", path.c_str());
+    if (int rc = write_and_compare(a, path, im->rgba8); rc != 0) return rc;
   }
   return 0;
 }
