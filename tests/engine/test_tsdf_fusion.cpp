@@ -120,7 +120,7 @@ TEST(TsdfFusion, IncrementalExtractionReportsOnlyChangedChunksWithTheirEpoch) {
   ASSERT_TRUE(vol.integrate(room.frame({0, 0, -1.5}, {0, 0, 2}, 96, 72, Epoch(2))));
   auto second = vol.extract_changed();
   ASSERT_FALSE(second.empty());
-  std::set<std::uint64_t> first_ids;
+  std::set<std::uint32_t> first_ids;
   for (const auto& e : first) first_ids.insert(e.chunk_id);
   std::size_t replaced = 0;
   for (const auto& e : second) {

@@ -124,7 +124,9 @@ std::vector<SurfaceEdit> TsdfVolume::extract_changed() {
   std::vector<SurfaceEdit> edits;
   for (auto key : dirty) {
     SurfaceEdit e;
-    e.chunk_id = key;
+    auto [idit, fresh] = m.chunk_ids.try_emplace(key, std::uint32_t(m.chunk_ids.size()));
+    if (fresh) m.chunk_keys.emplace(idit->second, key);
+    e.chunk_id = idit->second;
     e.mesh = m.extract_chunk(unpack_key(key), &e.epoch);
     auto had = m.emitted_chunks.find(key);
     if (e.mesh.indices.empty()) {
@@ -142,6 +144,12 @@ std::vector<SurfaceEdit> TsdfVolume::extract_changed() {
     edits.push_back(std::move(e));
   }
   return edits;
+}
+
+TriangleMesh TsdfVolume::chunk_mesh(std::uint32_t chunk_id) const {
+  auto it = impl_->chunk_keys.find(chunk_id);
+  if (it == impl_->chunk_keys.end()) return {};
+  return impl_->extract_chunk(unpack_key(it->second), nullptr);
 }
 
 TriangleMesh TsdfVolume::extract_all() const {

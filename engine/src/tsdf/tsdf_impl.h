@@ -53,6 +53,8 @@ struct TsdfVolume::Impl {
   std::unordered_map<std::uint64_t, TsdfBlock> blocks;   // packed block key -> block
   std::unordered_set<std::uint64_t> dirty_chunks;        // packed chunk keys
   std::unordered_map<std::uint64_t, std::uint64_t> emitted_chunks;  // chunk -> hash of the mesh clients hold
+  std::unordered_map<std::uint64_t, std::uint32_t> chunk_ids;       // packed chunk key -> public chunk id
+  std::unordered_map<std::uint32_t, std::uint64_t> chunk_keys;      // and back
   TsdfStats stats;
 
   const TsdfVoxel* voxel(const glm::ivec3& global) const {

@@ -46,7 +46,7 @@ enum class SurfaceEditKind : std::uint8_t { Add = 0, Replace = 1, Remove = 2 };
 
 struct SurfaceEdit {
   SurfaceEditKind kind{SurfaceEditKind::Add};
-  std::uint64_t chunk_id{0};         // packed chunk coordinate, stable for the session
+  std::uint32_t chunk_id{0};         // assigned when a chunk is first seen, stable for the volume's life
   Epoch epoch{0};                    // newest frame epoch fused into the chunk's blocks
   TriangleMesh mesh;                 // empty for Remove
 };
@@ -57,6 +57,18 @@ struct TsdfStats {
   std::size_t frames_integrated{0};
   std::size_t frames_rejected{0};
 };
+
+class SceneStore;
+class SyntheticScene;
+struct Camera;
+
+// Applies surface edits to the host scene (inside its open epoch): Add/Replace set the
+// chunk, Remove drops it. Stops at the first edit the store refuses and returns its error.
+Status apply_surface_edits(SceneStore& store, const std::vector<SurfaceEdit>& edits);
+
+// The synthetic scene's exact ground-truth depth and colour for `camera` as an RGB-D
+// frame, so the embedded default scene gets a fused surface like a real capture.
+RgbdFrame synthetic_rgbd_frame(const SyntheticScene& scene, const Camera& camera, Epoch epoch);
 
 class TsdfVolume {
  public:
@@ -75,6 +87,9 @@ class TsdfVolume {
   // edits: Add for a new non-empty chunk, Replace for a changed one, Remove for a chunk
   // that became empty. Vertices are shared within a chunk; chunks meet without cracks.
   std::vector<SurfaceEdit> extract_changed();
+
+  // The mesh of one chunk as it stands now (empty for an unknown id).
+  TriangleMesh chunk_mesh(std::uint32_t chunk_id) const;
 
   // The whole current surface as one mesh (all chunks, concatenated).
   TriangleMesh extract_all() const;
