@@ -1,0 +1,96 @@
+#pragma once
+// gauss::render::SlotBuffer: the stable-slot Gaussian store on the GPU. Capacity is fixed
+// at creation; a Gaussian keeps its slot while resident. Three storage buffers, each
+// within one binding's range (128 MiB on lavapipe): core attributes (64 B/slot), SH rest
+// (3 * sh_rest_count(degree) floats/slot; absent for degree 0) and one edit-tint word per
+// slot. A contiguous write is one ranged copy per buffer.
+//
+// Input checks: a slot range past the capacity is an error (nothing written). A Gaussian
+// with a NaN/Inf in any field the splat math reads (splat_math.h step 0) is never
+// uploaded: its slot is cleared instead and counted in rejected_nonfinite(); the other
+// Gaussians of the same write are stored normally.
+//
+// Synchronisation: writes go straight to the buffers (blocking copies when the memory
+// is not host visible). The owner (SplatRenderer) only renders synchronously, so no
+// frame is in flight while slots change.
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "gauss/engine/gaussian.h"
+#include "gauss/engine/ids.h"
+#include "gauss/engine/result.h"
+#include "gauss/render/splat_math.h"
+#include "gauss/render/vk_buffer.h"
+
+namespace gauss::vk {
+class Context;
+}
+
+namespace gauss::render {
+
+struct SlotBufferCreateInfo {
+  std::uint32_t capacity{0};  // slots, 1 ..; limited by the binding range (see create)
+  int sh_degree{0};           // 0..3: SH rest stored up to this degree
+};
+
+class SlotBuffer {
+ public:
+  // Errors: capacity 0, sh_degree outside 0..3, a buffer that would exceed the device's
+  // maxStorageBufferRange (the message gives the largest capacity that fits), allocation.
+  static Expected<SlotBuffer> create(vk::Context& context, const SlotBufferCreateInfo& info);
+
+  SlotBuffer() = default;
+  SlotBuffer(SlotBuffer&&) noexcept = default;
+  SlotBuffer& operator=(SlotBuffer&&) noexcept = default;
+
+  std::uint32_t capacity() const noexcept { return capacity_; }
+  int sh_degree() const noexcept { return sh_degree_; }
+  // Floats of SH rest per slot (0 for degree 0).
+  std::uint32_t sh_stride() const noexcept { return sh_stride_; }
+  // One past the highest occupied slot: the preprocess dispatch covers [0, high_water).
+  std::uint32_t high_water() const noexcept { return high_water_; }
+  std::uint32_t occupied_count() const noexcept { return occupied_count_; }
+  bool occupied(std::uint32_t slot) const noexcept { return slot < capacity_ && occupied_[slot] != 0; }
+  // Gaussians refused for non-finite values since creation.
+  std::uint64_t rejected_nonfinite() const noexcept { return rejected_nonfinite_; }
+
+  // Writes gaussians[i] to slot first_slot + i (one ranged copy per buffer).
+  Status write_slots(std::uint32_t first_slot, std::span<const Gaussian> gaussians);
+  Status write_slot(SlotIndex slot, const Gaussian& gaussian) {
+    return write_slots(to_underlying(slot), std::span<const Gaussian>(&gaussian, 1));
+  }
+  // Marks [first_slot, first_slot + count) empty (and their edit tint None).
+  Status clear_slots(std::uint32_t first_slot, std::uint32_t count);
+  Status clear_slot(SlotIndex slot) { return clear_slots(to_underlying(slot), 1); }
+
+  // Edit-visualisation state of one slot, as of display frame `frame` (the age counts
+  // from there). Errors: slot out of range.
+  Status set_edit_tint(std::uint32_t slot, EditTintState state, std::uint32_t frame);
+  // Number of slots whose tint kind is not None (the renderer specialises tints away at 0).
+  std::uint32_t tinted_count() const noexcept { return tinted_count_; }
+
+  const vk::Buffer& core_buffer() const noexcept { return core_; }
+  const vk::Buffer& sh_buffer() const noexcept { return sh_; }  // 16 dummy bytes for degree 0
+  const vk::Buffer& edit_buffer() const noexcept { return edit_; }
+
+ private:
+  Status check_range(std::uint32_t first_slot, std::uint64_t count, const char* what) const;
+  void set_occupied(std::uint32_t slot, bool value);
+
+  std::uint32_t capacity_{0};
+  int sh_degree_{0};
+  std::uint32_t sh_stride_{0};
+  std::uint32_t high_water_{0};
+  std::uint32_t occupied_count_{0};
+  std::uint32_t tinted_count_{0};
+  std::uint64_t rejected_nonfinite_{0};
+  std::vector<std::uint8_t> occupied_;
+  std::vector<std::uint8_t> tinted_;
+  vk::Buffer core_;
+  vk::Buffer sh_;
+  vk::Buffer edit_;
+};
+
+}  // namespace gauss::render

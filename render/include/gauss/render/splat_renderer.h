@@ -1,0 +1,144 @@
+#pragma once
+// gauss::render::SplatRenderer: the Vulkan compute splat renderer used by both the host
+// ("server render") and the client, so the same slots + camera give the same bytes.
+//
+// Per view, all on the GPU with no readback inside the frame (sizes come from the slot
+// capacity, the pair capacity and indirect dispatches):
+//   mesh pass (only with a mesh) -> per-tile max mesh depth -> preprocess (one thread per
+//   slot below the high-water mark) -> scan + compact -> stable radix sort of the N visible
+//   splats by float depth (32 key bits) -> scan of tile counts in depth order -> emit
+//   (tile, slot) pairs -> stable radix sort by tile id (only the bits of the tile count)
+//   -> tile ranges -> blend (one workgroup per 16x16 tile). Equal depths keep slot order.
+// The math is splat_math.h (the CPU reference rasterizer is the oracle).
+//
+// Pair overflow: when a view needs more (tile, splat) pairs than max_pairs, the pairs of
+// the farthest splats are dropped (the emitted pairs follow depth order), deterministically;
+// SplatFrameStats::pair_overflow and pairs_needed report it. Never garbage.
+//
+// Threading / sync: one thread; render() and render_stereo() submit and wait, so slot
+// writes between frames never race the GPU.
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "gauss/engine/camera.h"
+#include "gauss/engine/gaussian.h"
+#include "gauss/engine/ids.h"
+#include "gauss/engine/image_io.h"
+#include "gauss/engine/mesh.h"
+#include "gauss/engine/result.h"
+#include "gauss/render/splat_math.h"
+
+namespace gauss::vk {
+class Context;
+class OffscreenTarget;
+}  // namespace gauss::vk
+
+namespace gauss::render {
+
+inline constexpr std::uint32_t kMaxSplatCapacity = 400'000;  // the design's M
+inline constexpr std::uint32_t kMaxHighlightObjects = 65'536;
+
+struct SplatRendererCreateInfo {
+  std::uint32_t capacity{0};    // slots, 1 .. kMaxSplatCapacity (less at SH degree 3 if the
+                                // SH binding would pass maxStorageBufferRange)
+  int sh_degree{0};             // 0..3, SH rest stored and evaluated up to this degree
+  std::uint32_t max_width{1280};
+  std::uint32_t max_height{720};
+  // (tile, splat) pairs one view may hold; 0 = automatic (16 per slot, 1M .. 32M).
+  std::uint32_t max_pairs{0};
+};
+
+struct SplatRenderOptions {
+  glm::vec3 clear_colour{0.0f};         // background without a mesh (and the mesh clear colour)
+  double mesh_margin{kDefaultMeshMargin};
+  // Bin splats only into tiles where alpha can reach 1/255 (never changes the image;
+  // off for measurements and for the equivalence test).
+  bool exact_culling{true};
+};
+
+// Milliseconds of GPU time per pass (timestamps), for one view.
+struct SplatPassTimings {
+  double mesh_ms{0.0};        // mesh pass + tile max depth
+  double preprocess_ms{0.0};
+  double compact_ms{0.0};     // visibility scan + compaction
+  double depth_sort_ms{0.0};
+  double emit_ms{0.0};        // pair scan + emit
+  double tile_sort_ms{0.0};
+  double ranges_ms{0.0};
+  double blend_ms{0.0};       // blend + copy into the target
+  double total_ms{0.0};
+};
+
+struct SplatFrameStats {
+  std::uint32_t high_water{0};
+  std::uint32_t visible{0};          // splats binned into >= 1 tile
+  std::uint32_t pairs{0};            // pairs emitted (<= max_pairs)
+  std::uint32_t pairs_needed{0};     // pairs wanted (saturates at 2^32 - 1)
+  bool pair_overflow{false};
+  SplatPassTimings gpu;
+};
+
+class SplatRenderer {
+ public:
+  // Errors: capacity 0 or above kMaxSplatCapacity, sh_degree outside 0..3, a zero or
+  // over-limit max size, buffers past the binding range, Vulkan failures (all named).
+  static Expected<std::unique_ptr<SplatRenderer>> create(vk::Context& context, const SplatRendererCreateInfo& info);
+  ~SplatRenderer();
+  SplatRenderer(const SplatRenderer&) = delete;
+  SplatRenderer& operator=(const SplatRenderer&) = delete;
+
+  std::uint32_t capacity() const noexcept;
+  int sh_degree() const noexcept;
+  std::uint32_t max_pairs() const noexcept;
+
+  // ---- Slots (see slot_buffer.h: non-finite Gaussians are refused and counted) ----
+  Status write_slots(std::uint32_t first_slot, std::span<const Gaussian> gaussians);
+  Status write_slot(SlotIndex slot, const Gaussian& gaussian);
+  Status clear_slots(std::uint32_t first_slot, std::uint32_t count);
+  Status clear_slot(SlotIndex slot);
+  std::uint32_t occupied_count() const noexcept;
+  std::uint32_t high_water() const noexcept;
+  std::uint64_t rejected_nonfinite() const noexcept;
+
+  // ---- Mesh layer ----
+  Status set_mesh(const TriangleMesh& mesh);
+  void clear_mesh() noexcept;
+  bool has_mesh() const noexcept;
+
+  // ---- Tints (splat_math.h "Tints") ----
+  // Errors: more than kMaxHighlightObjects ids. Duplicates are fine.
+  Status set_highlight(std::span<const ObjectId> objects);
+  void clear_highlight() noexcept;
+  // Edit visualisation of one slot; state.age is its age at the NEXT rendered frame
+  // (every render / render_stereo call advances the display frame by one).
+  Status set_edit_tint(SlotIndex slot, EditTintState state);
+  std::uint32_t display_frame() const noexcept;
+
+  // ---- Frames ----
+  // Renders one view into target(0). Errors: invalid camera (validate_camera), a size
+  // above max_width x max_height, Vulkan failures.
+  Expected<SplatFrameStats> render(const Camera& camera, const SplatRenderOptions& options = {});
+  // Left eye into target(0), right eye into target(1), one submission, one upload.
+  // Each eye is preprocessed and sorted for its own camera (see the .cpp for the figures).
+  Expected<std::array<SplatFrameStats, 2>> render_stereo(const Camera& left, const Camera& right,
+                                                         const SplatRenderOptions& options = {});
+  // The image of view 0/1 of the last frame (RGBA8 colour, depth = mesh depth attachment).
+  vk::OffscreenTarget& target(std::uint32_t view = 0);
+  Expected<ImageRGBA8> read_image(std::uint32_t view = 0);
+  // Mesh view depth (metres, +infinity where no triangle) of view 0/1 of the last frame;
+  // all +infinity when the frame had no mesh.
+  Expected<std::vector<float>> read_mesh_depth(std::uint32_t view = 0);
+
+  struct Impl;
+
+ private:
+  explicit SplatRenderer(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace gauss::render

@@ -1,0 +1,166 @@
+// SlotBuffer: packing of gauss::Gaussian into the GPU layout of shaders/shared/splat_layout.h
+// and ranged uploads into the stable-slot buffers.
+#include "gauss/render/slot_buffer.h"
+
+#include <algorithm>
+#include <cstring>
+#include <string>
+
+#include "gauss/render/reference_rasterizer.h"
+#include "gauss/render/vk_context.h"
+#include "splat_layout.h"
+
+namespace gauss::render {
+
+namespace {
+
+gpu::GpuSplatCore pack_core(const Gaussian& g) {
+  gpu::GpuSplatCore c{};
+  c.position_opacity = glm::vec4(g.position, g.opacity_logit);
+  c.rotation = g.rotation;
+  c.log_scale_dc_r = glm::vec4(g.log_scale, g.sh_dc.x);
+  c.dc_gb = glm::vec2(g.sh_dc.y, g.sh_dc.z);
+  c.object = to_underlying(g.object);
+  c.flags = gpu::SPLAT_FLAG_OCCUPIED;
+  return c;
+}
+
+std::uint32_t edit_word(EditTintState state, std::uint32_t frame) {
+  // Every age past the longest fade behaves alike; clamping keeps the 30-bit difference exact.
+  const std::uint32_t age = std::min<std::uint32_t>(state.age, 1u << 20);
+  const std::uint32_t edit_frame = (frame - age) & gpu::SPLAT_EDIT_FRAME_MASK;
+  return (static_cast<std::uint32_t>(state.kind) << gpu::SPLAT_EDIT_KIND_SHIFT) | edit_frame;
+}
+
+}  // namespace
+
+Expected<SlotBuffer> SlotBuffer::create(vk::Context& context, const SlotBufferCreateInfo& info) {
+  if (info.capacity == 0) return Error{"SlotBuffer: capacity must be at least 1"};
+  if (info.sh_degree < 0 || info.sh_degree > kMaxShDegree)
+    return Error{"SlotBuffer: sh_degree " + std::to_string(info.sh_degree) + " outside 0..3"};
+  SlotBuffer s;
+  s.capacity_ = info.capacity;
+  s.sh_degree_ = info.sh_degree;
+  s.sh_stride_ = 3u * static_cast<std::uint32_t>(sh_rest_count(info.sh_degree));
+  const VkDeviceSize range = context.max_storage_buffer_range();
+  const VkDeviceSize core_bytes = VkDeviceSize{info.capacity} * sizeof(gpu::GpuSplatCore);
+  const VkDeviceSize sh_bytes = VkDeviceSize{info.capacity} * s.sh_stride_ * sizeof(float);
+  const VkDeviceSize per_slot = std::max<VkDeviceSize>(sizeof(gpu::GpuSplatCore), s.sh_stride_ * sizeof(float));
+  if (core_bytes > range || sh_bytes > range)
+    return Error{"SlotBuffer: capacity " + std::to_string(info.capacity) + " at SH degree " +
+                 std::to_string(info.sh_degree) + " exceeds the device's storage binding range of " +
+                 std::to_string(range) + " bytes (at most " + std::to_string(range / per_slot) + " slots)"};
+
+  auto core = vk::Buffer::create(context, {.size = core_bytes, .name = "splat core slots"});
+  if (!core) return core.error();
+  auto sh = vk::Buffer::create(context, {.size = std::max<VkDeviceSize>(16, sh_bytes), .name = "splat SH rest slots"});
+  if (!sh) return sh.error();
+  auto edit = vk::Buffer::create(context, {.size = VkDeviceSize{info.capacity} * 4, .name = "splat edit tints"});
+  if (!edit) return edit.error();
+  s.core_ = std::move(*core);
+  s.sh_ = std::move(*sh);
+  s.edit_ = std::move(*edit);
+  s.occupied_.assign(info.capacity, 0);
+  s.tinted_.assign(info.capacity, 0);
+
+  // Start empty: flags 0 everywhere, tints None.
+  std::vector<gpu::GpuSplatCore> empty(std::min<std::uint32_t>(info.capacity, 65536u));
+  for (std::uint32_t first = 0; first < info.capacity; first += static_cast<std::uint32_t>(empty.size())) {
+    const std::uint32_t n = std::min<std::uint32_t>(info.capacity - first, static_cast<std::uint32_t>(empty.size()));
+    if (auto st = s.core_.upload(empty.data(), VkDeviceSize{n} * sizeof(gpu::GpuSplatCore),
+                                 VkDeviceSize{first} * sizeof(gpu::GpuSplatCore));
+        !st)
+      return st.error();
+  }
+  std::vector<std::uint32_t> zero_words(info.capacity, 0u);
+  if (auto st = s.edit_.upload(zero_words.data(), VkDeviceSize{info.capacity} * 4); !st) return st.error();
+  return s;
+}
+
+Status SlotBuffer::check_range(std::uint32_t first_slot, std::uint64_t count, const char* what) const {
+  if (std::uint64_t{first_slot} + count > capacity_)
+    return Error{std::string("SlotBuffer::") + what + ": slots [" + std::to_string(first_slot) + ", " +
+                 std::to_string(std::uint64_t{first_slot} + count) + ") exceed the capacity " +
+                 std::to_string(capacity_)};
+  return Ok{};
+}
+
+void SlotBuffer::set_occupied(std::uint32_t slot, bool value) {
+  if ((occupied_[slot] != 0) == value) return;
+  occupied_[slot] = value ? 1 : 0;
+  if (value) {
+    ++occupied_count_;
+    high_water_ = std::max(high_water_, slot + 1);
+  } else {
+    --occupied_count_;
+    while (high_water_ > 0 && occupied_[high_water_ - 1] == 0) --high_water_;
+  }
+}
+
+Status SlotBuffer::write_slots(std::uint32_t first_slot, std::span<const Gaussian> gaussians) {
+  if (auto st = check_range(first_slot, gaussians.size(), "write_slots"); !st) return st;
+  if (gaussians.empty()) return Ok{};
+  const auto n = static_cast<std::uint32_t>(gaussians.size());
+  std::vector<gpu::GpuSplatCore> cores(n);
+  std::vector<float> sh(std::size_t{n} * sh_stride_, 0.0f);
+  std::vector<std::uint8_t> good(n, 0);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const Gaussian& g = gaussians[i];
+    if (!gaussian_is_finite(g, sh_degree_)) {
+      ++rejected_nonfinite_;
+      continue;  // cores[i] stays zero: an empty slot
+    }
+    good[i] = 1;
+    cores[i] = pack_core(g);
+    for (std::uint32_t k = 0; k < sh_stride_ / 3; ++k)
+      for (std::uint32_t ch = 0; ch < 3; ++ch) sh[std::size_t{i} * sh_stride_ + k * 3 + ch] = g.sh_rest[k][static_cast<int>(ch)];
+  }
+  if (auto st = core_.upload(cores.data(), VkDeviceSize{n} * sizeof(gpu::GpuSplatCore),
+                             VkDeviceSize{first_slot} * sizeof(gpu::GpuSplatCore));
+      !st)
+    return st;
+  if (sh_stride_ > 0) {
+    if (auto st = sh_.upload(sh.data(), VkDeviceSize{n} * sh_stride_ * sizeof(float),
+                             VkDeviceSize{first_slot} * sh_stride_ * sizeof(float));
+        !st)
+      return st;
+  }
+  for (std::uint32_t i = 0; i < n; ++i) set_occupied(first_slot + i, good[i] != 0);
+  return Ok{};
+}
+
+Status SlotBuffer::clear_slots(std::uint32_t first_slot, std::uint32_t count) {
+  if (auto st = check_range(first_slot, count, "clear_slots"); !st) return st;
+  if (count == 0) return Ok{};
+  std::vector<gpu::GpuSplatCore> empty(count);
+  if (auto st = core_.upload(empty.data(), VkDeviceSize{count} * sizeof(gpu::GpuSplatCore),
+                             VkDeviceSize{first_slot} * sizeof(gpu::GpuSplatCore));
+      !st)
+    return st;
+  std::vector<std::uint32_t> words(count, 0u);
+  if (auto st = edit_.upload(words.data(), VkDeviceSize{count} * 4, VkDeviceSize{first_slot} * 4); !st) return st;
+  for (std::uint32_t i = 0; i < count; ++i) {
+    set_occupied(first_slot + i, false);
+    if (tinted_[first_slot + i] != 0) {
+      tinted_[first_slot + i] = 0;
+      --tinted_count_;
+    }
+  }
+  return Ok{};
+}
+
+Status SlotBuffer::set_edit_tint(std::uint32_t slot, EditTintState state, std::uint32_t frame) {
+  if (auto st = check_range(slot, 1, "set_edit_tint"); !st) return st;
+  if (static_cast<std::uint32_t>(state.kind) > 3u) return Error{"SlotBuffer::set_edit_tint: unknown tint kind"};
+  const std::uint32_t word = state.kind == EditTintKind::None ? 0u : edit_word(state, frame);
+  if (auto st = edit_.upload(&word, 4, VkDeviceSize{slot} * 4); !st) return st;
+  const bool tinted = state.kind != EditTintKind::None;
+  if ((tinted_[slot] != 0) != tinted) {
+    tinted_[slot] = tinted ? 1 : 0;
+    if (tinted) ++tinted_count_;
+    else --tinted_count_;
+  }
+  return Ok{};
+}
+
+}  // namespace gauss::render

@@ -1,0 +1,291 @@
+// Recording of one view's passes (see splat_renderer.h for the sequence) and the
+// per-frame statistics read back after the frame has finished.
+#include <algorithm>
+#include <bit>
+#include <cmath>
+
+#include "gauss/render/vk_context.h"
+#include "splat_frame.h"
+#include "splat_layout.h"
+
+namespace gauss::render {
+
+namespace {
+
+// Compute writes -> compute reads/writes and indirect-argument reads.
+void compute_barrier(VkCommandBuffer c) {
+  vk::memory_barrier(c, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                     VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_SHADER_WRITE_BIT |
+                         VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+}
+
+std::uint32_t groups(std::uint64_t items, std::uint32_t per_group) {
+  return static_cast<std::uint32_t>((items + per_group - 1) / per_group);
+}
+
+glm::vec4 row_of(const glm::dmat4& m, int r) { return glm::vec4(m[0][r], m[1][r], m[2][r], m[3][r]); }
+
+}  // namespace
+
+Status SplatRenderer::Impl::prepare_view(std::uint32_t v, const Camera& camera, const SplatRenderOptions& options) {
+  ViewResources& view = views[v];
+  if (!view.target.color().valid() || view.target.width() != camera.width || view.target.height() != camera.height) {
+    auto t = vk::OffscreenTarget::create(*context, camera.width, camera.height,
+                                         v == 0 ? "splat view 0" : "splat view 1");
+    if (!t) return t.error();
+    view.target = std::move(*t);
+  }
+  gpu::GpuView g{};
+  const glm::dmat4& m = camera.world_to_camera;
+  g.w2c_row0 = row_of(m, 0);
+  g.w2c_row1 = row_of(m, 1);
+  g.w2c_row2 = row_of(m, 2);
+  const glm::dmat3 rot(m);
+  const glm::dvec3 centre = -glm::transpose(rot) * glm::dvec3(m[3]);
+  g.camera_centre = glm::vec4(glm::vec3(centre), 0.0f);
+  g.intrinsics = glm::vec4(camera.fx, camera.fy, camera.cx, camera.cy);
+  g.limits = glm::vec4(kFrustumClamp * camera.width / (2.0 * camera.fx), kFrustumClamp * camera.height / (2.0 * camera.fy),
+                       options.mesh_margin, 0.0);
+  g.clear_colour = glm::vec4(options.clear_colour, 1.0f);
+  g.size = glm::uvec4(camera.width, camera.height, render::tile_count(camera.width), render::tile_count(camera.height));
+  g.frame = glm::uvec4(slots.high_water(), display_frame, highlight_count, 0u);
+  return view.view_ubo.upload(&g, sizeof(g));
+}
+
+Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, const Camera& camera,
+                                        const SplatRenderOptions& options) {
+  ViewResources& view = views[v];
+  const bool with_mesh = mesh.has_mesh();
+  const bool tint = highlight_count > 0 || slots.tinted_count() > 0;
+  const std::uint32_t tiles_x = render::tile_count(camera.width), tiles_y = render::tile_count(camera.height);
+  const std::uint32_t tiles = tiles_x * tiles_y;
+  const std::uint32_t hwm = slots.high_water();
+  const vk::Buffer& counters = view.counters;
+  auto ts = [&](std::uint32_t i) { view.timestamps.write(c, i); };
+  auto push = [&](const vk::ComputePipeline& p, std::uint32_t item_count, std::uint32_t count_index,
+                  std::uint32_t shift) {
+    const gpu::GpuSplatPush pc{item_count, count_index, shift, info.max_pairs};
+    p.push_constants(c, pc);
+  };
+  auto indirect = [&](std::uint32_t word) { vkCmdDispatchIndirect(c, counters.handle(), VkDeviceSize{word} * 4); };
+
+  ts(0);
+  // ---- Mesh pass and per-tile max mesh depth ----
+  vk::Image& colour = view.target.color();
+  vk::Image& depth = view.target.depth();
+  if (with_mesh) {
+    mesh.record(c, view.target, camera, options.clear_colour);
+  }
+  colour.transition(c, VK_IMAGE_LAYOUT_GENERAL);
+  depth.transition(c, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
+  view.had_mesh = with_mesh;
+  if (with_mesh) {
+    const auto& p = pipelines.tile_depth();
+    if (auto st = p.bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
+                             {gpu::SPLAT_BINDING_MESH_DEPTH, &depth},
+                             {gpu::SPLAT_BINDING_TILE_DEPTH, &tile_depth}});
+        !st)
+      return st;
+    push(p, 0, 0, 0);
+    vkCmdDispatch(c, tiles_x, tiles_y, 1);
+    compute_barrier(c);
+  }
+  ts(1);
+
+  // ---- Preprocess ----
+  auto pre = pipelines.preprocess({.sh_degree = static_cast<std::uint32_t>(slots.sh_degree()),
+                                   .sh_stride = slots.sh_stride(),
+                                   .tint = tint,
+                                   .mesh = with_mesh,
+                                   .exact_cull = options.exact_culling});
+  if (!pre) return pre.error();
+  if (hwm > 0) {
+    if (auto st = (*pre)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
+                                   {gpu::SPLAT_BINDING_CORE, &slots.core_buffer()},
+                                   {gpu::SPLAT_BINDING_SH, &slots.sh_buffer()},
+                                   {gpu::SPLAT_BINDING_EDIT, &slots.edit_buffer()},
+                                   {gpu::SPLAT_BINDING_HIGHLIGHT, &highlight},
+                                   {gpu::SPLAT_BINDING_PROJECTED, &projected},
+                                   {gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
+                                   {gpu::SPLAT_BINDING_TILE_DEPTH, &tile_depth}});
+        !st)
+      return st;
+    push(**pre, hwm, 0, 0);
+    vkCmdDispatch(c, groups(hwm, gpu::SPLAT_WORKGROUP), 1, 1);
+    compute_barrier(c);
+  }
+  ts(2);
+
+  // ---- Visible list in slot order ----
+  const std::initializer_list<vk::Resource> scan_res = {{gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
+                                                        {gpu::SPLAT_BINDING_VALS_IN, &vals[0]},
+                                                        {gpu::SPLAT_BINDING_OFFSETS, &offsets},
+                                                        {gpu::SPLAT_BINDING_HIST, &hist},
+                                                        {gpu::SPLAT_BINDING_COUNTERS, &counters}};
+  if (auto st = pipelines.scan_visible().bind(c, scan_res); !st) return st;
+  push(pipelines.scan_visible(), hwm, 0, 0);
+  vkCmdDispatch(c, 1, 1, 1);
+  compute_barrier(c);
+  if (hwm > 0) {
+    if (auto st = pipelines.compact().bind(c, {{gpu::SPLAT_BINDING_PROJECTED, &projected},
+                                               {gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
+                                               {gpu::SPLAT_BINDING_OFFSETS, &offsets},
+                                               {gpu::SPLAT_BINDING_KEYS_OUT, &keys[0]},
+                                               {gpu::SPLAT_BINDING_VALS_OUT, &vals[0]}});
+        !st)
+      return st;
+    push(pipelines.compact(), hwm, 0, 0);
+    vkCmdDispatch(c, groups(hwm, gpu::SPLAT_WORKGROUP), 1, 1);
+    compute_barrier(c);
+  }
+  ts(3);
+
+  // One stable radix pass: keys/vals[src] -> keys/vals[1 - src] on digit `shift`.
+  auto radix_pass = [&](std::uint32_t src, std::uint32_t shift, std::uint32_t count_index,
+                        std::uint32_t blocks_args) -> Status {
+    const std::uint32_t dst = 1 - src;
+    if (auto st = pipelines.radix_count().bind(c, {{gpu::SPLAT_BINDING_KEYS_IN, &keys[src]},
+                                                   {gpu::SPLAT_BINDING_HIST, &hist},
+                                                   {gpu::SPLAT_BINDING_COUNTERS, &counters}});
+        !st)
+      return st;
+    push(pipelines.radix_count(), 0, count_index, shift);
+    indirect(blocks_args);
+    compute_barrier(c);
+    if (auto st = pipelines.scan_hist().bind(c, scan_res); !st) return st;
+    push(pipelines.scan_hist(), 0, count_index, shift);
+    vkCmdDispatch(c, 1, 1, 1);
+    compute_barrier(c);
+    if (auto st = pipelines.radix_scatter().bind(c, {{gpu::SPLAT_BINDING_KEYS_IN, &keys[src]},
+                                                     {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
+                                                     {gpu::SPLAT_BINDING_KEYS_OUT, &keys[dst]},
+                                                     {gpu::SPLAT_BINDING_VALS_OUT, &vals[dst]},
+                                                     {gpu::SPLAT_BINDING_HIST, &hist},
+                                                     {gpu::SPLAT_BINDING_COUNTERS, &counters}});
+        !st)
+      return st;
+    push(pipelines.radix_scatter(), 0, count_index, shift);
+    indirect(blocks_args);
+    compute_barrier(c);
+    return Ok{};
+  };
+
+  // ---- Depth sort: all 32 bits of the float key (8 passes: the result is back in [0]) ----
+  std::uint32_t src = 0;
+  for (std::uint32_t shift = 0; shift < 32; shift += gpu::SORT_RADIX_BITS) {
+    if (auto st = radix_pass(src, shift, gpu::SPLAT_COUNTER_VISIBLE, gpu::SPLAT_ARGS_VISIBLE_BLOCKS); !st) return st;
+    src = 1 - src;
+  }
+  ts(4);
+
+  // ---- Pair offsets in depth order, then emit (tile, slot) into [1 - src] ----
+  if (auto st = pipelines.scan_pairs().bind(c, {{gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
+                                                {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
+                                                {gpu::SPLAT_BINDING_OFFSETS, &offsets},
+                                                {gpu::SPLAT_BINDING_HIST, &hist},
+                                                {gpu::SPLAT_BINDING_COUNTERS, &counters}});
+      !st)
+    return st;
+  push(pipelines.scan_pairs(), 0, 0, 0);
+  vkCmdDispatch(c, 1, 1, 1);
+  compute_barrier(c);
+  auto emit = pipelines.emit(with_mesh, options.exact_culling);
+  if (!emit) return emit.error();
+  if (auto st = (*emit)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
+                                  {gpu::SPLAT_BINDING_PROJECTED, &projected},
+                                  {gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
+                                  {gpu::SPLAT_BINDING_OFFSETS, &offsets},
+                                  {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
+                                  {gpu::SPLAT_BINDING_KEYS_OUT, &keys[1 - src]},
+                                  {gpu::SPLAT_BINDING_VALS_OUT, &vals[1 - src]},
+                                  {gpu::SPLAT_BINDING_COUNTERS, &counters},
+                                  {gpu::SPLAT_BINDING_TILE_DEPTH, &tile_depth}});
+      !st)
+    return st;
+  push(**emit, 0, 0, 0);
+  indirect(gpu::SPLAT_ARGS_VISIBLE_ITEMS);
+  compute_barrier(c);
+  src = 1 - src;
+  ts(5);
+
+  // ---- Tile sort: only the bits of the tile id (the sentinel id `tiles` included) ----
+  const std::uint32_t tile_bits = static_cast<std::uint32_t>(std::bit_width(tiles));
+  for (std::uint32_t shift = 0; shift < tile_bits; shift += gpu::SORT_RADIX_BITS) {
+    if (auto st = radix_pass(src, shift, gpu::SPLAT_COUNTER_PAIRS, gpu::SPLAT_ARGS_PAIR_BLOCKS); !st) return st;
+    src = 1 - src;
+  }
+  ts(6);
+
+  // ---- Tile ranges ----
+  if (auto st = pipelines.ranges().bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
+                                            {gpu::SPLAT_BINDING_KEYS_IN, &keys[src]},
+                                            {gpu::SPLAT_BINDING_RANGES, &view.ranges},
+                                            {gpu::SPLAT_BINDING_COUNTERS, &counters}});
+      !st)
+    return st;
+  push(pipelines.ranges(), 0, 0, 0);
+  indirect(gpu::SPLAT_ARGS_PAIR_ITEMS);
+  compute_barrier(c);
+  ts(7);
+
+  // ---- Blend, then the packed pixels into the target's colour image ----
+  auto blend = pipelines.blend(with_mesh);
+  if (!blend) return blend.error();
+  if (auto st = (*blend)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
+                                   {gpu::SPLAT_BINDING_PROJECTED, &projected},
+                                   {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
+                                   {gpu::SPLAT_BINDING_RANGES, &view.ranges},
+                                   {gpu::SPLAT_BINDING_OUTPUT, &output},
+                                   {gpu::SPLAT_BINDING_MESH_COLOUR, &colour},
+                                   {gpu::SPLAT_BINDING_MESH_DEPTH, &depth}});
+      !st)
+    return st;
+  push(**blend, 0, 0, 0);
+  vkCmdDispatch(c, tiles_x, tiles_y, 1);
+  vk::memory_barrier(c, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+  colour.transition(c, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+  VkBufferImageCopy region{};
+  region.bufferRowLength = camera.width;
+  region.bufferImageHeight = camera.height;
+  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.imageExtent = {camera.width, camera.height, 1};
+  vkCmdCopyBufferToImage(c, output.handle(), colour.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+  // The next view reuses the output buffer: its blend writes wait for this copy's reads.
+  vk::memory_barrier(c, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
+                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_WRITE_BIT);
+  ts(8);
+  return Ok{};
+}
+
+Expected<SplatFrameStats> SplatRenderer::Impl::read_stats(std::uint32_t v) const {
+  const ViewResources& view = views[v];
+  std::uint32_t words[gpu::SPLAT_COUNTER_WORDS] = {};
+  if (auto st = view.counters.download(words, sizeof(words)); !st) return st.error();
+  SplatFrameStats s;
+  s.high_water = slots.high_water();
+  s.visible = words[gpu::SPLAT_COUNTER_VISIBLE];
+  s.pairs = words[gpu::SPLAT_COUNTER_PAIRS];
+  s.pairs_needed = words[gpu::SPLAT_COUNTER_PAIRS_NEEDED];
+  s.pair_overflow = s.pairs_needed > info.max_pairs;
+  auto ticks = view.timestamps.read_ticks();
+  if (!ticks) return ticks.error();
+  const double ns = context->timestamp_period_ns();
+  auto ms = [&](std::uint32_t a, std::uint32_t b) {
+    const auto& t = *ticks;
+    return t[b] >= t[a] ? double(t[b] - t[a]) * ns * 1e-6 : 0.0;
+  };
+  s.gpu.mesh_ms = ms(0, 1);
+  s.gpu.preprocess_ms = ms(1, 2);
+  s.gpu.compact_ms = ms(2, 3);
+  s.gpu.depth_sort_ms = ms(3, 4);
+  s.gpu.emit_ms = ms(4, 5);
+  s.gpu.tile_sort_ms = ms(5, 6);
+  s.gpu.ranges_ms = ms(6, 7);
+  s.gpu.blend_ms = ms(7, 8);
+  s.gpu.total_ms = ms(0, 8);
+  return s;
+}
+
+}  // namespace gauss::render

@@ -1,0 +1,177 @@
+// Compute pipelines of the splat renderer: bindings per kernel (push descriptors) and
+// the specialization constants of splat_layout.h.
+#include "splat_pipelines.h"
+
+#include <string>
+#include <vector>
+
+#include "gauss/render/splat_math.h"
+#include "gauss/render/vk_context.h"
+#include "gauss/shaders/sort_radix_count.comp.spv.h"
+#include "gauss/shaders/sort_radix_scatter.comp.spv.h"
+#include "gauss/shaders/splat_blend.comp.spv.h"
+#include "gauss/shaders/splat_compact.comp.spv.h"
+#include "gauss/shaders/splat_emit.comp.spv.h"
+#include "gauss/shaders/splat_preprocess.comp.spv.h"
+#include "gauss/shaders/splat_ranges.comp.spv.h"
+#include "gauss/shaders/splat_scan.comp.spv.h"
+#include "gauss/shaders/splat_tile_depth.comp.spv.h"
+#include "splat_layout.h"
+
+namespace gauss::render::splat {
+
+namespace {
+
+using vk::DescriptorKind;
+constexpr auto SB = DescriptorKind::StorageBuffer;
+
+// The C++ and GLSL views of the splat math must agree with splat_math.h.
+static_assert(gpu::SPLAT_TILE == static_cast<std::uint32_t>(kTileSize));
+static_assert(gpu::SORT_BLOCK == gpu::SPLAT_WORKGROUP * gpu::SORT_ITEMS);
+static_assert(gpu::SORT_BINS == (1u << gpu::SORT_RADIX_BITS));
+static_assert(gpu::SPLAT_DILATION == static_cast<float>(kDilation));
+static_assert(gpu::SPLAT_FRUSTUM_CLAMP == static_cast<float>(kFrustumClamp));
+static_assert(gpu::SPLAT_NEAR_CULL == static_cast<float>(kNearCull));
+static_assert(gpu::SPLAT_LAMBDA_FLOOR == static_cast<float>(kLambdaFloor));
+static_assert(gpu::SPLAT_SIGMA_EXTENT == static_cast<float>(kSigmaExtent));
+static_assert(gpu::SPLAT_ALPHA_MIN == static_cast<float>(kAlphaMin));
+static_assert(gpu::SPLAT_ALPHA_MAX == static_cast<float>(kAlphaMax));
+static_assert(gpu::SPLAT_T_STOP == static_cast<float>(kTransmittanceStop));
+static_assert(gpu::SPLAT_HIGHLIGHT_STRENGTH == static_cast<float>(kHighlightStrength));
+static_assert(gpu::SPLAT_EDIT_STRENGTH == static_cast<float>(kEditTintStrength));
+static_assert(gpu::SPLAT_EDIT_TINT_FRAMES == kEditTintFrames);
+static_assert(gpu::SPLAT_REMOVED_FADE_FRAMES == kRemovedFadeFrames);
+static_assert(kHighlightColour[0] == 1.0 && kHighlightColour[1] == 0.8 && kHighlightColour[2] == 0.0,
+              "splat_preprocess.comp hard-codes the highlight colour");
+static_assert(kAddedColour[1] == 1.0 && kReplacedColour[2] == 1.0 && kRemovedColour[0] == 1.0,
+              "splat_preprocess.comp hard-codes the edit tint colours");
+
+Expected<vk::ComputePipeline> make(vk::Context& context, const char* name, vk::SpirvCode code,
+                                   std::vector<vk::DescriptorBinding> bindings,
+                                   std::vector<vk::SpecConstant> spec = {}) {
+  auto p = vk::ComputePipeline::create(context, {.name = name,
+                                                 .shader = code,
+                                                 .bindings = std::move(bindings),
+                                                 .push_constant_size = sizeof(gpu::GpuSplatPush),
+                                                 .spec_constants = std::move(spec)});
+  if (!p) return Error{std::string("splat renderer: ") + p.message()};
+  return std::move(*p);
+}
+
+std::vector<vk::DescriptorBinding> scan_bindings() {
+  return {{gpu::SPLAT_BINDING_TILE_COUNT, SB}, {gpu::SPLAT_BINDING_VALS_IN, SB}, {gpu::SPLAT_BINDING_OFFSETS, SB},
+          {gpu::SPLAT_BINDING_HIST, SB},       {gpu::SPLAT_BINDING_COUNTERS, SB}};
+}
+
+}  // namespace
+
+Expected<SplatPipelines> SplatPipelines::create(vk::Context& context) {
+  SplatPipelines p;
+  p.context_ = &context;
+  struct Fixed {
+    vk::ComputePipeline* out;
+    const char* name;
+    vk::SpirvCode code;
+    std::vector<vk::DescriptorBinding> bindings;
+    std::vector<vk::SpecConstant> spec;
+  };
+  const std::vector<Fixed> fixed = {
+      {&p.scan_visible_, "splat scan (visible)", vk::spirv(gauss_spv_splat_scan_comp), scan_bindings(),
+       {{gpu::SPLAT_SPEC_SCAN_MODE, gpu::SPLAT_SCAN_VISIBLE}}},
+      {&p.scan_pairs_, "splat scan (pairs)", vk::spirv(gauss_spv_splat_scan_comp), scan_bindings(),
+       {{gpu::SPLAT_SPEC_SCAN_MODE, gpu::SPLAT_SCAN_PAIRS}}},
+      {&p.scan_hist_, "splat scan (radix histogram)", vk::spirv(gauss_spv_splat_scan_comp), scan_bindings(),
+       {{gpu::SPLAT_SPEC_SCAN_MODE, gpu::SPLAT_SCAN_HIST}}},
+      {&p.compact_, "splat compact", vk::spirv(gauss_spv_splat_compact_comp),
+       {{gpu::SPLAT_BINDING_PROJECTED, SB},
+        {gpu::SPLAT_BINDING_TILE_COUNT, SB},
+        {gpu::SPLAT_BINDING_OFFSETS, SB},
+        {gpu::SPLAT_BINDING_KEYS_OUT, SB},
+        {gpu::SPLAT_BINDING_VALS_OUT, SB}},
+       {}},
+      {&p.radix_count_, "radix count", vk::spirv(gauss_spv_sort_radix_count_comp),
+       {{gpu::SPLAT_BINDING_KEYS_IN, SB}, {gpu::SPLAT_BINDING_HIST, SB}, {gpu::SPLAT_BINDING_COUNTERS, SB}},
+       {}},
+      {&p.radix_scatter_, "radix scatter", vk::spirv(gauss_spv_sort_radix_scatter_comp),
+       {{gpu::SPLAT_BINDING_KEYS_IN, SB},
+        {gpu::SPLAT_BINDING_VALS_IN, SB},
+        {gpu::SPLAT_BINDING_KEYS_OUT, SB},
+        {gpu::SPLAT_BINDING_VALS_OUT, SB},
+        {gpu::SPLAT_BINDING_HIST, SB},
+        {gpu::SPLAT_BINDING_COUNTERS, SB}},
+       {}},
+      {&p.ranges_, "splat tile ranges", vk::spirv(gauss_spv_splat_ranges_comp),
+       {{gpu::SPLAT_BINDING_VIEW, DescriptorKind::UniformBuffer},
+        {gpu::SPLAT_BINDING_KEYS_IN, SB},
+        {gpu::SPLAT_BINDING_RANGES, SB},
+        {gpu::SPLAT_BINDING_COUNTERS, SB}},
+       {}},
+      {&p.tile_depth_, "splat tile max depth", vk::spirv(gauss_spv_splat_tile_depth_comp),
+       {{gpu::SPLAT_BINDING_VIEW, DescriptorKind::UniformBuffer},
+        {gpu::SPLAT_BINDING_MESH_DEPTH, DescriptorKind::SampledImage},
+        {gpu::SPLAT_BINDING_TILE_DEPTH, SB}},
+       {}},
+  };
+  for (const Fixed& f : fixed) {
+    auto pipe = make(context, f.name, f.code, f.bindings, f.spec);
+    if (!pipe) return pipe.error();
+    *f.out = std::move(*pipe);
+  }
+  return p;
+}
+
+Expected<const vk::ComputePipeline*> SplatPipelines::preprocess(const PreprocessKey& key) {
+  if (auto it = preprocess_.find(key); it != preprocess_.end()) return &it->second;
+  auto pipe = make(*context_, "splat preprocess", vk::spirv(gauss_spv_splat_preprocess_comp),
+                   {{gpu::SPLAT_BINDING_VIEW, DescriptorKind::UniformBuffer},
+                    {gpu::SPLAT_BINDING_CORE, SB},
+                    {gpu::SPLAT_BINDING_SH, SB},
+                    {gpu::SPLAT_BINDING_EDIT, SB},
+                    {gpu::SPLAT_BINDING_HIGHLIGHT, SB},
+                    {gpu::SPLAT_BINDING_PROJECTED, SB},
+                    {gpu::SPLAT_BINDING_TILE_COUNT, SB},
+                    {gpu::SPLAT_BINDING_TILE_DEPTH, SB}},
+                   {{gpu::SPLAT_SPEC_SH_DEGREE, key.sh_degree},
+                    {gpu::SPLAT_SPEC_TINT, key.tint ? 1u : 0u},
+                    {gpu::SPLAT_SPEC_MESH, key.mesh ? 1u : 0u},
+                    {gpu::SPLAT_SPEC_SH_STRIDE, key.sh_stride},
+                    {gpu::SPLAT_SPEC_EXACT_CULL, key.exact_cull ? 1u : 0u}});
+  if (!pipe) return pipe.error();
+  return &preprocess_.emplace(key, std::move(*pipe)).first->second;
+}
+
+Expected<const vk::ComputePipeline*> SplatPipelines::emit(bool mesh, bool exact_cull) {
+  const std::uint32_t key = (mesh ? 1u : 0u) | (exact_cull ? 2u : 0u);
+  if (auto it = emit_.find(key); it != emit_.end()) return &it->second;
+  auto pipe = make(*context_, "splat emit", vk::spirv(gauss_spv_splat_emit_comp),
+                   {{gpu::SPLAT_BINDING_VIEW, DescriptorKind::UniformBuffer},
+                    {gpu::SPLAT_BINDING_PROJECTED, SB},
+                    {gpu::SPLAT_BINDING_TILE_COUNT, SB},
+                    {gpu::SPLAT_BINDING_OFFSETS, SB},
+                    {gpu::SPLAT_BINDING_VALS_IN, SB},
+                    {gpu::SPLAT_BINDING_KEYS_OUT, SB},
+                    {gpu::SPLAT_BINDING_VALS_OUT, SB},
+                    {gpu::SPLAT_BINDING_COUNTERS, SB},
+                    {gpu::SPLAT_BINDING_TILE_DEPTH, SB}},
+                   {{gpu::SPLAT_SPEC_MESH, mesh ? 1u : 0u}, {gpu::SPLAT_SPEC_EXACT_CULL, exact_cull ? 1u : 0u}});
+  if (!pipe) return pipe.error();
+  return &emit_.emplace(key, std::move(*pipe)).first->second;
+}
+
+Expected<const vk::ComputePipeline*> SplatPipelines::blend(bool mesh) {
+  const std::uint32_t key = mesh ? 1u : 0u;
+  if (auto it = blend_.find(key); it != blend_.end()) return &it->second;
+  auto pipe = make(*context_, "splat blend", vk::spirv(gauss_spv_splat_blend_comp),
+                   {{gpu::SPLAT_BINDING_VIEW, DescriptorKind::UniformBuffer},
+                    {gpu::SPLAT_BINDING_PROJECTED, SB},
+                    {gpu::SPLAT_BINDING_VALS_IN, SB},
+                    {gpu::SPLAT_BINDING_RANGES, SB},
+                    {gpu::SPLAT_BINDING_OUTPUT, SB},
+                    {gpu::SPLAT_BINDING_MESH_COLOUR, DescriptorKind::StorageImage},
+                    {gpu::SPLAT_BINDING_MESH_DEPTH, DescriptorKind::SampledImage}},
+                   {{gpu::SPLAT_SPEC_MESH, key}});
+  if (!pipe) return pipe.error();
+  return &blend_.emplace(key, std::move(*pipe)).first->second;
+}
+
+}  // namespace gauss::render::splat

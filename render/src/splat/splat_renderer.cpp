@@ -1,0 +1,235 @@
+// SplatRenderer: resources, the slot / mesh / tint API, and frame submission.
+//
+// Stereo: each eye runs the whole pass sequence for its own camera (per-eye 2D covariance,
+// depth order and tiles), recorded into one command buffer after one upload. Sorting once
+// from the centre eye would save one depth sort per frame but the tile binning and the
+// tile sort are per eye anyway; measured figures are in the report of this file's commit
+// (gauss-bench / tests/render/test_splat_stereo.cpp print per-pass GPU times).
+#include "gauss/render/splat_renderer.h"
+
+#include <algorithm>
+#include <string>
+
+#include "gauss/render/reference_rasterizer.h"
+#include "gauss/render/vk_context.h"
+#include "splat_frame.h"
+#include "splat_layout.h"
+
+namespace gauss::render {
+
+SplatRenderer::SplatRenderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+SplatRenderer::~SplatRenderer() = default;
+
+Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& context,
+                                                                const SplatRendererCreateInfo& info_in) {
+  SplatRendererCreateInfo info = info_in;
+  if (info.capacity == 0 || info.capacity > kMaxSplatCapacity)
+    return Error{"SplatRenderer: capacity " + std::to_string(info.capacity) + " outside 1.." +
+                 std::to_string(kMaxSplatCapacity)};
+  if (info.sh_degree < 0 || info.sh_degree > kMaxShDegree)
+    return Error{"SplatRenderer: sh_degree " + std::to_string(info.sh_degree) + " outside 0..3"};
+  if (info.max_width == 0 || info.max_height == 0 || info.max_width > 4096 || info.max_height > 4096)
+    return Error{"SplatRenderer: max size " + std::to_string(info.max_width) + "x" + std::to_string(info.max_height) +
+                 " outside 1..4096"};
+  const VkDeviceSize range = context.max_storage_buffer_range();
+  const std::uint64_t pair_limit = range / 4;
+  if (info.max_pairs == 0)
+    info.max_pairs = static_cast<std::uint32_t>(
+        std::min<std::uint64_t>({pair_limit, 32u << 20, std::max<std::uint64_t>(1u << 20, std::uint64_t{info.capacity} * 16)}));
+  if (info.max_pairs > pair_limit)
+    return Error{"SplatRenderer: max_pairs " + std::to_string(info.max_pairs) + " exceeds the storage binding range (" +
+                 std::to_string(pair_limit) + " pairs)"};
+
+  auto impl = std::make_unique<Impl>();
+  impl->context = &context;
+  auto slots = SlotBuffer::create(context, {.capacity = info.capacity, .sh_degree = info.sh_degree});
+  if (!slots) return Error{"SplatRenderer: " + slots.message()};
+  impl->slots = std::move(*slots);
+  auto mesh = MeshPass::create(context);
+  if (!mesh) return mesh.error();
+  impl->mesh = std::move(*mesh);
+  auto pipes = splat::SplatPipelines::create(context);
+  if (!pipes) return pipes.error();
+  impl->pipelines = std::move(*pipes);
+  auto cmd = vk::CommandBuffer::create(context);
+  if (!cmd) return cmd.error();
+  impl->cmd = std::move(*cmd);
+
+  const std::uint64_t sort_items = std::max<std::uint64_t>(info.capacity, info.max_pairs);
+  const std::uint64_t max_tiles = std::uint64_t{render::tile_count(info.max_width)} * render::tile_count(info.max_height);
+  auto make = [&](vk::Buffer& out, std::uint64_t bytes, const char* name, VkBufferUsageFlags usage,
+                  vk::MemoryUsage memory) -> Status {
+    auto b = vk::Buffer::create(context, {.size = std::max<std::uint64_t>(bytes, 16), .usage = usage, .memory = memory,
+                                          .name = name});
+    if (!b) return Error{"SplatRenderer: " + b.message()};
+    out = std::move(*b);
+    return Ok{};
+  };
+  constexpr auto SSBO = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+  constexpr auto Dev = vk::MemoryUsage::DeviceLocal;
+  struct Req {
+    vk::Buffer* out;
+    std::uint64_t bytes;
+    const char* name;
+  };
+  const Req reqs[] = {
+      {&impl->projected, std::uint64_t{info.capacity} * sizeof(gpu::GpuProjected), "splat projected"},
+      {&impl->tile_count, std::uint64_t{info.capacity} * 4, "splat tile counts"},
+      {&impl->offsets, std::uint64_t{info.capacity} * 4, "splat offsets"},
+      {&impl->keys[0], sort_items * 4, "sort keys A"},
+      {&impl->keys[1], sort_items * 4, "sort keys B"},
+      {&impl->vals[0], sort_items * 4, "sort values A"},
+      {&impl->vals[1], sort_items * 4, "sort values B"},
+      {&impl->hist, std::uint64_t{gpu::SORT_BINS} * ((sort_items + gpu::SORT_BLOCK - 1) / gpu::SORT_BLOCK) * 4,
+       "radix histogram"},
+      {&impl->tile_depth, max_tiles * 4, "tile max mesh depth"},
+      {&impl->output, std::uint64_t{info.max_width} * info.max_height * 4, "splat output pixels"},
+      {&impl->highlight, std::uint64_t{kMaxHighlightObjects} * 4, "highlight object ids"},
+  };
+  for (const Req& r : reqs)
+    if (auto st = make(*r.out, r.bytes, r.name, SSBO, Dev); !st) return st.error();
+  for (std::uint32_t v = 0; v < 2; ++v) {
+    ViewResources& view = impl->views[v];
+    if (auto st = make(view.view_ubo, sizeof(gpu::GpuView), "splat view constants", VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
+                       vk::MemoryUsage::HostVisible);
+        !st)
+      return st.error();
+    if (auto st = make(view.counters, gpu::SPLAT_COUNTER_WORDS * 4, "splat counters",
+                       SSBO | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, vk::MemoryUsage::HostVisible);
+        !st)
+      return st.error();
+    if (auto st = make(view.ranges, max_tiles * 8, "splat tile ranges", SSBO, Dev); !st) return st.error();
+    auto ts = vk::TimestampQueries::create(context, kViewTimestamps);
+    if (!ts) return ts.error();
+    view.timestamps = std::move(*ts);
+  }
+  impl->info = info;
+  return std::unique_ptr<SplatRenderer>(new SplatRenderer(std::move(impl)));
+}
+
+std::uint32_t SplatRenderer::capacity() const noexcept { return impl_->info.capacity; }
+int SplatRenderer::sh_degree() const noexcept { return impl_->info.sh_degree; }
+std::uint32_t SplatRenderer::max_pairs() const noexcept { return impl_->info.max_pairs; }
+
+Status SplatRenderer::write_slots(std::uint32_t first_slot, std::span<const Gaussian> gaussians) {
+  return impl_->slots.write_slots(first_slot, gaussians);
+}
+Status SplatRenderer::write_slot(SlotIndex slot, const Gaussian& gaussian) {
+  return impl_->slots.write_slot(slot, gaussian);
+}
+Status SplatRenderer::clear_slots(std::uint32_t first_slot, std::uint32_t count) {
+  return impl_->slots.clear_slots(first_slot, count);
+}
+Status SplatRenderer::clear_slot(SlotIndex slot) { return impl_->slots.clear_slot(slot); }
+std::uint32_t SplatRenderer::occupied_count() const noexcept { return impl_->slots.occupied_count(); }
+std::uint32_t SplatRenderer::high_water() const noexcept { return impl_->slots.high_water(); }
+std::uint64_t SplatRenderer::rejected_nonfinite() const noexcept { return impl_->slots.rejected_nonfinite(); }
+
+Status SplatRenderer::set_mesh(const TriangleMesh& mesh) { return impl_->mesh.set_mesh(*impl_->context, mesh); }
+void SplatRenderer::clear_mesh() noexcept { impl_->mesh.clear_mesh(); }
+bool SplatRenderer::has_mesh() const noexcept { return impl_->mesh.has_mesh(); }
+
+Status SplatRenderer::set_highlight(std::span<const ObjectId> objects) {
+  if (objects.size() > kMaxHighlightObjects)
+    return Error{"SplatRenderer::set_highlight: " + std::to_string(objects.size()) + " objects (at most " +
+                 std::to_string(kMaxHighlightObjects) + ")"};
+  std::vector<std::int32_t> ids;
+  ids.reserve(objects.size());
+  for (ObjectId o : objects) ids.push_back(to_underlying(o));
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  if (!ids.empty()) {
+    if (auto st = impl_->highlight.upload(ids.data(), ids.size() * sizeof(std::int32_t)); !st) return st;
+  }
+  impl_->highlight_count = static_cast<std::uint32_t>(ids.size());
+  return Ok{};
+}
+void SplatRenderer::clear_highlight() noexcept { impl_->highlight_count = 0; }
+
+Status SplatRenderer::set_edit_tint(SlotIndex slot, EditTintState state) {
+  return impl_->slots.set_edit_tint(to_underlying(slot), state, impl_->display_frame);
+}
+std::uint32_t SplatRenderer::display_frame() const noexcept { return impl_->display_frame; }
+
+Expected<std::array<SplatFrameStats, 2>> SplatRenderer::Impl::render_views(std::span<const Camera> cameras,
+                                                                           const SplatRenderOptions& options) {
+  for (const Camera& cam : cameras) {
+    if (auto st = validate_camera(cam); !st) return Error{"SplatRenderer: " + st.message()};
+    if (cam.width > info.max_width || cam.height > info.max_height)
+      return Error{"SplatRenderer: camera " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
+                   " exceeds the renderer's maximum " + std::to_string(info.max_width) + "x" +
+                   std::to_string(info.max_height)};
+  }
+  if (!std::isfinite(options.mesh_margin) || options.mesh_margin < 0.0)
+    return Error{"SplatRenderer: mesh_margin must be finite and >= 0"};
+  for (std::uint32_t v = 0; v < cameras.size(); ++v)
+    if (auto st = prepare_view(v, cameras[v], options); !st) return st.error();
+
+  if (auto st = cmd.begin(); !st) return st.error();
+  const VkCommandBuffer c = cmd.handle();
+  for (std::uint32_t v = 0; v < cameras.size(); ++v) {
+    views[v].timestamps.reset(c);
+    const std::uint64_t tiles = std::uint64_t{render::tile_count(cameras[v].width)} * render::tile_count(cameras[v].height);
+    if (auto st = vk::record_fill(c, views[v].counters, 0, VK_WHOLE_SIZE, 0u); !st) return st.error();
+    if (auto st = vk::record_fill(c, views[v].ranges, 0, tiles * 8, 0u); !st) return st.error();
+  }
+  vk::memory_barrier(c, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                     VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_SHADER_WRITE_BIT |
+                         VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+  for (std::uint32_t v = 0; v < cameras.size(); ++v) {
+    if (auto st = record_view(c, v, cameras[v], options); !st) {
+      (void)cmd.end();
+      return st.error();
+    }
+  }
+  vk::memory_barrier(c, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
+                     VK_ACCESS_2_HOST_READ_BIT);
+  if (auto st = cmd.end(); !st) return st.error();
+  if (auto st = cmd.submit_and_wait(); !st) return st.error();
+  ++display_frame;
+
+  std::array<SplatFrameStats, 2> out{};
+  for (std::uint32_t v = 0; v < cameras.size(); ++v) {
+    auto s = read_stats(v);
+    if (!s) return s.error();
+    out[v] = *s;
+  }
+  return out;
+}
+
+Expected<SplatFrameStats> SplatRenderer::render(const Camera& camera, const SplatRenderOptions& options) {
+  auto r = impl_->render_views(std::span<const Camera>(&camera, 1), options);
+  if (!r) return r.error();
+  return (*r)[0];
+}
+
+Expected<std::array<SplatFrameStats, 2>> SplatRenderer::render_stereo(const Camera& left, const Camera& right,
+                                                                     const SplatRenderOptions& options) {
+  const Camera cams[2] = {left, right};
+  return impl_->render_views(cams, options);
+}
+
+vk::OffscreenTarget& SplatRenderer::target(std::uint32_t view) { return impl_->views[std::min(view, 1u)].target; }
+
+Expected<ImageRGBA8> SplatRenderer::read_image(std::uint32_t view) {
+  if (view > 1) return Error{"SplatRenderer::read_image: view " + std::to_string(view) + " (0 or 1)"};
+  vk::OffscreenTarget& t = impl_->views[view].target;
+  if (!t.color().valid()) return Error{"SplatRenderer::read_image: view " + std::to_string(view) + " not rendered yet"};
+  return t.read_color(*impl_->context);
+}
+
+Expected<std::vector<float>> SplatRenderer::read_mesh_depth(std::uint32_t view) {
+  if (view > 1) return Error{"SplatRenderer::read_mesh_depth: view " + std::to_string(view) + " (0 or 1)"};
+  ViewResources& v = impl_->views[view];
+  if (!v.target.depth().valid())
+    return Error{"SplatRenderer::read_mesh_depth: view " + std::to_string(view) + " not rendered yet"};
+  const std::size_t n = std::size_t{v.target.width()} * v.target.height();
+  if (!v.had_mesh) return std::vector<float>(n, std::numeric_limits<float>::infinity());
+  auto stored = v.target.read_depth(*impl_->context);
+  if (!stored) return stored.error();
+  for (float& d : *stored) d = MeshPass::stored_to_view_depth(d);
+  return stored;
+}
+
+}  // namespace gauss::render

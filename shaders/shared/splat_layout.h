@@ -1,0 +1,164 @@
+// Layout of the compute splat renderer (render/src/splat/, shaders/splat_*.comp,
+// shaders/sort_radix_*.comp, shaders/mesh.*): GPU structs, bindings, workgroup sizes,
+// specialization constant ids and the splat-math constants the shaders need. Included
+// by GLSL and C++; render/src/splat/splat_layout_check.cpp static_asserts that the
+// math constants equal those of render/include/gauss/render/splat_math.h.
+//
+// Pass sequence per view (all on the GPU, no readback inside a frame):
+//   mesh (graphics) -> tile max depth (mesh only) -> preprocess (one thread per slot up
+//   to the high-water mark) -> scan + compact (visible slots in slot order) -> depth
+//   radix sort (stable, 32-bit float keys over the N visible) -> scan of tile counts
+//   in depth order -> emit (tile id, slot) pairs -> tile radix sort (stable, only the
+//   bits of the tile id) -> tile ranges -> blend (one workgroup per 16x16 tile).
+// Because both sorts are stable and the compacted list is in slot order, pairs of one
+// tile end up ordered by (depth key, slot): the deterministic order of splat_math.h.
+#ifndef GAUSS_SHADERS_SHARED_SPLAT_LAYOUT_H
+#define GAUSS_SHADERS_SHARED_SPLAT_LAYOUT_H
+
+#include "glsl_cpp.h"
+
+GAUSS_SHARED_BEGIN
+
+// ---- Workgroups ----------------------------------------------------------------------
+// Threads of every 1-D kernel (preprocess, compact, emit, ranges, scan).
+GAUSS_CONST(uint, SPLAT_WORKGROUP, 256u)
+// Screen tile edge; the blend runs one SPLAT_TILE x SPLAT_TILE workgroup per tile.
+GAUSS_CONST(uint, SPLAT_TILE, 16u)
+// Radix sort: 4-bit digits (16 bins), every thread owns SORT_ITEMS consecutive keys, so
+// one workgroup sorts a block of SORT_BLOCK keys. No subgroup operation is used: the
+// per-block ranking goes through shared memory, correct at any subgroup size.
+GAUSS_CONST(uint, SORT_RADIX_BITS, 4u)
+GAUSS_CONST(uint, SORT_BINS, 16u)
+GAUSS_CONST(uint, SORT_ITEMS, 8u)
+GAUSS_CONST(uint, SORT_BLOCK, 2048u)  // SPLAT_WORKGROUP * SORT_ITEMS
+// Indirect dispatches larger than this many workgroups wrap into the y dimension
+// (maxComputeWorkGroupCount[0] is only guaranteed to be 65535).
+GAUSS_CONST(uint, SPLAT_DISPATCH_ROW, 16384u)
+
+// ---- Splat math (mirrors splat_math.h; checked on the C++ side) -----------------------
+GAUSS_CONST(float, SPLAT_DILATION, 0.3)
+GAUSS_CONST(float, SPLAT_FRUSTUM_CLAMP, 1.3)
+GAUSS_CONST(float, SPLAT_NEAR_CULL, 0.2)
+GAUSS_CONST(float, SPLAT_LAMBDA_FLOOR, 0.1)
+GAUSS_CONST(float, SPLAT_SIGMA_EXTENT, 3.0)
+GAUSS_CONST(float, SPLAT_ALPHA_MIN, 1.0 / 255.0)
+GAUSS_CONST(float, SPLAT_ALPHA_MAX, 0.99)
+GAUSS_CONST(float, SPLAT_T_STOP, 0.0001)
+GAUSS_CONST(float, SPLAT_HIGHLIGHT_STRENGTH, 0.5)
+GAUSS_CONST(float, SPLAT_EDIT_STRENGTH, 0.6)
+GAUSS_CONST(uint, SPLAT_EDIT_TINT_FRAMES, 8u)
+GAUSS_CONST(uint, SPLAT_REMOVED_FADE_FRAMES, 8u)
+// Mesh view depth is stored in the D32 depth attachment as depth / SPLAT_MESH_DEPTH_SCALE
+// (a power of two, so the division and the multiplication back are exact); a stored 1.0
+// (the clear value) means "no triangle" and reads as +infinity.
+GAUSS_CONST(float, SPLAT_MESH_DEPTH_SCALE, 65536.0)
+
+// ---- Per-slot data ----------------------------------------------------------------------
+// Core attributes of one slot (64 bytes; 400k slots = 25.6 MB). SH rest lives in its own
+// buffer (3 * sh_rest_count(degree) floats per slot, coefficient-major RGB) so each
+// binding stays far below the 128 MiB storage range.
+struct GpuSplatCore {
+  vec4 position_opacity;  // xyz position (m), w opacity logit
+  vec4 rotation;          // unit quaternion w, x, y, z
+  vec4 log_scale_dc_r;    // xyz log scale, w sh_dc.r
+  vec2 dc_gb;             // sh_dc.g, sh_dc.b
+  int object;             // ObjectId, -1 = none
+  uint flags;             // SPLAT_FLAG_*
+};
+GAUSS_CONST(uint, SPLAT_FLAG_OCCUPIED, 1u)
+
+// Edit-visualisation word per slot: kind in the top 2 bits (EditTintKind), the display
+// frame of the edit in the low 30 bits; age = (frame - edit_frame) & SPLAT_EDIT_FRAME_MASK.
+GAUSS_CONST(uint, SPLAT_EDIT_KIND_SHIFT, 30u)
+GAUSS_CONST(uint, SPLAT_EDIT_FRAME_MASK, 0x3FFFFFFFu)
+
+// A slot after preprocess (per view; valid only where tile_count[slot] > 0).
+struct GpuProjected {
+  vec4 centre_depth_opacity;  // u, v (pixels), view depth t.z, opacity after tints
+  vec4 conic;                 // A, B, C, unused
+  vec4 colour;                // rgb after SH, clamp and tints; unused w
+  uvec4 rect;                 // tile x_min, y_min, x_max, y_max (max exclusive)
+};
+
+// ---- Per-view constants (uniform buffer, std140) -----------------------------------------
+struct GpuView {
+  vec4 w2c_row0;         // rows of world_to_camera's upper 3x4 (rotation | translation)
+  vec4 w2c_row1;
+  vec4 w2c_row2;
+  vec4 camera_centre;    // xyz = -R^T t
+  vec4 intrinsics;       // fx, fy, cx, cy
+  vec4 limits;           // lim_x, lim_y (frustum clamp), mesh margin, unused
+  vec4 clear_colour;     // rgb background without a mesh
+  uvec4 size;            // width, height, tiles_x, tiles_y
+  uvec4 frame;           // high-water mark, display frame, highlight count, sort key bits
+};
+
+// ---- Counters (per view, uint[SPLAT_COUNTER_WORDS]) -----------------------------------------
+GAUSS_CONST(uint, SPLAT_COUNTER_VISIBLE, 0u)       // N: splats touching >= 1 tile
+GAUSS_CONST(uint, SPLAT_COUNTER_PAIRS_NEEDED, 1u)  // P: (tile, splat) pairs wanted (saturating)
+GAUSS_CONST(uint, SPLAT_COUNTER_PAIRS, 2u)         // min(P, pair capacity): pairs emitted
+GAUSS_CONST(uint, SPLAT_ARGS_VISIBLE_ITEMS, 4u)    // VkDispatchIndirectCommand words
+GAUSS_CONST(uint, SPLAT_ARGS_VISIBLE_BLOCKS, 8u)
+GAUSS_CONST(uint, SPLAT_ARGS_PAIR_ITEMS, 12u)
+GAUSS_CONST(uint, SPLAT_ARGS_PAIR_BLOCKS, 16u)
+GAUSS_CONST(uint, SPLAT_COUNTER_WORDS, 20u)
+
+// ---- Bindings (each pipeline declares the ones it uses) -----------------------------------
+GAUSS_BINDING(SPLAT_BINDING_VIEW, 0u)
+GAUSS_BINDING(SPLAT_BINDING_CORE, 1u)
+GAUSS_BINDING(SPLAT_BINDING_SH, 2u)
+GAUSS_BINDING(SPLAT_BINDING_EDIT, 3u)
+GAUSS_BINDING(SPLAT_BINDING_HIGHLIGHT, 4u)
+GAUSS_BINDING(SPLAT_BINDING_PROJECTED, 5u)
+GAUSS_BINDING(SPLAT_BINDING_TILE_COUNT, 6u)
+GAUSS_BINDING(SPLAT_BINDING_OFFSETS, 7u)
+GAUSS_BINDING(SPLAT_BINDING_KEYS_IN, 8u)
+GAUSS_BINDING(SPLAT_BINDING_VALS_IN, 9u)
+GAUSS_BINDING(SPLAT_BINDING_KEYS_OUT, 10u)
+GAUSS_BINDING(SPLAT_BINDING_VALS_OUT, 11u)
+GAUSS_BINDING(SPLAT_BINDING_HIST, 12u)
+GAUSS_BINDING(SPLAT_BINDING_COUNTERS, 13u)
+GAUSS_BINDING(SPLAT_BINDING_RANGES, 14u)
+GAUSS_BINDING(SPLAT_BINDING_OUTPUT, 15u)
+GAUSS_BINDING(SPLAT_BINDING_MESH_COLOUR, 16u)
+GAUSS_BINDING(SPLAT_BINDING_MESH_DEPTH, 17u)
+GAUSS_BINDING(SPLAT_BINDING_TILE_DEPTH, 18u)
+
+// ---- Specialization constant ids ------------------------------------------------------------
+GAUSS_CONST(uint, SPLAT_SPEC_SH_DEGREE, 0u)   // scene SH degree 0..3 (0: SH rest never read)
+GAUSS_CONST(uint, SPLAT_SPEC_TINT, 1u)        // highlight / edit tint active
+GAUSS_CONST(uint, SPLAT_SPEC_MESH, 2u)        // mesh layer present
+GAUSS_CONST(uint, SPLAT_SPEC_SH_STRIDE, 3u)   // floats of SH rest per slot (buffer layout)
+GAUSS_CONST(uint, SPLAT_SPEC_EXACT_CULL, 4u)  // bin only into tiles alpha >= 1/255 can reach
+GAUSS_CONST(uint, SPLAT_SPEC_SCAN_MODE, 0u)   // splat_scan.comp: SPLAT_SCAN_*
+GAUSS_CONST(uint, SPLAT_SCAN_VISIBLE, 0u)     // flags tile_count[i] > 0 over the slots
+GAUSS_CONST(uint, SPLAT_SCAN_PAIRS, 1u)       // tile_count[vals[i]] over the visible list
+GAUSS_CONST(uint, SPLAT_SCAN_HIST, 2u)        // radix histogram, in place
+
+// ---- Push constants ---------------------------------------------------------------------------
+// One struct for every compute kernel; each reads the fields it documents.
+struct GpuSplatPush {
+  uint item_count;    // preprocess / compact / visible scan: high-water mark
+  uint count_index;   // radix passes and the histogram scan: counter holding the key count
+  uint shift;         // radix pass: first key bit of the digit
+  uint pair_capacity; // pair scan / emit: pairs the key buffers hold
+};
+
+// Mesh pass push constants (vertex shader).
+struct GpuMeshPush {
+  vec4 w2c_row0;
+  vec4 w2c_row1;
+  vec4 w2c_row2;
+  vec4 intrinsics;  // fx, fy, cx, cy
+  vec4 viewport;    // width, height, near, far
+};
+
+GAUSS_SHARED_END
+
+GAUSS_STATIC_ASSERT(sizeof(gauss::gpu::GpuSplatCore) == 64, "GpuSplatCore must be 64 bytes (std430)");
+GAUSS_STATIC_ASSERT(sizeof(gauss::gpu::GpuProjected) == 64, "GpuProjected must be 64 bytes (std430)");
+GAUSS_STATIC_ASSERT(sizeof(gauss::gpu::GpuView) == 144, "GpuView must be 144 bytes (std140)");
+GAUSS_STATIC_ASSERT(sizeof(gauss::gpu::GpuSplatPush) == 16, "GpuSplatPush must be 16 bytes");
+GAUSS_STATIC_ASSERT(sizeof(gauss::gpu::GpuMeshPush) == 80, "GpuMeshPush must be 80 bytes");
+
+#endif  // GAUSS_SHADERS_SHARED_SPLAT_LAYOUT_H

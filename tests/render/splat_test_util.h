@@ -1,0 +1,110 @@
+#pragma once
+// Helpers of the splat renderer tests (tests/render/test_splat_*.cpp): cameras, small
+// deterministic procedural scenes, and the GPU-vs-reference comparison.
+#include <cmath>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "gauss/engine/camera.h"
+#include "gauss/engine/gaussian.h"
+#include "gauss/engine/image_io.h"
+#include "gauss/engine/quaternion.h"
+#include "gauss/render/image_metrics.h"
+#include "gauss/render/reference_rasterizer.h"
+#include "gauss/render/splat_renderer.h"
+#include "test_data.h"
+
+namespace gauss::test {
+
+// Camera at the origin looking down +z (world = camera frame), horizontal FOV ~60 degrees.
+inline Camera forward_camera(std::uint32_t width, std::uint32_t height) {
+  Camera c;
+  c.width = width;
+  c.height = height;
+  c.fx = c.fy = 0.866 * width;
+  c.cx = width * 0.5;
+  c.cy = height * 0.5;
+  return c;
+}
+
+// Camera at `eye` looking at `target`; `down_hint` is roughly the world direction that
+// should point down in the image (OpenCV: image y down).
+inline Camera look_at_camera(std::uint32_t width, std::uint32_t height, glm::dvec3 eye, glm::dvec3 target,
+                             glm::dvec3 down_hint = {0, 1, 0}) {
+  Camera c = forward_camera(width, height);
+  const glm::dvec3 z = glm::normalize(target - eye);
+  const glm::dvec3 x = glm::normalize(glm::cross(down_hint, z));
+  const glm::dvec3 y = glm::cross(z, x);
+  glm::dmat4 w2c(1.0);
+  for (int i = 0; i < 3; ++i) {
+    w2c[i][0] = x[i];
+    w2c[i][1] = y[i];
+    w2c[i][2] = z[i];
+  }
+  w2c[3][0] = -glm::dot(x, eye);
+  w2c[3][1] = -glm::dot(y, eye);
+  w2c[3][2] = -glm::dot(z, eye);
+  c.world_to_camera = w2c;
+  return c;
+}
+
+// Deterministic xorshift (no dependence on the standard library's distributions).
+struct Rng {
+  std::uint64_t s{88172645463325252ull};
+  double next() {
+    s ^= s << 13;
+    s ^= s >> 7;
+    s ^= s << 17;
+    return double(s >> 11) * (1.0 / 9007199254740992.0);
+  }
+  float uniform(double a, double b) { return static_cast<float>(a + (b - a) * next()); }
+};
+
+// n Gaussians in a box in front of forward_camera, SH up to `degree`, normalised rotations.
+inline std::vector<Gaussian> procedural_scene(std::size_t n, int degree, std::uint64_t seed = 1) {
+  Rng rng;
+  rng.s ^= seed * 0x9E3779B97F4A7C15ull;
+  std::vector<Gaussian> out(n);
+  for (auto& g : out) {
+    g.position = {rng.uniform(-1.5, 1.5), rng.uniform(-1.0, 1.0), rng.uniform(2.0, 6.0)};
+    g.log_scale = {rng.uniform(-4.0, -2.0), rng.uniform(-4.0, -2.0), rng.uniform(-4.0, -2.0)};
+    g.rotation = {rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)};
+    normalize_quaternion(g.rotation);
+    g.opacity_logit = rng.uniform(-2.0, 4.0);
+    g.sh_dc = {rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5)};
+    for (int k = 0; k < sh_rest_count(degree); ++k)
+      g.sh_rest[static_cast<std::size_t>(k)] = {rng.uniform(-0.2, 0.2), rng.uniform(-0.2, 0.2), rng.uniform(-0.2, 0.2)};
+    g.object = ObjectId{static_cast<std::int32_t>(rng.next() * 8)};
+  }
+  return out;
+}
+
+// GPU image vs the reference image: PSNR >= min_psnr and max error <= max_err, plus a
+// printout of both figures (they go into the report).
+inline ::testing::AssertionResult close_to_reference(const ImageRGBA8& ref, const ImageRGBA8& gpu,
+                                                     const std::string& what, double min_psnr = 60.0,
+                                                     int max_err = 2) {
+  auto d = render::compare_images(ref, gpu);
+  if (!d) return ::testing::AssertionFailure() << what << ": " << d.message();
+  std::printf("[%s] PSNR %.2f dB, max error %d/255, %llu of %llu pixels differ\n", what.c_str(), d->psnr_db,
+              d->max_abs_error, static_cast<unsigned long long>(d->pixels_differing),
+              static_cast<unsigned long long>(d->pixels));
+  if (d->psnr_db < min_psnr || d->max_abs_error > max_err) {
+    (void)write_png(output_dir() / (what + ".gpu.png"), gpu);
+    (void)write_png(output_dir() / (what + ".ref.png"), ref);
+    return ::testing::AssertionFailure() << what << ": PSNR " << d->psnr_db << " dB (need >= " << min_psnr
+                                         << "), max error " << d->max_abs_error << " (need <= " << max_err
+                                         << "); images in " << output_dir().string();
+  }
+  return ::testing::AssertionSuccess();
+}
+
+inline bool all_finite_bytes(const ImageRGBA8& img) {
+  return img.pixels.size() == std::size_t{img.width} * img.height * 4;
+}
+
+}  // namespace gauss::test
