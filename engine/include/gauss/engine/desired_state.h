@@ -113,6 +113,11 @@ class DesiredState {
   // decreases: once epoch e's scene changes are published, a later selection-only
   // batch of the same epoch (records of epoch e) does not make the published state older.
   std::optional<Epoch> published_epoch() const;
+  // Epoch of the oldest pending edit (nullopt when nothing is pending).
+  std::optional<Epoch> oldest_pending_epoch() const {
+    if (epoch_counts_.empty()) return std::nullopt;
+    return Epoch{epoch_counts_.begin()->first};
+  }
 
   // Order-independent checksums (see record_hash) of the desired set and of the
   // published set as this state believes it to be.

@@ -1,0 +1,130 @@
+#pragma once
+// HostSession: the host's side of one client connection, transport-agnostic. The
+// transport (net/ over ENet, or the deterministic simulation) feeds it the client's
+// decoded messages and sends what it returns; nothing here touches sockets.
+//
+// Per connection: the Hello check (protocol version, access token, capacity), the
+// client's coarse pose and query, its own Selector + Differ (own selection per
+// client), the edit batches, surface patches and object-table updates of every epoch.
+// A reconnect is a new connection and so a new HostSession: its first batch is a
+// resync snapshot (the complete desired set), which the client reconciles with what it
+// still holds (DesiredState::apply_resync), so the host never restarts.
+//
+// Bad input: a message before the Hello, a second Hello, a message of the wrong
+// direction, a stale pose, an invalid or too frequent query: each is rejected with a
+// reason in the log and a counter; the connection stays, the session state is
+// untouched. Only a refused Hello ends the connection (closed() becomes true).
+#include <cstdint>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "gauss/engine/codec.h"
+#include "gauss/engine/differ.h"
+#include "gauss/engine/messages.h"
+#include "gauss/engine/scene_store.h"
+#include "gauss/engine/selector.h"
+#include "gauss/engine/stage_events.h"
+#include "gauss/engine/wire.h"
+
+namespace gauss {
+
+struct HostSessionConfig {
+  std::string access_token;          // required token; empty = none required
+  std::uint32_t max_capacity{kMaxSlotCapacity};  // grant at most this many slots
+  SelectorConfig selector{};
+  // Query rate limit (token bucket): a burst of `query_burst`, refilled at
+  // `queries_per_s`. A flood beyond it is rejected, not queued.
+  double queries_per_s{4.0};
+  std::uint32_t query_burst{4};
+  // Selection-only batches (pose or query moved, scene did not) are held back while
+  // more than this many batches are unacknowledged: a slow link gets one coalesced
+  // batch later instead of a queue of stale ones.
+  std::uint32_t max_unacked_batches{2};
+  // A pose change smaller than this (metres, or radians of view direction) does not
+  // trigger a selection-only batch.
+  double pose_epsilon_m{0.05};
+  double pose_epsilon_rad{0.05};
+};
+
+struct HostSessionStats {
+  std::uint64_t rejected_messages{0};   // everything below, summed
+  std::uint64_t rejected_before_hello{0};
+  std::uint64_t rejected_duplicate_hello{0};
+  std::uint64_t rejected_direction{0};
+  std::uint64_t stale_poses{0};
+  std::uint64_t rejected_queries{0};    // rate limit or unresolvable
+  std::uint64_t batches_sent{0};
+  std::uint64_t edits_sent{0};
+  std::uint64_t payload_bytes_sent{0};  // codec bytes (compressed)
+  std::string last_rejection;
+};
+
+class HostSession {
+ public:
+  HostSession(std::uint32_t client_id, std::uint64_t session_id, CodecParams params, HostSessionConfig config = {});
+
+  // One decoded message from the client at host time `now` (seconds). Returns the
+  // replies to send (Welcome/Refuse, QueryReply). `scene` resolves queries.
+  std::vector<wire::Message> on_message(const wire::Message& m, const SceneStore& scene, double now);
+
+  // The host loop's tick, between epochs: when the scene advanced, or the pose/query
+  // moved (and the link keeps up), select + diff + encode. Returns the model-stream
+  // messages to send: SceneInfo and a resync snapshot first after the Welcome, then
+  // one batch per new epoch (possibly empty) plus selection-only batches, surface
+  // patches and object-table updates. Errors name a selector/differ failure; the
+  // session stays usable.
+  Expected<std::vector<wire::Message>> tick(const SceneStore& scene, double now);
+
+  bool accepted() const noexcept { return accepted_; }
+  bool closed() const noexcept { return closed_; }
+  std::uint32_t client_id() const noexcept { return client_id_; }
+  std::uint32_t capacity() const noexcept { return capacity_; }
+  const HostSessionStats& stats() const noexcept { return stats_; }
+  // Stage events (available, sent; query resolved, target, desired residency).
+  EventLog& events() noexcept { return events_; }
+  // The desired set as last sent (sorted ids) and its checksum over the records the
+  // client decodes (quantize_roundtrip), to compare with the client's state.
+  const std::vector<GaussianId>& sent_ids() const noexcept { return sent_ids_; }
+  std::uint64_t sent_checksum(const SceneStore& scene) const;
+  std::optional<msg::Ack> last_ack() const noexcept { return last_ack_; }
+  std::uint64_t last_batch_id() const noexcept { return next_batch_id_ - 1; }
+
+ private:
+  void reject(std::uint64_t& counter, std::string reason);
+  msg::SceneInfo scene_info(const SceneStore& scene) const;
+  bool pose_moved() const;
+
+  std::uint32_t client_id_;
+  std::uint64_t session_id_;
+  CodecParams params_;
+  HostSessionConfig config_;
+  Selector selector_;
+  Differ differ_;
+  EventLog events_;
+  HostSessionStats stats_;
+
+  bool accepted_{false};
+  bool closed_{false};
+  bool needs_resync_{false};
+  std::uint32_t capacity_{0};
+  std::optional<msg::HeadPose> pose_;
+  std::optional<msg::HeadPose> selected_pose_;  // pose of the last selection
+  std::optional<SemanticQuery> query_;
+  double rho_{0.0};
+  bool query_changed_{false};
+  std::uint32_t query_id_{0};
+  double bucket_{0.0};
+  double bucket_time_{0.0};
+  std::optional<Epoch> sent_epoch_;   // scene epoch of the last batch
+  std::uint64_t next_batch_id_{1};
+  std::optional<msg::Ack> last_ack_;
+  std::vector<GaussianId> sent_ids_;
+  std::set<std::int32_t> sent_objects_;
+};
+
+// The coarse pose the selector uses for a wire HeadPose.
+ClientPose to_client_pose(const msg::HeadPose& pose);
+
+}  // namespace gauss
