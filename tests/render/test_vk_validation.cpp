@@ -1,0 +1,63 @@
+// The validation messenger really catches errors: an invalid create info and a leaked
+// object each raise the error count (on a fresh context, with validation requested
+// explicitly), and the fixture's own zero-errors check is switched off for these tests.
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "gauss/render/vk_context.h"
+#include "vk_test.h"
+
+namespace {
+
+using gauss::vk::Context;
+
+class VkValidationTest : public gauss::test::VkTest {};
+
+TEST_F(VkValidationTest, InvalidCreateInfoIsCounted) {
+  allow_validation_errors();
+  auto ctx = Context::create({.app_name = "validation-test", .enable_validation = true});
+  ASSERT_TRUE(ctx) << ctx.message();
+  ASSERT_TRUE((*ctx)->validation_enabled());
+  EXPECT_EQ((*ctx)->validation_error_count(), 0u) << (*ctx)->last_validation_error();
+  const auto process_before = gauss::vk::process_validation_error_count();
+
+  // maxLod < minLod is invalid usage (VUID-VkSamplerCreateInfo-maxLod-01973) that the
+  // driver tolerates, so provoking it is safe.
+  VkSamplerCreateInfo sci{};
+  sci.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+  sci.minLod = 1.0f;
+  sci.maxLod = 0.0f;
+  VkSampler sampler = VK_NULL_HANDLE;
+  const VkResult r = vkCreateSampler((*ctx)->device(), &sci, nullptr, &sampler);
+  if (r == VK_SUCCESS) vkDestroySampler((*ctx)->device(), sampler, nullptr);
+
+  EXPECT_GE((*ctx)->validation_error_count(), 1u);
+  EXPECT_GE(gauss::vk::process_validation_error_count(), process_before + 1);
+  EXPECT_NE((*ctx)->last_validation_error().find("maxLod"), std::string::npos) << (*ctx)->last_validation_error();
+}
+
+TEST_F(VkValidationTest, LeakedObjectIsReportedOnDestroy) {
+  allow_validation_errors();
+  auto ctx = Context::create({.app_name = "leak-test", .enable_validation = true});
+  ASSERT_TRUE(ctx) << ctx.message();
+  VkFenceCreateInfo fci{};
+  fci.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+  VkFence leaked = VK_NULL_HANDLE;
+  ASSERT_EQ(vkCreateFence((*ctx)->device(), &fci, nullptr, &leaked), VK_SUCCESS);
+  const auto before = gauss::vk::process_validation_error_count();
+  ctx->reset();  // destroys the device with the fence still alive
+  EXPECT_GT(gauss::vk::process_validation_error_count(), before) << "the leaked VkFence was not reported";
+}
+
+TEST_F(VkValidationTest, CleanContextReportsNothing) {
+  const auto before = gauss::vk::process_validation_error_count();
+  {
+    auto ctx = Context::create({.app_name = "clean", .enable_validation = true});
+    ASSERT_TRUE(ctx) << ctx.message();
+    ASSERT_TRUE((*ctx)->wait_idle());
+  }
+  EXPECT_EQ(gauss::vk::process_validation_error_count(), before);
+}
+
+}  // namespace
