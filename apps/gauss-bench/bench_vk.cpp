@@ -1,0 +1,224 @@
+// gauss-bench vk: costs of the Vulkan core on this device: context creation (with and
+// without validation), a 1024x1024 compute dispatch (the test pattern shader, GPU
+// timestamps), host->buffer upload throughput (Buffer::upload) and GPU buffer copy
+// throughput. Each figure is printed beside its check (bytes that came back wrong,
+// pattern pixels that differ between runs), as every bench here does.
+//
+//   gauss-bench vk [--device NAME] [--repeat N] [--json PATH]
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "bench_registry.h"
+#include "gauss/render/vk_buffer.h"
+#include "gauss/render/vk_commands.h"
+#include "gauss/render/vk_context.h"
+#include "gauss/render/vk_image.h"
+#include "gauss/render/vk_pipeline.h"
+#include "gauss/render/vk_timestamps.h"
+#include "gauss/shaders/test_pattern.comp.spv.h"
+#include "test_pattern_layout.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v[v.size() / 2];
+}
+
+int run_vk(int argc, char** argv) {
+  std::string device = gauss::vk::device_override_from_args(argc, argv);
+  int repeat = 5;
+  std::string json_path;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) repeat = std::max(1, std::atoi(argv[++i]));
+    if (std::strcmp(argv[i], "--json") == 0 && i + 1 < argc) json_path = argv[++i];
+  }
+  nlohmann::json out;
+
+  // Context creation, cold first (driver JIT/caches), then the median of the rest.
+  for (bool validation : {false, true}) {
+    std::vector<double> times;
+    for (int r = 0; r < repeat + 1; ++r) {
+      const auto t0 = Clock::now();
+      auto ctx = gauss::vk::Context::create({.app_name = "bench-vk", .device_override = device, .enable_validation = validation});
+      const double ms = ms_since(t0);
+      if (!ctx) {
+        std::fprintf(stderr, "gauss-bench vk: %s\n", ctx.message().c_str());
+        return 1;
+      }
+      times.push_back(ms);
+    }
+    const double first = times.front();
+    times.erase(times.begin());
+    const char* key = validation ? "context_create_validation_ms" : "context_create_ms";
+    out[key] = {{"first", first}, {"median", median(times)}};
+  }
+
+  auto ctx_or = gauss::vk::Context::create({.app_name = "bench-vk", .device_override = device});
+  if (!ctx_or) {
+    std::fprintf(stderr, "gauss-bench vk: %s\n", ctx_or.message().c_str());
+    return 1;
+  }
+  gauss::vk::Context& ctx = **ctx_or;
+  out["device"] = ctx.device_name();
+  out["subgroup_size"] = ctx.subgroup_size();
+
+  // 1024x1024 dispatch of the test pattern into the offscreen colour target.
+  constexpr std::uint32_t kSize = 1024;
+  const std::uint32_t groups = kSize / gauss::gpu::TEST_PATTERN_WORKGROUP;
+  auto target = gauss::vk::OffscreenTarget::create(ctx, kSize, kSize, "bench");
+  auto sums = gauss::vk::Buffer::create(ctx, {.size = groups * groups * 4, .name = "sums"});
+  auto pipeline = gauss::vk::ComputePipeline::create(
+      ctx, {.name = "pattern",
+            .shader = gauss::vk::spirv(gauss_spv_test_pattern_comp),
+            .bindings = {{gauss::gpu::TEST_PATTERN_BINDING_IMAGE, gauss::vk::DescriptorKind::StorageImage},
+                         {gauss::gpu::TEST_PATTERN_BINDING_TILE_SUMS, gauss::vk::DescriptorKind::StorageBuffer}},
+            .push_constant_size = sizeof(gauss::gpu::TestPatternPush),
+            .spec_constants = {{gauss::gpu::TEST_PATTERN_SPEC_R_MUL, 7}}});
+  auto queries = gauss::vk::TimestampQueries::create(ctx, 2);
+  if (!target || !sums || !pipeline || !queries) {
+    std::fprintf(stderr, "gauss-bench vk: setup failed: %s\n",
+                 !target ? target.message().c_str() : !sums ? sums.message().c_str()
+                 : !pipeline ? pipeline.message().c_str() : queries.message().c_str());
+    return 1;
+  }
+  std::vector<double> gpu_ms, wall_ms;
+  std::size_t differing_runs = 0;
+  gauss::ImageRGBA8 first_image;
+  for (int r = 0; r < repeat + 1; ++r) {
+    gauss::Status bound = gauss::Ok{};
+    const auto t0 = Clock::now();
+    auto st = ctx.submit_and_wait([&](VkCommandBuffer cmd) {
+      queries->reset(cmd);
+      target->color().transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
+      bound = pipeline->bind(cmd, {{0, &target->color()}, {1, &*sums}});
+      pipeline->push_constants(cmd, gauss::gpu::TestPatternPush{kSize, kSize, 12345, 0});
+      queries->write(cmd, 0);
+      vkCmdDispatch(cmd, groups, groups, 1);
+      queries->write(cmd, 1);
+    });
+    const double wall = ms_since(t0);
+    if (!st || !bound) {
+      std::fprintf(stderr, "gauss-bench vk: dispatch failed: %s\n", !st ? st.message().c_str() : bound.message().c_str());
+      return 1;
+    }
+    auto ns = queries->elapsed_ns(0, 1);
+    auto img = target->read_color(ctx);
+    if (!ns || !img) {
+      std::fprintf(stderr, "gauss-bench vk: readback failed\n");
+      return 1;
+    }
+    if (r == 0) {
+      first_image = *img;  // run 0 includes pipeline warm-up: not timed
+      continue;
+    }
+    if (img->pixels != first_image.pixels) ++differing_runs;
+    gpu_ms.push_back(*ns * 1e-6);
+    wall_ms.push_back(wall);
+  }
+  out["dispatch_1024"] = {{"gpu_ms_median", median(gpu_ms)},
+                          {"submit_wait_ms_median", median(wall_ms)},
+                          {"runs_differing_from_first", differing_runs}};
+
+  // Upload throughput through Buffer::upload (memcpy when mapped, staging otherwise),
+  // and GPU-side buffer->buffer copy throughput.
+  nlohmann::json uploads = nlohmann::json::array();
+  for (std::size_t mib : {1u, 16u, 64u}) {
+    const std::size_t bytes = mib << 20;
+    std::vector<std::uint8_t> data(bytes);
+    for (std::size_t i = 0; i < bytes; ++i) data[i] = static_cast<std::uint8_t>(i * 2654435761u >> 13);
+    auto a = gauss::vk::Buffer::create(ctx, {.size = bytes, .name = "upload"});
+    auto b = gauss::vk::Buffer::create(ctx, {.size = bytes, .name = "copy dst"});
+    auto q = gauss::vk::TimestampQueries::create(ctx, 2);
+    if (!a || !b || !q) {
+      std::fprintf(stderr, "gauss-bench vk: buffer setup failed for %zu MiB\n", mib);
+      return 1;
+    }
+    std::vector<double> up_ms, copy_ms;
+    for (int r = 0; r < repeat; ++r) {
+      const auto t0 = Clock::now();
+      if (auto st = a->upload(data.data(), bytes); !st) {
+        std::fprintf(stderr, "gauss-bench vk: %s\n", st.message().c_str());
+        return 1;
+      }
+      up_ms.push_back(ms_since(t0));
+      gauss::Status copied = gauss::Ok{};
+      auto st = ctx.submit_and_wait([&](VkCommandBuffer cmd) {
+        q->reset(cmd);
+        q->write(cmd, 0);
+        const VkBufferCopy region{0, 0, bytes};
+        copied = gauss::vk::record_copy(cmd, *a, *b, {&region, 1});
+        q->write(cmd, 1);
+      });
+      auto ns = q->elapsed_ns(0, 1);
+      if (!st || !copied || !ns) {
+        std::fprintf(stderr, "gauss-bench vk: GPU copy failed\n");
+        return 1;
+      }
+      copy_ms.push_back(*ns * 1e-6);
+    }
+    std::vector<std::uint8_t> back(bytes);
+    if (auto st = b->download(back.data(), bytes); !st) {
+      std::fprintf(stderr, "gauss-bench vk: %s\n", st.message().c_str());
+      return 1;
+    }
+    std::size_t wrong = 0;
+    for (std::size_t i = 0; i < bytes; ++i) wrong += back[i] != data[i] ? 1 : 0;
+    const double up = median(up_ms);
+    const double cp = median(copy_ms);
+    uploads.push_back({{"mib", mib},
+                       {"upload_ms", up},
+                       {"upload_gib_s", (bytes / double(1 << 30)) / (up * 1e-3)},
+                       {"gpu_copy_ms", cp},
+                       {"gpu_copy_gib_s", (bytes / double(1 << 30)) / (cp * 1e-3)},
+                       {"wrong_bytes", wrong},
+                       {"mapped", a->host_visible()}});
+  }
+  out["uploads"] = uploads;
+  out["repeat"] = repeat;
+
+  std::printf("device: %s (subgroup %u)\n", ctx.device_name().c_str(), ctx.subgroup_size());
+  std::printf("%-34s %12s %12s\n", "measure", "median", "first/check");
+  std::printf("%-34s %9.1f ms %9.1f ms\n", "context create", out["context_create_ms"]["median"].get<double>(),
+              out["context_create_ms"]["first"].get<double>());
+  std::printf("%-34s %9.1f ms %9.1f ms\n", "context create (validation)",
+              out["context_create_validation_ms"]["median"].get<double>(),
+              out["context_create_validation_ms"]["first"].get<double>());
+  std::printf("%-34s %9.3f ms %8zu diff\n", "dispatch 1024x1024 (GPU timestamps)", median(gpu_ms), differing_runs);
+  std::printf("%-34s %9.3f ms\n", "dispatch 1024x1024 (submit+wait)", median(wall_ms));
+  for (const auto& u : uploads) {
+    char label[64];
+    std::snprintf(label, sizeof(label), "upload %3zu MiB (%s)", u["mib"].get<std::size_t>(),
+                  u["mapped"].get<bool>() ? "mapped" : "staged");
+    std::printf("%-34s %7.2f GiB/s %7zu wrong\n", label, u["upload_gib_s"].get<double>(), u["wrong_bytes"].get<std::size_t>());
+    std::snprintf(label, sizeof(label), "GPU copy %3zu MiB", u["mib"].get<std::size_t>());
+    std::printf("%-34s %7.2f GiB/s\n", label, u["gpu_copy_gib_s"].get<double>());
+  }
+  if (!json_path.empty()) {
+    std::ofstream f(json_path);
+    f << out.dump(2) << "\n";
+    if (!f) {
+      std::fprintf(stderr, "gauss-bench vk: could not write %s\n", json_path.c_str());
+      return 1;
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+GAUSS_BENCH("vk", "Vulkan core: context creation, 1024^2 dispatch, upload throughput", run_vk);
