@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -233,6 +234,21 @@ double baseline_ms(const Config& c) {
   return 0.0;
 }
 
+// Process CPU time (all threads, lavapipe's included) in ms: with the machine shared, wall
+// time swings with the load while CPU time per frame stays comparable between runs.
+double process_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
+}
+
+// 1-minute load average ("?" when unreadable), printed beside the timings.
+std::string load_average() {
+  std::ifstream f("/proc/loadavg");
+  std::string one;
+  return (f >> one) ? one : std::string("?");
+}
+
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
@@ -331,7 +347,7 @@ int parse_options(int argc, char** argv, Options& o) {
 
 // Per-pass GPU ms of one frame, summed over the views of the frame.
 struct FrameTimes {
-  double wall{0}, total{0}, mesh{0}, preprocess{0}, compact{0}, depth_sort{0}, emit{0}, tile_sort{0}, ranges{0},
+  double wall{0}, cpu{0}, total{0}, mesh{0}, preprocess{0}, compact{0}, depth_sort{0}, emit{0}, tile_sort{0}, ranges{0},
       blend{0};
   std::uint32_t visible{0}, pairs{0};
   bool overflow{false};
@@ -392,6 +408,7 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
   std::vector<FrameTimes> frames;
   for (int f = 0; f <= o.frames; ++f) {  // frame 0: warm-up, not measured
     FrameTimes t;
+    const double cpu0 = process_cpu_ms();
     const auto t0 = std::chrono::steady_clock::now();
     if (c.stereo) {
       auto st = r.render_stereo(left, right);
@@ -410,6 +427,7 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
       t.add(*st);
     }
     t.wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    t.cpu = process_cpu_ms() - cpu0;
     if (f > 0) frames.push_back(t);
   }
   const FrameTimes& last = frames.back();
@@ -419,6 +437,9 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
   out["frames"] = o.frames;
   out["wall_ms_median"] = wall_med;
   out["wall_ms_min"] = wall_min;
+  const double cpu_med = median_of(frames, [](const FrameTimes& t) { return t.cpu; });
+  out["process_cpu_ms_median"] = cpu_med;
+  out["load_average_1min"] = load_average();
   out["gpu_ms_median"] = {
       {"total", median_of(frames, [](const FrameTimes& t) { return t.total; })},
       {"mesh", median_of(frames, [](const FrameTimes& t) { return t.mesh; })},
@@ -472,8 +493,8 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
                         {"cpu_ms", ref_ms},
                         {"reference_pairs", ref_pairs}};
     char buf[96];
-    std::snprintf(buf, sizeof buf, "%6.1f dB max %d/255 rows %u-%u%s", std::isinf(worst_psnr) ? 999.0 : worst_psnr,
-                  worst_err, row_begin, row_end, row_end - row_begin < c.height ? " (subset)" : "");
+    std::snprintf(buf, sizeof buf, "%6.1f dB max %d/255 rows %u-%u%s, ref %.0f ms", std::isinf(worst_psnr) ? 999.0 : worst_psnr,
+                  worst_err, row_begin, row_end, row_end - row_begin < c.height ? " (subset)" : "", ref_ms);
     err_text = buf;
   }
   const double gpu_total = out["gpu_ms_median"]["total"];
@@ -481,8 +502,8 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
   const double blend_ms = out["gpu_ms_median"]["blend"];
   char ratio[32] = "    -";
   if (base > 0) std::snprintf(ratio, sizeof ratio, "%5.2f", wall_med / base);
-  std::printf("%-22s %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %9u %10u %7.0f %s | %s%s\n", c.label.c_str(), wall_med,
-              wall_min, gpu_total, double(out["gpu_ms_median"]["preprocess"]), sort_ms, blend_ms, last.visible,
+  std::printf("%-22s %8.1f %8.1f %8.1f %5s %8.1f %8.1f %8.1f %8.1f %9u %10u %7.0f %s | %s%s\n", c.label.c_str(),
+              wall_med, wall_min, cpu_med, load_average().c_str(), gpu_total, double(out["gpu_ms_median"]["preprocess"]), sort_ms, blend_ms, last.visible,
               last.pairs, base, ratio, err_text.c_str(), last.overflow ? " PAIR OVERFLOW" : "");
   std::fflush(stdout);
   return 0;
@@ -507,10 +528,12 @@ int bench_render_main(int argc, char** argv) {
   const std::vector<Gaussian> scene = box_gaussians(max_n);
   const double gen_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   std::printf("gauss-bench render | device %s | box scene SH3, %ld Gaussians generated in %.0f ms | %d frames after "
-              "1 warm-up\nwall = render call incl. submit + wait (no readback); gpu = timestamps, medians; "
-              "stereo rows sum both eyes; times taken on a shared machine (under load)\n\n",
+              "1 warm-up\nwall = render call incl. submit + wait (no readback); cpu = process CPU time "
+              "(all lavapipe threads) per frame; load = 1-min load average;\ngpu = timestamps; all medians; stereo rows "
+              "sum both eyes; ratio = wall_med / base_ms; times taken on a shared machine (under load)\n\n",
               (*ctx)->device_name().c_str(), max_n, gen_ms, o.frames);
-  std::printf("%-22s %8s %8s %8s %8s %8s %8s %9s %10s %7s %5s | %s\n", "size", "wall_med", "wall_min", "gpu_tot",
+  std::printf("%-22s %8s %8s %8s %5s %8s %8s %8s %8s %9s %10s %7s %5s | %s\n", "size", "wall_med", "wall_min",
+              "cpu_med", "load", "gpu_tot",
               "preproc", "sorts", "blend", "visible", "pairs", "base_ms", "ratio", "vs CPU reference (PSNR, max err)");
   nlohmann::json results = nlohmann::json::array();
   int rc = 0;
