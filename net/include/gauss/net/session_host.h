@@ -1,0 +1,66 @@
+#pragma once
+// SessionHost: NetHost + one engine HostSession per connected client. The host loop
+// calls pump() between epochs; everything that decides what a client gets lives in
+// HostSession (engine/), this class only routes typed messages between the two.
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "gauss/engine/codec.h"
+#include "gauss/engine/host_session.h"
+#include "gauss/engine/scene_store.h"
+#include "gauss/net/host.h"
+
+namespace gauss::net {
+
+struct SessionHostConfig {
+  NetHostConfig net{};
+  HostSessionConfig session{};
+  // A client whose link holds more than this many unacknowledged bytes is skipped by
+  // pump() (its session diffs from what it was sent, so it catches up in one batch
+  // when the link drains instead of queueing stale epochs).
+  std::size_t max_pending_bytes{16u << 20};
+};
+
+struct SessionHostStats {
+  std::uint64_t sessions_opened{0};
+  std::uint64_t sessions_closed{0};
+  std::uint64_t held_back{0};        // ticks skipped for a client whose link was behind
+  std::uint64_t tick_errors{0};      // HostSession::tick failures (logged)
+  std::uint64_t send_errors{0};      // messages the transport refused to queue (logged)
+  std::string last_error;
+};
+
+class SessionHost {
+ public:
+  // Binds the transport. `params` are the codec parameters every session uses.
+  static Expected<std::unique_ptr<SessionHost>> start(SessionHostConfig config, CodecParams params);
+
+  // Routes queued client messages to their sessions (replies go straight out), opens
+  // a session per new connection and closes it on disconnect, then ticks every
+  // session and sends what it produced. Call from the host loop, between epochs.
+  void pump(const SceneStore& scene, double now);
+
+  NetHost& net() noexcept { return *net_; }
+  const NetHost& net() const noexcept { return *net_; }
+  // The session of a connected client (nullptr when none).
+  HostSession* session(std::uint32_t client);
+  std::vector<std::uint32_t> clients() const;
+  const SessionHostStats& stats() const noexcept { return stats_; }
+
+ private:
+  SessionHost(SessionHostConfig config, CodecParams params, std::unique_ptr<NetHost> net);
+  void send_all(std::uint32_t client, const std::vector<wire::Message>& out);
+  void log(const std::string& line);
+
+  SessionHostConfig config_;
+  CodecParams params_;
+  std::unique_ptr<NetHost> net_;
+  std::map<std::uint32_t, HostSession> sessions_;
+  SessionHostStats stats_;
+};
+
+}  // namespace gauss::net

@@ -1,0 +1,322 @@
+// NetClient: connect / Hello / receive loop on its own thread, with reconnects.
+#include "gauss/net/client.h"
+
+#include <condition_variable>
+#include <cstdio>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "enet_runtime.h"
+#include "packet_ref.h"
+
+namespace gauss::net {
+
+using Clock = std::chrono::steady_clock;
+
+namespace {
+struct Outgoing {
+  std::uint8_t channel{0};
+  bool reliable{true};
+  detail::Frame frame;
+};
+}  // namespace
+
+struct NetClient::Impl {
+  NetClientConfig cfg;
+  ClientSink* sink{nullptr};
+  detail::EnetRef enet;
+  ENetAddress server{};
+  std::thread thread;
+  std::atomic<bool> stop{false};
+  std::atomic<bool> abandoned{false};
+
+  mutable std::mutex mu;  // status, outbox, counters
+  mutable std::condition_variable cv;
+  ClientStatus status{ClientStatus::Connecting};
+  std::vector<Outgoing> outbox;
+  ClientCounters counters;
+
+  ~Impl() {
+    if (thread.joinable()) {
+      stop = true;
+      thread.join();
+    }
+  }
+
+  void log(const std::string& line) const {
+    if (cfg.log) cfg.log(line);
+    else std::fprintf(stderr, "[gauss-net client %s] %s\n", cfg.name.c_str(), line.c_str());
+  }
+
+  void set_status(ClientStatus s) {
+    {
+      std::lock_guard lock(mu);
+      status = s;
+    }
+    cv.notify_all();
+  }
+
+  void reject(const std::string& why, std::uint64_t ClientCounters::*counter) {
+    std::uint64_t n = 0;
+    {
+      std::lock_guard lock(mu);
+      n = ++(counters.*counter);
+      counters.last_rejection = why;
+    }
+    if (n <= 8 || n % 100 == 0) log("rejected message: " + why);
+  }
+
+  void flush(ENetPeer* peer) {
+    for (const auto& m : sink->take_outgoing()) {
+      auto bytes = wire::encode(m);
+      const msg::MessageType type = wire::type_of(m);
+      if (!bytes.ok() || msg::direction_of(type) != msg::Direction::ClientToHost) {
+        log("dropping an outgoing " + std::string(msg::to_string(type)) + ": " +
+            (bytes.ok() ? std::string("not a client message") : bytes.message()));
+        std::lock_guard lock(mu);
+        ++counters.send_dropped;
+        continue;
+      }
+      std::lock_guard lock(mu);
+      outbox.push_back(Outgoing{msg::channel_of(type), type != msg::MessageType::HeadPose,
+                                std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value())});
+    }
+    std::vector<Outgoing> out;
+    {
+      std::lock_guard lock(mu);
+      out.swap(outbox);
+    }
+    for (auto& o : out) {
+      ENetPacket* p = detail::make_packet(o.frame, o.reliable, nullptr);
+      const bool ok = p != nullptr && enet_peer_send(peer, o.channel, p) == 0;
+      if (!ok && p != nullptr) enet_packet_destroy(p);
+      std::lock_guard lock(mu);
+      if (ok) {
+        ++counters.messages_sent;
+        counters.bytes_sent += o.frame->size();
+      } else {
+        ++counters.send_dropped;
+      }
+    }
+  }
+
+  void drop_outbox() {
+    std::lock_guard lock(mu);
+    counters.send_dropped += outbox.size();
+    outbox.clear();
+  }
+
+  // Handles one received frame; returns false when the connection must end (refused).
+  bool receive(const ENetPacket* packet, bool& welcomed) {
+    {
+      std::lock_guard lock(mu);
+      counters.bytes_received += packet->dataLength;
+    }
+    auto decoded = wire::decode(std::span<const std::uint8_t>(packet->data, packet->dataLength));
+    if (!decoded.ok()) {
+      reject("malformed: " + decoded.message(), &ClientCounters::malformed);
+      return true;
+    }
+    wire::Message& m = decoded.value();
+    const msg::MessageType type = wire::type_of(m);
+    if (msg::direction_of(type) != msg::Direction::HostToClient) {
+      reject(std::string("unexpected ") + msg::to_string(type) + " from the host", &ClientCounters::wrong_direction);
+      return true;
+    }
+    if (auto* refuse = std::get_if<msg::Refuse>(&m)) {
+      log("refused by host: " + refuse->detail);
+      sink->on_refused(*refuse);
+      set_status(ClientStatus::Refused);
+      return false;
+    }
+    if (auto* welcome = std::get_if<msg::Welcome>(&m)) {
+      if (welcomed || welcome->protocol_version != msg::kProtocolVersion) {
+        reject("unexpected Welcome", &ClientCounters::wrong_direction);
+        return true;
+      }
+      welcomed = true;
+      {
+        std::lock_guard lock(mu);
+        ++counters.welcomes;
+      }
+      sink->on_welcome(*welcome);
+      set_status(ClientStatus::Connected);
+      return true;
+    }
+    if (!welcomed) {
+      reject(std::string(msg::to_string(type)) + " before Welcome", &ClientCounters::wrong_direction);
+      return true;
+    }
+    {
+      std::lock_guard lock(mu);
+      ++counters.messages_received;
+    }
+    sink->on_message(std::move(m));
+    return true;
+  }
+
+  // One connection attempt and its whole life. Returns when it ends.
+  void session(ENetHost* host) {
+    ENetPeer* peer = enet_host_connect(host, &server, msg::kChannelCount, 0);
+    if (peer == nullptr) {
+      log("cannot start a connection");
+      return;
+    }
+    enet_peer_timeout(peer, 0, static_cast<enet_uint32>(cfg.peer_timeout_min.count()),
+                      static_cast<enet_uint32>(cfg.peer_timeout_max.count()));
+    ENetEvent ev;
+    bool connected = false, welcomed = false, refused = false;
+    const auto deadline = Clock::now() + cfg.connect_timeout;
+    while (!stop.load() && !connected && Clock::now() < deadline) {
+      if (enet_host_service(host, &ev, 5) > 0 && ev.type == ENET_EVENT_TYPE_CONNECT) connected = true;
+    }
+    if (!connected) {
+      enet_peer_reset(peer);
+      return;
+    }
+    {
+      std::lock_guard lock(mu);
+      ++counters.connects;
+    }
+    msg::Hello hello;
+    hello.slot_capacity = cfg.slot_capacity;
+    hello.access_token = cfg.access_token;
+    hello.client_name = cfg.name;
+    auto bytes = wire::encode(hello);
+    if (!bytes.ok()) {  // checked in start(); kept for safety against later edits
+      log("cannot encode Hello: " + bytes.message());
+      enet_peer_reset(peer);
+      return;
+    }
+    auto frame = std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value());
+    if (ENetPacket* p = detail::make_packet(frame, true, nullptr)) {
+      if (enet_peer_send(peer, msg::kChannelModel, p) != 0) enet_packet_destroy(p);
+    }
+    bool alive = true;
+    while (alive && !stop.load()) {
+      if (welcomed) flush(peer);
+      int r = enet_host_service(host, &ev, 2);
+      while (r > 0 && alive) {
+        if (ev.type == ENET_EVENT_TYPE_RECEIVE) {
+          if (!receive(ev.packet, welcomed)) refused = true;
+          enet_packet_destroy(ev.packet);
+        } else if (ev.type == ENET_EVENT_TYPE_DISCONNECT) {
+          alive = false;
+        }
+        if (alive) r = enet_host_service(host, &ev, 0);
+      }
+      if (refused) {
+        // Let the host's disconnect arrive (or give up quickly); nothing more to say.
+        enet_peer_disconnect(peer, 0);
+        alive = false;
+      }
+    }
+    if (abandoned.load()) {
+      enet_peer_reset(peer);  // no goodbye: the host finds out by timeout
+    } else if (alive) {
+      enet_peer_disconnect(peer, 0);
+      const auto until = Clock::now() + std::chrono::milliseconds(300);
+      while (Clock::now() < until)
+        if (enet_host_service(host, &ev, 10) > 0 && ev.type == ENET_EVENT_TYPE_DISCONNECT) break;
+      enet_peer_reset(peer);
+    }
+    if (welcomed) {
+      std::lock_guard lock(mu);
+      ++counters.disconnects;
+    }
+    if (welcomed || refused) sink->on_disconnected(refused ? "refused" : "connection closed");
+  }
+
+  void run(ENetHost* host) {
+    while (!stop.load()) {
+      session(host);
+      drop_outbox();
+      {
+        std::lock_guard lock(mu);
+        if (status == ClientStatus::Refused) break;
+      }
+      if (!cfg.reconnect || stop.load()) break;
+      set_status(ClientStatus::Connecting);
+      const auto until = Clock::now() + cfg.reconnect_delay;
+      while (!stop.load() && Clock::now() < until) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    enet_host_destroy(host);
+    std::lock_guard lock(mu);
+    if (status != ClientStatus::Refused) status = ClientStatus::Stopped;
+    cv.notify_all();
+  }
+};
+
+NetClient::NetClient(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+NetClient::~NetClient() = default;
+
+Expected<std::unique_ptr<NetClient>> NetClient::start(NetClientConfig config, ClientSink& sink) {
+  msg::Hello probe;
+  probe.slot_capacity = config.slot_capacity;
+  probe.access_token = config.access_token;
+  probe.client_name = config.name;
+  if (auto e = wire::encode(probe); !e) return Error{"ClientConfig: " + e.message()};
+  auto impl = std::make_unique<Impl>();
+  impl->cfg = std::move(config);
+  impl->sink = &sink;
+  if (auto s = impl->enet.acquire(); !s) return s.error();
+  auto addr = detail::resolve(impl->cfg.server);
+  if (!addr) return addr.error();
+  impl->server = addr.value();
+  auto host = detail::create_host(nullptr, 1);
+  if (!host) return host.error();
+  Impl* raw = impl.get();
+  ENetHost* h = host.value();
+  impl->thread = std::thread([raw, h] { raw->run(h); });
+  return std::unique_ptr<NetClient>(new NetClient(std::move(impl)));
+}
+
+Status NetClient::send(const wire::Message& m) {
+  const msg::MessageType type = wire::type_of(m);
+  if (msg::direction_of(type) != msg::Direction::ClientToHost || type == msg::MessageType::Hello)
+    return Error{std::string("NetClient::send: ") + msg::to_string(type) + " is not a client message to send"};
+  auto bytes = wire::encode(m);
+  if (!bytes) return bytes.error();
+  std::lock_guard lock(impl_->mu);
+  if (impl_->status != ClientStatus::Connected) {
+    ++impl_->counters.send_dropped;
+    return Ok{};
+  }
+  // A lost pose is replaced by the next one within ~100 ms; everything else must arrive.
+  const bool reliable = type != msg::MessageType::HeadPose;
+  impl_->outbox.push_back(
+      Outgoing{msg::channel_of(type), reliable, std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value())});
+  return Ok{};
+}
+
+Status NetClient::send_raw(std::vector<std::uint8_t> bytes, std::uint8_t channel) {
+  if (channel >= msg::kChannelCount) return Error{"NetClient::send_raw: channel " + std::to_string(channel) + " does not exist"};
+  if (bytes.empty()) return Error{"NetClient::send_raw: empty packet"};
+  std::lock_guard lock(impl_->mu);
+  impl_->outbox.push_back(Outgoing{channel, true, std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes))});
+  return Ok{};
+}
+
+ClientStatus NetClient::status() const {
+  std::lock_guard lock(impl_->mu);
+  return impl_->status;
+}
+
+bool NetClient::wait_for(ClientStatus s, std::chrono::milliseconds timeout) const {
+  std::unique_lock lock(impl_->mu);
+  return impl_->cv.wait_for(lock, timeout, [&] { return impl_->status == s; });
+}
+
+ClientCounters NetClient::counters() const {
+  std::lock_guard lock(impl_->mu);
+  return impl_->counters;
+}
+
+void NetClient::abandon() {
+  impl_->abandoned = true;
+  impl_->stop = true;
+  if (impl_->thread.joinable()) impl_->thread.join();
+}
+
+}  // namespace gauss::net

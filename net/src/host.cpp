@@ -1,0 +1,452 @@
+// NetHost: ENet service thread, handshake and per-connection input hygiene.
+#include "gauss/net/host.h"
+
+#include <condition_variable>
+#include <cstdio>
+#include <deque>
+#include <mutex>
+#include <random>
+#include <thread>
+#include <unordered_map>
+
+#include "enet_runtime.h"
+#include "packet_ref.h"
+
+namespace gauss::net {
+
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+struct Outgoing {
+  std::uint32_t client{0};
+  msg::MessageType type{msg::MessageType::Welcome};
+  detail::Frame frame;     // null: a disconnect request
+};
+
+struct PeerState {
+  bool welcomed{false};
+  bool closing{false};     // refused or kicked: further input is ignored
+  std::uint32_t client{0};
+  Clock::time_point connected_at{};
+  double tokens{0.0};      // query bucket
+  Clock::time_point refilled{};
+  std::uint32_t rejected{0};
+  detail::ByteCounter pending;
+};
+
+// Only the first few rejections per connection are logged in full; after that one
+// line per 100 keeps a flood from flooding the log too (the counters keep the rest).
+constexpr std::uint32_t kLoggedRejections = 8;
+
+}  // namespace
+
+struct NetHost::Impl {
+  NetHostConfig cfg;
+  detail::EnetRef enet;
+  ENetHost* host{nullptr};
+  std::uint64_t session{0};
+  std::thread thread;
+  std::atomic<bool> stop{false};
+
+  mutable std::mutex mu;  // outbox, events, counters, pending, client_count
+  std::condition_variable cv;
+  std::vector<Outgoing> outbox;
+  std::deque<HostEvent> events;
+  HostCounters counters;
+  std::unordered_map<std::uint32_t, detail::ByteCounter> pending;  // welcomed clients
+
+  // Service-thread only.
+  std::unordered_map<ENetPeer*, PeerState> peers;
+  std::unordered_map<std::uint32_t, ENetPeer*> clients;
+  std::uint32_t next_client{1};
+
+  ~Impl() {
+    if (thread.joinable()) {
+      stop = true;
+      thread.join();
+    }
+    if (host != nullptr) enet_host_destroy(host);
+  }
+
+  void log(const std::string& line) const {
+    if (cfg.log) cfg.log(line);
+    else std::fprintf(stderr, "[gauss-net host] %s\n", line.c_str());
+  }
+
+  void push_event(HostEvent e) {
+    {
+      std::lock_guard lock(mu);
+      if (events.size() >= cfg.max_queued_events) {
+        ++counters.events_dropped;
+        return;
+      }
+      events.push_back(std::move(e));
+    }
+    cv.notify_all();
+  }
+
+  void send_now(ENetPeer* peer, const wire::Message& m) {
+    auto bytes = wire::encode(m);
+    if (!bytes.ok()) {
+      log("internal: cannot encode " + std::string(msg::to_string(wire::type_of(m))) + ": " + bytes.message());
+      return;
+    }
+    auto frame = std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value());
+    if (ENetPacket* p = detail::make_packet(frame, true, nullptr)) {
+      if (enet_peer_send(peer, msg::channel_of(wire::type_of(m)), p) != 0) enet_packet_destroy(p);
+      std::lock_guard lock(mu);
+      ++counters.messages_sent;
+      counters.bytes_sent += frame->size();
+    }
+  }
+
+  void refuse(ENetPeer* peer, PeerState& ps, msg::RefuseReason reason, const std::string& detail,
+              std::uint64_t HostCounters::*counter) {
+    {
+      std::lock_guard lock(mu);
+      ++(counters.*counter);
+      counters.last_rejection = "refused: " + detail;
+    }
+    log("refusing connection: " + detail);
+    msg::Refuse r{reason, msg::kProtocolVersion, detail.substr(0, msg::kMaxReasonBytes)};
+    send_now(peer, r);
+    ps.closing = true;
+    enet_peer_disconnect_later(peer, 0);  // after the Refuse is delivered
+  }
+
+  void reject(ENetPeer* peer, PeerState& ps, const std::string& why, std::uint64_t HostCounters::*counter) {
+    ++ps.rejected;
+    {
+      std::lock_guard lock(mu);
+      ++(counters.*counter);
+      counters.last_rejection = why;
+    }
+    if (ps.rejected <= kLoggedRejections || ps.rejected % 100 == 0)
+      log("client " + std::to_string(ps.client) + ": rejected message #" + std::to_string(ps.rejected) + ": " + why);
+    if (ps.rejected > cfg.max_rejected_per_client && !ps.closing) {
+      log("client " + std::to_string(ps.client) + ": disconnected after " + std::to_string(ps.rejected) +
+          " rejected messages");
+      {
+        std::lock_guard lock(mu);
+        ++counters.kicked;
+      }
+      ps.closing = true;
+      enet_peer_disconnect_later(peer, 0);
+    }
+  }
+
+  void handshake(ENetPeer* peer, PeerState& ps, Expected<wire::Message> decoded) {
+    if (!decoded.ok())
+      return refuse(peer, ps, msg::RefuseReason::Malformed, "bad first message: " + decoded.message(),
+                    &HostCounters::refused_malformed);
+    auto* hello = std::get_if<msg::Hello>(&decoded.value());
+    if (hello == nullptr)
+      return refuse(peer, ps, msg::RefuseReason::Malformed,
+                    std::string("first message must be Hello, got ") + msg::to_string(wire::type_of(decoded.value())),
+                    &HostCounters::refused_malformed);
+    if (hello->protocol_version != msg::kProtocolVersion)
+      return refuse(peer, ps, msg::RefuseReason::VersionMismatch,
+                    "protocol version " + std::to_string(hello->protocol_version) + ", host speaks " +
+                        std::to_string(msg::kProtocolVersion),
+                    &HostCounters::refused_version);
+    if (!cfg.access_token.empty() && hello->access_token != cfg.access_token)
+      return refuse(peer, ps, msg::RefuseReason::BadToken,
+                    hello->access_token.empty() ? "access token required" : "wrong access token",
+                    &HostCounters::refused_token);
+    if (hello->slot_capacity > cfg.max_slot_capacity)
+      return refuse(peer, ps, msg::RefuseReason::BadCapacity,
+                    "slot capacity " + std::to_string(hello->slot_capacity) + " above this host's limit " +
+                        std::to_string(cfg.max_slot_capacity),
+                    &HostCounters::refused_capacity);
+    if (clients.size() >= cfg.max_clients)
+      return refuse(peer, ps, msg::RefuseReason::HostFull,
+                    "host full (" + std::to_string(cfg.max_clients) + " clients)", &HostCounters::refused_full);
+
+    ps.welcomed = true;
+    ps.client = next_client++;
+    ps.tokens = cfg.query_burst;
+    ps.refilled = Clock::now();
+    ps.pending = std::make_shared<std::atomic<std::int64_t>>(0);
+    clients[ps.client] = peer;
+    {
+      std::lock_guard lock(mu);
+      ++counters.accepted;
+      pending[ps.client] = ps.pending;
+    }
+    // The policy answers with Welcome (or Refuse) through send(); the model channel
+    // is ordered, so whatever it queues after the Welcome arrives after it.
+    HostEvent e;
+    e.kind = HostEventKind::Connected;
+    e.client = ps.client;
+    e.hello = *hello;
+    log("client " + std::to_string(ps.client) + " '" + hello->client_name + "' connected, capacity " +
+        std::to_string(hello->slot_capacity));
+    push_event(std::move(e));
+  }
+
+  bool take_query_token(PeerState& ps) {
+    const auto now = Clock::now();
+    const double dt = std::chrono::duration<double>(now - ps.refilled).count();
+    ps.refilled = now;
+    ps.tokens = std::min(cfg.query_burst, ps.tokens + dt * cfg.query_rate_hz);
+    if (ps.tokens < 1.0) return false;
+    ps.tokens -= 1.0;
+    return true;
+  }
+
+  void receive(ENetPeer* peer, const ENetPacket* packet) {
+    auto it = peers.find(peer);
+    if (it == peers.end()) return;
+    PeerState& ps = it->second;
+    {
+      std::lock_guard lock(mu);
+      counters.bytes_received += packet->dataLength;
+    }
+    if (ps.closing) return;
+    auto decoded = wire::decode(std::span<const std::uint8_t>(packet->data, packet->dataLength));
+    if (!ps.welcomed) return handshake(peer, ps, std::move(decoded));
+    if (!decoded.ok()) return reject(peer, ps, "malformed: " + decoded.message(), &HostCounters::malformed);
+    const msg::MessageType type = wire::type_of(decoded.value());
+    if (msg::direction_of(type) != msg::Direction::ClientToHost || type == msg::MessageType::Hello)
+      return reject(peer, ps, std::string("unexpected ") + msg::to_string(type) + " from a client",
+                    &HostCounters::wrong_direction);
+    if (type == msg::MessageType::Query && !take_query_token(ps)) {
+      const auto& q = std::get<msg::Query>(decoded.value());
+      reject(peer, ps, "query " + std::to_string(q.query_id) + " over the rate limit", &HostCounters::query_flood);
+      msg::QueryReply reply;
+      reply.query_id = q.query_id;
+      reply.status = msg::QueryStatus::Rejected;
+      reply.reason = "query rate limit: " + std::to_string(cfg.query_rate_hz) + " per second";
+      if (!ps.closing) send_now(peer, reply);
+      return;
+    }
+    {
+      std::lock_guard lock(mu);
+      ++counters.messages_received;
+    }
+    HostEvent e;
+    e.kind = HostEventKind::Message;
+    e.client = ps.client;
+    e.message = std::move(decoded).value();
+    push_event(std::move(e));
+  }
+
+  void disconnected(ENetPeer* peer) {
+    auto it = peers.find(peer);
+    if (it == peers.end()) return;
+    if (it->second.welcomed) {
+      const std::uint32_t id = it->second.client;
+      clients.erase(id);
+      {
+        std::lock_guard lock(mu);
+        ++counters.disconnects;
+        pending.erase(id);
+      }
+      log("client " + std::to_string(id) + " disconnected");
+      HostEvent e;
+      e.kind = HostEventKind::Disconnected;
+      e.client = id;
+      e.reason = "connection closed or timed out";
+      push_event(std::move(e));
+    }
+    peers.erase(it);
+  }
+
+  void flush() {
+    std::vector<Outgoing> out;
+    {
+      std::lock_guard lock(mu);
+      out.swap(outbox);
+    }
+    for (auto& o : out) {
+      auto it = clients.find(o.client);
+      if (it == clients.end()) {
+        std::lock_guard lock(mu);
+        ++counters.send_dropped;
+        continue;
+      }
+      ENetPeer* peer = it->second;
+      PeerState& ps = peers[peer];
+      if (!o.frame) {
+        ps.closing = true;
+        enet_peer_disconnect_later(peer, 0);
+        continue;
+      }
+      if (ps.closing) {
+        std::lock_guard lock(mu);
+        ++counters.send_dropped;
+        continue;
+      }
+      ENetPacket* p = detail::make_packet(o.frame, true, ps.pending);
+      bool ok = p != nullptr && enet_peer_send(peer, msg::channel_of(o.type), p) == 0;
+      if (!ok && p != nullptr) enet_packet_destroy(p);
+      if (o.type == msg::MessageType::Refuse) {
+        // The policy refused the Hello: close once the Refuse is delivered.
+        ps.closing = true;
+        enet_peer_disconnect_later(peer, 0);
+      }
+      std::lock_guard lock(mu);
+      if (o.type == msg::MessageType::Refuse) ++counters.refused_by_policy;
+      if (ok) {
+        ++counters.messages_sent;
+        counters.bytes_sent += o.frame->size();
+      } else {
+        ++counters.send_dropped;
+      }
+    }
+  }
+
+  void expire_handshakes() {
+    const auto now = Clock::now();
+    for (auto& [peer, ps] : peers) {
+      if (ps.welcomed || ps.closing || now - ps.connected_at < cfg.handshake_timeout) continue;
+      ps.closing = true;
+      {
+        std::lock_guard lock(mu);
+        ++counters.handshake_timeouts;
+        counters.last_rejection = "no Hello within the handshake timeout";
+      }
+      log("dropping a connection that sent no Hello in time");
+      enet_peer_disconnect(peer, 0);
+    }
+  }
+
+  void handle(const ENetEvent& ev) {
+    switch (ev.type) {
+      case ENET_EVENT_TYPE_CONNECT: {
+        PeerState ps;
+        ps.connected_at = Clock::now();
+        peers[ev.peer] = ps;
+        enet_peer_timeout(ev.peer, 0, static_cast<enet_uint32>(cfg.peer_timeout_min.count()),
+                          static_cast<enet_uint32>(cfg.peer_timeout_max.count()));
+        std::lock_guard lock(mu);
+        ++counters.connections;
+        break;
+      }
+      case ENET_EVENT_TYPE_RECEIVE:
+        receive(ev.peer, ev.packet);
+        enet_packet_destroy(ev.packet);
+        break;
+      case ENET_EVENT_TYPE_DISCONNECT:
+        disconnected(ev.peer);
+        break;
+      case ENET_EVENT_TYPE_NONE:
+        break;
+    }
+  }
+
+  void run() {
+    while (!stop.load()) {
+      flush();
+      ENetEvent ev;
+      // A short wait bounds the latency of send() (the outbox is flushed between waits).
+      int r = enet_host_service(host, &ev, 2);
+      while (r > 0) {
+        handle(ev);
+        r = enet_host_service(host, &ev, 0);
+      }
+      expire_handshakes();
+    }
+    flush();
+    for (auto& [peer, ps] : peers) enet_peer_disconnect_later(peer, 0);
+    // Give clients a moment to hear the disconnect; a client that does not answer
+    // times out on its side.
+    const auto until = Clock::now() + std::chrono::milliseconds(300);
+    ENetEvent ev;
+    while (!peers.empty() && Clock::now() < until)
+      if (enet_host_service(host, &ev, 10) > 0) handle(ev);
+  }
+};
+
+NetHost::NetHost(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+NetHost::~NetHost() = default;
+
+Expected<std::unique_ptr<NetHost>> NetHost::start(NetHostConfig config) {
+  if (config.max_clients == 0 || config.max_clients > 4095)
+    return Error{"NetHostConfig: max_clients " + std::to_string(config.max_clients) + " outside 1..4095 (ENet's peer limit)"};
+  if (config.max_slot_capacity == 0 || config.max_slot_capacity > gauss::kMaxSlotCapacity)
+    return Error{"NetHostConfig: max_slot_capacity outside [1, " + std::to_string(gauss::kMaxSlotCapacity) + "]"};
+  if (!(config.query_rate_hz > 0.0) || !(config.query_burst >= 1.0))
+    return Error{"NetHostConfig: query_rate_hz must be > 0 and query_burst >= 1"};
+  if (config.access_token.size() > msg::kMaxTokenBytes)
+    return Error{"NetHostConfig: access token longer than " + std::to_string(msg::kMaxTokenBytes) + " bytes"};
+  auto impl = std::make_unique<Impl>();
+  impl->cfg = std::move(config);
+  if (auto s = impl->enet.acquire(); !s) return s.error();
+  auto addr = detail::resolve(impl->cfg.bind);
+  if (!addr) return addr.error();
+  // Loopback unless asked otherwise (NetHostConfig::bind): clients on other machines
+  // reach the host only with an explicit --bind.
+  auto host = detail::create_host(&addr.value(), impl->cfg.max_clients + 16);
+  if (!host) return Error{host.message() + " (bind " + to_string(impl->cfg.bind) + ")"};
+  impl->host = host.value();
+  impl->session = impl->cfg.session_id;
+  if (impl->session == 0) {
+    std::random_device rd;
+    impl->session = (std::uint64_t{rd()} << 32) ^ rd() ^ 1u;
+  }
+  Impl* raw = impl.get();
+  impl->thread = std::thread([raw] { raw->run(); });
+  return std::unique_ptr<NetHost>(new NetHost(std::move(impl)));
+}
+
+std::uint16_t NetHost::port() const noexcept { return impl_->host->address.port; }
+std::uint64_t NetHost::session_id() const noexcept { return impl_->session; }
+
+std::vector<HostEvent> NetHost::poll() {
+  std::lock_guard lock(impl_->mu);
+  std::vector<HostEvent> out(std::make_move_iterator(impl_->events.begin()), std::make_move_iterator(impl_->events.end()));
+  impl_->events.clear();
+  return out;
+}
+
+bool NetHost::wait(std::chrono::milliseconds timeout) {
+  std::unique_lock lock(impl_->mu);
+  return impl_->cv.wait_for(lock, timeout, [this] { return !impl_->events.empty(); });
+}
+
+Status NetHost::send(std::uint32_t client, const wire::Message& m) {
+  const msg::MessageType type = wire::type_of(m);
+  if (msg::direction_of(type) != msg::Direction::HostToClient)
+    return Error{std::string("NetHost::send: ") + msg::to_string(type) + " is a client->host message"};
+  auto bytes = wire::encode(m);
+  if (!bytes) return bytes.error();
+  return send_encoded(client, type, std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value()));
+}
+
+Status NetHost::send_encoded(std::uint32_t client, msg::MessageType type,
+                             std::shared_ptr<const std::vector<std::uint8_t>> frame) {
+  if (!frame || frame->size() < wire::kHeaderBytes) return Error{"NetHost::send_encoded: empty frame"};
+  if (msg::direction_of(type) != msg::Direction::HostToClient)
+    return Error{std::string("NetHost::send_encoded: ") + msg::to_string(type) + " is a client->host message"};
+  std::lock_guard lock(impl_->mu);
+  impl_->outbox.push_back(Outgoing{client, type, std::move(frame)});
+  return Ok{};
+}
+
+void NetHost::disconnect(std::uint32_t client) {
+  std::lock_guard lock(impl_->mu);
+  impl_->outbox.push_back(Outgoing{client, msg::MessageType::Refuse, nullptr});
+}
+
+std::size_t NetHost::pending_bytes(std::uint32_t client) const {
+  std::lock_guard lock(impl_->mu);
+  auto it = impl_->pending.find(client);
+  if (it == impl_->pending.end()) return 0;
+  const auto v = it->second->load();
+  return v > 0 ? static_cast<std::size_t>(v) : 0;
+}
+
+std::size_t NetHost::client_count() const {
+  std::lock_guard lock(impl_->mu);
+  return impl_->pending.size();
+}
+
+HostCounters NetHost::counters() const {
+  std::lock_guard lock(impl_->mu);
+  return impl_->counters;
+}
+
+}  // namespace gauss::net

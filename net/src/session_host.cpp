@@ -1,0 +1,81 @@
+#include "gauss/net/session_host.h"
+
+#include <cstdio>
+
+namespace gauss::net {
+
+Expected<std::unique_ptr<SessionHost>> SessionHost::start(SessionHostConfig config, CodecParams params) {
+  if (auto s = validate_codec_params(params); !s) return Error{"SessionHost: " + s.message()};
+  auto net = NetHost::start(config.net);
+  if (!net) return net.error();
+  return std::unique_ptr<SessionHost>(new SessionHost(std::move(config), params, std::move(net).value()));
+}
+
+SessionHost::SessionHost(SessionHostConfig config, CodecParams params, std::unique_ptr<NetHost> net)
+    : config_(std::move(config)), params_(params), net_(std::move(net)) {}
+
+void SessionHost::log(const std::string& line) {
+  if (config_.net.log) config_.net.log(line);
+  else std::fprintf(stderr, "[gauss-net host] %s\n", line.c_str());
+}
+
+void SessionHost::send_all(std::uint32_t client, const std::vector<wire::Message>& out) {
+  for (const auto& m : out) {
+    if (auto s = net_->send(client, m); !s) {
+      ++stats_.send_errors;
+      stats_.last_error = s.message();
+      log("client " + std::to_string(client) + ": cannot send " + msg::to_string(wire::type_of(m)) + ": " + s.message());
+    }
+  }
+}
+
+void SessionHost::pump(const SceneStore& scene, double now) {
+  for (auto& e : net_->poll()) {
+    switch (e.kind) {
+      case HostEventKind::Connected: {
+        auto [it, fresh] = sessions_.try_emplace(e.client, e.client, net_->session_id(), params_, config_.session);
+        if (fresh) ++stats_.sessions_opened;
+        send_all(e.client, it->second.on_message(wire::Message{e.hello}, scene, now));
+        break;
+      }
+      case HostEventKind::Message: {
+        auto it = sessions_.find(e.client);
+        if (it == sessions_.end()) break;  // closed meanwhile: nothing to answer
+        send_all(e.client, it->second.on_message(e.message, scene, now));
+        break;
+      }
+      case HostEventKind::Disconnected:
+        // A client gone mid-batch costs nothing more: its session and queues go.
+        if (sessions_.erase(e.client) > 0) ++stats_.sessions_closed;
+        break;
+    }
+  }
+  for (auto& [client, session] : sessions_) {
+    if (session.closed()) continue;
+    if (net_->pending_bytes(client) > config_.max_pending_bytes) {
+      ++stats_.held_back;
+      continue;
+    }
+    auto out = session.tick(scene, now);
+    if (!out) {
+      ++stats_.tick_errors;
+      stats_.last_error = out.message();
+      log(out.message());
+      continue;
+    }
+    send_all(client, out.value());
+  }
+}
+
+HostSession* SessionHost::session(std::uint32_t client) {
+  auto it = sessions_.find(client);
+  return it == sessions_.end() ? nullptr : &it->second;
+}
+
+std::vector<std::uint32_t> SessionHost::clients() const {
+  std::vector<std::uint32_t> ids;
+  for (const auto& [id, s] : sessions_) ids.push_back(id);
+  return ids;
+}
+
+}  // namespace gauss::net
