@@ -52,6 +52,12 @@ void Aabb::extend(const glm::vec3& p) {
   max = glm::max(max, p);
 }
 
+Status SceneStore::validate(const Gaussian& g, int sh_degree) {
+  if (auto why = invalid_field(g, sh_degree); !why.empty())
+    return Error{"Gaussian id " + id_text(g.id) + ": " + why};
+  return Ok{};
+}
+
 SceneStore::SceneStore(std::size_t change_log_capacity) : log_capacity_(std::max<std::size_t>(1, change_log_capacity)) {}
 
 Status SceneStore::require_open(const char* what) const {
@@ -178,21 +184,24 @@ Status SceneStore::remove_object(ObjectId id) {
   return Ok{};
 }
 
-Status SceneStore::set_surface_chunk(SurfaceChunk chunk) {
-  if (auto s = require_open("set_surface_chunk"); !s) return s;
-  const std::string where = "SceneStore::set_surface_chunk: chunk " + std::to_string(chunk.chunk_id) + ": ";
-  const auto& m = chunk.mesh;
+Status SceneStore::validate(const TriangleMesh& m) {
   if (m.colors.size() != m.positions.size())
-    return Error{where + std::to_string(m.colors.size()) + " colours for " + std::to_string(m.positions.size()) +
-                 " positions"};
+    return Error{std::to_string(m.colors.size()) + " colours for " + std::to_string(m.positions.size()) + " positions"};
   if (m.indices.size() % 3 != 0)
-    return Error{where + "index count " + std::to_string(m.indices.size()) + " is not a multiple of 3"};
+    return Error{"index count " + std::to_string(m.indices.size()) + " is not a multiple of 3"};
   for (std::size_t i = 0; i < m.positions.size(); ++i)
-    if (!finite3(m.positions[i])) return Error{where + "vertex " + std::to_string(i) + " is not finite"};
+    if (!finite3(m.positions[i])) return Error{"vertex " + std::to_string(i) + " is not finite"};
   for (std::size_t i = 0; i < m.indices.size(); ++i)
     if (m.indices[i] >= m.positions.size())
-      return Error{where + "index " + std::to_string(i) + " = " + std::to_string(m.indices[i]) + " is out of range (" +
+      return Error{"index " + std::to_string(i) + " = " + std::to_string(m.indices[i]) + " is out of range (" +
                    std::to_string(m.positions.size()) + " vertices)"};
+  return Ok{};
+}
+
+Status SceneStore::set_surface_chunk(SurfaceChunk chunk) {
+  if (auto s = require_open("set_surface_chunk"); !s) return s;
+  if (auto s = validate(chunk.mesh); !s)
+    return Error{"SceneStore::set_surface_chunk: chunk " + std::to_string(chunk.chunk_id) + ": " + s.message()};
   chunk.epoch = open_epoch_;
   auto it = std::lower_bound(chunks_.begin(), chunks_.end(), chunk.chunk_id,
                              [](const SurfaceChunk& c, std::uint32_t v) { return c.chunk_id < v; });

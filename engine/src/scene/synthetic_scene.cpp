@@ -412,6 +412,7 @@ Status SyntheticScene::produce(SceneStore& store) {
     if (!s && first_error) first_error = std::move(s);
   };
   if (e == 0) check(store.set_sh_degree(1));
+  if (e == 0 && m.config.surface_chunk) check(store.set_surface_chunk({0, Epoch{0}, scene::tessellate(m.room)}));
   for (std::size_t o = 0; o < m.room.objects.size(); ++o) {
     if (m.object_first_seen[o] > e) continue;
     // Observation quality: the share of the object's surface samples observed so far.

@@ -92,12 +92,17 @@ class SceneStore {
   Status modify(const Gaussian& g);
   // Removes live id. Fails when it is not live.
   Status remove(GaussianId id);
+  // Why `g` cannot be stored in a scene of this SH degree (non-finite field, non-zero SH
+  // rest above the degree, object id below -1), or Ok. insert/modify apply this check.
+  static Status validate(const Gaussian& g, int sh_degree);
   // A fresh id: larger than any id ever inserted or allocated in this store.
   GaussianId allocate_id();
 
   // --- reading ----------------------------------------------------------------------
   const Gaussian* find(GaussianId id) const;
   bool contains(GaussianId id) const { return find(id) != nullptr; }
+  // True when `id` was live once and removed: it may never be inserted again.
+  bool was_removed(GaussianId id) const { return retired_.count(id) != 0; }
   // All stored Gaussians (carriers included), see the storage contract above.
   std::span<const Gaussian> gaussians() const { return gaussians_; }
   // Live Gaussians (carriers included).
@@ -130,6 +135,8 @@ class SceneStore {
   // forced to the open epoch. Fails on indices out of range, a colours/positions length
   // mismatch, an index count that is not a multiple of 3, or a non-finite position.
   Status set_surface_chunk(SurfaceChunk chunk);
+  // The mesh checks set_surface_chunk applies, for validating before an epoch opens.
+  static Status validate(const TriangleMesh& mesh);
   Status remove_surface_chunk(std::uint32_t chunk_id);
   // Sorted by chunk id.
   const std::vector<SurfaceChunk>& surface_chunks() const { return chunks_; }

@@ -42,6 +42,9 @@ struct SyntheticSceneConfig {
   std::uint32_t image_width{640};        // trajectory camera intrinsics
   std::uint32_t image_height{480};
   double focal_px{480.0};
+  // At the first epoch also set surface_mesh() as surface chunk 0: a stand-in surface for
+  // the mesh pass until the TSDF surface exists.
+  bool surface_chunk{false};
 };
 
 // Ground truth of the analytic scene for one camera.

@@ -1,0 +1,110 @@
+#pragma once
+// Scene sources: where the host's epochs come from.
+//  (a) synthetic evolving rooms (the embedded default, SyntheticScene),
+//  (b) a folder of PLY snapshots replayed as epochs, flat (<any>N.ply, ordered by the last
+//      number in the name) or as 3DGS trainers write it (point_cloud/iteration_N/point_cloud.ply,
+//      ordered by N), with optional meshes, labels and an objects JSON,
+//  (c) one PLY as one epoch.
+// Each next_epoch() commits at most one epoch to the store. A snapshot that cannot be used
+// (missing, corrupt, NaN, labels of the wrong length) is logged and skipped: the store keeps
+// its last good epoch and the source moves on to the next snapshot. Snapshots without
+// gaussian_id get ids from identity tracking against the store's current epoch.
+#include <cstddef>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "gauss/engine/gaussian.h"
+#include "gauss/engine/identity_tracker.h"
+#include "gauss/engine/mesh.h"
+#include "gauss/engine/objects_json.h"
+#include "gauss/engine/result.h"
+#include "gauss/engine/scene_store.h"
+#include "gauss/engine/synthetic_scene.h"
+
+namespace gauss {
+
+// Receives one line per recoverable problem (skipped snapshot, ignored file).
+using SourceLog = std::function<void(const std::string&)>;
+
+class SceneSource {
+ public:
+  virtual ~SceneSource() = default;
+  // Commits the next epoch to `store`: true when one was committed, false when the source
+  // has nothing more (now; a folder source rescans on every call, so a trainer still
+  // writing may add more later). An error means nothing usable exists at all (e.g. the only
+  // snapshot is bad and no epoch was ever produced) or the store has an open epoch.
+  virtual Expected<bool> next_epoch(SceneStore& store) = 0;
+  // Seconds the host should wait between epochs (the configured replay rate).
+  virtual double epoch_period_s() const = 0;
+  virtual std::string describe() const = 0;
+  // Every message sent to the log so far.
+  const std::vector<std::string>& messages() const { return messages_; }
+
+ protected:
+  explicit SceneSource(SourceLog log) : log_(std::move(log)) {}
+  void report(const std::string& line);
+
+ private:
+  SourceLog log_;
+  std::vector<std::string> messages_;
+};
+
+// (a) The embedded default (set scene.surface_chunk for the analytic stand-in surface).
+struct SyntheticSourceOptions {
+  SyntheticSceneConfig scene;
+  double rate_hz{10.0};
+};
+Expected<std::unique_ptr<SceneSource>> open_synthetic_source(const SyntheticSourceOptions& options,
+                                                             SourceLog log = {});
+
+struct SnapshotOptions {
+  double rate_hz{1.0};                                 // epochs per second, > 0
+  std::optional<std::filesystem::path> objects_json;   // default: <folder>/objects.json if present
+  // Labels for every snapshot (one integer per Gaussian, io's labels format). Default: a
+  // per-snapshot file (<stem>_labels.txt beside a flat snapshot, labels.txt in an iteration
+  // folder) when present. Labels override a PLY object_id property.
+  std::optional<std::filesystem::path> labels;
+  bool label_zero_is_unlabelled{true};  // label 0 -> no object (negative labels always are)
+  IdentityTrackerConfig identity;       // for snapshots without gaussian_id
+};
+
+// (b) Lists the folder now (and again on each next_epoch). Fails when the folder does not
+// exist or the objects JSON is bad. An empty folder is not an error (nothing yet).
+// Meshes: <stem>_mesh.ply beside a flat snapshot, mesh.ply in an iteration folder, or
+// <folder>/mesh.ply for all; set as surface chunk 0 whenever the snapshot's mesh changes.
+Expected<std::unique_ptr<SceneSource>> open_snapshot_folder(const std::filesystem::path& folder,
+                                                            const SnapshotOptions& options = {},
+                                                            SourceLog log = {});
+// (c) One PLY as one epoch (then exhausted). Mesh and labels as given in options, or
+// <stem>_mesh.ply / <stem>_labels.txt beside it.
+Expected<std::unique_ptr<SceneSource>> open_single_ply(const std::filesystem::path& ply,
+                                                       const SnapshotOptions& options = {}, SourceLog log = {});
+
+// What a snapshot did to the store.
+struct SnapshotApplyReport {
+  std::size_t inserted{0}, modified{0}, removed{0}, unchanged{0};
+  bool tracked{false};  // ids came from identity tracking (the PLY had no gaussian_id)
+  IdentityReport identity;
+};
+
+// Commits one epoch that makes the store's Gaussians equal to `cloud`: ids absent from the
+// cloud are removed, changed ones modified, new ones inserted. With `ids_given` the cloud's
+// ids are used (an id removed earlier is an error: ids are never reused); otherwise ids come
+// from identity tracking. Validates everything before opening the epoch, so on error the
+// store is untouched.
+// `objects` are declared (labels, quality) and `mesh`, when given, becomes surface chunk 0,
+// both in the same epoch.
+Expected<SnapshotApplyReport> apply_snapshot(SceneStore& store, GaussianCloud cloud, bool ids_given,
+                                             const IdentityTrackerConfig& identity = {},
+                                             const std::vector<ObjectLabel>& objects = {},
+                                             const TriangleMesh* mesh = nullptr);
+
+// Sets Gaussian objects from per-Gaussian labels (error on a length mismatch, naming both).
+Status apply_labels(GaussianCloud& cloud, const std::vector<std::int32_t>& labels, bool zero_is_unlabelled,
+                    const std::string& labels_name, const std::string& scene_name);
+
+}  // namespace gauss

@@ -1,0 +1,102 @@
+// Turning a whole snapshot (a GaussianCloud) into one SceneStore epoch, plus labels.
+#include <algorithm>
+#include <string>
+#include <unordered_set>
+
+#include "gauss/engine/labels_io.h"
+#include "gauss/engine/scene_source.h"
+
+namespace gauss {
+
+Status apply_labels(GaussianCloud& cloud, const std::vector<std::int32_t>& labels, bool zero_is_unlabelled,
+                    const std::string& labels_name, const std::string& scene_name) {
+  if (auto s = check_label_count(labels, cloud.gaussians.size(), labels_name, scene_name); !s) return s;
+  for (std::size_t i = 0; i < labels.size(); ++i) {
+    const std::int32_t l = labels[i];
+    cloud.gaussians[i].object = (l < 0 || (zero_is_unlabelled && l == 0)) ? kNoObject : ObjectId{l};
+  }
+  return Ok{};
+}
+
+Expected<SnapshotApplyReport> apply_snapshot(SceneStore& store, GaussianCloud cloud, bool ids_given,
+                                             const IdentityTrackerConfig& identity,
+                                             const std::vector<ObjectLabel>& objects, const TriangleMesh* mesh) {
+  if (store.in_epoch()) return Error{"apply_snapshot: the store has an open epoch"};
+  if (cloud.sh_degree < 0 || cloud.sh_degree > kMaxShDegree)
+    return Error{"apply_snapshot: SH degree " + std::to_string(cloud.sh_degree) + " is outside 0..3"};
+  // Everything is checked before the epoch opens, so a bad snapshot leaves the store as it was.
+  for (std::size_t i = 0; i < cloud.gaussians.size(); ++i)
+    if (auto s = SceneStore::validate(cloud.gaussians[i], cloud.sh_degree); !s)
+      return Error{"apply_snapshot: Gaussian " + std::to_string(i) + ": " + s.message()};
+  for (const ObjectLabel& o : objects)
+    if (to_underlying(o.id) < 0 || o.label.empty() || !(o.quality >= 0.0f && o.quality <= 1.0f))
+      return Error{"apply_snapshot: object " + std::to_string(to_underlying(o.id)) + " has a bad id, label or quality"};
+
+  if (mesh)
+    if (auto s = SceneStore::validate(*mesh); !s) return Error{"apply_snapshot: mesh: " + s.message()};
+
+  SnapshotApplyReport report;
+  if (ids_given) {
+    std::unordered_set<GaussianId> seen;
+    seen.reserve(cloud.gaussians.size());
+    for (const Gaussian& g : cloud.gaussians) {
+      if (!seen.insert(g.id).second)
+        return Error{"apply_snapshot: gaussian_id " + std::to_string(to_underlying(g.id)) + " appears twice"};
+      if (store.was_removed(g.id))
+        return Error{"apply_snapshot: gaussian_id " + std::to_string(to_underlying(g.id)) +
+                     " was removed in an earlier epoch; ids are never reused"};
+    }
+  } else {
+    auto r = track_identity(store.gaussians(), cloud.gaussians, identity, [&] { return store.allocate_id(); });
+    if (!r) return Error{"apply_snapshot: " + r.message()};
+    report.tracked = true;
+    report.identity = *r;
+  }
+
+  std::vector<GaussianId> gone;
+  {
+    std::unordered_set<GaussianId> in_cloud;
+    in_cloud.reserve(cloud.gaussians.size());
+    for (const Gaussian& g : cloud.gaussians) in_cloud.insert(g.id);
+    for (const Gaussian& g : store.gaussians())
+      if (!in_cloud.count(g.id)) gone.push_back(g.id);
+  }
+
+  if (auto s = store.begin_next_epoch(); !s) return s.error();
+  // Past validation nothing below should fail; if it does, commit what was applied (the
+  // store stays consistent) and report the first error.
+  Status first_error = Ok{};
+  const auto check = [&](Status s) {
+    if (!s && first_error) first_error = std::move(s);
+  };
+  if (cloud.sh_degree > store.sh_degree()) check(store.set_sh_degree(cloud.sh_degree));
+  for (GaussianId id : gone) {
+    check(store.remove(id));
+    ++report.removed;
+  }
+  for (const Gaussian& g : cloud.gaussians) {
+    if (const Gaussian* old = store.find(g.id)) {
+      const bool changed = old->position != g.position || old->log_scale != g.log_scale ||
+                           old->rotation != g.rotation || old->opacity_logit != g.opacity_logit ||
+                           old->sh_dc != g.sh_dc || old->sh_rest != g.sh_rest || old->object != g.object ||
+                           old->support != g.support || old->carrier != g.carrier;
+      if (changed) {
+        check(store.modify(g));
+        ++report.modified;
+      } else {
+        ++report.unchanged;
+      }
+    } else {
+      check(store.insert(g));
+      ++report.inserted;
+    }
+  }
+  if (cloud.sh_degree < store.sh_degree()) check(store.set_sh_degree(cloud.sh_degree));
+  for (const ObjectLabel& o : objects) check(store.set_object(o.id, o.label, o.quality));
+  if (mesh) check(store.set_surface_chunk({0, Epoch{0}, *mesh}));
+  if (auto s = store.commit_epoch(); !s) return s.error();
+  if (!first_error) return first_error.error();
+  return report;
+}
+
+}  // namespace gauss

@@ -1,0 +1,265 @@
+// Scene sources: synthetic rooms, PLY snapshot folders (flat or trainer layout), one PLY.
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <system_error>
+#include <tuple>
+
+#include "gauss/engine/labels_io.h"
+#include "gauss/engine/ply_gaussian.h"
+#include "gauss/engine/ply_mesh.h"
+#include "gauss/engine/scene_source.h"
+
+namespace gauss {
+
+namespace fs = std::filesystem;
+
+void SceneSource::report(const std::string& line) {
+  messages_.push_back(line);
+  if (log_)
+    log_(line);
+  else
+    std::fprintf(stderr, "gauss scene source: %s\n", line.c_str());
+}
+
+namespace {
+
+Status check_rate(double rate_hz) {
+  if (!(rate_hz > 0.0 && std::isfinite(rate_hz)))
+    return Error{"scene source: rate_hz " + std::to_string(rate_hz) + " must be positive and finite"};
+  return Ok{};
+}
+
+class SyntheticSource final : public SceneSource {
+ public:
+  SyntheticSource(SyntheticScene scene, double rate_hz, SourceLog log)
+      : SceneSource(std::move(log)), scene_(std::move(scene)), rate_hz_(rate_hz) {}
+
+  Expected<bool> next_epoch(SceneStore& store) override {
+    if (scene_.finished()) return false;
+    if (auto s = scene_.produce(store); !s) return s.error();
+    return true;
+  }
+  double epoch_period_s() const override { return 1.0 / rate_hz_; }
+  std::string describe() const override {
+    const auto& c = scene_.config();
+    return "synthetic room variant " + std::to_string(c.variant) + ", seed " + std::to_string(c.seed) + ", " +
+           std::to_string(c.target_gaussians) + " Gaussians, " + std::to_string(c.epochs) + " epochs";
+  }
+
+ private:
+  SyntheticScene scene_;
+  double rate_hz_;
+};
+
+// One snapshot to replay, with its order key.
+struct Entry {
+  std::int64_t order{0};
+  std::string name;  // for ordering ties and messages
+  fs::path ply;
+  std::optional<fs::path> mesh;
+  std::optional<fs::path> labels;
+  bool operator<(const Entry& o) const { return std::tie(order, name) < std::tie(o.order, o.name); }
+};
+
+// The last run of digits in `s` (e.g. "snap_0012" -> 12), or nullopt.
+std::optional<std::int64_t> last_number(const std::string& s) {
+  std::size_t end = s.size();
+  while (end > 0 && !std::isdigit(static_cast<unsigned char>(s[end - 1]))) --end;
+  if (end == 0) return std::nullopt;
+  std::size_t begin = end;
+  while (begin > 0 && std::isdigit(static_cast<unsigned char>(s[begin - 1]))) --begin;
+  if (end - begin > 17) return std::nullopt;  // would overflow; order by name instead
+  return std::stoll(s.substr(begin, end - begin));
+}
+
+bool ends_with(const std::string& s, const std::string& tail) {
+  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+}
+
+std::optional<fs::path> if_file(const fs::path& p) {
+  std::error_code ec;
+  if (fs::is_regular_file(p, ec)) return p;
+  return std::nullopt;
+}
+
+class SnapshotSource final : public SceneSource {
+ public:
+  SnapshotSource(fs::path root, bool single, SnapshotOptions options, std::vector<ObjectLabel> objects,
+                 SourceLog log)
+      : SceneSource(std::move(log)),
+        root_(std::move(root)),
+        single_(single),
+        options_(std::move(options)),
+        objects_(std::move(objects)) {}
+
+  Expected<bool> next_epoch(SceneStore& store) override {
+    if (store.in_epoch()) return Error{"snapshot source: the store has an open epoch"};
+    std::vector<Entry> entries = list();
+    std::optional<Error> last_failure;
+    for (const Entry& e : entries) {
+      if (consumed_ && !(*consumed_ < e)) continue;
+      consumed_ = e;
+      auto r = load_and_apply(e, store);
+      if (r) {
+        ++produced_;
+        return true;
+      }
+      report("skipped snapshot " + e.ply.string() + ": " + r.message() + " (the store keeps epoch " +
+             std::to_string(to_underlying(store.epoch())) + ")");
+      last_failure = r.error();
+    }
+    if (produced_ == 0 && last_failure) return Error{"snapshot source: no usable snapshot; last error: " +
+                                                     last_failure->message};
+    return false;
+  }
+  double epoch_period_s() const override { return 1.0 / options_.rate_hz; }
+  std::string describe() const override {
+    return (single_ ? "PLY " : "PLY snapshot folder ") + root_.string() + " at " + std::to_string(options_.rate_hz) +
+           " epochs/s";
+  }
+
+ private:
+  std::vector<Entry> list() {
+    std::vector<Entry> out;
+    std::error_code ec;
+    if (single_) {
+      Entry e;
+      e.name = root_.filename().string();
+      e.ply = root_;
+      const std::string stem = root_.stem().string();
+      e.mesh = if_file(root_.parent_path() / (stem + "_mesh.ply"));
+      e.labels = if_file(root_.parent_path() / (stem + "_labels.txt"));
+      out.push_back(std::move(e));
+      return out;
+    }
+    const fs::path trainer = root_ / "point_cloud";
+    if (fs::is_directory(trainer, ec)) {
+      // 3DGS trainer layout: point_cloud/iteration_N/point_cloud.ply, ordered by N.
+      for (const auto& d : fs::directory_iterator(trainer, ec)) {
+        const std::string name = d.path().filename().string();
+        if (!d.is_directory(ec) || name.rfind("iteration_", 0) != 0) continue;
+        const std::string digits = name.substr(10);
+        if (digits.empty() || digits.size() > 17 ||
+            !std::all_of(digits.begin(), digits.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); }))
+          continue;
+        const std::optional<std::int64_t> n = std::stoll(digits);
+        Entry e;
+        e.order = *n;
+        e.name = name;
+        e.ply = d.path() / "point_cloud.ply";  // a missing file is reported when loaded
+        e.mesh = if_file(d.path() / "mesh.ply");
+        e.labels = if_file(d.path() / "labels.txt");
+        out.push_back(std::move(e));
+      }
+    } else {
+      for (const auto& f : fs::directory_iterator(root_, ec)) {
+        const std::string name = f.path().filename().string();
+        if (!f.is_regular_file(ec) || f.path().extension() != ".ply" || name == "mesh.ply" ||
+            ends_with(name, "_mesh.ply"))
+          continue;
+        Entry e;
+        const std::string stem = f.path().stem().string();
+        e.order = last_number(stem).value_or(-1);
+        e.name = name;
+        e.ply = f.path();
+        e.mesh = if_file(root_ / (stem + "_mesh.ply"));
+        e.labels = if_file(root_ / (stem + "_labels.txt"));
+        out.push_back(std::move(e));
+      }
+    }
+    if (ec) report("listing " + root_.string() + ": " + ec.message());
+    std::sort(out.begin(), out.end());
+    return out;
+  }
+
+  Status load_and_apply(const Entry& e, SceneStore& store) {
+    auto scene = read_gaussian_ply(e.ply);
+    if (!scene) return scene.error();
+    GaussianCloud cloud = std::move(scene->cloud);
+    const std::optional<fs::path> labels_path = options_.labels ? options_.labels : e.labels;
+    if (labels_path) {
+      auto labels = read_labels(*labels_path);
+      if (!labels) return labels.error();
+      if (auto s = apply_labels(cloud, *labels, options_.label_zero_is_unlabelled, labels_path->string(),
+                                e.ply.string());
+          !s)
+        return s;
+      if (scene->report.has_object_id)
+        report(e.ply.string() + ": object_id property overridden by labels " + labels_path->string());
+    }
+    // Surface: the snapshot's own mesh, else the folder's mesh.ply; applied when it changes.
+    std::optional<fs::path> mesh_path = e.mesh;
+    if (!mesh_path && !single_) mesh_path = if_file(root_ / "mesh.ply");
+    std::optional<TriangleMesh> mesh;
+    if (mesh_path && *mesh_path != last_mesh_) {
+      auto m = read_mesh_ply(*mesh_path);
+      if (m) {
+        mesh = std::move(m->mesh);
+      } else {
+        report("ignored mesh " + mesh_path->string() + ": " + m.message() + " (Gaussians still applied)");
+      }
+    }
+    auto applied = apply_snapshot(store, std::move(cloud), scene->report.has_gaussian_id, options_.identity, objects_,
+                                  mesh ? &*mesh : nullptr);
+    if (!applied) return applied.error();
+    if (mesh) last_mesh_ = *mesh_path;
+    last_report_ = *applied;
+    return Ok{};
+  }
+
+  fs::path root_;
+  bool single_;
+  SnapshotOptions options_;
+  std::vector<ObjectLabel> objects_;
+  std::optional<Entry> consumed_;  // the last entry tried (good or bad)
+  std::size_t produced_{0};
+  fs::path last_mesh_;
+  SnapshotApplyReport last_report_;
+};
+
+Expected<std::vector<ObjectLabel>> load_objects(const fs::path& root, const SnapshotOptions& options) {
+  if (options.objects_json) return read_objects_json(*options.objects_json);
+  if (auto p = if_file(root / "objects.json")) return read_objects_json(*p);
+  return std::vector<ObjectLabel>{};
+}
+
+}  // namespace
+
+Expected<std::unique_ptr<SceneSource>> open_synthetic_source(const SyntheticSourceOptions& options, SourceLog log) {
+  if (auto s = check_rate(options.rate_hz); !s) return s.error();
+  auto scene = SyntheticScene::create(options.scene);
+  if (!scene) return scene.error();
+  return std::unique_ptr<SceneSource>(
+      std::make_unique<SyntheticSource>(std::move(scene).value(), options.rate_hz, std::move(log)));
+}
+
+Expected<std::unique_ptr<SceneSource>> open_snapshot_folder(const fs::path& folder, const SnapshotOptions& options,
+                                                            SourceLog log) {
+  if (auto s = check_rate(options.rate_hz); !s) return s.error();
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec)) return Error{"snapshot folder " + folder.string() + " is not a directory"};
+  auto objects = load_objects(folder, options);
+  if (!objects) return objects.error();
+  return std::unique_ptr<SceneSource>(
+      std::make_unique<SnapshotSource>(folder, false, options, std::move(objects).value(), std::move(log)));
+}
+
+Expected<std::unique_ptr<SceneSource>> open_single_ply(const fs::path& ply, const SnapshotOptions& options,
+                                                       SourceLog log) {
+  if (auto s = check_rate(options.rate_hz); !s) return s.error();
+  std::error_code ec;
+  if (!fs::is_regular_file(ply, ec)) return Error{"PLY " + ply.string() + " is not a regular file"};
+  std::vector<ObjectLabel> objects;
+  if (options.objects_json) {
+    auto o = read_objects_json(*options.objects_json);
+    if (!o) return o.error();
+    objects = std::move(o).value();
+  }
+  return std::unique_ptr<SceneSource>(
+      std::make_unique<SnapshotSource>(ply, true, options, std::move(objects), std::move(log)));
+}
+
+}  // namespace gauss

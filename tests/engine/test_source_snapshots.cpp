@@ -1,0 +1,337 @@
+// Scene sources: snapshot folder replay (trainer layout ordered by iteration number, flat
+// folders ordered by number), corrupt/missing/NaN snapshots logged and skipped with the last
+// good epoch kept, identity tracking for id-less snapshots, given ids, labels, objects JSON,
+// meshes, one PLY as one epoch, the synthetic source.
+#include <algorithm>
+#include <fstream>
+#include <map>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "gauss/engine/labels_io.h"
+#include "gauss/engine/ply_gaussian.h"
+#include "gauss/engine/ply_mesh.h"
+#include "gauss/engine/scene_source.h"
+#include "test_data.h"
+
+namespace gauss {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path p = test::output_dir() / "source_snapshots" / name;
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p;
+}
+
+// n Gaussians on a grid; `shift` moves them all (a different snapshot of "the same" scene).
+GaussianCloud grid_cloud(std::size_t n, float shift = 0.0f) {
+  GaussianCloud c;
+  c.sh_degree = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    Gaussian g;
+    g.position = glm::vec3(float(i % 10) * 0.1f + shift, float(i / 10 % 10) * 0.1f, float(i / 100) * 0.1f);
+    g.log_scale = glm::vec3(std::log(0.03f));
+    g.opacity_logit = 1.0f;
+    g.sh_dc = glm::vec3(0.1f * float(i % 7), 0.2f, -0.3f);
+    c.gaussians.push_back(g);
+  }
+  return c;
+}
+
+void write(const fs::path& p, const GaussianCloud& c, PlyGaussianWriteOptions o = {}) {
+  fs::create_directories(p.parent_path());
+  ASSERT_TRUE(write_gaussian_ply(p, c, o).ok()) << p;
+}
+
+void write_text(const fs::path& p, const std::string& text) {
+  fs::create_directories(p.parent_path());
+  std::ofstream(p, std::ios::binary) << text;
+}
+
+struct Collect {
+  std::vector<std::string> lines;
+  SourceLog log() {
+    return [this](const std::string& l) { lines.push_back(l); };
+  }
+};
+
+TEST(SourceSnapshots, TrainerLayoutReplaysByIterationNumberWithIdentityTracking) {
+  const fs::path root = fresh_dir("trainer");
+  // Iterations in an order where name sorting would be wrong: 500 < 7000 < 30000.
+  GaussianCloud a = grid_cloud(300);
+  GaussianCloud b = a;  // + 20 new, then permuted (densification reorders)
+  for (std::size_t k = 0; k < 20; ++k) {
+    Gaussian g = a.gaussians[k];
+    g.position += glm::vec3(5.0f, 0.0f, 0.0f);
+    b.gaussians.push_back(g);
+  }
+  std::reverse(b.gaussians.begin(), b.gaussians.end());
+  GaussianCloud c = b;
+  c.gaussians.resize(250);  // 70 pruned
+  write(root / "point_cloud/iteration_500/point_cloud.ply", a);
+  write(root / "point_cloud/iteration_7000/point_cloud.ply", b);
+  write(root / "point_cloud/iteration_30000/point_cloud.ply", c);
+  fs::create_directories(root / "point_cloud/not_an_iteration");
+
+  Collect log;
+  auto src = open_snapshot_folder(root, {}, log.log());
+  ASSERT_TRUE(src.ok()) << src.message();
+  SceneStore store;
+  std::vector<std::size_t> sizes;
+  for (;;) {
+    auto r = (*src)->next_epoch(store);
+    ASSERT_TRUE(r.ok()) << r.message();
+    if (!*r) break;
+    sizes.push_back(store.size());
+  }
+  EXPECT_EQ(sizes, (std::vector<std::size_t>{300, 320, 250}));
+  EXPECT_TRUE(log.lines.empty()) << log.lines.front();
+  // Identity tracking kept every unchanged Gaussian: epoch 2 inserted only the 20 new ones,
+  // modified none; epoch 3 only removed.
+  const EpochChanges* e2 = store.changes(Epoch{2});
+  ASSERT_NE(e2, nullptr);
+  EXPECT_EQ(e2->inserted.size(), 20u);
+  EXPECT_EQ(e2->modified.size(), 0u);
+  EXPECT_EQ(e2->removed.size(), 0u);
+  const EpochChanges* e3 = store.changes(Epoch{3});
+  ASSERT_NE(e3, nullptr);
+  EXPECT_EQ(e3->removed.size(), 70u);
+  EXPECT_EQ(e3->inserted.size() + e3->modified.size(), 0u);
+}
+
+TEST(SourceSnapshots, BadSnapshotsAreLoggedAndSkippedKeepingTheLastGoodEpoch) {
+  const fs::path root = fresh_dir("flat");
+  write(root / "snap_1.ply", grid_cloud(100));
+  write(root / "snap_2.ply", grid_cloud(110));
+  write_text(root / "snap_3.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 5\nend_header\nxx");
+  // NaN: an ASCII snapshot with one value replaced by nan.
+  {
+    PlyGaussianWriteOptions o;
+    o.format = PlyFormat::Ascii;
+    auto bytes = encode_gaussian_ply(grid_cloud(120), o);
+    ASSERT_TRUE(bytes.ok());
+    std::string text(bytes->begin(), bytes->end());
+    const auto header_end = text.find("end_header\n") + 11;
+    const auto space = text.find(' ', header_end);
+    text.replace(header_end, space - header_end, "nan");
+    write_text(root / "snap_4.ply", text);
+  }
+  write(root / "snap_10.ply", grid_cloud(130));  // 10 after 4: numeric, not name order
+  write(root / "snap_1_mesh.ply", {});  // a mesh by its name, never replayed as a snapshot
+
+  Collect log;
+  auto src = open_snapshot_folder(root, {}, log.log());
+  ASSERT_TRUE(src.ok()) << src.message();
+  SceneStore store;
+  std::vector<std::size_t> sizes;
+  for (;;) {
+    auto r = (*src)->next_epoch(store);
+    ASSERT_TRUE(r.ok()) << r.message();
+    if (!*r) break;
+    sizes.push_back(store.size());
+  }
+  // The third call met snap_3 (corrupt) and snap_4 (NaN), skipped both and applied snap_10.
+  EXPECT_EQ(sizes, (std::vector<std::size_t>{100, 110, 130}));
+  ASSERT_GE(log.lines.size(), 2u);
+  const auto mentions = [&](const std::string& what) {
+    return std::any_of(log.lines.begin(), log.lines.end(),
+                       [&](const std::string& l) { return l.find(what) != std::string::npos; });
+  };
+  EXPECT_TRUE(mentions("snap_3.ply")) << "corrupt file not logged";
+  EXPECT_TRUE(mentions("snap_4.ply")) << "NaN snapshot not logged";
+  EXPECT_EQ((*src)->messages().size(), log.lines.size());
+
+  // A trainer still writing: a later file appears and is picked up by the next call.
+  write(root / "snap_11.ply", grid_cloud(140));
+  auto r = (*src)->next_epoch(store);
+  ASSERT_TRUE(r.ok());
+  EXPECT_TRUE(*r);
+  EXPECT_EQ(store.size(), 140u);
+}
+
+TEST(SourceSnapshots, CorruptLastSnapshotKeepsTheStoreUntouched) {
+  const fs::path root = fresh_dir("keep");
+  write(root / "0001.ply", grid_cloud(100));
+  auto src = open_snapshot_folder(root, {}, [](const std::string&) {});
+  ASSERT_TRUE(src.ok());
+  SceneStore store;
+  ASSERT_TRUE((*src)->next_epoch(store).ok());
+  const std::vector<Gaussian> before(store.gaussians().begin(), store.gaussians().end());
+  write_text(root / "0002.ply", "garbage");
+  // A missing file: an iteration folder would hold it; a flat folder lists only present files,
+  // so simulate a vanished snapshot with a dangling symlink.
+  fs::create_symlink(root / "does_not_exist.ply", root / "0003.ply");
+  auto r = (*src)->next_epoch(store);
+  ASSERT_TRUE(r.ok()) << r.message();
+  EXPECT_FALSE(*r);
+  EXPECT_EQ(store.epoch(), Epoch{1});
+  ASSERT_EQ(store.size(), before.size());
+  for (std::size_t i = 0; i < before.size(); ++i) EXPECT_EQ(store.gaussians()[i].position, before[i].position);
+  EXPECT_EQ((*src)->messages().size(), 2u);
+}
+
+TEST(SourceSnapshots, MissingIterationFileIsSkipped) {
+  const fs::path root = fresh_dir("missing");
+  write(root / "point_cloud/iteration_100/point_cloud.ply", grid_cloud(50));
+  fs::create_directories(root / "point_cloud/iteration_200");  // no point_cloud.ply
+  write(root / "point_cloud/iteration_300/point_cloud.ply", grid_cloud(60));
+  Collect log;
+  auto src = open_snapshot_folder(root, {}, log.log());
+  ASSERT_TRUE(src.ok());
+  SceneStore store;
+  ASSERT_TRUE(*(*src)->next_epoch(store));
+  ASSERT_TRUE(*(*src)->next_epoch(store));
+  EXPECT_EQ(store.size(), 60u);
+  EXPECT_EQ(store.epoch(), Epoch{2});
+  ASSERT_EQ(log.lines.size(), 1u);
+  EXPECT_NE(log.lines[0].find("iteration_200"), std::string::npos) << log.lines[0];
+}
+
+TEST(SourceSnapshots, GivenIdsObjectsJsonLabelsAndMesh) {
+  const fs::path root = fresh_dir("ids");
+  GaussianCloud a = grid_cloud(10);
+  for (std::size_t i = 0; i < 10; ++i) {
+    a.gaussians[i].id = GaussianId{100 + i};
+    a.gaussians[i].object = ObjectId{i < 4 ? 1 : 2};
+  }
+  PlyGaussianWriteOptions o;
+  o.write_gaussian_id = true;
+  o.write_object_id = true;
+  write(root / "s1.ply", a, o);
+  GaussianCloud b = a;
+  b.gaussians.erase(b.gaussians.begin());  // id 100 removed
+  b.gaussians[0].opacity_logit = 3.0f;     // id 101 modified
+  write(root / "s2.ply", b, o);
+  GaussianCloud c = a;  // id 100 comes back: ids are never reused -> skipped
+  write(root / "s3.ply", c, o);
+  TriangleMesh mesh;
+  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 0, 1}};
+  mesh.colors.assign(3, {10, 20, 30});
+  mesh.indices = {0, 2, 1};
+  ASSERT_TRUE(write_mesh_ply(root / "s1_mesh.ply", mesh).ok());
+  write_text(root / "objects.json", R"({"objects": [{"id": 1, "label": "chair", "quality": 0.5}, {"id": 2, "label": "table"}]})");
+
+  Collect log;
+  auto src = open_snapshot_folder(root, {}, log.log());
+  ASSERT_TRUE(src.ok()) << src.message();
+  SceneStore store;
+  ASSERT_TRUE(*(*src)->next_epoch(store));
+  EXPECT_NE(store.find(GaussianId{100}), nullptr);
+  ASSERT_EQ(store.objects().size(), 2u);
+  EXPECT_EQ(store.find_object(ObjectId{1})->label, "chair");
+  EXPECT_EQ(store.find_object(ObjectId{1})->members.size(), 4u);
+  EXPECT_FLOAT_EQ(store.find_object(ObjectId{1})->quality, 0.5f);
+  EXPECT_EQ(store.find_object(ObjectId{2})->label, "table");
+  ASSERT_EQ(store.surface_chunks().size(), 1u);
+  EXPECT_EQ(store.surface_chunks()[0].mesh.indices.size(), 3u);
+  EXPECT_EQ(store.surface_chunks()[0].epoch, Epoch{1});
+
+  ASSERT_TRUE(*(*src)->next_epoch(store));
+  const EpochChanges* e2 = store.changes(Epoch{2});
+  ASSERT_NE(e2, nullptr);
+  ASSERT_EQ(e2->removed.size(), 1u);
+  EXPECT_EQ(e2->removed[0], GaussianId{100});
+  ASSERT_EQ(e2->modified.size(), 1u);
+  EXPECT_EQ(e2->modified[0], GaussianId{101});
+  EXPECT_TRUE(e2->inserted.empty());
+
+  auto r = (*src)->next_epoch(store);
+  ASSERT_TRUE(r.ok());
+  EXPECT_FALSE(*r) << "a snapshot reusing a removed id was accepted";
+  EXPECT_EQ(store.epoch(), Epoch{2});
+  ASSERT_EQ(log.lines.size(), 1u);
+  EXPECT_NE(log.lines[0].find("never reused"), std::string::npos) << log.lines[0];
+}
+
+TEST(SourceSnapshots, LabelsLengthMismatchIsAClearError) {
+  const fs::path root = fresh_dir("labels");
+  write(root / "scene.ply", grid_cloud(10));
+  write_text(root / "labels.txt", "1\n2\n3\n");
+  SnapshotOptions o;
+  o.labels = root / "labels.txt";
+  auto src = open_single_ply(root / "scene.ply", o, [](const std::string&) {});
+  ASSERT_TRUE(src.ok()) << src.message();
+  SceneStore store;
+  auto r = (*src)->next_epoch(store);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.message().find("3 labels"), std::string::npos) << r.message();
+  EXPECT_NE(r.message().find("10 Gaussians"), std::string::npos) << r.message();
+  EXPECT_EQ(store.epoch(), Epoch{0});
+  // A matching file works; one PLY is one epoch.
+  write_text(root / "labels.txt", "0\n1\n1\n2\n2\n2\n-1\n0\n3\n3\n");
+  auto src2 = open_single_ply(root / "scene.ply", o, [](const std::string&) {});
+  ASSERT_TRUE(src2.ok());
+  ASSERT_TRUE(*(*src2)->next_epoch(store));
+  EXPECT_FALSE(*(*src2)->next_epoch(store));
+  ASSERT_EQ(store.objects().size(), 3u);
+  EXPECT_EQ(store.find_object(ObjectId{2})->members.size(), 3u);
+  EXPECT_EQ(store.find_object(ObjectId{0}), nullptr) << "label 0 means unlabelled";
+}
+
+TEST(SourceSnapshots, OpenErrors) {
+  EXPECT_FALSE(open_snapshot_folder(test::output_dir() / "no_such_folder").ok());
+  EXPECT_FALSE(open_single_ply(test::output_dir() / "no_such.ply").ok());
+  const fs::path root = fresh_dir("badjson");
+  write_text(root / "objects.json", "{\"objects\": [");
+  auto r = open_snapshot_folder(root);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.message().find("objects.json"), std::string::npos) << r.message();
+  SnapshotOptions o;
+  o.rate_hz = 0.0;
+  EXPECT_FALSE(open_snapshot_folder(fresh_dir("rate"), o).ok());
+  // An empty folder is fine: nothing yet.
+  auto empty = open_snapshot_folder(fresh_dir("empty"));
+  ASSERT_TRUE(empty.ok());
+  SceneStore store;
+  auto n = (*empty)->next_epoch(store);
+  ASSERT_TRUE(n.ok());
+  EXPECT_FALSE(*n);
+}
+
+TEST(SourceSnapshots, FruitDropsWithLabelsFile) {
+  GAUSS_REQUIRE_DATA(ply, "splats/fruit_drops_sh3.ply");
+  GAUSS_REQUIRE_DATA(labels, "semantic/fruit_drops_labels.txt");
+  SnapshotOptions o;
+  o.labels = labels;
+  auto src = open_single_ply(ply, o);
+  ASSERT_TRUE(src.ok()) << src.message();
+  SceneStore store;
+  auto r = (*src)->next_epoch(store);
+  ASSERT_TRUE(r.ok()) << r.message();
+  ASSERT_TRUE(*r);
+  EXPECT_EQ(store.size(), 4721u);
+  EXPECT_EQ(store.sh_degree(), 3);
+  ASSERT_EQ(store.objects().size(), 8u);
+  const std::size_t expected[] = {542, 680, 398, 1038, 616, 396, 556, 266};
+  for (int k = 1; k <= 8; ++k) EXPECT_EQ(store.find_object(ObjectId{k})->members.size(), expected[k - 1]) << k;
+}
+
+TEST(SourceSnapshots, SyntheticSource) {
+  SyntheticSourceOptions o;
+  o.scene.target_gaussians = 5000;
+  o.scene.epochs = 3;
+  o.scene.image_width = 160;
+  o.scene.image_height = 120;
+  o.scene.focal_px = 120.0;
+  o.scene.surface_chunk = true;
+  o.rate_hz = 4.0;
+  auto src = open_synthetic_source(o);
+  ASSERT_TRUE(src.ok()) << src.message();
+  EXPECT_DOUBLE_EQ((*src)->epoch_period_s(), 0.25);
+  SceneStore store;
+  int epochs = 0;
+  while (*(*src)->next_epoch(store)) ++epochs;
+  EXPECT_EQ(epochs, 3);
+  ASSERT_EQ(store.surface_chunks().size(), 1u);
+  EXPECT_EQ(store.surface_chunks()[0].epoch, Epoch{1});
+  EXPECT_GT(store.appearance_count(), 4000u);
+  o.scene.variant = 9;
+  EXPECT_FALSE(open_synthetic_source(o).ok());
+}
+
+}  // namespace
+}  // namespace gauss
