@@ -22,8 +22,6 @@ namespace {
 using gauss::vk::Buffer;
 using gauss::vk::MemoryUsage;
 
-class VkBufferTest : public gauss::test::VkTest {};
-
 std::vector<std::uint8_t> random_bytes(std::size_t n, std::uint32_t seed) {
   std::mt19937 rng(seed);
   std::vector<std::uint8_t> v(n);
@@ -31,11 +29,22 @@ std::vector<std::uint8_t> random_bytes(std::size_t n, std::uint32_t seed) {
   return v;
 }
 
-TEST_F(VkBufferTest, WholeRoundTripBothMemoryKinds) {
+// Every buffer test runs twice: mapped where the memory allows it, and forced through
+// staging buffers + GPU copies (the discrete-GPU path, never_map).
+class VkBufferTest : public gauss::test::VkTest, public ::testing::WithParamInterface<bool> {
+ protected:
+  bool never_map() const { return GetParam(); }
+};
+
+INSTANTIATE_TEST_SUITE_P(MappedOrStaged, VkBufferTest, ::testing::Values(false, true),
+                         [](const ::testing::TestParamInfo<bool>& p) { return p.param ? "staged" : "mapped"; });
+
+TEST_P(VkBufferTest, WholeRoundTripBothMemoryKinds) {
   for (MemoryUsage usage : {MemoryUsage::DeviceLocal, MemoryUsage::HostVisible}) {
     const auto data = random_bytes(1 << 20, 7);
-    auto buf = Buffer::create(context(), {.size = data.size(), .memory = usage, .name = "round trip"});
+    auto buf = Buffer::create(context(), {.size = data.size(), .memory = usage, .name = "round trip", .never_map = never_map()});
     ASSERT_TRUE(buf) << buf.message();
+    EXPECT_EQ(buf->host_visible(), !never_map());
     ASSERT_TRUE(buf->upload(data.data(), data.size()));
     std::vector<std::uint8_t> back(data.size());
     ASSERT_TRUE(buf->download(back.data(), back.size()));
@@ -43,9 +52,9 @@ TEST_F(VkBufferTest, WholeRoundTripBothMemoryKinds) {
   }
 }
 
-TEST_F(VkBufferTest, RangedUploadsWriteOnlyTheirRanges) {
+TEST_P(VkBufferTest, RangedUploadsWriteOnlyTheirRanges) {
   const std::size_t n = 4096;
-  auto buf = Buffer::create(context(), {.size = n, .name = "ranged"});
+  auto buf = Buffer::create(context(), {.size = n, .name = "ranged", .never_map = never_map()});
   ASSERT_TRUE(buf) << buf.message();
   std::vector<std::uint8_t> model(n, 0xAB);
   ASSERT_TRUE(buf->upload(model.data(), n));
@@ -74,9 +83,9 @@ TEST_F(VkBufferTest, RangedUploadsWriteOnlyTheirRanges) {
   EXPECT_EQ(part, d);
 }
 
-TEST_F(VkBufferTest, BadRangesFailAndLeaveContentsUntouched) {
+TEST_P(VkBufferTest, BadRangesFailAndLeaveContentsUntouched) {
   const std::size_t n = 256;
-  auto buf = Buffer::create(context(), {.size = n, .name = "guarded"});
+  auto buf = Buffer::create(context(), {.size = n, .name = "guarded", .never_map = never_map()});
   ASSERT_TRUE(buf) << buf.message();
   const std::vector<std::uint8_t> original(n, 0x5A);
   ASSERT_TRUE(buf->upload(original.data(), n));
@@ -100,7 +109,7 @@ TEST_F(VkBufferTest, BadRangesFailAndLeaveContentsUntouched) {
   EXPECT_FALSE(Buffer::create(context(), {.size = 0, .name = "empty"}));
 }
 
-TEST_F(VkBufferTest, StorageBufferLargerThanBindingRangeIsAClearError) {
+TEST_P(VkBufferTest, StorageBufferLargerThanBindingRangeIsAClearError) {
   const VkDeviceSize max_range = context().max_storage_buffer_range();
   auto too_big = Buffer::create(context(), {.size = max_range + 4, .name = "too big"});
   ASSERT_FALSE(too_big);
@@ -132,9 +141,9 @@ TEST_F(VkBufferTest, StorageBufferLargerThanBindingRangeIsAClearError) {
   EXPECT_TRUE(part) << part.message();
 }
 
-TEST_F(VkBufferTest, RecordedFillAndCopy) {
-  auto a = Buffer::create(context(), {.size = 1024, .name = "a"});
-  auto b = Buffer::create(context(), {.size = 1024, .name = "b"});
+TEST_P(VkBufferTest, RecordedFillAndCopy) {
+  auto a = Buffer::create(context(), {.size = 1024, .name = "a", .never_map = never_map()});
+  auto b = Buffer::create(context(), {.size = 1024, .name = "b", .never_map = never_map()});
   ASSERT_TRUE(a && b);
   gauss::Status fill = gauss::Ok{};
   gauss::Status copy = gauss::Ok{};

@@ -45,7 +45,7 @@ Expected<Buffer> Buffer::create(Context& context, const BufferCreateInfo& info) 
   b.memory_ = alloc->memory;
   GAUSS_VK_TRY(vkBindBufferMemory(context.device(), b.buffer_, b.memory_, 0));
   // Only coherent memory is mapped: no flush/invalidate bookkeeping anywhere.
-  if ((alloc->flags & host) == host) {
+  if ((alloc->flags & host) == host && !info.never_map) {
     GAUSS_VK_TRY(vkMapMemory(context.device(), b.memory_, 0, VK_WHOLE_SIZE, 0, &b.mapped_));
   }
   return b;

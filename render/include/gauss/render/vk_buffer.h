@@ -41,6 +41,10 @@ struct BufferCreateInfo {
   std::string name{"buffer"};
   // Allows a storage buffer larger than one binding may cover (see header comment).
   bool allow_larger_than_binding_range{false};
+  // Keeps the buffer unmapped even when its memory is host visible, so upload() and
+  // download() take the staging path a discrete GPU takes. Lets tests cover that path
+  // on lavapipe, where all memory is host visible.
+  bool never_map{false};
 };
 
 // One contiguous piece of a ranged upload: `size` bytes from `data` to `dst_offset`.
