@@ -132,6 +132,16 @@ TEST_F(VkContextTest, EnvironmentOverrideIsUsedAndNamedInErrors) {
   EXPECT_EQ((*ctx)->device_name(), context().device_name());
 }
 
+TEST_F(VkContextTest, NoDriverIsAClearError) {
+  // The loader finds its drivers again at every vkCreateInstance, so pointing it at a
+  // driver file that does not exist looks exactly like a machine without Vulkan.
+  ScopedEnv icd("VK_ICD_FILENAMES", "/nonexistent/gauss_no_driver.json");
+  ScopedEnv files("VK_DRIVER_FILES", "/nonexistent/gauss_no_driver.json");
+  auto ctx = Context::create({.app_name = "no-driver"});
+  ASSERT_FALSE(ctx);
+  EXPECT_NE(ctx.message().find("no Vulkan"), std::string::npos) << ctx.message();
+}
+
 TEST(VkDeviceArgs, ParsesDeviceFlag) {
   const char* a1[] = {"app", "--device", "llvmpipe", "--other"};
   EXPECT_EQ(gauss::vk::device_override_from_args(4, a1), "llvmpipe");

@@ -283,7 +283,14 @@ Expected<InstanceResult> create_instance(const std::string& app_name, bool valid
   }
 
   InstanceResult out;
-  GAUSS_VK_TRY(vkCreateInstance(&ci, nullptr, &out.instance));
+  if (const VkResult r = vkCreateInstance(&ci, nullptr, &out.instance); r != VK_SUCCESS) {
+    if (r == VK_ERROR_INCOMPATIBLE_DRIVER) {
+      return Error{"no Vulkan device: no installed Vulkan driver supports Vulkan 1.3 (vkCreateInstance: "
+                   "VK_ERROR_INCOMPATIBLE_DRIVER). For the lavapipe CPU device install mesa-vulkan-drivers; "
+                   "check VK_ICD_FILENAMES / VK_DRIVER_FILES if set"};
+    }
+    return result_error(r, "vkCreateInstance", __FILE__, __LINE__);
+  }
   out.debug_utils = debug_utils;
   load_instance_functions(out.instance);
   return out;
