@@ -21,7 +21,10 @@ class ClientStateSink final : public ClientSink {
   // `clock` gives the client time in seconds (the clock frame() is called with).
   ClientStateSink(ClientState& state, std::function<double()> clock) : state_(state), clock_(std::move(clock)) {}
 
-  void on_welcome(const msg::Welcome& welcome) override { apply(wire::Message{welcome}); }
+  void on_welcome(const msg::Welcome& welcome) override {
+    client_id_ = welcome.client_id;
+    apply(wire::Message{welcome});
+  }
   void on_message(wire::Message&& message) override { apply(message); }
   void on_refused(const msg::Refuse& refuse) override {
     refused_ = true;
@@ -44,6 +47,8 @@ class ClientStateSink final : public ClientSink {
   }
 
   bool refused() const noexcept { return refused_; }
+  // The host's id for the current (latest) connection; 0 before the first Welcome.
+  std::uint32_t client_id() const noexcept { return client_id_; }
   // Messages ClientState rejected (it keeps the reasons in its stats).
   std::uint64_t rejected() const noexcept { return rejected_; }
 
@@ -57,6 +62,7 @@ class ClientStateSink final : public ClientSink {
   ClientState& state_;
   std::function<double()> clock_;
   std::atomic<bool> refused_{false};
+  std::atomic<std::uint32_t> client_id_{0};
   std::atomic<std::uint64_t> rejected_{0};
 };
 
