@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "gauss/render/vk_buffer.h"
+#include "gauss/render/vk_commands.h"
 #include "gauss/render/vk_context.h"
 #include "vk_test.h"
 
@@ -48,6 +50,34 @@ TEST_F(VkValidationTest, LeakedObjectIsReportedOnDestroy) {
   const auto before = gauss::vk::process_validation_error_count();
   ctx->reset();  // destroys the device with the fence still alive
   EXPECT_GT(gauss::vk::process_validation_error_count(), before) << "the leaked VkFence was not reported";
+}
+
+// Synchronization validation finds a missing barrier (two copies writing the same
+// bytes back to back), and the helper barrier makes it go away.
+TEST_F(VkValidationTest, SynchronizationValidationCatchesMissingBarrier) {
+  allow_validation_errors();
+  auto ctx = Context::create({.app_name = "sync-test", .synchronization_validation = true});
+  ASSERT_TRUE(ctx) << ctx.message();
+  auto a = gauss::vk::Buffer::create(**ctx, {.size = 256, .name = "a"});
+  auto b = gauss::vk::Buffer::create(**ctx, {.size = 256, .name = "b"});
+  ASSERT_TRUE(a && b);
+  const VkBufferCopy region{0, 0, 256};
+  auto record = [&](bool with_barrier) {
+    return (*ctx)->submit_and_wait([&](VkCommandBuffer cmd) {
+      (void)gauss::vk::record_fill(cmd, *a, 0, 256, 1u);
+      if (with_barrier) {
+        gauss::vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                                  VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+      }
+      (void)gauss::vk::record_copy(cmd, *a, *b, {&region, 1});
+    });
+  };
+  const auto before = (*ctx)->validation_error_count();
+  ASSERT_TRUE(record(true));
+  EXPECT_EQ((*ctx)->validation_error_count(), before) << (*ctx)->last_validation_error();
+  ASSERT_TRUE(record(false));
+  EXPECT_GT((*ctx)->validation_error_count(), before) << "the read-after-write hazard was not reported";
+  EXPECT_NE((*ctx)->last_validation_error().find("SYNC-HAZARD"), std::string::npos) << (*ctx)->last_validation_error();
 }
 
 TEST_F(VkValidationTest, CleanContextReportsNothing) {

@@ -335,8 +335,9 @@ Expected<std::vector<DeviceInfo>> Context::list_devices() {
 Expected<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info) {
   std::unique_ptr<Context> ctx(new Context());
   const char* validation_env = std::getenv("GAUSS_VALIDATION");
-  const bool validation = info.enable_validation || env_flag("GAUSS_VALIDATION");
-  const bool sync_validation = validation && validation_env && std::strcmp(validation_env, "sync") == 0;
+  const bool env_sync = validation_env && std::strcmp(validation_env, "sync") == 0;
+  const bool sync_validation = info.synchronization_validation || env_sync;
+  const bool validation = info.enable_validation || sync_validation || env_flag("GAUSS_VALIDATION");
 
   const VkDebugUtilsMessengerCreateInfoEXT messenger_info = detail::messenger_create_info(ctx->state_.get());
   auto inst = create_instance(info.app_name, validation, sync_validation, &messenger_info);

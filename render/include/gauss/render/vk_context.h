@@ -15,7 +15,8 @@
 //
 // Validation: VK_LAYER_KHRONOS_validation + a debug messenger when
 // ContextCreateInfo::enable_validation is set or $GAUSS_VALIDATION=1 (CTest sets it for
-// every test). Validation is then required: a missing layer is an error, never a silent
+// every test); $GAUSS_VALIDATION=sync adds synchronization validation. Validation is
+// then required: a missing layer is an error, never a silent
 // run without checks. Every validation ERROR is counted (per context and process-wide)
 // and printed to stderr; warnings are printed but not counted.
 //
@@ -43,6 +44,9 @@ struct ContextCreateInfo {
   // Validation layers + messenger. Also forced on by $GAUSS_VALIDATION=1
   // ($GAUSS_VALIDATION=0 does not turn off an explicit request here).
   bool enable_validation{false};
+  // Adds synchronization validation (missing barriers, hazards) to the validation
+  // layer; slower. Also on with $GAUSS_VALIDATION=sync. Implies enable_validation.
+  bool synchronization_validation{false};
 };
 
 // One physical device as seen by the instance, for listings and error messages.
