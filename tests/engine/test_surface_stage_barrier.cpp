@@ -37,11 +37,12 @@ TEST(SurfaceStage, RejectsMalformedAndStalePatches) {
   bad.mesh.colors.pop_back();
   EXPECT_FALSE(s.offer(bad).ok());
   ASSERT_TRUE(s.offer(chunk(1, 3)).ok());
-  EXPECT_FALSE(s.offer(chunk(1, 3)).ok());  // not newer
-  EXPECT_FALSE(s.offer(chunk(1, 2)).ok());
+  EXPECT_TRUE(s.offer(chunk(1, 3)).ok());   // the same epoch again: a no-op
+  EXPECT_EQ(s.stats().duplicates, 1u);
+  EXPECT_FALSE(s.offer(chunk(1, 2)).ok());  // older
   ASSERT_TRUE(s.offer(chunk(1, 4)).ok());   // supersedes the pending epoch-3 patch
   EXPECT_EQ(s.stats().rejected_bad, 2u);
-  EXPECT_EQ(s.stats().rejected_stale, 2u);
+  EXPECT_EQ(s.stats().rejected_stale, 1u);
   EXPECT_EQ(s.stats().superseded, 1u);
   EXPECT_EQ(s.pending_count(), 1u);
 }
@@ -63,7 +64,7 @@ TEST(SurfaceStage, CommitsOnlyBehindThePublishedGaussians) {
   ASSERT_TRUE(s.offer(gone).ok());
   EXPECT_EQ(s.commit(Epoch{6}), 1u);
   EXPECT_EQ(s.committed().count(1), 0u);
-  EXPECT_FALSE(s.offer(chunk(1, 6)).ok());  // a stale patch cannot resurrect it
+  EXPECT_FALSE(s.offer(chunk(1, 5)).ok());  // a stale patch cannot resurrect it
 }
 
 // Host: epochs 1..E, each with random Gaussian edits and random surface chunks. The two

@@ -21,9 +21,15 @@ Status SurfaceStage::offer(StagedChunk chunk) {
     }
   }
   auto latest = latest_.find(chunk.chunk_id);
-  if (latest != latest_.end() && to_underlying(chunk.epoch) <= to_underlying(latest->second)) {
+  if (latest != latest_.end() && chunk.epoch == latest->second) {
+    // The same chunk of the same epoch again (a resync after a reconnect resends the
+    // whole surface): the content is the one already held.
+    ++stats_.duplicates;
+    return Ok{};
+  }
+  if (latest != latest_.end() && to_underlying(chunk.epoch) < to_underlying(latest->second)) {
     ++stats_.rejected_stale;
-    return Error{name + ": not newer than the epoch already held for this chunk"};
+    return Error{name + ": older than the epoch already held for this chunk"};
   }
   if (pending_.count(chunk.chunk_id)) ++stats_.superseded;
   const std::uint64_t id = chunk.chunk_id;

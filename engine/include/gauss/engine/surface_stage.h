@@ -4,7 +4,8 @@
 // edit of epochs <= e has been published or superseded, so at every frame
 //   epoch(published surface) <= epoch(published Gaussians).
 // Per chunk, a newer patch replaces an older pending one (latest value wins); a patch
-// not newer than what is pending or committed for that chunk is rejected and counted.
+// older than what is pending or committed for that chunk is rejected and counted; the
+// same epoch again (a resync resends the surface) is a no-op.
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -25,7 +26,8 @@ struct StagedChunk {
 struct SurfaceStats {
   std::uint64_t offered{0};
   std::uint64_t superseded{0};      // pending patch replaced by a newer one
-  std::uint64_t rejected_stale{0};  // not newer than the chunk's pending/committed epoch
+  std::uint64_t duplicates{0};      // same chunk, same epoch again (resync): ignored
+  std::uint64_t rejected_stale{0};  // older than the chunk's pending/committed epoch
   std::uint64_t rejected_bad{0};    // malformed mesh (index out of range, colour count)
   std::uint64_t committed{0};
 };
