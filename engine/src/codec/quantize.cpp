@@ -276,6 +276,10 @@ CodecParams fit_codec_params(std::span<const Gaussian> gaussians, int sh_degree)
   constexpr double kHi = 0.9995;
   std::vector<float> v;
   v.reserve(gaussians.size() * 3);
+  // Log-scales use their exact range: clamping the few largest Gaussians shrinks what
+  // covers the most pixels (on a real trained scene, 0.05 % clipped cost 30 dB of PSNR),
+  // and the log range is compact anyway. SH0 and SH rest use quantiles: a clipped outlier
+  // colour coefficient changes one splat's tint, while a wide range coarsens every step.
   // Box: exact bounds of the finite positions (a position outside the box costs its
   // Gaussian a clamp; a wide box costs every Gaussian precision, but the box is the
   // scene's, so no Gaussian should be clamped).
@@ -293,12 +297,12 @@ CodecParams fit_codec_params(std::span<const Gaussian> gaussians, int sh_degree)
     p.box.min = lo - pad;
     p.box.max = hi + pad;
   }
-  auto fit = [&](auto&& extract, float& out_lo, float& out_hi, float min_span) {
+  auto fit = [&](auto&& extract, float& out_lo, float& out_hi, float min_span, double q_lo, double q_hi) {
     v.clear();
     for (const Gaussian& g : gaussians) extract(g, v);
     if (v.empty()) return;
-    float a = quantile(v, kLo, out_lo);
-    float b = quantile(v, kHi, out_hi);
+    float a = quantile(v, q_lo, out_lo);
+    float b = quantile(v, q_hi, out_hi);
     if (!(b - a >= min_span)) {
       const float mid = 0.5f * (a + b);
       a = mid - 0.5f * min_span;
@@ -312,13 +316,13 @@ CodecParams fit_codec_params(std::span<const Gaussian> gaussians, int sh_degree)
         for (int a = 0; a < 3; ++a)
           if (std::isfinite(g.log_scale[a])) out.push_back(g.log_scale[a]);
       },
-      p.log_scale_min, p.log_scale_max, 1.0f);
+      p.log_scale_min, p.log_scale_max, 1.0f, 0.0, 1.0);
   fit(
       [](const Gaussian& g, std::vector<float>& out) {
         for (int c = 0; c < 3; ++c)
           if (std::isfinite(g.sh_dc[c])) out.push_back(g.sh_dc[c]);
       },
-      p.dc_min, p.dc_max, 0.5f);
+      p.dc_min, p.dc_max, 0.5f, kLo, kHi);
   if (p.sh_degree > 0) {
     const int rest = sh_rest_count(p.sh_degree);
     v.clear();

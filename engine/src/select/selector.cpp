@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <string>
 
@@ -65,6 +66,67 @@ constexpr std::uint8_t kExcluded = 0;
 constexpr std::uint8_t kBackground = 1;
 constexpr std::uint8_t kObject = 2;
 
+// What the cached partitions and global layer were computed for.
+struct PartitionKey {
+  std::uint64_t generation{0};
+  std::vector<ObjectId> query;
+  std::uint64_t mask_hash{0};
+  std::size_t mask_size{0};
+  std::size_t budget{0};
+  double rho{0.0};
+  bool operator==(const PartitionKey&) const = default;
+};
+
+// FNV-1a over the eligibility mask, 8 bytes at a time (a pass over N bytes, far cheaper
+// than recomputing the partitions).
+std::uint64_t mask_hash(std::span<const std::uint8_t> m) {
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  std::size_t i = 0;
+  for (; i + 8 <= m.size(); i += 8) {
+    std::uint64_t w;
+    std::memcpy(&w, m.data() + i, 8);
+    h = (h ^ w) * 0x100000001b3ull;
+  }
+  for (; i < m.size(); ++i) h = (h ^ m[i]) * 0x100000001b3ull;
+  return h;
+}
+
+struct ViewParams {
+  float row[3][3];
+  float cx, cy, cz;
+  float ftx, fty, inv_kx, inv_ky, inv_ramp, near, out_w, bonus;
+};
+
+// View utility keys for all N (0 for excluded). Branch-free so the compiler can
+// vectorise it: this loop is most of a pose update's cost.
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("O3")))
+#endif
+void score_view(std::size_t n, const float* __restrict px, const float* __restrict py, const float* __restrict pz,
+                const float* __restrict radius, const float* __restrict weight, const std::uint8_t* __restrict part,
+                const std::uint8_t* __restrict resident, const ViewParams& v, std::uint32_t* __restrict out) {
+  const ViewParams p = v;
+  for (std::size_t i = 0; i < n; ++i) {
+    const float dx = px[i] - p.cx;
+    const float dy = py[i] - p.cy;
+    const float dz = pz[i] - p.cz;
+    const float hx = p.row[0][0] * dx + p.row[0][1] * dy + p.row[0][2] * dz;
+    const float hy = p.row[1][0] * dx + p.row[1][1] * dy + p.row[1][2] * dz;
+    const float hz = p.row[2][0] * dx + p.row[2][1] * dy + p.row[2][2] * dz;
+    const float r = radius[i];
+    const float inv_dist = 1.0f / std::max(std::sqrt(dx * dx + dy * dy + dz * dz), p.near);
+    // Signed distances beyond the side planes (normalised by the plane normals' length).
+    const float ex = (std::fabs(hx) - p.ftx * hz) * p.inv_kx - r;
+    const float ey = (std::fabs(hy) - p.fty * hz) * p.inv_ky - r;
+    const float outside = std::max(ex, ey) * inv_dist;
+    const float facing = std::min(std::max(1.0f - (1.0f - p.out_w) * outside * p.inv_ramp, p.out_w), 1.0f);
+    const float keep = 1.0f + p.bonus * static_cast<float>(resident[i]);
+    const float view = weight[i] * r * inv_dist * facing * keep;  // finite and >= 0 by construction
+    const std::uint32_t key = std::bit_cast<std::uint32_t>(view);
+    out[i] = part[i] != 0 ? key : 0u;
+  }
+}
+
 }  // namespace
 
 struct Selector::Impl {
@@ -77,13 +139,32 @@ struct Selector::Impl {
   std::size_t n{0};
   std::vector<float> px, py, pz, radius, weight, global_utility;
   std::vector<std::uint64_t> ids;
+  std::vector<std::int32_t> object;
+  std::vector<std::uint8_t> carrier;
+  // Indices in ascending id order, only when the span is not already sorted by id
+  // (then the selection is read out through it instead of sorting M ids per call).
+  std::vector<std::uint32_t> id_order;
 
   // Per-call scratch, kept between calls so a warm selector does not allocate.
-  std::vector<std::uint8_t> part, selected, resident_now;
-  std::vector<std::uint32_t> view_key, global_key;
+  std::uint64_t generation{0};  // bumped at every rebuild
+  std::vector<std::uint32_t> global_key;  // static: score_key(global_utility)
+  std::vector<std::uint8_t> part, selected, global_flags;
+  std::vector<std::uint32_t> view_key;
+  // Cached partition + global layer (see select()).
+  bool partition_valid{false};
+  PartitionKey partition_key;
+  std::size_t n_obj{0}, n_bg{0}, object_budget{0}, bg_budget{0};
+  std::vector<std::uint32_t> global_obj, global_bg;
+  // Hysteresis state: the resident ids, and the same as a flag per index of the cached
+  // scene version (the previous selection's flags when the version did not change, so a
+  // pose-only update needs no id lookups). resident_flags_valid is false after a rebuild
+  // or set_resident(); the flags are then recomputed from the ids once.
+  std::vector<GaussianId> resident_ids;
+  std::vector<std::uint8_t> resident_flags;
+  bool resident_flags_valid{false};
+  IdTable<std::uint8_t> resident_lookup;
   select_detail::TopK top;
   std::vector<std::uint8_t> object_flags;  // object id -> in query (ids < kFlagLimit)
-  IdTable<std::uint8_t> resident;
 
   void rebuild(std::span<const Gaussian> g, std::uint64_t v) {
     n = g.size();
@@ -94,8 +175,13 @@ struct Selector::Impl {
     weight.resize(n);
     global_utility.resize(n);
     ids.resize(n);
+    object.resize(n);
+    carrier.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
       const Gaussian& x = g[i];
+      ids[i] = to_underlying(x.id);
+      object[i] = to_underlying(x.object);
+      carrier[i] = x.carrier ? 1 : 0;
       px[i] = x.position.x;
       py[i] = x.position.y;
       pz[i] = x.position.z;
@@ -107,7 +193,23 @@ struct Selector::Impl {
       const float w = sigmoid(x.opacity_logit) * (1.0f + std::log2(1.0f + static_cast<float>(x.support)));
       weight[i] = std::isfinite(w) ? w : 0.0f;
       global_utility[i] = weight[i] * radius[i];
-      ids[i] = to_underlying(x.id);
+      // A non-finite position cannot be ranked: it never enters (like a carrier).
+      if (!std::isfinite(x.position.x) || !std::isfinite(x.position.y) || !std::isfinite(x.position.z)) {
+        weight[i] = 0.0f;
+        global_utility[i] = 0.0f;
+        px[i] = py[i] = pz[i] = 0.0f;
+        carrier[i] = 1;
+      }
+    }
+    global_key.resize(n);
+    for (std::size_t i = 0; i < n; ++i) global_key[i] = select_detail::score_key(global_utility[i]);
+    ++generation;
+    partition_valid = false;
+    id_order.clear();
+    if (!std::is_sorted(ids.begin(), ids.end())) {
+      id_order.resize(n);
+      for (std::size_t i = 0; i < n; ++i) id_order[i] = static_cast<std::uint32_t>(i);
+      std::sort(id_order.begin(), id_order.end(), [&](std::uint32_t a, std::uint32_t b) { return ids[a] < ids[b]; });
     }
     data = g.data();
     version = v;
@@ -123,11 +225,14 @@ Selector::~Selector() = default;
 const SelectorConfig& Selector::config() const { return impl_->config; }
 
 void Selector::set_resident(std::span<const GaussianId> ids) {
-  impl_->resident.clear();
-  for (GaussianId id : ids) impl_->resident.set(id, 1);
+  impl_->resident_ids.assign(ids.begin(), ids.end());
+  impl_->resident_flags_valid = false;
 }
 
-void Selector::clear_resident() { impl_->resident.clear(); }
+void Selector::clear_resident() {
+  impl_->resident_ids.clear();
+  impl_->resident_flags_valid = false;
+}
 
 Expected<Selection> Selector::select(const SceneStore& scene, const ClientPose& pose, const SelectionRequest& request,
                                      std::span<const std::uint8_t> eligible) {
@@ -160,6 +265,16 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
   }
   if (!s.cached || s.version != scene_version || s.data != gaussians.data() || s.n != gaussians.size()) {
     s.rebuild(gaussians, scene_version);
+    s.resident_flags_valid = false;
+  }
+  if (!s.resident_flags_valid) {
+    s.resident_lookup.clear();
+    for (GaussianId id : s.resident_ids) s.resident_lookup.set(id, 1);
+    s.resident_flags.assign(s.n, 0);
+    if (!s.resident_ids.empty()) {
+      for (std::size_t i = 0; i < s.n; ++i) s.resident_flags[i] = s.resident_lookup.contains(GaussianId{s.ids[i]});
+    }
+    s.resident_flags_valid = true;
   }
   const std::size_t n = s.n;
 
@@ -176,11 +291,10 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
       for (ObjectId id : query_ids) s.object_flags[static_cast<std::size_t>(to_underlying(id))] = 1;
     }
   }
-  auto in_query = [&](ObjectId o) {
-    const std::int32_t v = to_underlying(o);
+  auto in_query = [&](std::int32_t v) {
     if (v < 0) return false;
     if (all_small) return static_cast<std::size_t>(v) < s.object_flags.size() && s.object_flags[static_cast<std::size_t>(v)];
-    return std::binary_search(query_ids.begin(), query_ids.end(), o,
+    return std::binary_search(query_ids.begin(), query_ids.end(), ObjectId{v},
                               [](ObjectId a, ObjectId b) { return to_underlying(a) < to_underlying(b); });
   };
 
@@ -192,8 +306,8 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
   const glm::dmat3 r_hw = glm::transpose(r_wh);
   const float ftx = static_cast<float>(pose.tan_half_fov_x);
   const float fty = static_cast<float>(pose.tan_half_fov_y);
-  const float kx = static_cast<float>(std::sqrt(1.0 + pose.tan_half_fov_x * pose.tan_half_fov_x));
-  const float ky = static_cast<float>(std::sqrt(1.0 + pose.tan_half_fov_y * pose.tan_half_fov_y));
+  const float inv_kx = static_cast<float>(1.0 / std::sqrt(1.0 + pose.tan_half_fov_x * pose.tan_half_fov_x));
+  const float inv_ky = static_cast<float>(1.0 / std::sqrt(1.0 + pose.tan_half_fov_y * pose.tan_half_fov_y));
   // Outside-ness e = (distance of the sphere beyond a side plane) / distance ~ sine of the
   // angle outside; the ramp spans e in [0, sin(margin)].
   const float ramp = static_cast<float>(std::sin(std::clamp(cfg.margin_deg, 0.1, 90.0) * std::numbers::pi / 180.0));
@@ -207,84 +321,96 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
   const float out_w = static_cast<float>(cfg.out_of_view_weight);
   const float bonus = static_cast<float>(1.0 + cfg.retention_bonus);
 
-  s.part.resize(n);
-  s.selected.assign(n, 0);
-  s.resident_now.resize(n);
-  s.view_key.resize(n);
-  s.global_key.resize(n);
-  std::size_t n_obj = 0;
-  std::size_t n_bg = 0;
-  const bool have_resident = s.resident.size() > 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const Gaussian& g = gaussians[i];
-    std::uint8_t p = kExcluded;
-    if (!g.carrier && (eligible.empty() || eligible[i] != 0)) p = (out.query && in_query(g.object)) ? kObject : kBackground;
-    s.part[i] = p;
-    if (p == kExcluded) {
-      s.view_key[i] = 0;
-      s.global_key[i] = 0;
-      continue;
+  // Partitions and the global layer depend on the scene, the query, the eligibility mask
+  // and the budgets, not on the pose: computed once and reused while those stay the same,
+  // so a pose-only update pays for the view layer alone.
+  PartitionKey key{s.generation, query_ids, mask_hash(eligible), eligible.size(), request.budget, request.rho};
+  if (!s.partition_valid || !(key == s.partition_key)) {
+    s.part.resize(n);
+    std::size_t n_obj = 0;
+    std::size_t n_bg = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      std::uint8_t p = kExcluded;
+      if (!s.carrier[i] && (eligible.empty() || eligible[i] != 0)) {
+        p = (out.query && in_query(s.object[i])) ? kObject : kBackground;
+      }
+      s.part[i] = p;
+      n_obj += p == kObject;
+      n_bg += p == kBackground;
     }
-    (p == kObject ? n_obj : n_bg) += 1;
-    const bool res = have_resident && s.resident.contains(GaussianId{s.ids[i]});
-    s.resident_now[i] = res ? 1 : 0;
-    const float keep = res ? bonus : 1.0f;
-    // Offsets in double then float: positions far from the origin keep their precision.
-    const float dx = static_cast<float>(s.px[i] - cx);
-    const float dy = static_cast<float>(s.py[i] - cy);
-    const float dz = static_cast<float>(s.pz[i] - cz);
-    const float hx = row[0][0] * dx + row[0][1] * dy + row[0][2] * dz;
-    const float hy = row[1][0] * dx + row[1][1] * dy + row[1][2] * dz;
-    const float hz = row[2][0] * dx + row[2][1] * dy + row[2][2] * dz;
-    const float r = s.radius[i];
-    const float dist = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), near);
-    // Signed distances beyond the side planes (normalised by the plane normals' length).
-    const float ex = (std::fabs(hx) - ftx * hz) / kx - r;
-    const float ey = (std::fabs(hy) - fty * hz) / ky - r;
-    const float outside = std::max(ex, ey) / dist;
-    const float facing = outside <= 0.0f ? 1.0f : std::max(out_w, 1.0f - (1.0f - out_w) * outside * inv_ramp);
-    const float view = s.weight[i] * (r / dist) * facing * keep;
-    s.view_key[i] = select_detail::score_key(view);
-    s.global_key[i] = select_detail::score_key(s.global_utility[i] * keep);
+    s.n_obj = n_obj;
+    s.n_bg = n_bg;
+    s.object_budget = 0;
+    if (out.query) {
+      const auto reserve = static_cast<std::size_t>(std::floor(request.rho * static_cast<double>(request.budget)));
+      s.object_budget = std::min(n_obj, reserve);
+    }
+    s.bg_budget = std::min(n_bg, request.budget - s.object_budget);
+    s.global_flags.assign(n, 0);
+    for (std::uint8_t p : {kObject, kBackground}) {
+      const std::size_t budget = p == kObject ? s.object_budget : s.bg_budget;
+      const auto global_budget = static_cast<std::size_t>(std::floor(cfg.global_fraction * static_cast<double>(budget)));
+      auto pred = [&](std::size_t i) { return s.part[i] == p && !s.global_flags[i]; };
+      s.top.select(s.global_key, s.ids, pred, global_budget, s.global_flags);
+    }
+    s.global_obj.clear();
+    s.global_bg.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (s.global_flags[i]) (s.part[i] == kObject ? s.global_obj : s.global_bg).push_back(static_cast<std::uint32_t>(i));
+    }
+    s.partition_key = std::move(key);
+    s.partition_valid = true;
   }
-  out.object_candidates = n_obj;
-  out.background_candidates = n_bg;
-  const std::size_t m = request.budget;
-  if (out.query) {
-    const auto reserve = static_cast<std::size_t>(std::floor(request.rho * static_cast<double>(m)));
-    out.object_budget = std::min(n_obj, reserve);
-  }
-  const std::size_t bg_budget = std::min(n_bg, m - out.object_budget);
+  out.object_candidates = s.n_obj;
+  out.background_candidates = s.n_bg;
+  out.object_budget = s.object_budget;
 
-  auto fill = [&](std::uint8_t p, std::size_t budget) {
-    const auto global_budget = static_cast<std::size_t>(std::floor(cfg.global_fraction * static_cast<double>(budget)));
+  ViewParams vp;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) vp.row[i][j] = row[i][j];
+  vp.cx = static_cast<float>(cx);
+  vp.cy = static_cast<float>(cy);
+  vp.cz = static_cast<float>(cz);
+  vp.ftx = ftx;
+  vp.fty = fty;
+  vp.inv_kx = inv_kx;
+  vp.inv_ky = inv_ky;
+  vp.inv_ramp = inv_ramp;
+  vp.near = near;
+  vp.out_w = out_w;
+  vp.bonus = bonus - 1.0f;
+  s.view_key.resize(n);
+  score_view(n, s.px.data(), s.py.data(), s.pz.data(), s.radius.data(), s.weight.data(), s.part.data(),
+             s.resident_flags.data(), vp, s.view_key.data());
+
+  s.selected.assign(n, 0);
+  for (std::uint32_t i : s.global_obj) s.selected[i] = 1;
+  for (std::uint32_t i : s.global_bg) s.selected[i] = 1;
+  out.global_selected = s.global_obj.size() + s.global_bg.size();
+  auto fill = [&](std::uint8_t p, std::size_t budget, std::size_t global) {
     auto pred = [&](std::size_t i) { return s.part[i] == p && !s.selected[i]; };
-    const std::size_t g = s.top.select(s.global_key, s.ids, pred, global_budget, s.selected);
-    out.global_selected += g;
-    const std::size_t v = s.top.select(s.view_key, s.ids, pred, budget - g, s.selected);
-    return g + v;
+    return global + s.top.select(s.view_key, s.ids, pred, budget - global, s.selected);
   };
-  out.object_selected = out.object_budget > 0 ? fill(kObject, out.object_budget) : 0;
-  out.background_selected = bg_budget > 0 ? fill(kBackground, bg_budget) : 0;
+  out.object_selected = s.object_budget > 0 ? fill(kObject, s.object_budget, s.global_obj.size()) : 0;
+  out.background_selected = s.bg_budget > 0 ? fill(kBackground, s.bg_budget, s.global_bg.size()) : 0;
 
-  // The set in scene order (ascending ids for a SceneStore fed with allocate_id()).
+  // The set in ascending id order.
   const std::size_t total = out.object_selected + out.background_selected;
   out.ids.reserve(total);
   out.indices.reserve(total);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!s.selected[i]) continue;
+  auto take = [&](std::size_t i) {
+    if (!s.selected[i]) return;
     out.indices.push_back(static_cast<std::uint32_t>(i));
     out.ids.push_back(GaussianId{s.ids[i]});
-    out.retained += s.resident_now[i];
+    out.retained += s.resident_flags[i];
+  };
+  if (s.id_order.empty()) {
+    for (std::size_t i = 0; i < n; ++i) take(i);
+  } else {
+    for (std::uint32_t i : s.id_order) take(i);
   }
-  if (!std::is_sorted(out.ids.begin(), out.ids.end())) {
-    std::vector<std::uint32_t> order(out.indices);
-    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return s.ids[a] < s.ids[b]; });
-    out.indices = std::move(order);
-    for (std::size_t k = 0; k < out.indices.size(); ++k) out.ids[k] = GaussianId{s.ids[out.indices[k]]};
-  }
-  s.resident.clear();
-  for (GaussianId id : out.ids) s.resident.set(id, 1);
+  s.resident_ids = out.ids;
+  s.resident_flags.swap(s.selected);  // same version: the next call's flags, no lookups
   return out;
 }
 

@@ -119,9 +119,10 @@ constexpr std::size_t record_bytes(int sh_degree) {
 }
 
 // Fits box (bounds of the finite positions, padded by 1 %), log-scale, SH0 and SH rest
-// ranges to a scene so its values use the quantisers' full resolution. Ranges cover the
-// 0.05 %..99.95 % quantiles, so a few outliers are clamped rather than stretching the
-// steps for everyone. Empty input gives the defaults with the given degree.
+// ranges to a scene so its values use the quantisers' full resolution. Box and log-scales
+// take the exact range (clamping the largest Gaussians is the most visible error); SH0 and
+// SH rest cover the 0.05 %..99.95 % quantiles, so a few colour outliers are clamped rather
+// than stretching the steps for everyone. Empty input gives the defaults with the degree.
 CodecParams fit_codec_params(std::span<const Gaussian> gaussians, int sh_degree);
 
 // Checks params are usable (finite, min < max, degree 0..3).

@@ -1,0 +1,467 @@
+// gauss-bench host: the host pipeline's costs, each figure beside its error or effect.
+//   1. selection + diff per pose update (N eligible, budget M, one thread): median / p90;
+//   2. edits per small head motion (5 cm, 2 deg): one step from a settled set, and a
+//      continuous walk, as a fraction of M;
+//   3. wire bytes per Gaussian (raw, before zstd, and after zstd at several levels) with
+//      the quantisation error beside it as PSNR of quantised vs float reference renders;
+//   4. identity tracking on an N-Gaussian snapshot (5 % perturbed, 2 % new, 2 % removed,
+//      shuffled): kept-id rate and time.
+// Prints a table and optionally writes JSON (--json). Timing never decides a test.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <numeric>
+#include <optional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <zstd.h>
+
+#include <glm/common.hpp>
+#include <glm/gtc/quaternion.hpp>
+
+#include "bench_registry.h"
+#include "gauss/engine/codec.h"
+#include "gauss/engine/differ.h"
+#include "gauss/engine/identity_tracker.h"
+#include "gauss/engine/ply_gaussian.h"
+#include "gauss/engine/selector.h"
+#include "gauss/engine/synthetic_scene.h"
+#include "gauss/render/image_metrics.h"
+#include "gauss/render/reference_rasterizer.h"
+
+namespace {
+
+using namespace gauss;
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// CPU time of this thread: the machine running the bench may be shared, and the
+// target is "one core", so this is the figure to hold against it (wall time beside it).
+double thread_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5)];
+}
+
+struct Options {
+  std::size_t gaussians{1'000'000};
+  std::size_t budget{200'000};
+  int updates{41};
+  std::size_t psnr_gaussians{100'000};
+  std::uint32_t psnr_width{320};
+  std::uint32_t psnr_height{240};
+  bool psnr{true};
+  bool identity{true};
+  fs::path json_out;
+};
+
+std::optional<fs::path> data_file(const std::string& rel) {
+  fs::path dir = "../shared/data";
+  if (const char* env = std::getenv("GAUSS_DATA_DIR"); env && *env) dir = env;
+  const fs::path p = dir / rel;
+  if (fs::exists(p)) return p;
+  return std::nullopt;
+}
+
+Expected<SyntheticScene> build_synthetic(std::size_t n, SceneStore& store, double& ms) {
+  SyntheticSceneConfig c;
+  c.target_gaussians = n;
+  c.seed = 7;
+  auto scene = SyntheticScene::create(c);
+  if (!scene) return scene.error();
+  const auto t0 = Clock::now();
+  while (!scene->finished()) {
+    if (Status st = scene->produce(store); !st) return st.error();
+  }
+  ms = ms_since(t0);
+  return scene;
+}
+
+// A 5 cm step forward and a 2 degree turn about the world's up axis (y up in the synthetic
+// room; the head frame is OpenCV, y down).
+ClientPose small_motion(ClientPose p) {
+  const glm::dvec3 forward = p.orientation * glm::dvec3(0.0, 0.0, 1.0);
+  p.position += 0.05 * glm::normalize(glm::dvec3(forward.x, 0.0, forward.z));
+  p.orientation = glm::angleAxis(2.0 * 3.141592653589793 / 180.0, glm::dvec3(0.0, 1.0, 0.0)) * p.orientation;
+  return p;
+}
+
+// ---- 1 + 2: selection + diff timing, edits per small motion ------------------------------
+
+json bench_select(const SceneStore& store, const SyntheticScene& scene, const Options& o) {
+  const CodecParams params = fit_codec_params(store.gaussians(), store.sh_degree());
+  SelectionRequest req;
+  req.budget = o.budget;
+  req.client_capacity = std::max<std::size_t>(o.budget, 400'000);
+  Selector selector;
+  Differ differ(params);
+  ClientPose pose = ClientPose::from_camera(scene.trajectory().front());
+
+  auto t0 = Clock::now();
+  auto sel = selector.select(store, pose, req);
+  const double cold_select_ms = ms_since(t0);
+  if (!sel) {
+    std::fprintf(stderr, "select: %s\n", sel.message().c_str());
+    return {};
+  }
+  t0 = Clock::now();
+  auto first = differ.diff(*sel, store);
+  const double first_diff_ms = ms_since(t0);
+  for (int i = 0; i < 2; ++i) {  // settle at the start pose
+    (void)differ.diff(*selector.select(store, pose, req), store);
+  }
+  std::vector<double> select_ms, diff_ms, total_ms, wall_ms, edit_frac;
+  for (int k = 0; k < o.updates; ++k) {
+    pose = small_motion(pose);
+    t0 = Clock::now();
+    const double c0 = thread_cpu_ms();
+    auto s = selector.select(store, pose, req);
+    const double c1 = thread_cpu_ms();
+    auto b = differ.diff(*s, store);
+    const double c2 = thread_cpu_ms();
+    wall_ms.push_back(ms_since(t0));
+    select_ms.push_back(c1 - c0);
+    diff_ms.push_back(c2 - c1);
+    total_ms.push_back(c2 - c0);
+    edit_frac.push_back(static_cast<double>(b->edits.size()) / static_cast<double>(o.budget));
+  }
+  // One small motion from a settled set, at several trajectory poses.
+  std::vector<double> one_step;
+  const auto& traj = scene.trajectory();
+  for (std::size_t c = 0; c < traj.size(); c += std::max<std::size_t>(1, traj.size() / 8)) {
+    Selector s2;
+    Differ d2(params);
+    const ClientPose p = ClientPose::from_camera(traj[c]);
+    for (int i = 0; i < 3; ++i) (void)d2.diff(*s2.select(store, p, req), store);
+    auto b = d2.diff(*s2.select(store, small_motion(p), req), store);
+    one_step.push_back(static_cast<double>(b->edits.size()) / static_cast<double>(o.budget));
+  }
+  const double eligible = static_cast<double>(sel->background_candidates + sel->object_candidates);
+  std::printf("\n== selection + diff per pose update (N = %.0f eligible, M = %zu, one thread) ==\n", eligible,
+              o.budget);
+  std::printf("  %-34s %10s %10s %10s\n", "(thread CPU time)", "median", "p90", "max");
+  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "select ms", percentile(select_ms, 0.5), percentile(select_ms, 0.9),
+              percentile(select_ms, 1.0));
+  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "diff ms", percentile(diff_ms, 0.5), percentile(diff_ms, 0.9),
+              percentile(diff_ms, 1.0));
+  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "select + diff ms (target <= 10)", percentile(total_ms, 0.5),
+              percentile(total_ms, 0.9), percentile(total_ms, 1.0));
+  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "select + diff wall ms", percentile(wall_ms, 0.5),
+              percentile(wall_ms, 0.9), percentile(wall_ms, 1.0));
+  std::printf("  first call: select %.1f ms (static terms rebuilt), diff %.1f ms (%zu inserts)\n", cold_select_ms,
+              first_diff_ms, first->edits.size());
+  std::printf("\n== edits per small head motion (5 cm, 2 deg), fraction of M (target < 1 %%) ==\n");
+  std::printf("  one step from a settled set:  median %.3f %%  max %.3f %%  (%zu poses)\n",
+              100.0 * percentile(one_step, 0.5), 100.0 * percentile(one_step, 1.0), one_step.size());
+  std::printf("  continuous walk (%d steps):    median %.3f %%  max %.3f %%\n", o.updates,
+              100.0 * percentile(edit_frac, 0.5), 100.0 * percentile(edit_frac, 1.0));
+  return json{{"eligible", eligible},
+              {"budget", o.budget},
+              {"updates", o.updates},
+              {"select_ms", {{"median", percentile(select_ms, 0.5)}, {"p90", percentile(select_ms, 0.9)}}},
+              {"diff_ms", {{"median", percentile(diff_ms, 0.5)}, {"p90", percentile(diff_ms, 0.9)}}},
+              {"select_diff_ms",
+               {{"median", percentile(total_ms, 0.5)}, {"p90", percentile(total_ms, 0.9)}, {"max", percentile(total_ms, 1.0)}}},
+              {"select_diff_wall_ms", {{"median", percentile(wall_ms, 0.5)}, {"p90", percentile(wall_ms, 0.9)}}},
+              {"timing", "thread CPU time unless named wall"},
+              {"cold_select_ms", cold_select_ms},
+              {"first_diff_ms", first_diff_ms},
+              {"edit_fraction_one_step", {{"median", percentile(one_step, 0.5)}, {"max", percentile(one_step, 1.0)}}},
+              {"edit_fraction_walk", {{"median", percentile(edit_frac, 0.5)}, {"max", percentile(edit_frac, 1.0)}}}};
+}
+
+// ---- 3: wire bytes and quantisation PSNR -------------------------------------------------
+
+struct CodecCase {
+  std::string name;
+  std::vector<Gaussian> gaussians;
+  int sh_degree{0};
+  std::vector<Camera> cameras;  // for PSNR; empty = no PSNR
+};
+
+// A camera looking along +z at the bounds of a PLY scene, from 1.2 extents back.
+Camera camera_for(std::span<const Gaussian> g, std::uint32_t w, std::uint32_t h) {
+  glm::vec3 lo(1e30f), hi(-1e30f);
+  for (const Gaussian& x : g) {
+    lo = glm::min(lo, x.position);
+    hi = glm::max(hi, x.position);
+  }
+  const glm::dvec3 c = 0.5 * (glm::dvec3(lo) + glm::dvec3(hi));
+  const double extent = std::max({hi.x - lo.x, hi.y - lo.y, 1e-3f});
+  Camera cam;
+  cam.width = w;
+  cam.height = h;
+  cam.fx = cam.fy = 0.9 * w;
+  cam.cx = 0.5 * w;
+  cam.cy = 0.5 * h;
+  const glm::dvec3 eye = c - glm::dvec3(0.0, 0.0, 1.2 * extent + 0.5 * (hi.z - lo.z));
+  cam.world_to_camera = glm::dmat4(1.0);
+  cam.world_to_camera[3] = glm::dvec4(-eye, 1.0);
+  cam.near_plane = 0.01;
+  return cam;
+}
+
+json bench_codec_case(const CodecCase& cc, const Options& o) {
+  const CodecParams params = fit_codec_params(cc.gaussians, cc.sh_degree);
+  EditBatch batch;
+  batch.epoch = Epoch{1};
+  batch.edits.reserve(cc.gaussians.size());
+  for (const Gaussian& g : cc.gaussians) batch.edits.push_back(Edit{EditKind::Insert, g.id, GaussianId{0}, g});
+  CodecStats stats;
+  auto t0 = Clock::now();
+  const auto raw = encode_edit_batch_raw(batch, params, &stats);
+  const double raw_ms = ms_since(t0);
+  const double n = static_cast<double>(cc.gaussians.size());
+  json levels = json::array();
+  std::printf("  %-22s SH%d  %8zu G  record %zu B  raw %.2f B/G  (encode %.1f ms, %llu clamped)\n", cc.name.c_str(),
+              cc.sh_degree, cc.gaussians.size(), record_bytes(cc.sh_degree), static_cast<double>(raw.size()) / n,
+              raw_ms, static_cast<unsigned long long>(stats.clamped_total()));
+  for (int level : {1, 3, 9, 19}) {
+    std::vector<std::uint8_t> z(ZSTD_compressBound(raw.size()));
+    t0 = Clock::now();
+    const std::size_t zn = ZSTD_compress(z.data(), z.size(), raw.data(), raw.size(), level);
+    const double zms = ms_since(t0);
+    if (ZSTD_isError(zn)) continue;
+    std::printf("      zstd %-2d %s %6.2f B/G  %8.1f ms\n", level, level == kZstdLevel ? "(used)" : "      ",
+                static_cast<double>(zn) / n, zms);
+    levels.push_back({{"level", level}, {"bytes_per_gaussian", static_cast<double>(zn) / n}, {"ms", zms}});
+  }
+  const auto wire = encode_edit_batch(batch, params);
+  t0 = Clock::now();
+  auto decoded = decode_edit_batch(wire, params);
+  const double decode_ms = ms_since(t0);
+  json out{{"name", cc.name},
+           {"sh_degree", cc.sh_degree},
+           {"gaussians", cc.gaussians.size()},
+           {"record_bytes", record_bytes(cc.sh_degree)},
+           {"raw_bytes_per_gaussian", static_cast<double>(raw.size()) / n},
+           {"wire_bytes_per_gaussian", static_cast<double>(wire.size()) / n},
+           {"encode_raw_ms", raw_ms},
+           {"decode_ms", decode_ms},
+           {"decode_ok", decoded.ok()},
+           {"clamped", stats.clamped_total()},
+           {"zstd", levels}};
+  if (!o.psnr || cc.cameras.empty()) return out;
+  std::vector<Gaussian> quantised;
+  quantised.reserve(cc.gaussians.size());
+  for (const Gaussian& g : cc.gaussians) quantised.push_back(quantize_roundtrip(g, params));
+  json psnrs = json::array();
+  render::ReferenceOptions ro;
+  ro.threads = 2;
+  for (const Camera& cam : cc.cameras) {
+    t0 = Clock::now();
+    auto a = render::render_reference(cc.gaussians, {}, cc.sh_degree, cam, ro);
+    auto b = render::render_reference(quantised, {}, cc.sh_degree, cam, ro);
+    const double rms = ms_since(t0);
+    if (!a || !b) {
+      std::fprintf(stderr, "reference render failed: %s\n", (!a ? a.message() : b.message()).c_str());
+      continue;
+    }
+    auto d = render::compare_images(a->rgba8, b->rgba8);
+    if (!d) continue;
+    std::printf("      PSNR quantised vs float %ux%u: %6.2f dB  (max abs err %d, %llu visible splats, %.0f ms)\n",
+                cam.width, cam.height, d->psnr_db, d->max_abs_error,
+                static_cast<unsigned long long>(a->stats.visible), rms);
+    psnrs.push_back({{"psnr_db", std::isfinite(d->psnr_db) ? d->psnr_db : 999.0},
+                     {"max_abs_error", d->max_abs_error},
+                     {"visible", a->stats.visible}});
+  }
+  out["psnr"] = psnrs;
+  return out;
+}
+
+json bench_codec(const SceneStore& big, const Options& o) {
+  std::printf("\n== wire bytes per Gaussian (SH0 target <= 16 B before zstd) and quantisation PSNR (target >= 45 dB) ==\n");
+  std::vector<CodecCase> cases;
+  {  // the synthetic room, smaller so the double-precision reference stays affordable
+    SceneStore store;
+    double ms = 0.0;
+    auto scene = build_synthetic(o.psnr_gaussians, store, ms);
+    if (scene) {
+      CodecCase c1{"synthetic room", {}, store.sh_degree(), {}};
+      for (const Gaussian& g : store.gaussians())
+        if (!g.carrier) c1.gaussians.push_back(g);
+      const auto& traj = scene->trajectory();
+      for (std::size_t k : {std::size_t{0}, traj.size() / 2}) {
+        Camera cam = traj[k];
+        const double s = static_cast<double>(o.psnr_width) / cam.width;
+        cam.fx *= s;
+        cam.fy *= s;
+        cam.cx *= s;
+        cam.cy *= s;
+        cam.width = o.psnr_width;
+        cam.height = static_cast<std::uint32_t>(std::lround(cam.height * s));
+        c1.cameras.push_back(cam);
+      }
+      CodecCase c0 = c1;
+      c0.name = "synthetic room";
+      c0.sh_degree = 0;
+      for (Gaussian& g : c0.gaussians) g.sh_rest = {};
+      cases.push_back(std::move(c0));
+      cases.push_back(std::move(c1));
+    }
+  }
+  for (const auto& [rel, label] : {std::pair{"splats/guitar.ply", "guitar (real)"},
+                                  std::pair{"splats/fruit_drops_sh3.ply", "fruit_drops (real)"}}) {
+    auto p = data_file(rel);
+    if (!p) {
+      std::printf("  %s: not found under GAUSS_DATA_DIR / ../shared/data, skipped\n", rel);
+      continue;
+    }
+    auto ply = read_gaussian_ply(*p);
+    if (!ply) {
+      std::printf("  %s: %s\n", rel, ply.message().c_str());
+      continue;
+    }
+    CodecCase c{label, std::move(ply->cloud.gaussians), ply->cloud.sh_degree, {}};
+    for (std::size_t i = 0; i < c.gaussians.size(); ++i) c.gaussians[i].id = GaussianId{i + 1};
+    c.cameras.push_back(camera_for(c.gaussians, o.psnr_width, o.psnr_height));
+    cases.push_back(std::move(c));
+  }
+  {  // the big scene's wire size at SH0 (no PSNR: too large for the reference)
+    CodecCase c{"synthetic room (big)", {}, 0, {}};
+    for (const Gaussian& g : big.gaussians()) {
+      if (g.carrier) continue;
+      c.gaussians.push_back(g);
+      c.gaussians.back().sh_rest = {};
+      if (c.gaussians.size() == o.budget) break;
+    }
+    cases.push_back(std::move(c));
+  }
+  json out = json::array();
+  for (const CodecCase& c : cases) out.push_back(bench_codec_case(c, o));
+  return out;
+}
+
+// ---- 4: identity tracking ------------------------------------------------------------
+
+json bench_identity(const SceneStore& store) {
+  std::vector<Gaussian> previous;
+  for (const Gaussian& g : store.gaussians())
+    if (!g.carrier) previous.push_back(g);
+  std::mt19937_64 rng(99);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<Gaussian> current;
+  std::vector<GaussianId> truth;  // the id each snapshot Gaussian should keep (0: new)
+  std::size_t unchanged = 0;
+  for (const Gaussian& g : previous) {
+    const float r = u(rng);
+    if (r < 0.02f) continue;  // removed
+    Gaussian c = g;
+    if (r < 0.07f) {  // perturbed: a fraction of a sigma, small colour / opacity change
+      const float sigma = std::exp(std::max({g.log_scale.x, g.log_scale.y, g.log_scale.z}));
+      c.position += sigma * 0.3f * glm::vec3(u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f);
+      c.sh_dc += 0.05f * glm::vec3(u(rng) - 0.5f);
+      c.opacity_logit += 0.2f * (u(rng) - 0.5f);
+    }
+    current.push_back(c);
+    truth.push_back(g.id);
+    ++unchanged;
+  }
+  const std::size_t n_new = previous.size() / 50;
+  for (std::size_t i = 0; i < n_new; ++i) {
+    Gaussian c = previous[rng() % previous.size()];
+    c.position += glm::vec3(u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f);  // a different place
+    current.push_back(c);
+    truth.push_back(GaussianId{0});
+  }
+  std::vector<std::size_t> perm(current.size());
+  std::iota(perm.begin(), perm.end(), 0);
+  std::shuffle(perm.begin(), perm.end(), rng);
+  std::vector<Gaussian> shuffled(current.size());
+  std::vector<GaussianId> truth_shuffled(current.size());
+  for (std::size_t i = 0; i < perm.size(); ++i) {
+    shuffled[i] = current[perm[i]];
+    truth_shuffled[i] = truth[perm[i]];
+  }
+  std::uint64_t next = 1ull << 40;
+  const auto t0 = Clock::now();
+  auto rep = track_identity(previous, shuffled, IdentityTrackerConfig{}, [&] { return GaussianId{next++}; });
+  const double ms = ms_since(t0);
+  if (!rep) {
+    std::printf("\n== identity tracking: %s ==\n", rep.message().c_str());
+    return {{"error", rep.message()}};
+  }
+  std::size_t kept_right = 0;
+  for (std::size_t i = 0; i < shuffled.size(); ++i) {
+    kept_right += to_underlying(truth_shuffled[i]) != 0 && shuffled[i].id == truth_shuffled[i];
+  }
+  const double rate = static_cast<double>(kept_right) / static_cast<double>(unchanged);
+  std::printf("\n== identity tracking (%zu previous, 5 %% perturbed, 2 %% new, 2 %% removed, shuffled) ==\n",
+              previous.size());
+  std::printf("  kept-id rate of surviving Gaussians: %.4f   time %.0f ms   (fresh %zu, removed %zu)\n", rate, ms,
+              rep->fresh, rep->removed);
+  return {{"previous", previous.size()}, {"kept_rate", rate}, {"ms", ms}, {"fresh", rep->fresh},
+          {"removed", rep->removed}};
+}
+
+int usage() {
+  std::fprintf(stderr,
+               "usage: gauss-bench host [--gaussians N] [--budget M] [--updates K] [--psnr-gaussians N]\n"
+               "                        [--psnr-size WxH] [--no-psnr] [--no-identity] [--json out.json]\n");
+  return 2;
+}
+
+int bench_host_main(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool has = i + 1 < argc;
+    if (a == "--gaussians" && has) o.gaussians = std::stoull(argv[++i]);
+    else if (a == "--budget" && has) o.budget = std::stoull(argv[++i]);
+    else if (a == "--updates" && has) o.updates = std::stoi(argv[++i]);
+    else if (a == "--psnr-gaussians" && has) o.psnr_gaussians = std::stoull(argv[++i]);
+    else if (a == "--psnr-size" && has && std::sscanf(argv[i + 1], "%ux%u", &o.psnr_width, &o.psnr_height) == 2) ++i;
+    else if (a == "--no-psnr") o.psnr = false;
+    else if (a == "--no-identity") o.identity = false;
+    else if (a == "--json" && has) o.json_out = argv[++i];
+    else return usage();
+  }
+  if (o.budget == 0 || o.updates < 1) return usage();
+  SceneStore store;
+  double build_ms = 0.0;
+  auto scene = build_synthetic(o.gaussians, store, build_ms);
+  if (!scene) {
+    std::fprintf(stderr, "synthetic scene: %s\n", scene.message().c_str());
+    return 1;
+  }
+  std::printf("synthetic room: %zu appearance Gaussians (+%zu carriers), SH%d, %zu epochs built in %.0f ms\n",
+              store.appearance_count(), store.carrier_count(), store.sh_degree(),
+              static_cast<std::size_t>(scene->epoch_count()), build_ms);
+  json out;
+  out["scene"] = {{"appearance", store.appearance_count()}, {"build_ms", build_ms}};
+  out["zstd_level"] = kZstdLevel;
+  out["select"] = bench_select(store, *scene, o);
+  out["codec"] = bench_codec(store, o);
+  if (o.identity) out["identity"] = bench_identity(store);
+  if (!o.json_out.empty()) {
+    std::ofstream f(o.json_out);
+    f << out.dump(2) << "\n";
+    std::printf("\nJSON written to %s\n", o.json_out.string().c_str());
+  }
+  return 0;
+}
+
+}  // namespace
+
+GAUSS_BENCH("host", "host pipeline: select+diff ms, edits per head motion, wire bytes + PSNR, identity tracking",
+            bench_host_main);
