@@ -63,6 +63,8 @@ std::vector<Case> cases() {
   c.push_back({"not_ply", bytes_of("PLY\nformat ascii 1.0\n"), {"not a PLY file", "'PLY'"}});
   c.push_back({"truncated_header", bytes_of("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"),
                {"truncated header", "end_header"}});
+  c.push_back({"header_cut_mid_line", bytes_of("ply\nformat ascii 1.0\nelement vert"),
+               {"the file ends inside header line 3"}});
   c.push_back({"unknown_format", bytes_of("ply\nformat binary_middle_endian 1.0\nend_header\n"),
                {"header line 2", "unsupported format 'binary_middle_endian'"}});
   c.push_back({"bad_version", bytes_of("ply\nformat ascii 2.0\nend_header\n"), {"format version '2.0'"}});
@@ -174,7 +176,7 @@ std::vector<Case> cases() {
   c.push_back({"binary_garbage_name", bytes_of("ply\nformat ascii 1.0\nelement ver\x01tex 1\nend_header\n"),
                {"non-printable", "\\x01"}});
   c.push_back({"no_newline_after_end_header", bytes_of("ply\nformat ascii 1.0\nend_header"),
-               {"'end_header' is not followed by a newline"}});
+               {"truncated header: the file ends inside header line 3"}});
   return c;
 }
 

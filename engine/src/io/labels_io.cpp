@@ -1,5 +1,6 @@
 #include "gauss/engine/labels_io.h"
 
+#include <algorithm>
 #include <charconv>
 #include <string>
 
@@ -9,8 +10,7 @@ namespace gauss {
 
 Expected<std::vector<std::int32_t>> parse_labels(std::string_view text, std::string_view name) {
   std::vector<std::int32_t> labels;
-  // At least 2 bytes per label ("0\n"), so this never over-reserves on hostile input.
-  labels.reserve(text.size() / 2 + 1);
+  labels.reserve(static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1);
   std::size_t pos = 0;
   std::size_t line_no = 0;
   while (pos < text.size()) {

@@ -160,6 +160,10 @@ Expected<Header> parse_header(std::span<const std::uint8_t> bytes, std::string_v
     ++line_no;
     if (end - pos > kMaxHeaderLineBytes)
       return fail("longer than " + std::to_string(kMaxHeaderLineBytes) + " bytes");
+    // Every header line, end_header included, ends with a newline: a line without one is cut off.
+    if (nl == std::string_view::npos && line_no > 1)
+      return make_error(name, "truncated header: the file ends inside header line " + std::to_string(line_no) +
+                                  " (no 'end_header' line)");
     std::string_view line = text.substr(pos, end - pos);
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
     pos = nl == std::string_view::npos ? text.size() : nl + 1;
@@ -174,7 +178,6 @@ Expected<Header> parse_header(std::span<const std::uint8_t> bytes, std::string_v
     if (kw == "comment" || kw == "obj_info") continue;
     if (kw == "end_header") {
       if (words.size() != 1) return fail("unexpected text after 'end_header'");
-      if (nl == std::string_view::npos) return fail("'end_header' is not followed by a newline");
       break;
     }
     if (kw == "format") {

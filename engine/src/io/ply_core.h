@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <span>
 #include <string>
 #include <string_view>
@@ -188,11 +189,12 @@ inline bool to_float(const Scalar& s, float& out, std::string& why) {
   switch (s.type) {
     case Type::Float32: out = s.f; break;
     case Type::Float64:
-      out = static_cast<float>(s.d);
-      if (std::isfinite(s.d) && !std::isfinite(out)) {
+      // Checked before the cast: a finite double beyond float's range has no float value.
+      if (std::isfinite(s.d) && std::abs(s.d) > double(std::numeric_limits<float>::max())) {
         why = "double value " + std::to_string(s.d) + " is outside the float range";
         return false;
       }
+      out = static_cast<float>(s.d);
       break;
     case Type::Int8: case Type::Int16: case Type::Int32: case Type::Int64: out = static_cast<float>(s.i); break;
     default: out = static_cast<float>(s.u); break;
