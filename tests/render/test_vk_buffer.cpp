@@ -171,4 +171,25 @@ TEST_P(VkBufferTest, RecordedFillAndCopy) {
   EXPECT_EQ(out[191], 0x01020304u);
 }
 
+TEST_P(VkBufferTest, UploadInsideARecordCallbackRunsBeforeIt) {
+  const auto data = random_bytes(512, 11);
+  auto a = Buffer::create(context(), {.size = 512, .name = "src", .never_map = never_map()});
+  auto b = Buffer::create(context(), {.size = 512, .name = "dst", .never_map = never_map()});
+  ASSERT_TRUE(a && b);
+  gauss::Status uploaded = gauss::Ok{};
+  gauss::Status copied = gauss::Ok{};
+  auto st = context().submit_and_wait([&](VkCommandBuffer cmd) {
+    // Staged, this is a nested submit_and_wait: it completes before `cmd` is submitted.
+    uploaded = a->upload(data.data(), data.size());
+    const VkBufferCopy region{0, 0, 512};
+    copied = gauss::vk::record_copy(cmd, *a, *b, {&region, 1});
+  });
+  ASSERT_TRUE(st) << st.message();
+  ASSERT_TRUE(uploaded) << uploaded.message();
+  ASSERT_TRUE(copied) << copied.message();
+  std::vector<std::uint8_t> back(512);
+  ASSERT_TRUE(b->download(back.data(), back.size()));
+  EXPECT_EQ(back, data);
+}
+
 }  // namespace

@@ -6,6 +6,7 @@
 // be identical, since the shader's subgroup reduction is subgroup-size independent.
 #include <cstdint>
 #include <cstdlib>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -155,6 +156,48 @@ TEST(VkGoldenPatternCpu, ReferenceHandChecked) {
     for (std::uint32_t x = 16; x < 20; ++x) s11 += (x ^ y) + 5;
   EXPECT_EQ(sums[3], s11);
   EXPECT_EQ(img.pixels[p + 2], (s11 + 3u * 8u) & 255u);
+}
+
+// The golden helpers themselves: a mismatch reports count, max difference and the
+// first pixel and writes actual + diff images; a missing golden fails with the
+// approve-goldens command; goldens are never written by a test.
+TEST(GoldenSupport, MismatchIsReportedWithFiles) {
+  gauss::ImageRGBA8 a{4, 3, std::vector<std::uint8_t>(4 * 3 * 4, 10)};
+  gauss::ImageRGBA8 b = a;
+  EXPECT_TRUE(gauss::test::images_equal(a, b, "golden_support_same"));
+  b.pixels[(1 * 4 + 2) * 4 + 1] = 17;  // pixel (2, 1), green: difference 7
+  b.pixels[(2 * 4 + 3) * 4 + 0] = 12;  // pixel (3, 2), red: difference 2
+  const auto out = gauss::test::output_dir();
+  std::filesystem::remove(out / "golden_support_diff.actual.png");
+  std::filesystem::remove(out / "golden_support_diff.diff.png");
+  auto result = gauss::test::images_equal(a, b, "golden_support_diff");
+  ASSERT_FALSE(result);
+  const std::string msg = result.message();
+  EXPECT_NE(msg.find("2 of 12 pixels differ"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("max channel difference 7"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("(2, 1)"), std::string::npos) << msg;
+  auto actual = gauss::read_png_rgba8(out / "golden_support_diff.actual.png");
+  ASSERT_TRUE(actual) << actual.message();
+  EXPECT_EQ(actual->pixels, b.pixels);
+  auto diff = gauss::read_png_rgba8(out / "golden_support_diff.diff.png");
+  ASSERT_TRUE(diff) << diff.message();
+  EXPECT_EQ(diff->pixels[(1 * 4 + 2) * 4 + 0], 255);  // marked magenta
+  EXPECT_EQ(diff->pixels[(1 * 4 + 2) * 4 + 1], 0);
+
+  gauss::ImageRGBA8 small{2, 2, std::vector<std::uint8_t>(16, 0)};
+  EXPECT_FALSE(gauss::test::images_equal(a, small, "golden_support_size"));
+  EXPECT_FALSE(gauss::test::images_equal(a, b, "Bad Name"));
+}
+
+TEST(GoldenSupport, MissingGoldenFailsWithApproveCommand) {
+  const std::string name = "golden_support_never_approved";
+  ASSERT_FALSE(std::filesystem::exists(gauss::test::golden_dir() / (name + ".png")));
+  gauss::ImageRGBA8 img{2, 2, std::vector<std::uint8_t>(16, 200)};
+  auto result = gauss::test::matches_golden(img, name);
+  ASSERT_FALSE(result);
+  EXPECT_NE(std::string(result.message()).find("scripts/approve-goldens"), std::string::npos) << result.message();
+  EXPECT_FALSE(std::filesystem::exists(gauss::test::golden_dir() / (name + ".png"))) << "a test wrote a golden";
+  EXPECT_TRUE(std::filesystem::exists(gauss::test::output_dir() / (name + ".actual.png")));
 }
 
 }  // namespace

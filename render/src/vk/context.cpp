@@ -434,9 +434,6 @@ Expected<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info
   pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
   pci.queueFamilyIndex = ctx->queue_family_;
   GAUSS_VK_TRY(vkCreateCommandPool(ctx->device_, &pci, nullptr, &ctx->command_pool_));
-  VkFenceCreateInfo fci{};
-  fci.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-  GAUSS_VK_TRY(vkCreateFence(ctx->device_, &fci, nullptr, &ctx->submit_fence_));
 
   VkSamplerCreateInfo sci{};
 
@@ -461,7 +458,6 @@ Context::~Context() {
       std::fprintf(stderr, "gauss::vk::Context: vkDeviceWaitIdle failed with %s during destruction\n", result_name(r));
     }
     if (nearest_sampler_) vkDestroySampler(device_, nearest_sampler_, nullptr);
-    if (submit_fence_) vkDestroyFence(device_, submit_fence_, nullptr);
     if (command_pool_) vkDestroyCommandPool(device_, command_pool_, nullptr);
     vkDestroyDevice(device_, nullptr);
   }
@@ -492,32 +488,38 @@ Status Context::submit(VkCommandBuffer cmd, VkFence fence) {
 }
 
 Status Context::submit_and_wait(const std::function<void(VkCommandBuffer)>& record) {
+  // A command buffer and a fence of its own per call: `record` may itself call
+  // submit_and_wait (e.g. a staged Buffer::upload); that inner work then runs first.
   VkCommandBufferAllocateInfo ai{};
   ai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
   ai.commandPool = command_pool_;
   ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
   ai.commandBufferCount = 1;
   VkCommandBuffer cmd = VK_NULL_HANDLE;
-  // One one-shot submission at a time: they share submit_fence_.
-  std::lock_guard lock(state_->oneshot_mutex);
-  GAUSS_VK_TRY(vkAllocateCommandBuffers(device_, &ai, &cmd));
-  struct FreeOnExit {
+  VkFence fence = VK_NULL_HANDLE;
+  struct Cleanup {
     VkDevice device;
     VkCommandPool pool;
-    VkCommandBuffer cmd;
-    ~FreeOnExit() { vkFreeCommandBuffers(device, pool, 1, &cmd); }
-  } free_on_exit{device_, command_pool_, cmd};
+    VkCommandBuffer* cmd;
+    VkFence* fence;
+    ~Cleanup() {
+      if (*cmd) vkFreeCommandBuffers(device, pool, 1, cmd);
+      if (*fence) vkDestroyFence(device, *fence, nullptr);
+    }
+  } cleanup{device_, command_pool_, &cmd, &fence};
+  GAUSS_VK_TRY(vkAllocateCommandBuffers(device_, &ai, &cmd));
+  VkFenceCreateInfo fci{};
+  fci.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+  GAUSS_VK_TRY(vkCreateFence(device_, &fci, nullptr, &fence));
 
   VkCommandBufferBeginInfo bi{};
-
   bi.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
   bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   GAUSS_VK_TRY(vkBeginCommandBuffer(cmd, &bi));
   record(cmd);
   GAUSS_VK_TRY(vkEndCommandBuffer(cmd));
-  GAUSS_VK_TRY(vkResetFences(device_, 1, &submit_fence_));
-  if (auto st = submit(cmd, submit_fence_); !st) return st;
-  GAUSS_VK_TRY(vkWaitForFences(device_, 1, &submit_fence_, VK_TRUE, UINT64_MAX));
+  if (auto st = submit(cmd, fence); !st) return st;
+  GAUSS_VK_TRY(vkWaitForFences(device_, 1, &fence, VK_TRUE, UINT64_MAX));
   return Ok{};
 }
 

@@ -17,7 +17,6 @@ struct Context::State {
   std::mutex mutex;  // guards last_error
   std::string last_error;
   std::mutex queue_mutex;    // vkQueueSubmit2 (the queue is externally synchronized)
-  std::mutex oneshot_mutex;  // submit_and_wait shares one fence
   bool debug_utils{false};
 };
 

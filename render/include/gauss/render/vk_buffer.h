@@ -14,6 +14,11 @@
 //    lavapipe) is an error unless BufferCreateInfo::allow_larger_than_binding_range is set
 //    (then every binding must cover at most that range; ComputePipeline::bind checks);
 //  - allocation failure (lavapipe's heap is 2 GiB) reports the size and the heap size.
+//
+// Lifetime: destroying (or move-assigning over) a Buffer waits for the device to go
+// idle first, so the GPU can never read freed memory. Simple and leak-free, but it
+// stalls: keep buffers alive across frames instead of recreating them per frame.
+// The same holds for Image, pipelines, TimestampQueries and CommandBuffer.
 #include <cstddef>
 #include <cstdint>
 #include <span>

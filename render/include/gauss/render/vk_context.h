@@ -126,7 +126,8 @@ class Context {
 
   // Records through `record` into a fresh primary command buffer, submits it to the
   // queue and waits for it to finish (fence). For uploads, readbacks, tests and
-  // anything not frame-paced. Errors name the failed Vulkan call.
+  // anything not frame-paced. Errors name the failed Vulkan call. `record` may call
+  // submit_and_wait itself (e.g. a staged upload): that inner submission runs first.
   Status submit_and_wait(const std::function<void(VkCommandBuffer)>& record);
 
   // Submits an already recorded command buffer; signals `fence` when done (may be null).
@@ -163,7 +164,6 @@ class Context {
   VkQueue queue_{VK_NULL_HANDLE};
   std::uint32_t queue_family_{0};
   VkCommandPool command_pool_{VK_NULL_HANDLE};
-  VkFence submit_fence_{VK_NULL_HANDLE};
   VkSampler nearest_sampler_{VK_NULL_HANDLE};
   DeviceInfo device_info_{};
   VkPhysicalDeviceProperties properties_{};
