@@ -99,7 +99,9 @@ void main() {
   const vec3 p = g.position_opacity.xyz;
   const vec4 ph = vec4(p, 1.0);
   const vec3 t = vec3(dot(view.w2c_row0, ph), dot(view.w2c_row1, ph), dot(view.w2c_row2, ph));
-  if (!(t.z > SPLAT_NEAR_CULL)) return;
+  // float(0.2) rounds UP (0.20000000298), so for a float t.z, t.z >= SPLAT_NEAR_CULL is
+  // exactly the reference's t.z > 0.2 (a t.z of float(0.2) itself is kept, as there).
+  if (!(t.z >= SPLAT_NEAR_CULL)) return;
 
   // 3. R from the unit quaternion (w, x, y, z), M = W R S.
   const vec4 q = g.rotation;

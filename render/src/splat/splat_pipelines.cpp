@@ -32,6 +32,9 @@ static_assert(gpu::SORT_BINS == (1u << gpu::SORT_RADIX_BITS));
 static_assert(gpu::SPLAT_DILATION == static_cast<float>(kDilation));
 static_assert(gpu::SPLAT_FRUSTUM_CLAMP == static_cast<float>(kFrustumClamp));
 static_assert(gpu::SPLAT_NEAR_CULL == static_cast<float>(kNearCull));
+// splat_preprocess.comp culls with t.z >= float(kNearCull), which equals t.z > kNearCull
+// for float t.z only because float(kNearCull) lies above kNearCull.
+static_assert(static_cast<double>(gpu::SPLAT_NEAR_CULL) > kNearCull);
 static_assert(gpu::SPLAT_LAMBDA_FLOOR == static_cast<float>(kLambdaFloor));
 static_assert(gpu::SPLAT_SIGMA_EXTENT == static_cast<float>(kSigmaExtent));
 static_assert(gpu::SPLAT_ALPHA_MIN == static_cast<float>(kAlphaMin));

@@ -1,0 +1,245 @@
+// Mesh + Gaussian composite, stereo, highlight and edit tints, and the real scenes:
+// GPU against the CPU reference, plus goldens.
+#include <gtest/gtest.h>
+
+#include "gauss/engine/ply_gaussian.h"
+#include "gauss/render/splat_renderer.h"
+#include "golden.h"
+#include "splat_test_util.h"
+#include "vk_test.h"
+
+namespace gauss::test {
+namespace {
+
+// A coloured quad at depth 3.5 covering the centre of forward_camera's view, and a
+// triangle tilted through the splat volume (so splats lie in front, behind and on it).
+TriangleMesh test_mesh() {
+  TriangleMesh m;
+  m.positions = {{-0.8f, -0.6f, 3.5f}, {0.8f, -0.6f, 3.5f}, {0.8f, 0.6f, 3.5f}, {-0.8f, 0.6f, 3.5f},
+                 {-1.5f, 0.9f, 2.0f},  {1.5f, 0.9f, 2.0f},  {0.0f, -0.9f, 6.0f}};
+  m.colors = {{200, 40, 40}, {40, 200, 40}, {40, 40, 200}, {200, 200, 40}, {90, 90, 90}, {250, 250, 250}, {0, 120, 160}};
+  m.indices = {0, 1, 2, 0, 2, 3, 4, 5, 6};
+  return m;
+}
+
+class SplatComposite : public VkTest {
+ protected:
+  std::unique_ptr<render::SplatRenderer> make(std::uint32_t capacity, int degree, std::uint32_t w, std::uint32_t h) {
+    auto r = render::SplatRenderer::create(context(), {.capacity = capacity, .sh_degree = degree, .max_width = w,
+                                                       .max_height = h});
+    EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.message());
+    return r.ok() ? std::move(*r) : nullptr;
+  }
+  ImageRGBA8 image(render::SplatRenderer& r) {
+    auto img = r.read_image();
+    EXPECT_TRUE(img.ok()) << (img.ok() ? "" : img.message());
+    return img.ok() ? *img : ImageRGBA8{};
+  }
+};
+
+TEST_F(SplatComposite, MeshAndGaussiansMatchReference) {
+  const auto scene = procedural_scene(2500, 1, 21);
+  const Camera cam = forward_camera(240, 180);
+  const TriangleMesh mesh = test_mesh();
+  render::SplatRenderOptions opt;
+  opt.clear_colour = {0.1f, 0.1f, 0.15f};
+
+  // The mesh layer as the mesh pass leaves it: colour from a renderer with no splats.
+  auto bare = make(1, 1, 240, 180);
+  ASSERT_TRUE(bare && bare->set_mesh(mesh).ok());
+  ASSERT_TRUE(bare->render(cam, opt).ok());
+  const ImageRGBA8 mesh_colour = image(*bare);
+  auto depth = bare->read_mesh_depth();
+  ASSERT_TRUE(depth.ok()) << depth.message();
+  std::size_t covered = 0;
+  for (float d : *depth) covered += std::isfinite(d) ? 1 : 0;
+  EXPECT_GT(covered, depth->size() / 4);
+
+  auto r = make(2500, 1, 240, 180);
+  ASSERT_TRUE(r && r->write_slots(0, scene).ok());
+  ASSERT_TRUE(r->set_mesh(mesh).ok());
+  auto stats = r->render(cam, opt);
+  ASSERT_TRUE(stats.ok()) << stats.message();
+  const ImageRGBA8 gpu = image(*r);
+
+  render::MeshLayer layer{&mesh_colour, *depth, render::kDefaultMeshMargin};
+  render::ReferenceOptions ro;
+  ro.clear_colour = glm::dvec3(opt.clear_colour);
+  ro.mesh = &layer;
+  auto ref = render::render_reference(scene, {}, 1, cam, ro);
+  ASSERT_TRUE(ref.ok()) << ref.message();
+  std::printf("visible GPU %u (mesh tiles culled in binning) / reference %llu (culled behind mesh %llu)\n",
+              stats->visible, static_cast<unsigned long long>(ref->stats.visible),
+              static_cast<unsigned long long>(ref->stats.culled_mesh));
+  EXPECT_TRUE(close_to_reference(ref->rgba8, gpu, "splat_mesh_composite"));
+  EXPECT_GOLDEN(gpu, "splat_mesh_composite");
+
+  // Clearing the mesh brings back the plain splat image.
+  r->clear_mesh();
+  ASSERT_TRUE(r->render(cam, opt).ok());
+  render::ReferenceOptions plain;
+  plain.clear_colour = ro.clear_colour;
+  auto ref_plain = render::render_reference(scene, {}, 1, cam, plain);
+  ASSERT_TRUE(ref_plain.ok());
+  EXPECT_TRUE(close_to_reference(ref_plain->rgba8, image(*r), "splat_mesh_cleared"));
+}
+
+TEST_F(SplatComposite, BadMeshIsRejectedAndTheOldOneKept) {
+  auto r = make(4, 0, 64, 48);
+  ASSERT_TRUE(r && r->set_mesh(test_mesh()).ok());
+  TriangleMesh bad = test_mesh();
+  bad.indices.push_back(99);
+  bad.indices.push_back(0);
+  bad.indices.push_back(1);
+  auto st = r->set_mesh(bad);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("out of range"), std::string::npos) << st.message();
+  EXPECT_TRUE(r->has_mesh());
+  bad = test_mesh();
+  bad.colors.pop_back();
+  EXPECT_FALSE(r->set_mesh(bad).ok());
+}
+
+TEST_F(SplatComposite, StereoEqualsTwoMonoRendersAndTheReference) {
+  const auto scene = procedural_scene(2000, 2, 5);
+  const Camera centre = forward_camera(200, 150);
+  const Camera left = render::stereo_eye_camera(centre, 0.064, render::Eye::Left);
+  const Camera right = render::stereo_eye_camera(centre, 0.064, render::Eye::Right);
+  auto r = make(2000, 2, 200, 150);
+  ASSERT_TRUE(r && r->write_slots(0, scene).ok());
+  auto st = r->render_stereo(left, right);
+  ASSERT_TRUE(st.ok()) << st.message();
+  auto l = r->read_image(0);
+  auto rr = r->read_image(1);
+  ASSERT_TRUE(l.ok() && rr.ok());
+  EXPECT_FALSE(images_equal(*l, *rr, "splat_stereo_eyes_differ"));
+  ASSERT_TRUE(r->render(left).ok());
+  EXPECT_TRUE(images_equal(image(*r), *l, "splat_stereo_left_vs_mono"));
+  ASSERT_TRUE(r->render(right).ok());
+  EXPECT_TRUE(images_equal(image(*r), *rr, "splat_stereo_right_vs_mono"));
+  auto ref_l = render::render_reference(scene, {}, 2, left);
+  auto ref_r = render::render_reference(scene, {}, 2, right);
+  ASSERT_TRUE(ref_l.ok() && ref_r.ok());
+  EXPECT_TRUE(close_to_reference(ref_l->rgba8, *l, "splat_stereo_left"));
+  EXPECT_TRUE(close_to_reference(ref_r->rgba8, *rr, "splat_stereo_right"));
+  EXPECT_GOLDEN(*l, "splat_stereo_left");
+  EXPECT_GOLDEN(*rr, "splat_stereo_right");
+}
+
+TEST_F(SplatComposite, HighlightAndEditTintsMatchReference) {
+  const auto scene = procedural_scene(1500, 0, 9);
+  const Camera cam = forward_camera(200, 150);
+  auto r = make(1500, 0, 200, 150);
+  ASSERT_TRUE(r && r->write_slots(0, scene).ok());
+  ASSERT_TRUE(r->render(cam).ok());
+  const ImageRGBA8 untinted = image(*r);
+
+  // A highlight of an object nobody has turns the tint path on without changing a byte.
+  const ObjectId nobody{1000};
+  ASSERT_TRUE(r->set_highlight(std::span(&nobody, 1)).ok());
+  ASSERT_TRUE(r->render(cam).ok());
+  EXPECT_TRUE(images_equal(untinted, image(*r), "splat_tint_noop"));
+
+  const std::vector<ObjectId> lit = {ObjectId{2}, ObjectId{5}};
+  ASSERT_TRUE(r->set_highlight(lit).ok());
+  std::vector<render::EditTintState> tints(scene.size());
+  for (std::uint32_t s = 0; s < scene.size(); ++s) {
+    if (s % 7 == 0) tints[s] = {render::EditTintKind::Added, s % 10};
+    if (s % 7 == 1) tints[s] = {render::EditTintKind::Replaced, s % 9};
+    if (s % 7 == 2) tints[s] = {render::EditTintKind::Removed, s % 11};
+    if (tints[s].kind != render::EditTintKind::None) {
+      ASSERT_TRUE(r->set_edit_tint(SlotIndex{s}, tints[s]).ok());
+    }
+  }
+  ASSERT_TRUE(r->render(cam).ok());
+  const ImageRGBA8 gpu = image(*r);
+  render::ReferenceOptions ro;
+  ro.highlight_objects = lit;
+  ro.edit_tints = tints;
+  auto ref = render::render_reference(scene, {}, 0, cam, ro);
+  ASSERT_TRUE(ref.ok()) << ref.message();
+  EXPECT_TRUE(close_to_reference(ref->rgba8, gpu, "splat_tints"));
+  EXPECT_GOLDEN(gpu, "splat_tints");
+
+  // Every frame ages the tints by one: the next frame equals the reference with age + 1.
+  for (auto& t : tints) ++t.age;
+  ASSERT_TRUE(r->render(cam).ok());
+  auto ref_next = render::render_reference(scene, {}, 0, cam, ro);
+  ASSERT_TRUE(ref_next.ok());
+  EXPECT_TRUE(close_to_reference(ref_next->rgba8, image(*r), "splat_tints_next_frame"));
+
+  // After the fade every removed Gaussian is gone and added/replaced are plain again.
+  for (int f = 0; f < 12; ++f) ASSERT_TRUE(r->render(cam).ok());
+  r->clear_highlight();
+  ASSERT_TRUE(r->render(cam).ok());
+  std::vector<Gaussian> without_removed = scene;
+  std::vector<std::uint8_t> occupied(scene.size(), 1);
+  for (std::uint32_t s = 0; s < scene.size(); ++s)
+    if (s % 7 == 2) occupied[s] = 0;
+  auto ref_faded = render::render_reference(scene, occupied, 0, cam);
+  ASSERT_TRUE(ref_faded.ok());
+  EXPECT_TRUE(close_to_reference(ref_faded->rgba8, image(*r), "splat_tints_faded"));
+}
+
+// Real scenes from the shared data (skipped when absent). Camera: looking along +z at the
+// scene's median point from `distance_scale` median absolute deviations away.
+Camera scene_camera(const std::vector<Gaussian>& gs, std::uint32_t w, std::uint32_t h, double distance_scale) {
+  std::vector<float> xs, ys, zs;
+  for (const auto& g : gs) {
+    xs.push_back(g.position.x);
+    ys.push_back(g.position.y);
+    zs.push_back(g.position.z);
+  }
+  auto median = [](std::vector<float> v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return double(v[v.size() / 2]);
+  };
+  auto spread = [&](std::vector<float> v) {
+    const double m = median(v);
+    for (auto& x : v) x = std::abs(x - static_cast<float>(m));
+    return median(v);
+  };
+  const glm::dvec3 c(median(xs), median(ys), median(zs));
+  const double s = std::max({spread(xs), spread(ys), spread(zs)});
+  return look_at_camera(w, h, c + glm::dvec3(0.0, 0.0, -distance_scale * s), c);
+}
+
+TEST_F(SplatComposite, RealSceneGuitarMatchesReference) {
+  GAUSS_REQUIRE_DATA(path, "splats/guitar.ply");
+  auto scene = read_gaussian_ply(path);
+  ASSERT_TRUE(scene.ok()) << scene.message();
+  const auto& gs = scene->cloud.gaussians;
+  const Camera cam = scene_camera(gs, 320, 240, 6.0);
+  auto r = make(static_cast<std::uint32_t>(gs.size()), scene->cloud.sh_degree, 320, 240);
+  ASSERT_TRUE(r && r->write_slots(0, gs).ok());
+  auto st = r->render(cam);
+  ASSERT_TRUE(st.ok()) << st.message();
+  std::printf("guitar: %zu Gaussians, visible %u, pairs %u\n", gs.size(), st->visible, st->pairs);
+  auto ref = render::render_reference(gs, {}, scene->cloud.sh_degree, cam);
+  ASSERT_TRUE(ref.ok()) << ref.message();
+  const ImageRGBA8 gpu = image(*r);
+  EXPECT_TRUE(close_to_reference(ref->rgba8, gpu, "splat_real_guitar"));
+  EXPECT_GOLDEN(gpu, "splat_real_guitar");
+}
+
+TEST_F(SplatComposite, RealSceneFruitDropsSh3MatchesReference) {
+  GAUSS_REQUIRE_DATA(path, "splats/fruit_drops_sh3.ply");
+  auto scene = read_gaussian_ply(path);
+  ASSERT_TRUE(scene.ok()) << scene.message();
+  const auto& gs = scene->cloud.gaussians;
+  ASSERT_EQ(scene->cloud.sh_degree, 3);
+  const Camera cam = scene_camera(gs, 320, 240, 25.0);
+  auto r = make(static_cast<std::uint32_t>(gs.size()), 3, 320, 240);
+  ASSERT_TRUE(r && r->write_slots(0, gs).ok());
+  auto st = r->render(cam);
+  ASSERT_TRUE(st.ok()) << st.message();
+  std::printf("fruit_drops: %zu Gaussians, visible %u, pairs %u\n", gs.size(), st->visible, st->pairs);
+  auto ref = render::render_reference(gs, {}, 3, cam);
+  ASSERT_TRUE(ref.ok()) << ref.message();
+  const ImageRGBA8 gpu = image(*r);
+  EXPECT_TRUE(close_to_reference(ref->rgba8, gpu, "splat_real_fruit_drops"));
+  EXPECT_GOLDEN(gpu, "splat_real_fruit_drops");
+}
+
+}  // namespace
+}  // namespace gauss::test
