@@ -144,24 +144,49 @@ Expected<IdentityReport> track_identity(std::span<const Gaussian> previous, std:
     cell = std::max(cell, 1e-6f);
     report.cell_size = cell;
 
-    // Previous Gaussians sorted by cell, with each cell's range in a hash map.
+    // Previous Gaussians copied compactly in cell order (neighbours in space are neighbours
+    // in memory), with each cell's range in a hash map.
+    struct Compact {
+      glm::vec3 position;
+      float radius;
+      glm::vec3 log_scale;
+      float opacity_logit;
+      glm::vec3 sh_dc;
+      std::uint32_t prev;
+      bool carrier;
+    };
+    const auto key_of = [&](const glm::vec3& p) {
+      return cell_key(cell_of(p.x, cell), cell_of(p.y, cell), cell_of(p.z, cell));
+    };
     std::vector<std::pair<std::uint64_t, std::uint32_t>> by_cell(prev_left.size());
-    for (std::size_t k = 0; k < prev_left.size(); ++k) {
-      const glm::vec3& p = previous[prev_left[k]].position;
-      by_cell[k] = {cell_key(cell_of(p.x, cell), cell_of(p.y, cell), cell_of(p.z, cell)), static_cast<std::uint32_t>(k)};
-    }
+    for (std::size_t k = 0; k < prev_left.size(); ++k)
+      by_cell[k] = {key_of(previous[prev_left[k]].position), static_cast<std::uint32_t>(k)};
     std::sort(by_cell.begin(), by_cell.end());
+    std::vector<Compact> compact(by_cell.size());
+    for (std::size_t a = 0; a < by_cell.size(); ++a) {
+      const std::uint32_t k = by_cell[a].second;
+      const Gaussian& q = previous[prev_left[k]];
+      compact[a] = {q.position, std::min(config.max_distance_sigmas * sigma[k], 0.5f * cell), q.log_scale,
+                    q.opacity_logit, q.sh_dc, prev_left[k], q.carrier};
+    }
     std::unordered_map<std::uint64_t, std::pair<std::uint32_t, std::uint32_t>> ranges;
+    ranges.reserve(by_cell.size());
     for (std::size_t a = 0; a < by_cell.size();) {
       std::size_t b = a;
       while (b < by_cell.size() && by_cell[b].first == by_cell[a].first) ++b;
       ranges.emplace(by_cell[a].first, std::make_pair(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b)));
       a = b;
     }
+    // Queries in cell order too, for the same locality (the result does not depend on it:
+    // pairs are sorted by cost and index before the greedy assignment).
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> queries(cur_left.size());
+    for (std::size_t k = 0; k < cur_left.size(); ++k) queries[k] = {key_of(current[cur_left[k]].position), cur_left[k]};
+    std::sort(queries.begin(), queries.end());
 
     std::vector<Pair> pairs;
     pairs.reserve(cur_left.size() * 2);
-    for (std::uint32_t i : cur_left) {
+    for (const auto& query : queries) {
+      const std::uint32_t i = query.second;
       const Gaussian& g = current[i];
       // Every candidate lies within half a cell per axis: the 2x2x2 cells from p - cell/2.
       const std::int64_t bx = cell_of(g.position.x - 0.5f * cell, cell);
@@ -175,18 +200,16 @@ Expected<IdentityReport> track_identity(std::span<const Gaussian> previous, std:
             auto r = ranges.find(cell_key(bx + dx, by + dy, bz + dz));
             if (r == ranges.end()) continue;
             for (std::uint32_t a = r->second.first; a < r->second.second; ++a) {
-              const std::uint32_t k = by_cell[a].second;
-              const Gaussian& q = previous[prev_left[k]];
+              const Compact& q = compact[a];
               if (q.carrier != g.carrier) continue;
-              const float radius = std::min(config.max_distance_sigmas * sigma[k], 0.5f * cell);
               const glm::vec3 d = g.position - q.position;
               const float dist2 = d.x * d.x + d.y * d.y + d.z * d.z;
-              if (dist2 > radius * radius) continue;
+              if (dist2 > q.radius * q.radius) continue;
               const float ds = max_abs3(g.log_scale - q.log_scale) / config.max_log_scale_change;
               const float dc = max_abs3(g.sh_dc - q.sh_dc) / config.max_sh_dc_change;
               const float dop = std::abs(g.opacity_logit - q.opacity_logit) / config.max_opacity_logit_change;
               if (ds > 1.0f || dc > 1.0f || dop > 1.0f) continue;
-              const Pair p{dist2 / (radius * radius) + ds * ds + dc * dc + dop * dop, i, prev_left[k]};
+              const Pair p{dist2 / (q.radius * q.radius) + ds * ds + dc * dc + dop * dop, i, q.prev};
               // Keep the kCandidates cheapest (ties by previous index).
               const auto worse = [](const Pair& x, const Pair& y) {
                 return x.cost != y.cost ? x.cost > y.cost : x.prev > y.prev;
