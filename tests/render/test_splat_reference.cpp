@@ -1,6 +1,8 @@
 // SplatRenderer (Vulkan compute) against the CPU reference rasterizer (double precision):
 // single Gaussians, a procedural SH3 scene, exact-culling invariance, determinism, and
 // "host render == client render" (two renderer instances, same bytes).
+#include <algorithm>
+
 #include <gtest/gtest.h>
 
 #include "gauss/render/splat_renderer.h"
@@ -140,6 +142,55 @@ TEST_F(SplatReference, EmptySlotsAndClearsCostNothingAndDrawNothing) {
   auto fresh = make(1000, 0, 128, 96);
   ASSERT_TRUE(fresh && fresh->write_slots(500, scene).ok());
   EXPECT_TRUE(images_equal(gpu_render(*fresh, cam), again, "splat_rewrite"));
+}
+
+TEST_F(SplatReference, PairOverflowKeepsTheNearestSplatsDeterministically) {
+  const auto scene = procedural_scene(2000, 0, 13);
+  const Camera cam = forward_camera(160, 120);
+  // Without exact culling a splat's pairs are its whole tile rectangle, so the reference's
+  // projection tells which splats fit: cut the pair capacity right after the 800th splat
+  // in (depth key, slot) order.
+  struct Item {
+    float key;
+    std::uint32_t slot;
+    std::uint64_t tiles;
+  };
+  std::vector<Item> items;
+  for (std::uint32_t s = 0; s < scene.size(); ++s) {
+    const auto p = render::project_splat(scene[s], s, 0, cam);
+    if (p.cull != render::SplatCull::Visible) continue;
+    items.push_back({p.depth_key, s,
+                     std::uint64_t{p.tile_max_x - p.tile_min_x} * (p.tile_max_y - p.tile_min_y)});
+  }
+  std::sort(items.begin(), items.end(),
+            [](const Item& a, const Item& b) { return a.key != b.key ? a.key < b.key : a.slot < b.slot; });
+  ASSERT_GT(items.size(), 1000u);
+  std::uint64_t cap = 0;
+  std::vector<std::uint8_t> kept(scene.size(), 0);
+  for (std::size_t k = 0; k < 800; ++k) {
+    cap += items[k].tiles;
+    kept[items[k].slot] = 1;
+  }
+  auto r = render::SplatRenderer::create(context(), {.capacity = 2000, .sh_degree = 0, .max_width = 160,
+                                                     .max_height = 120, .max_pairs = static_cast<std::uint32_t>(cap)});
+  ASSERT_TRUE(r.ok()) << r.message();
+  ASSERT_TRUE((*r)->write_slots(0, scene).ok());
+  render::SplatRenderOptions loose;
+  loose.exact_culling = false;
+  auto s1 = (*r)->render(cam, loose);
+  ASSERT_TRUE(s1.ok());
+  const auto a = (*r)->read_image();
+  auto s2 = (*r)->render(cam, loose);
+  ASSERT_TRUE(s2.ok());
+  const auto b = (*r)->read_image();
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_TRUE(s1->pair_overflow);
+  EXPECT_EQ(s1->pairs, cap);
+  EXPECT_GT(s1->pairs_needed, cap);
+  EXPECT_TRUE(images_equal(*a, *b, "splat_overflow_twice"));
+  auto ref = render::render_reference(scene, kept, 0, cam);
+  ASSERT_TRUE(ref.ok()) << ref.message();
+  EXPECT_TRUE(close_to_reference(ref->rgba8, *a, "splat_overflow_nearest_kept"));
 }
 
 TEST_F(SplatReference, RejectsBadInputWithClearErrors) {
