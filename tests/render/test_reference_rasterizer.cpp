@@ -233,6 +233,12 @@ TEST(ReferenceRasterizer, BadArgumentsAreErrorsNamingTheProblem) {
   r = render_reference(g, {}, 0, test_camera(), o);
   ASSERT_FALSE(r);
   EXPECT_NE(r.message().find("pixel 100"), std::string::npos);
+  depth[100] = 0.0f;  // "no triangle" must be +inf: 0 would cull everything
+  r = render_reference(g, {}, 0, test_camera(), o);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.message().find("+inf"), std::string::npos);
+  depth[100] = INFINITY;
+  EXPECT_TRUE(render_reference(g, {}, 0, test_camera(), o));
 }
 
 TEST(ReferenceRasterizer, MeshOccludesBeyondTheMarginAndIsTheBackground) {

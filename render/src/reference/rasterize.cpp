@@ -39,9 +39,12 @@ Status validate(std::span<const Gaussian> slots, std::span<const std::uint8_t> o
       return Error{"reference rasterizer: mesh margin must be finite and >= 0"};
     for (std::size_t i = 0; i < pixels; ++i) {
       const float d = o.mesh->view_depth[i];
-      if (std::isnan(d) || d < 0.0f)
+      // 0 is refused rather than read as a surface at the eye: it is what "no triangle" looks
+      // like in depth images that use 0 for empty pixels (gauss::render_mesh_depth), and
+      // reading it as a depth would silently cull every Gaussian.
+      if (std::isnan(d) || d <= 0.0f)
         return Error{"reference rasterizer: mesh depth at pixel " + std::to_string(i) + " is " + std::to_string(d) +
-                     " (must be >= 0 or +inf)"};
+                     " (must be > 0, or +inf where no triangle covers the pixel)"};
     }
   }
   return Ok{};

@@ -60,7 +60,7 @@ ProjectedSplat project_splat(const Gaussian& g, std::uint32_t slot, int sh_degre
 // The mesh layer of one view, as the mesh pass leaves it.
 struct MeshLayer {
   const ImageRGBA8* colour{nullptr};  // width x height; the background where present
-  std::span<const float> view_depth;  // width * height, metres; +infinity where no triangle
+  std::span<const float> view_depth;  // width * height, metres > 0; +infinity (not 0) where no triangle
   double margin{kDefaultMeshMargin};
 };
 
@@ -101,7 +101,7 @@ struct ReferenceImage {
 // Renders one view. `occupied` is empty (every slot occupied) or one flag per slot.
 // Fails, naming the argument, on: sh_degree outside 0..3; a camera with zero or > 16384
 // size, non-positive or non-finite intrinsics or a non-finite matrix; mismatched occupied /
-// edit_tints / mesh image sizes; a NaN or negative mesh depth; an empty row range.
+// edit_tints / mesh image sizes; a NaN, zero or negative mesh depth; an empty row range.
 // Non-finite Gaussians are not an error: they are skipped and counted.
 Expected<ReferenceImage> render_reference(std::span<const Gaussian> slots, std::span<const std::uint8_t> occupied,
                                           int sh_degree, const Camera& camera, const ReferenceOptions& options = {});
