@@ -71,6 +71,7 @@ struct Options {
   std::uint32_t psnr_height{240};
   bool psnr{true};
   bool identity{true};
+  bool codec{true};
   fs::path json_out;
 };
 
@@ -417,7 +418,7 @@ json bench_identity(const SceneStore& store) {
 int usage() {
   std::fprintf(stderr,
                "usage: gauss-bench host [--gaussians N] [--budget M] [--updates K] [--psnr-gaussians N]\n"
-               "                        [--psnr-size WxH] [--no-psnr] [--no-identity] [--json out.json]\n");
+               "                        [--psnr-size WxH] [--no-psnr] [--no-codec] [--no-identity] [--json out.json]\n");
   return 2;
 }
 
@@ -433,6 +434,7 @@ int bench_host_main(int argc, char** argv) {
     else if (a == "--psnr-size" && has && std::sscanf(argv[i + 1], "%ux%u", &o.psnr_width, &o.psnr_height) == 2) ++i;
     else if (a == "--no-psnr") o.psnr = false;
     else if (a == "--no-identity") o.identity = false;
+    else if (a == "--no-codec") o.codec = false;
     else if (a == "--json" && has) o.json_out = argv[++i];
     else return usage();
   }
@@ -451,7 +453,7 @@ int bench_host_main(int argc, char** argv) {
   out["scene"] = {{"appearance", store.appearance_count()}, {"build_ms", build_ms}};
   out["zstd_level"] = kZstdLevel;
   out["select"] = bench_select(store, *scene, o);
-  out["codec"] = bench_codec(store, o);
+  if (o.codec) out["codec"] = bench_codec(store, o);
   if (o.identity) out["identity"] = bench_identity(store);
   if (!o.json_out.empty()) {
     std::ofstream f(o.json_out);

@@ -1,43 +1,29 @@
 // Differ: sent set -> desired set as Remove / Insert / Update / Replace edits (differ.h).
+// The sent state is a vector sorted by id with each record's hash; a diff is one merge of
+// it with the (sorted) desired ids, which also writes the next sent state.
 #include "gauss/engine/differ.h"
 
 #include <algorithm>
+#include <optional>
 #include <string>
 
-#include "select/id_table.h"
-
 namespace gauss {
-
-using select_detail::IdTable;
 
 struct Differ::Impl {
   CodecParams params;
   DiffStats stats;
   struct Sent {
+    GaussianId id;
     std::uint64_t hash;  // quantized_hash of the record the client holds
-    std::uint32_t pos;   // position in sent_list
   };
-  IdTable<Sent> sent;
-  std::vector<GaussianId> sent_list;
-  // Generation stamps: "in the desired set / modified during this call" without clearing.
-  IdTable<std::uint32_t> desired_gen;
-  IdTable<std::uint32_t> modified_gen;
-  std::uint32_t gen = 0;
+  std::vector<Sent> sent;  // sorted by id
+  std::vector<Sent> next;  // the next sent state, swapped in after a diff
   std::optional<Epoch> last_epoch;
   // Scratch kept between calls.
   std::vector<GaussianId> leavers;
-  std::vector<std::uint32_t> enterers;  // indices into the desired selection
+  std::vector<std::uint32_t> enterers;  // positions in the desired selection
+  std::vector<std::uint32_t> order;     // desired positions in id order (when not sorted)
   std::vector<GaussianId> modified_scratch;
-
-  void erase_sent(GaussianId id) {
-    const Sent* e = sent.find(id);
-    const std::uint32_t pos = e->pos;
-    const GaussianId last = sent_list.back();
-    sent_list[pos] = last;
-    sent.find(last)->pos = pos;
-    sent_list.pop_back();
-    sent.erase(id);
-  }
 };
 
 Differ::Differ(CodecParams params) : impl_(std::make_unique<Impl>()) { impl_->params = params; }
@@ -47,18 +33,23 @@ Differ::~Differ() = default;
 
 const CodecParams& Differ::params() const { return impl_->params; }
 const DiffStats& Differ::last_stats() const { return impl_->stats; }
-std::size_t Differ::sent_count() const { return impl_->sent_list.size(); }
-bool Differ::is_sent(GaussianId id) const { return impl_->sent.contains(id); }
+std::size_t Differ::sent_count() const { return impl_->sent.size(); }
+
+bool Differ::is_sent(GaussianId id) const {
+  const auto& v = impl_->sent;
+  auto it = std::lower_bound(v.begin(), v.end(), id, [](const Impl::Sent& s, GaussianId x) { return s.id < x; });
+  return it != v.end() && it->id == id;
+}
 
 std::vector<GaussianId> Differ::sent_ids() const {
-  std::vector<GaussianId> out(impl_->sent_list);
-  std::sort(out.begin(), out.end());
+  std::vector<GaussianId> out;
+  out.reserve(impl_->sent.size());
+  for (const Impl::Sent& s : impl_->sent) out.push_back(s.id);
   return out;
 }
 
 void Differ::reset() {
   impl_->sent.clear();
-  impl_->sent_list.clear();
   impl_->last_epoch.reset();
 }
 
@@ -72,7 +63,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, const SceneStore& sce
     // inserted ids are new (ids are never reused), so they cannot be sent already.
     s.modified_scratch.clear();
     bool complete = true;
-    for (std::uint64_t e = to_underlying(*s.last_epoch) + 1; e <= to_underlying(now) && complete; ++e) {
+    for (std::uint64_t e = to_underlying(*s.last_epoch) + 1; e <= to_underlying(now); ++e) {
       const EpochChanges* c = scene.changes(Epoch{e});
       if (!c) {
         complete = false;
@@ -88,78 +79,99 @@ Expected<EditBatch> Differ::diff(const Selection& desired, const SceneStore& sce
 Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gaussian> gaussians, Epoch epoch,
                                  std::optional<std::span<const GaussianId>> modified) {
   Impl& s = *impl_;
-  if (desired.ids.size() != desired.indices.size()) {
-    return Error{"diff: selection ids and indices differ in length"};
-  }
+  const std::size_t m = desired.ids.size();
+  if (m != desired.indices.size()) return Error{"diff: selection ids and indices differ in length"};
   if (desired.scene_size != gaussians.size()) {
     return Error{"diff: selection was made from a scene of " + std::to_string(desired.scene_size) +
                  " Gaussians, diffing against " + std::to_string(gaussians.size())};
   }
-  for (std::size_t k = 0; k < desired.ids.size(); ++k) {
+  // Entries whose record is read (enterers, re-checked stayers) are matched against the
+  // scene before anything changes; the others are ids only, and reading every record just
+  // to check would cost a cache miss per resident Gaussian.
+  auto mismatch = [&](std::size_t k) -> std::optional<Error> {
     const std::uint32_t i = desired.indices[k];
-    if (i >= gaussians.size() || gaussians[i].id != desired.ids[k]) {
-      return Error{"diff: selection entry " + std::to_string(k) + " (id " +
-                   std::to_string(to_underlying(desired.ids[k])) + ") does not match the scene at index " +
-                   std::to_string(i)};
+    if (i < gaussians.size() && gaussians[i].id == desired.ids[k]) return std::nullopt;
+    return Error{"diff: selection entry " + std::to_string(k) + " (id " + std::to_string(to_underlying(desired.ids[k])) +
+                 ") does not match the scene at index " + std::to_string(i)};
+  };
+  for (std::size_t k = 0; k < m; ++k) {
+    if (desired.indices[k] >= gaussians.size()) return *mismatch(k);
+  }
+  // Desired positions in id order: the identity for a Selection (sorted by contract).
+  const bool sorted = std::is_sorted(desired.ids.begin(), desired.ids.end());
+  if (!sorted) {
+    s.order.resize(m);
+    for (std::size_t k = 0; k < m; ++k) s.order[k] = static_cast<std::uint32_t>(k);
+    std::sort(s.order.begin(), s.order.end(),
+              [&](std::uint32_t a, std::uint32_t b) { return desired.ids[a] < desired.ids[b]; });
+  }
+  auto at = [&](std::size_t j) -> std::uint32_t { return sorted ? static_cast<std::uint32_t>(j) : s.order[j]; };
+  for (std::size_t j = 1; j < m; ++j) {
+    if (desired.ids[at(j)] == desired.ids[at(j - 1)]) {
+      return Error{"diff: id " + std::to_string(to_underlying(desired.ids[at(j)])) + " appears twice in the selection"};
     }
   }
-  if (++s.gen == 0) {  // stamps wrapped: start the tables afresh
-    s.desired_gen.clear();
-    s.modified_gen.clear();
-    s.gen = 1;
-  }
-  for (GaussianId id : desired.ids) {
-    if (const std::uint32_t* g = s.desired_gen.find(id); g && *g == s.gen) {
-      return Error{"diff: id " + std::to_string(to_underlying(id)) + " appears twice in the selection"};
-    }
-    s.desired_gen.set(id, s.gen);
-  }
+  // Modified ids sorted and unique, merged alongside (epochs' lists are sorted each).
   const bool rehash_all = !modified.has_value();
+  std::vector<GaussianId>& mod = s.modified_scratch;
+  if (modified && modified->data() != mod.data()) mod.assign(modified->begin(), modified->end());
   if (modified) {
-    for (GaussianId id : *modified) s.modified_gen.set(id, s.gen);
+    if (!std::is_sorted(mod.begin(), mod.end())) std::sort(mod.begin(), mod.end());
+    mod.erase(std::unique(mod.begin(), mod.end()), mod.end());
   }
 
   s.stats = DiffStats{};
   s.leavers.clear();
-  for (GaussianId id : s.sent_list) {
-    const std::uint32_t* g = s.desired_gen.find(id);
-    if (!g || *g != s.gen) s.leavers.push_back(id);
+  s.enterers.clear();
+  s.next.clear();
+  s.next.reserve(m);
+  std::vector<Edit> updates;
+  std::size_t a = 0;   // sent
+  std::size_t b = 0;   // desired (id order)
+  std::size_t mi = 0;  // modified
+  while (a < s.sent.size() || b < m) {
+    const bool has_a = a < s.sent.size();
+    const bool has_b = b < m;
+    if (has_a && (!has_b || s.sent[a].id < desired.ids[at(b)])) {
+      s.leavers.push_back(s.sent[a++].id);
+      continue;
+    }
+    const std::uint32_t k = at(b++);
+    const GaussianId id = desired.ids[k];
+    if (!has_a || id < s.sent[a].id) {
+      if (auto err = mismatch(k)) return *err;
+      s.enterers.push_back(k);
+      s.next.push_back(Impl::Sent{id, 0});  // hash filled below
+      continue;
+    }
+    // Staying: re-quantise only when it may have changed.
+    Impl::Sent e = s.sent[a++];
+    bool check = rehash_all;
+    if (!check) {
+      while (mi < mod.size() && mod[mi] < id) ++mi;
+      check = mi < mod.size() && mod[mi] == id;
+    }
+    if (check) {
+      if (auto err = mismatch(k)) return *err;
+      ++s.stats.rehashed;
+      const Gaussian& value = gaussians[desired.indices[k]];
+      const std::uint64_t h = quantized_hash(value, s.params);
+      if (h != e.hash) {
+        e.hash = h;
+        updates.push_back(Edit{EditKind::Update, id, GaussianId{0}, value});
+      }
+    }
+    s.next.push_back(e);
   }
-  std::sort(s.leavers.begin(), s.leavers.end());
 
   EditBatch batch;
   batch.epoch = epoch;
-  s.enterers.clear();
-  std::vector<Edit> updates;
-  for (std::size_t k = 0; k < desired.ids.size(); ++k) {
-    const GaussianId id = desired.ids[k];
-    Impl::Sent* e = s.sent.find(id);
-    if (!e) {
-      s.enterers.push_back(static_cast<std::uint32_t>(k));
-      continue;
-    }
-    bool check = rehash_all;
-    if (!check) {
-      const std::uint32_t* g = s.modified_gen.find(id);
-      check = g && *g == s.gen;
-    }
-    if (!check) continue;
-    ++s.stats.rehashed;
-    const Gaussian& value = gaussians[desired.indices[k]];
-    const std::uint64_t h = quantized_hash(value, s.params);
-    if (h == e->hash) continue;
-    e->hash = h;
-    updates.push_back(Edit{EditKind::Update, id, GaussianId{0}, value});
-  }
-  // Enterers are in ascending id order (the selection's order); sort if a caller's is not.
-  std::sort(s.enterers.begin(), s.enterers.end(),
-            [&](std::uint32_t a, std::uint32_t b) { return desired.ids[a] < desired.ids[b]; });
-
   const std::size_t replaces = std::min(s.leavers.size(), s.enterers.size());
   batch.edits.reserve(s.leavers.size() + s.enterers.size() - replaces + updates.size());
   for (std::size_t j = replaces; j < s.leavers.size(); ++j) {
     batch.edits.push_back(Edit{EditKind::Remove, s.leavers[j], GaussianId{0}, Gaussian{}});
   }
+  // Leavers and enterers are both in ascending id order: pair them in that order.
   for (std::size_t j = 0; j < replaces; ++j) {
     const std::uint32_t k = s.enterers[j];
     batch.edits.push_back(Edit{EditKind::Replace, desired.ids[k], s.leavers[j], gaussians[desired.indices[k]]});
@@ -169,15 +181,16 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
     const std::uint32_t k = s.enterers[j];
     batch.edits.push_back(Edit{EditKind::Insert, desired.ids[k], GaussianId{0}, gaussians[desired.indices[k]]});
   }
-
-  // Advance the sent state to the desired set.
-  for (GaussianId id : s.leavers) s.erase_sent(id);
-  for (std::uint32_t k : s.enterers) {
-    const GaussianId id = desired.ids[k];
-    s.sent.set(id, Impl::Sent{quantized_hash(gaussians[desired.indices[k]], s.params),
-                              static_cast<std::uint32_t>(s.sent_list.size())});
-    s.sent_list.push_back(id);
+  // Enterers' hashes (the next state holds them at their id positions: fill by a second
+  // merge-free pass, as both lists are in id order).
+  std::size_t e = 0;
+  for (Impl::Sent& n : s.next) {
+    if (e < s.enterers.size() && n.id == desired.ids[s.enterers[e]]) {
+      n.hash = quantized_hash(gaussians[desired.indices[s.enterers[e]]], s.params);
+      ++e;
+    }
   }
+  s.sent.swap(s.next);
   s.stats.replaces = replaces;
   s.stats.removes = s.leavers.size() - replaces;
   s.stats.inserts = s.enterers.size() - replaces;

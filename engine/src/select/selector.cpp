@@ -97,11 +97,8 @@ struct ViewParams {
   float ftx, fty, inv_kx, inv_ky, inv_ramp, near, out_w, bonus;
 };
 
-// View utility keys for all N (0 for excluded). Branch-free so the compiler can
-// vectorise it: this loop is most of a pose update's cost.
-#if defined(__GNUC__) && !defined(__clang__)
-__attribute__((optimize("O3")))
-#endif
+// View utility keys for all N (0 for excluded): this loop is most of a pose update's cost,
+// so it reads only the structure-of-arrays terms and has no data-dependent branches.
 void score_view(std::size_t n, const float* __restrict px, const float* __restrict py, const float* __restrict pz,
                 const float* __restrict radius, const float* __restrict weight, const std::uint8_t* __restrict part,
                 const std::uint8_t* __restrict resident, const ViewParams& v, std::uint32_t* __restrict out) {

@@ -9,7 +9,8 @@
 // differ's sent state is the desired set with the records just sent, so applying the
 // batch to the previous client set reproduces the desired set exactly.
 //
-// Cost: O(|sent| + |desired|) per call with dense id tables (no hashing for host ids).
+// Cost: O(|sent| + |desired|) per call: one sequential merge of the sent ids (kept sorted)
+// with the desired ids (sorted, as Selection guarantees), no hashing, no per-id lookups.
 // Update detection quantises a staying Gaussian only when the scene says it may have
 // changed: SceneStore's change log since the last diff (all of them when the log does not
 // reach back that far); for plain spans the caller passes the modified ids or asks for all.
