@@ -94,23 +94,26 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
     return Error{"diff: selection entry " + std::to_string(k) + " (id " + std::to_string(to_underlying(desired.ids[k])) +
                  ") does not match the scene at index " + std::to_string(i)};
   };
+  // One pass: indices in range, and ids strictly increasing (sorted and unique), which a
+  // Selection guarantees; otherwise sort positions by id and look for repeats.
+  bool sorted = true;
   for (std::size_t k = 0; k < m; ++k) {
     if (desired.indices[k] >= gaussians.size()) return *mismatch(k);
+    sorted = sorted && (k == 0 || desired.ids[k - 1] < desired.ids[k]);
   }
-  // Desired positions in id order: the identity for a Selection (sorted by contract).
-  const bool sorted = std::is_sorted(desired.ids.begin(), desired.ids.end());
   if (!sorted) {
     s.order.resize(m);
     for (std::size_t k = 0; k < m; ++k) s.order[k] = static_cast<std::uint32_t>(k);
     std::sort(s.order.begin(), s.order.end(),
               [&](std::uint32_t a, std::uint32_t b) { return desired.ids[a] < desired.ids[b]; });
-  }
-  auto at = [&](std::size_t j) -> std::uint32_t { return sorted ? static_cast<std::uint32_t>(j) : s.order[j]; };
-  for (std::size_t j = 1; j < m; ++j) {
-    if (desired.ids[at(j)] == desired.ids[at(j - 1)]) {
-      return Error{"diff: id " + std::to_string(to_underlying(desired.ids[at(j)])) + " appears twice in the selection"};
+    for (std::size_t j = 1; j < m; ++j) {
+      if (desired.ids[s.order[j]] == desired.ids[s.order[j - 1]]) {
+        return Error{"diff: id " + std::to_string(to_underlying(desired.ids[s.order[j]])) +
+                     " appears twice in the selection"};
+      }
     }
   }
+  auto at = [&](std::size_t j) -> std::uint32_t { return sorted ? static_cast<std::uint32_t>(j) : s.order[j]; };
   // Modified ids sorted and unique, merged alongside (epochs' lists are sorted each).
   const bool rehash_all = !modified.has_value();
   std::vector<GaussianId>& mod = s.modified_scratch;
