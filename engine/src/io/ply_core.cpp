@@ -3,6 +3,7 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <type_traits>
 #include <utility>
@@ -93,6 +94,12 @@ std::uint64_t min_item_bytes(const Element& e, PlyFormat format) {
 }
 
 }  // namespace
+
+std::string format_double(double v) {
+  std::array<char, 32> buf;
+  std::snprintf(buf.data(), buf.size(), "%.9g", v);
+  return buf.data();
+}
 
 Error make_error(std::string_view name, const std::string& what) {
   return Error{std::string(name) + ": " + what};
@@ -280,7 +287,7 @@ namespace {
 bool float_to_int(double d, std::int64_t& out, std::string& why) {
   // 2^63 is exactly representable; anything at or above it does not fit.
   if (!std::isfinite(d) || d != std::floor(d) || d < -9223372036854775808.0 || d >= 9223372036854775808.0) {
-    why = "value " + std::to_string(d) + " is not an integer";
+    why = "value " + format_double(d) + " is not an integer";
     return false;
   }
   out = static_cast<std::int64_t>(d);
@@ -312,7 +319,7 @@ bool to_uint64(const Scalar& s, std::uint64_t& out, std::string& why) {
         out = static_cast<std::uint64_t>(s.d);
         return true;
       }
-      why = "value " + std::to_string(s.d) + " is not an exact non-negative integer";
+      why = "value " + format_double(s.d) + " is not an exact non-negative integer";
       return false;
     default: {
       std::int64_t v = 0;

@@ -29,6 +29,9 @@ inline constexpr std::size_t kMaxAsciiLineBytes = 1 << 20;
 // Items per element: mesh indices and Gaussian slots are 32-bit.
 inline constexpr std::uint64_t kMaxElementCount = 0xFFFFFFFFull;
 
+// A double for messages: %.9g, so 1e-300 does not print as "0.000000" nor 1e300 as 300 digits.
+std::string format_double(double v);
+
 // Whether data in the given byte order must be byte-swapped on this machine.
 constexpr bool needs_swap(bool big_endian) { return big_endian != (std::endian::native == std::endian::big); }
 
@@ -191,7 +194,7 @@ inline bool to_float(const Scalar& s, float& out, std::string& why) {
     case Type::Float64:
       // Checked before the cast: a finite double beyond float's range has no float value.
       if (std::isfinite(s.d) && std::abs(s.d) > double(std::numeric_limits<float>::max())) {
-        why = "double value " + std::to_string(s.d) + " is outside the float range";
+        why = "double value " + format_double(s.d) + " is outside the float range";
         return false;
       }
       out = static_cast<float>(s.d);
