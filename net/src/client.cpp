@@ -264,7 +264,7 @@ Expected<std::unique_ptr<NetClient>> NetClient::start(NetClientConfig config, Cl
   auto addr = detail::resolve(impl->cfg.server);
   if (!addr) return addr.error();
   impl->server = addr.value();
-  auto host = detail::create_host(nullptr, 1);
+  auto host = detail::create_host(nullptr, 1, 2 * msg::kMaxMessageBytes);
   if (!host) return host.error();
   Impl* raw = impl.get();
   ENetHost* h = host.value();

@@ -30,14 +30,14 @@ Expected<ENetAddress> resolve(const Endpoint& e) {
   return a;
 }
 
-Expected<ENetHost*> create_host(const ENetAddress* bind, std::size_t peers) {
+Expected<ENetHost*> create_host(const ENetAddress* bind, std::size_t peers, std::size_t max_waiting_bytes) {
   ENetHost* h = enet_host_create(bind, peers, msg::kChannelCount, 0, 0);
   if (h == nullptr) {
     if (bind == nullptr) return Error{"ENet: cannot create a client host"};
     return Error{"ENet: cannot bind port " + std::to_string(bind->port) + " (in use or not permitted)"};
   }
   h->maximumPacketSize = msg::kMaxMessageBytes;
-  h->maximumWaitingData = 2 * msg::kMaxMessageBytes;
+  h->maximumWaitingData = max_waiting_bytes;
   return h;
 }
 

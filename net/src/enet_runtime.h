@@ -39,9 +39,15 @@ class EnetRef {
 };
 
 Expected<ENetAddress> resolve(const Endpoint& e);
-// Creates an ENet host with the schema's channel count and packet limits: ENet's
-// packet and waiting-data limits follow msg::kMaxMessageBytes, so a whole edit
-// batch always fits and a peer cannot make ENet buffer more than two of them.
-Expected<ENetHost*> create_host(const ENetAddress* bind, std::size_t peers);
+// Creates an ENet host with the schema's channel count. ENet's packet limit follows
+// msg::kMaxMessageBytes (it applies to sending and receiving alike), so a whole
+// edit batch always fits; `max_waiting_bytes` bounds what one peer can make this
+// end buffer while reassembling incoming packets.
+Expected<ENetHost*> create_host(const ENetAddress* bind, std::size_t peers, std::size_t max_waiting_bytes);
+
+// Incoming buffer per client on the host: clients only send small control messages
+// (the largest, a Hello, is under 1 KiB), so 1 MiB is generous and keeps a hostile
+// peer from parking up to a whole message limit of fragments per connection.
+inline constexpr std::size_t kHostWaitingBytesPerPeer = std::size_t{1} << 20;
 
 }  // namespace gauss::net::detail

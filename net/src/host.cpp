@@ -364,8 +364,9 @@ NetHost::NetHost(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 NetHost::~NetHost() = default;
 
 Expected<std::unique_ptr<NetHost>> NetHost::start(NetHostConfig config) {
-  if (config.max_clients == 0 || config.max_clients > 4095)
-    return Error{"NetHostConfig: max_clients " + std::to_string(config.max_clients) + " outside 1..4095 (ENet's peer limit)"};
+  // ENet allows 4095 peers; 16 are kept for connections still in the handshake.
+  if (config.max_clients == 0 || config.max_clients > 4000)
+    return Error{"NetHostConfig: max_clients " + std::to_string(config.max_clients) + " outside 1..4000"};
   if (config.max_slot_capacity == 0 || config.max_slot_capacity > gauss::kMaxSlotCapacity)
     return Error{"NetHostConfig: max_slot_capacity outside [1, " + std::to_string(gauss::kMaxSlotCapacity) + "]"};
   if (!(config.query_rate_hz > 0.0) || !(config.query_burst >= 1.0))
@@ -379,7 +380,7 @@ Expected<std::unique_ptr<NetHost>> NetHost::start(NetHostConfig config) {
   if (!addr) return addr.error();
   // Loopback unless asked otherwise (NetHostConfig::bind): clients on other machines
   // reach the host only with an explicit --bind.
-  auto host = detail::create_host(&addr.value(), impl->cfg.max_clients + 16);
+  auto host = detail::create_host(&addr.value(), impl->cfg.max_clients + 16, detail::kHostWaitingBytesPerPeer);
   if (!host) return Error{host.message() + " (bind " + to_string(impl->cfg.bind) + ")"};
   impl->host = host.value();
   impl->session = impl->cfg.session_id;

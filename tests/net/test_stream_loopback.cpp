@@ -29,6 +29,55 @@ TEST(StreamLoopback, TwoClientsWithDifferentBudgetsConvergeExactly) {
   EXPECT_EQ(h.host().stats().tick_errors, 0u) << h.host().stats().last_error;
 }
 
+// Malformed and out-of-place messages injected into a live, streaming connection:
+// each is rejected and counted by the transport, never reaches the host session
+// (its state and counters stay untouched), and the stream still converges exactly.
+TEST(StreamLoopback, MalformedMessagesMidStreamAreRejectedAndHarmless) {
+  test::StreamHarness h({});
+  ASSERT_TRUE(h.ready());
+  auto c = h.connect("target", 4000, h.port(), 3);
+  ASSERT_TRUE(c);
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (std::chrono::steady_clock::now() < until &&
+         c->sink->with_state([](ClientState& s) { return s.slots().size(); }) < 1000)
+    h.step({c.get()});
+  HostSession* session = h.host().session(c->sink->client_id());
+  ASSERT_NE(session, nullptr);
+  const HostSessionStats before = session->stats();
+
+  auto ack = wire::encode(msg::Ack{1, Epoch{1}, Epoch{0}}).value();
+  auto scene_info = wire::encode(msg::SceneInfo{}).value();  // a host-only message
+  std::vector<std::vector<std::uint8_t>> bad = {
+      {0x00},
+      {0x0B, 0x00, 0x00, 0x00, 0x18, 0x00, 0x00, 0x00},      // Ack header, body missing
+      std::vector<std::uint8_t>(ack.begin(), ack.end() - 1),  // truncated
+      {0xFF, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00},      // unknown type
+      scene_info,
+  };
+  ack[2] = 7;  // reserved bits set
+  bad.push_back(ack);
+  for (int round = 0; round < 5; ++round)
+    for (const auto& b : bad) ASSERT_TRUE(c->net->send_raw(b, static_cast<std::uint8_t>(round % 2)).ok());
+  const std::uint64_t expected = 5 * bad.size();
+  const auto seen = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (std::chrono::steady_clock::now() < seen) {
+    const auto hc = h.host().net().counters();
+    if (hc.malformed + hc.wrong_direction >= expected) break;
+    h.step({c.get()});
+  }
+  const auto hc = h.host().net().counters();
+  EXPECT_EQ(hc.malformed, 5u * (bad.size() - 1));
+  EXPECT_EQ(hc.wrong_direction, 5u);
+  EXPECT_EQ(hc.kicked, 0u);
+  EXPECT_FALSE(hc.last_rejection.empty());
+  // Nothing reached the policy: its rejection counters did not move.
+  session = h.host().session(c->sink->client_id());
+  ASSERT_NE(session, nullptr) << "the connection was dropped";
+  EXPECT_EQ(session->stats().rejected_messages, before.rejected_messages);
+  EXPECT_EQ(c->net->status(), net::ClientStatus::Connected);
+  EXPECT_TRUE(h.run_until_converged({c.get()}, std::chrono::seconds(25))) << h.describe(*c);
+}
+
 TEST(StreamLoopback, AccessTokenRefusesAClientWithoutIt) {
   test::StreamHarness::Options o;
   o.access_token = "let-me-in";
