@@ -1,0 +1,363 @@
+// gauss-bench stream: the client streaming policy and the deterministic simulation.
+//   1. coalescing throughput: DesiredState::apply on one core (edits/s), inserts,
+//      coalesced updates of pending ids, and a mixed stream;
+//   2. far-teleport convergence at budget M over a modelled link (default 100 Mbit/s,
+//      5 ms) with a 72 Hz display, per publication mode, with post-convergence flicker;
+//   3. upload ranges per frame vs slot writes per frame while converging;
+//   4. bytes on the wire per second in steady state (scene evolving, viewer still).
+// Definitions (also in the JSON):
+//   convergence time: from the teleport (the viewer's pose jumps) to the first display
+//     frame from which the client's published set equals its desired set and stays so,
+//     with the desired set final (the host sends nothing more); the end state is checked
+//     exactly (published = desired = the host's intended set, by checksum).
+//   flicker: published-set membership changes (an id entering or leaving the published
+//     set) per second during a 2 s window after convergence, while the scene is static
+//     and the head only sways (5 cm / 3 cm / 3 deg sinusoids, sampled at the 10 Hz pose
+//     rate). Target 0.
+// All times are virtual (simulation clock), so they reproduce exactly; the frame cost
+// model (sim.h FrameCostModel) stands in for the GPU. Timing never decides a test.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "bench_registry.h"
+#include "gauss/engine/desired_state.h"
+#include "gauss/engine/sim.h"
+
+namespace {
+
+using namespace gauss;
+using namespace gauss::sim;
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+struct Options {
+  std::uint32_t budget{200000};
+  std::size_t scene_gaussians{600000};
+  std::size_t coalesce_ids{1000000};
+  double bandwidth_bps{100e6};
+  double latency_s{0.005};
+  double display_hz{72.0};
+  std::string json_out;
+  bool teleport{true};
+  bool steady{true};
+};
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// CPU time of this thread: the machine may be shared, and "edits/s on one core" is
+// about the work, not about how often the scheduler let us run.
+double thread_cpu_s() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+Gaussian record(std::uint64_t i, float v) {
+  Gaussian g;
+  g.position = {static_cast<float>(i % 1000) * 0.01f, v, 1.0f};
+  g.sh_dc = {v, 0.5f, 0.25f};
+  g.opacity_logit = 1.0f;
+  g.support = 4;
+  g.id = GaussianId{i};
+  return g;
+}
+
+// ---- 1. coalescing ------------------------------------------------------------------
+
+json bench_coalescing(const Options& o) {
+  const std::size_t n = o.coalesce_ids;
+  std::mt19937_64 rng(1);
+  EditBatch inserts{Epoch{1}, {}};
+  inserts.edits.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) inserts.edits.push_back(Edit{EditKind::Insert, GaussianId{i + 1}, GaussianId{0}, record(i + 1, 0.0f)});
+  std::vector<EditBatch> updates;
+  for (int b = 0; b < 4; ++b) {
+    EditBatch u{Epoch{static_cast<std::uint64_t>(2 + b)}, {}};
+    u.edits.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::uint64_t id = 1 + rng() % n;
+      u.edits.push_back(Edit{EditKind::Update, GaussianId{id}, GaussianId{0}, record(id, static_cast<float>(b + 1))});
+    }
+    updates.push_back(std::move(u));
+  }
+  DesiredState d(static_cast<std::uint32_t>(std::min<std::size_t>(n, kMaxSlotCapacity)));
+  double c0 = thread_cpu_s();
+  auto r = d.apply(inserts, 0.0);
+  const double ins_s = thread_cpu_s() - c0;
+  if (!r || r->accepted != n) std::fprintf(stderr, "coalescing: inserts rejected: %s\n", r ? r->first_rejection.c_str() : r.message().c_str());
+  c0 = thread_cpu_s();
+  std::size_t upd_edits = 0;
+  for (const auto& u : updates) {
+    auto ru = d.apply(u, 1.0);
+    upd_edits += u.edits.size();
+    if (!ru) std::fprintf(stderr, "coalescing: %s\n", ru.message().c_str());
+  }
+  const double upd_s = thread_cpu_s() - c0;
+  // Mixed: removes of pending inserts (cancel), re-inserts under new ids, updates.
+  EditBatch mixed{Epoch{10}, {}};
+  std::uint64_t next = n + 1;
+  for (std::size_t i = 0; i < n / 3; ++i) {
+    const std::uint64_t id = 1 + i * 3;
+    mixed.edits.push_back(Edit{EditKind::Remove, GaussianId{id}, GaussianId{0}, {}});
+    mixed.edits.push_back(Edit{EditKind::Insert, GaussianId{next}, GaussianId{0}, record(next, 9.0f)});
+    ++next;
+    mixed.edits.push_back(Edit{EditKind::Update, GaussianId{id + 1}, GaussianId{0}, record(id + 1, 7.0f)});
+  }
+  c0 = thread_cpu_s();
+  auto rm = d.apply(mixed, 2.0);
+  const double mix_s = thread_cpu_s() - c0;
+  if (!rm || rm->rejected) std::fprintf(stderr, "coalescing: mixed batch had rejections\n");
+  const double ins_rate = static_cast<double>(n) / ins_s, upd_rate = static_cast<double>(upd_edits) / upd_s,
+               mix_rate = static_cast<double>(mixed.edits.size()) / mix_s;
+  std::printf("\n1. coalescing (DesiredState::apply, one thread, %zu ids, nothing published; thread CPU time)\n", n);
+  std::printf("   %-34s %12s %14s\n", "stream", "edits", "edits/cpu-s");
+  std::printf("   %-34s %12zu %14.3g\n", "inserts", n, ins_rate);
+  std::printf("   %-34s %12zu %14.3g\n", "updates of pending ids (coalesced)", upd_edits, upd_rate);
+  std::printf("   %-34s %12zu %14.3g\n", "mixed remove/insert/update", mixed.edits.size(), mix_rate);
+  std::printf("   pending after: %zu (= desired %zu: every superseded value discarded); target >= 5e6 edits/s\n",
+              d.pending_count(), d.desired_count());
+  return json{{"ids", n},
+              {"clock", "thread CPU time"},
+              {"insert_edits_per_s", ins_rate},
+              {"update_edits_per_s", upd_rate},
+              {"mixed_edits_per_s", mix_rate},
+              {"superseded", d.stats().superseded},
+              {"cancelled", d.stats().cancelled},
+              {"pending_after", d.pending_count()}};
+}
+
+// ---- 2 + 3. teleport ----------------------------------------------------------------
+
+glm::vec4 yaw(double a) { return glm::vec4(static_cast<float>(std::cos(a * 0.5)), 0.0f, static_cast<float>(std::sin(a * 0.5)), 0.0f); }
+
+SimConfig base_config(const Options& o, PublishMode mode, bool evolving) {
+  SimConfig cfg;
+  cfg.seed = 7;
+  cfg.scene.seed = 7;
+  cfg.scene.target_gaussians = o.scene_gaussians;
+  cfg.scene.epochs = evolving ? 40 : 4;
+  cfg.scene.cameras_per_epoch = evolving ? 2 : 12;
+  cfg.scene.converge_epochs = evolving ? 4 : 1;
+  cfg.scene.prune_fraction = evolving ? 0.02f : 0.0f;
+  cfg.epoch_period_s = 0.1;
+  cfg.check_every_frame = false;  // O(M) per frame; the tests check, the bench measures
+  cfg.check_coalescing = false;
+  ClientSpec c;
+  c.client.capacity = o.budget;
+  c.client.name = mode == PublishMode::Immediate ? "immediate" : "progressive";
+  c.client.publisher.mode = mode;
+  c.client.publisher.allowance_min = 2000;
+  c.client.publisher.allowance_initial = 20000;
+  c.client.publisher.allowance_max = 100000;
+  c.client.publisher.age_escape_s = 0.25;
+  c.client.publisher.escape_quota = 5000;
+  c.client.range_merge_gap = 4;
+  c.display_hz = o.display_hz;
+  c.down.bandwidth_bps = c.up.bandwidth_bps = o.bandwidth_bps;
+  c.down.latency_s = c.up.latency_s = o.latency_s;
+  cfg.clients = {c};
+  return cfg;
+}
+
+struct FrameLog {
+  std::vector<FrameSample> frames;
+};
+
+json bench_teleport(const Options& o, PublishMode mode) {
+  const char* name = mode == PublishMode::Immediate ? "immediate" : "progressive";
+  const auto wall0 = Clock::now();
+  auto sim = Simulation::create(base_config(o, mode, false));
+  if (!sim) {
+    std::fprintf(stderr, "teleport: %s\n", sim.message().c_str());
+    return json{{"error", sim.message()}};
+  }
+  FrameLog log;
+  sim->on_frame([&log](const FrameSample& f) { log.frames.push_back(f); });
+  const Aabb b = sim->scene().bounds();
+  // A: near one end of the room facing that end's wall (-x); B: the far end facing the
+  // other wall (+x). The two views share almost nothing: a far teleport.
+  const glm::vec3 lo = b.min, hi = b.max;
+  const glm::vec3 a_pos(lo.x + 0.2f * (hi.x - lo.x), 1.6f, lo.z + 0.5f * (hi.z - lo.z));
+  const glm::vec3 b_pos(lo.x + 0.8f * (hi.x - lo.x), 1.6f, lo.z + 0.5f * (hi.z - lo.z));
+  const double a_yaw = -3.14159265 / 2, b_yaw = 3.14159265 / 2;  // OpenCV +z rotated about y
+  sim->set_pose(0, a_pos, yaw(a_yaw));
+  if (Status s = sim->run_until(0.6); !s) return json{{"error", s.message()}};
+  sim->stop_scene();
+  if (Status s = sim->run_until_converged(20.0); !s) return json{{"error", s.message()}};
+  if (Status s = sim->run_until(sim->now() + 0.5); !s) return json{{"error", s.message()}};
+  const std::uint64_t bytes_before = sim->down_link(0).stats().wire_bytes;
+  log.frames.clear();
+  const double t0 = sim->now();
+  sim->set_pose(0, b_pos, yaw(b_yaw));
+  // Run until the host has answered the new pose and the client has caught up with
+  // everything it sent, then check the exact end state and find the frame.
+  const std::uint64_t batch0 = sim->session(0)->last_batch_id();
+  for (;;) {
+    if (Status s = sim->run_until(sim->now() + 0.01); !s) return json{{"error", s.message()}};
+    const HostSession* hs = sim->session(0);
+    const ClientState* cs = sim->client(0);
+    const bool idle_frame = !log.frames.empty() && log.frames.back().pending == 0 && log.frames.back().publish.slot_writes() == 0;
+    if (hs->last_batch_id() > batch0 && cs->last_batch_id() == hs->last_batch_id() && idle_frame) break;
+    if (sim->now() > t0 + 30.0) return json{{"error", "teleport did not converge within 30 s"}};
+  }
+  if (Status s = sim->check_converged(); !s) return json{{"error", s.message()}};
+  double conv_t = t0;
+  std::size_t last_busy = 0;
+  for (std::size_t i = 0; i < log.frames.size(); ++i)
+    if (log.frames[i].pending > 0 || log.frames[i].publish.slot_writes() > 0) last_busy = i;
+  if (last_busy + 1 < log.frames.size()) conv_t = log.frames[last_busy + 1].t;
+  const double conv_s = conv_t - t0;
+  // Writes and ranges per frame while converging.
+  double writes = 0, ranges = 0, edits = 0;
+  std::size_t busy_frames = 0;
+  std::uint32_t max_writes = 0;
+  double max_cost = 0.0;
+  for (std::size_t i = 0; i <= last_busy && i < log.frames.size(); ++i) {
+    const auto& f = log.frames[i];
+    if (f.publish.slot_writes() == 0) continue;
+    ++busy_frames;
+    writes += f.publish.slot_writes();
+    edits += f.publish.edits();
+    ranges += static_cast<double>(f.ranges);
+    max_writes = std::max(max_writes, f.publish.slot_writes());
+    max_cost = std::max(max_cost, f.cost_s);
+  }
+  const std::uint64_t teleport_bytes = sim->down_link(0).stats().wire_bytes - bytes_before;
+  const std::size_t desired = sim->client(0)->desired().desired_count();
+  // Flicker window: static scene, head sway around B.
+  log.frames.clear();
+  // A standing user's sway: 5 cm at 0.3 Hz sideways, 3 cm at 0.45 Hz forward, 3 deg of
+  // yaw at 0.2 Hz, sampled at the 10 Hz pose rate.
+  const double w0 = sim->now();
+  for (int k = 1; k <= 20; ++k) {
+    const double tt = 0.1 * k, two_pi = 6.283185307;
+    const glm::vec3 p = b_pos + glm::vec3(0.03f * static_cast<float>(std::sin(two_pi * 0.45 * tt)), 0.0f,
+                                          0.05f * static_cast<float>(std::sin(two_pi * 0.3 * tt)));
+    sim->set_pose(0, p, yaw(b_yaw + 3.0 * 3.14159265 / 180.0 * std::sin(two_pi * 0.2 * tt)));
+    if (Status s = sim->run_until(w0 + tt); !s) return json{{"error", s.message()}};
+  }
+  std::uint64_t membership_changes = 0;
+  for (const auto& f : log.frames) membership_changes += f.publish.inserted + f.publish.removed + 2ull * f.publish.replaced;
+  const double flicker_per_s = static_cast<double>(membership_changes) / (sim->now() - w0);
+  const double wall_s = seconds_since(wall0);
+  std::printf("   %-12s %9.3f %12zu %10.1f %10.1f %9u %9.2f %11.2f %10.1f %8.1f\n", name, conv_s, desired,
+              busy_frames ? writes / static_cast<double>(busy_frames) : 0.0,
+              busy_frames ? ranges / static_cast<double>(busy_frames) : 0.0, max_writes, max_cost * 1e3,
+              static_cast<double>(teleport_bytes) / 1e6, flicker_per_s, wall_s);
+  return json{{"mode", name},
+              {"convergence_s", conv_s},
+              {"desired", desired},
+              {"busy_frames", busy_frames},
+              {"slot_writes_per_busy_frame", busy_frames ? writes / static_cast<double>(busy_frames) : 0.0},
+              {"edits_per_busy_frame", busy_frames ? edits / static_cast<double>(busy_frames) : 0.0},
+              {"upload_ranges_per_busy_frame", busy_frames ? ranges / static_cast<double>(busy_frames) : 0.0},
+              {"max_slot_writes_per_frame", max_writes},
+              {"max_modelled_frame_ms", max_cost * 1e3},
+              {"teleport_wire_bytes", teleport_bytes},
+              {"flicker_membership_changes_per_s", flicker_per_s},
+              {"flicker_window_s", sim->now() - w0},
+              {"wall_s", wall_s}};
+}
+
+// ---- 4. steady state ---------------------------------------------------------------
+
+json bench_steady(const Options& o) {
+  auto sim = Simulation::create(base_config(o, PublishMode::Progressive, true));
+  if (!sim) return json{{"error", sim.message()}};
+  const Aabb b = sim->scene().bounds();
+  sim->set_pose(0, glm::vec3(0.5f * (b.min.x + b.max.x), 1.6f, 0.5f * (b.min.z + b.max.z)), yaw(0.0));
+  // Skip the initial fill; measure while the scene keeps evolving (epochs at 10 Hz).
+  if (Status s = sim->run_until(1.5); !s) return json{{"error", s.message()}};
+  const std::uint64_t b0 = sim->down_link(0).stats().wire_bytes, p0 = sim->down_link(0).stats().bytes;
+  const double t0 = sim->now();
+  std::uint64_t writes = 0, ranges = 0, frames = 0;
+  sim->on_frame([&](const FrameSample& f) {
+    writes += f.publish.slot_writes();
+    ranges += f.ranges;
+    ++frames;
+  });
+  if (Status s = sim->run_until(3.5); !s) return json{{"error", s.message()}};
+  const double dt = sim->now() - t0;
+  const double wire_bps = static_cast<double>(sim->down_link(0).stats().wire_bytes - b0) / dt;
+  const double payload_bps = static_cast<double>(sim->down_link(0).stats().bytes - p0) / dt;
+  std::printf("\n4. steady state (scene evolving at 10 epochs/s, viewer still, M = %u, %.1f s window)\n", o.budget, dt);
+  std::printf("   wire bytes/s %.3g (messages %.3g B/s), slot writes/frame %.1f, upload ranges/frame %.1f\n", wire_bps,
+              payload_bps, frames ? static_cast<double>(writes) / frames : 0.0, frames ? static_cast<double>(ranges) / frames : 0.0);
+  return json{{"window_s", dt},
+              {"wire_bytes_per_s", wire_bps},
+              {"message_bytes_per_s", payload_bps},
+              {"slot_writes_per_frame", frames ? static_cast<double>(writes) / frames : 0.0},
+              {"upload_ranges_per_frame", frames ? static_cast<double>(ranges) / frames : 0.0}};
+}
+
+int bench_stream(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    auto next = [&](const char* what) -> const char* {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "gauss-bench stream: %s needs a value\n", what);
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (!std::strcmp(argv[i], "--budget")) o.budget = static_cast<std::uint32_t>(std::strtoul(next("--budget"), nullptr, 10));
+    else if (!std::strcmp(argv[i], "--scene")) o.scene_gaussians = std::strtoull(next("--scene"), nullptr, 10);
+    else if (!std::strcmp(argv[i], "--coalesce-ids")) o.coalesce_ids = std::strtoull(next("--coalesce-ids"), nullptr, 10);
+    else if (!std::strcmp(argv[i], "--mbit")) o.bandwidth_bps = std::strtod(next("--mbit"), nullptr) * 1e6;
+    else if (!std::strcmp(argv[i], "--latency-ms")) o.latency_s = std::strtod(next("--latency-ms"), nullptr) * 1e-3;
+    else if (!std::strcmp(argv[i], "--hz")) o.display_hz = std::strtod(next("--hz"), nullptr);
+    else if (!std::strcmp(argv[i], "--json")) o.json_out = next("--json");
+    else if (!std::strcmp(argv[i], "--no-teleport")) o.teleport = false;
+    else if (!std::strcmp(argv[i], "--no-steady")) o.steady = false;
+    else {
+      std::fprintf(stderr,
+                   "usage: gauss-bench stream [--budget M] [--scene N] [--coalesce-ids N] [--mbit B] [--latency-ms L]\n"
+                   "                          [--hz H] [--json FILE] [--no-teleport] [--no-steady]\n");
+      return 2;
+    }
+  }
+  if (o.budget == 0 || o.budget > kMaxSlotCapacity || o.coalesce_ids == 0 || o.coalesce_ids > kMaxSlotCapacity) {
+    std::fprintf(stderr, "gauss-bench stream: budget and --coalesce-ids must be in [1, %u]\n", kMaxSlotCapacity);
+    return 2;
+  }
+  json out;
+  out["coalescing"] = bench_coalescing(o);
+  if (o.teleport) {
+    std::printf("\n2+3. far teleport: M = %u of a %zu-Gaussian synthetic room, link %.0f Mbit/s %.1f ms, display %.0f Hz\n",
+                o.budget, o.scene_gaussians, o.bandwidth_bps / 1e6, o.latency_s * 1e3, o.display_hz);
+    std::printf("   (virtual time; convergence target <= 0.5 s, paper 0.87-1.63 s; flicker target 0)\n");
+    std::printf("   %-12s %9s %12s %10s %10s %9s %9s %11s %10s %8s\n", "mode", "conv s", "desired", "writes/fr", "ranges/fr",
+                "max wr/fr", "max fr ms", "teleport MB", "flicker/s", "wall s");
+    out["teleport"] = json::array({bench_teleport(o, PublishMode::Immediate), bench_teleport(o, PublishMode::Progressive)});
+  }
+  if (o.steady) out["steady_state"] = bench_steady(o);
+  out["definitions"] = {
+      {"convergence", "teleport to the first frame from which published == desired (final), end state checked by checksum"},
+      {"flicker", "published-set membership changes per second in a 2 s window after convergence, static scene, head sway 5 cm / 3 cm / 3 deg"},
+      {"time", "virtual simulation time; frame cost from sim::FrameCostModel"}};
+  if (!o.json_out.empty()) {
+    std::ofstream f(o.json_out);
+    f << out.dump(2) << "\n";
+    if (!f) {
+      std::fprintf(stderr, "gauss-bench stream: cannot write %s\n", o.json_out.c_str());
+      return 1;
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+GAUSS_BENCH("stream", "streaming policy: coalescing edits/s, teleport convergence + flicker per mode, ranges/frame, wire bytes/s",
+            bench_stream);
