@@ -10,6 +10,7 @@
 
 #include <glm/gtc/quaternion.hpp>
 
+#include "gauss/engine/eligibility.h"
 #include "gauss/engine/labels_io.h"
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/selector.h"
@@ -154,6 +155,29 @@ TEST(SelectorBudget, CarriersAndIneligibleNeverSelected) {
     EXPECT_TRUE(eligible[i]);
     EXPECT_FALSE(store.gaussians()[i].carrier);
   }
+}
+
+TEST(SelectorBudget, TakesTheEligibilityFiltersVerdict) {
+  SceneStore store;
+  test::fill_test_scene(store, 5000, 16);
+  EligibilityConfig cfg;
+  cfg.min_opacity = 0.5f;  // about half of the test scene's opacities
+  auto eligible = filter_eligible(store, cfg);
+  ASSERT_TRUE(eligible.ok()) << eligible.message();
+  ASSERT_GT(eligible->counts.removed_opacity, 0u);
+  Selector selector;
+  SelectionRequest req;
+  req.budget = 5000;
+  req.client_capacity = 5000;
+  auto sel = selector.select(store, ClientPose{}, req, *eligible);
+  ASSERT_TRUE(sel.ok()) << sel.message();
+  EXPECT_EQ(sel->ids.size(), eligible->indices.size());
+  for (std::uint32_t i : sel->indices) {
+    EXPECT_TRUE(std::binary_search(eligible->indices.begin(), eligible->indices.end(), i));
+  }
+  EligibleSet stale = *eligible;
+  stale.epoch = Epoch{99};
+  EXPECT_FALSE(selector.select(store, ClientPose{}, req, stale).ok());
 }
 
 // Fraction of the view-layer picks that lie inside the (unwidened) frustum.

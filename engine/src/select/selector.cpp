@@ -199,6 +199,7 @@ struct Selector::Impl {
   PartitionKey partition_key;
   std::size_t n_obj{0}, n_bg{0}, object_budget{0}, bg_budget{0};
   std::vector<std::uint32_t> global_obj, global_bg;
+  std::vector<std::uint8_t> eligible_mask;  // EligibleSet indices as a mask
   // Hysteresis state: the resident ids, and the same as a flag per index of the cached
   // scene version (the previous selection's flags when the version did not change, so a
   // pose-only update needs no id lookups). resident_flags_valid is false after a rebuild
@@ -283,6 +284,24 @@ Expected<Selection> Selector::select(const SceneStore& scene, const ClientPose& 
   if (scene.in_epoch()) return Error{"selection: the scene has an open epoch; select between epochs"};
   return select(scene.gaussians(), scene.objects(), to_underlying(scene.epoch()), scene.epoch(), pose, request,
                 eligible);
+}
+
+Expected<Selection> Selector::select(const SceneStore& scene, const ClientPose& pose, const SelectionRequest& request,
+                                     const EligibleSet& eligible) {
+  if (eligible.epoch != scene.epoch()) {
+    return Error{"selection: eligible set is from epoch " + std::to_string(to_underlying(eligible.epoch)) +
+                 ", the scene is at epoch " + std::to_string(to_underlying(scene.epoch()))};
+  }
+  std::vector<std::uint8_t>& mask = impl_->eligible_mask;
+  mask.assign(scene.gaussians().size(), 0);
+  for (std::uint32_t i : eligible.indices) {
+    if (i >= mask.size()) {
+      return Error{"selection: eligible index " + std::to_string(i) + " outside the scene's " +
+                   std::to_string(mask.size()) + " Gaussians"};
+    }
+    mask[i] = 1;
+  }
+  return select(scene, pose, request, std::span<const std::uint8_t>(mask));
 }
 
 Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::span<const SemanticObject> objects,

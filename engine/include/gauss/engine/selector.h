@@ -33,6 +33,7 @@
 #include <glm/vec3.hpp>
 
 #include "gauss/engine/camera.h"
+#include "gauss/engine/eligibility.h"
 #include "gauss/engine/gaussian.h"
 #include "gauss/engine/ids.h"
 #include "gauss/engine/query.h"
@@ -102,6 +103,10 @@ class Selector {
   // scene.gaussians(): 0 excludes a Gaussian (the eligibility filter's verdict).
   Expected<Selection> select(const SceneStore& scene, const ClientPose& pose, const SelectionRequest& request,
                              std::span<const std::uint8_t> eligible = {});
+  // Selects from the eligibility filter's verdict for this scene (filter_eligible());
+  // fails when it was computed at another epoch or names an index outside the scene.
+  Expected<Selection> select(const SceneStore& scene, const ClientPose& pose, const SelectionRequest& request,
+                             const EligibleSet& eligible);
   // Same on plain data. `scene_version` must change whenever the span's contents change
   // (static terms are cached per version; SceneStore's overload uses its epoch).
   Expected<Selection> select(std::span<const Gaussian> gaussians, std::span<const SemanticObject> objects,
