@@ -89,7 +89,17 @@ TEST(Publisher, AllowanceFollowsDisplaySlackWithinBounds) {
   PublisherConfig cfg{.mode = PublishMode::Progressive, .allowance_min = 100, .allowance_max = 1000, .allowance_initial = 400};
   cfg.display_period_s = 0.010;
   Publisher p(cfg);
-  for (int i = 0; i < 200; ++i) p.report_frame_cost(0.002);  // lots of slack
+  for (int i = 0; i < 200; ++i) p.report_frame_cost(0.002);  // lots of slack, but nothing to do
+  EXPECT_EQ(p.allowance(), 400u);  // idle frames do not grow it
+  // Saturated frames with slack grow it up to the bound.
+  Fixture f(5000);
+  std::vector<Edit> edits;
+  for (std::uint64_t i = 0; i < 5000; ++i) edits.push_back(ins(i + 1, {0, 0, 1}));
+  ASSERT_TRUE(f.desired.apply({Epoch{1}, edits}, 0.0).ok());
+  for (int i = 0; i < 30 && f.desired.pending_count() > 0; ++i) {
+    ASSERT_TRUE(p.publish(f.desired, f.slots, {}, 0.0).ok());
+    p.report_frame_cost(0.002);
+  }
   EXPECT_EQ(p.allowance(), 1000u);
   for (int i = 0; i < 200; ++i) p.report_frame_cost(0.0099);  // hardly any
   EXPECT_EQ(p.allowance(), 100u);

@@ -106,6 +106,7 @@ Expected<PublishReport> Publisher::publish(DesiredState& desired, SlotTable& slo
     pos += take;
   }
   rep.pending_after = static_cast<std::uint32_t>(desired.pending_count());
+  saturated_ = rep.slot_writes() - rep.escaped >= allowance_;
   return rep;
 }
 
@@ -195,7 +196,10 @@ void Publisher::report_frame_cost(double seconds) {
   if (!std::isfinite(seconds) || seconds < 0.0) return;  // a broken timer must not steer the allowance
   const double sample = 1.0 - seconds / config_.display_period_s;
   slack_ += config_.slack_smoothing * (sample - slack_);
-  if (slack_ > config_.slack_high) {
+  // Grow only when the allowance was what limited the last frame: idle frames have
+  // plenty of slack, and growing on them would hand the next burst an allowance the
+  // display cannot afford.
+  if (slack_ > config_.slack_high && saturated_) {
     allowance_ = static_cast<std::uint32_t>(std::min<double>(config_.allowance_max, std::ceil(allowance_ * config_.grow)));
   } else if (slack_ < config_.slack_low) {
     allowance_ = static_cast<std::uint32_t>(std::max<double>(config_.allowance_min, std::floor(allowance_ * config_.shrink)));

@@ -28,7 +28,8 @@ struct PublisherConfig {
   std::uint32_t allowance_initial{8000};
   double display_period_s{1.0 / 72.0};  // the frame deadline the slack is measured against
   // Slack = 1 - frame_cost / period, smoothed over ~8 frames. Above `slack_high` the
-  // allowance grows by `grow`; below `slack_low` it shrinks by `shrink`.
+  // allowance grows by `grow` (only after a frame the allowance limited); below
+  // `slack_low` it shrinks by `shrink`.
   double slack_high{0.25};
   double slack_low{0.10};
   double grow{1.25};
@@ -89,6 +90,7 @@ class Publisher {
   PublisherConfig config_;
   std::uint32_t allowance_;
   double slack_{0.5};
+  bool saturated_{false};  // the last progressive frame used its whole allowance
   std::vector<std::uint32_t> scratch_;  // pending entry indices, in selection order
   std::vector<float> prio_;             // priority per entry index, this frame
 };
