@@ -29,6 +29,8 @@ constexpr auto SB = DescriptorKind::StorageBuffer;
 static_assert(gpu::SPLAT_TILE == static_cast<std::uint32_t>(kTileSize));
 static_assert(gpu::SORT_BLOCK == gpu::SPLAT_WORKGROUP * gpu::SORT_ITEMS);
 static_assert(gpu::SORT_BINS == (1u << gpu::SORT_RADIX_BITS));
+static_assert(gpu::SPLAT_BLEND_ROWS * gpu::SPLAT_BLEND_PIXELS == gpu::SPLAT_TILE);
+static_assert(gpu::SPLAT_WORKGROUP % (gpu::SPLAT_TILE * gpu::SPLAT_BLEND_ROWS) == 0);
 static_assert(gpu::SPLAT_DILATION == static_cast<float>(kDilation));
 static_assert(gpu::SPLAT_FRUSTUM_CLAMP == static_cast<float>(kFrustumClamp));
 static_assert(gpu::SPLAT_NEAR_CULL == static_cast<float>(kNearCull));
