@@ -1,0 +1,224 @@
+// gauss-bench identity: identity tracking of an id-less snapshot against the previous epoch.
+// Previous epoch: a converged synthetic room of N Gaussians. Snapshot: 2 % removed, 5 %
+// perturbed (0.3 sigma, small scale/colour/opacity steps), 2 % new, randomly permuted, ids
+// stripped; scenario "drift" additionally moves every Gaussian by 0.1 sigma (nothing is
+// bit-identical, as between two trainer iterations). Reports the kept-id rates (the error
+// figure) beside the tracking time (median of the runs; thread CPU time and wall time, one
+// core: the tracker is single-threaded).
+#include <algorithm>
+#include <chrono>
+#include <ctime>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <glm/geometric.hpp>
+#include <nlohmann/json.hpp>
+
+#include "bench_registry.h"
+#include "gauss/engine/identity_tracker.h"
+#include "gauss/engine/scene_store.h"
+#include "gauss/engine/synthetic_scene.h"
+
+namespace {
+
+using namespace gauss;
+
+struct Rng {
+  std::uint64_t s;
+  std::uint64_t next() {
+    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  float unit() { return float(next() >> 40) / 16777216.0f; }
+  float sym() { return unit() * 2.0f - 1.0f; }
+  glm::vec3 dir() { return glm::normalize(glm::vec3(sym(), sym(), sym()) + glm::vec3(1e-3f)); }
+};
+
+enum class Fate : std::uint8_t { Unchanged, Perturbed, New };
+
+struct Snapshot {
+  std::vector<Gaussian> gaussians;
+  std::vector<Fate> fate;
+  std::vector<GaussianId> truth;
+};
+
+// CPU time of this thread: on a shared machine wall time mostly measures the neighbours.
+double thread_cpu_s() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+float sigma_of(const Gaussian& g) { return std::exp(std::max(g.log_scale.x, std::max(g.log_scale.y, g.log_scale.z))); }
+
+Snapshot make_snapshot(const std::vector<Gaussian>& prev, float drift, std::uint64_t seed) {
+  Rng rng{seed};
+  Snapshot s;
+  s.gaussians.reserve(prev.size() * 101 / 100);
+  for (const Gaussian& g : prev) {
+    const float r = rng.unit();
+    if (r < 0.02f) continue;
+    Gaussian h = g;
+    Fate f = Fate::Unchanged;
+    if (drift > 0.0f) h.position += drift * sigma_of(g) * rng.dir();
+    if (r < 0.07f) {
+      h.position += 0.3f * sigma_of(g) * rng.dir();
+      h.log_scale += 0.05f * glm::vec3(rng.sym(), rng.sym(), rng.sym());
+      h.sh_dc += 0.05f * glm::vec3(rng.sym(), rng.sym(), rng.sym());
+      h.opacity_logit += 0.2f * rng.sym();
+      f = Fate::Perturbed;
+    }
+    s.gaussians.push_back(h);
+    s.fate.push_back(f);
+    s.truth.push_back(g.id);
+  }
+  for (std::size_t k = 0; k < prev.size() / 50; ++k) {
+    Gaussian h = prev[std::size_t(rng.next() % prev.size())];
+    h.position += (3.0f + 3.0f * rng.unit()) * sigma_of(h) * rng.dir();
+    h.sh_dc = 1.5f * glm::vec3(rng.sym(), rng.sym(), rng.sym());
+    s.gaussians.push_back(h);
+    s.fate.push_back(Fate::New);
+    s.truth.push_back(GaussianId{0});
+  }
+  for (std::size_t i = s.gaussians.size(); i > 1; --i) {
+    const std::size_t j = std::size_t(rng.next() % i);
+    std::swap(s.gaussians[i - 1], s.gaussians[j]);
+    std::swap(s.fate[i - 1], s.fate[j]);
+    std::swap(s.truth[i - 1], s.truth[j]);
+  }
+  for (Gaussian& g : s.gaussians) g.id = GaussianId{0};
+  return s;
+}
+
+int usage() {
+  std::fprintf(stderr,
+               "usage: gauss-bench identity [--n N] [--runs R] [--variant V] [--json out.json]\n"
+               "  N Gaussians in the previous epoch (default 1000000), R timed runs per scenario (default 3)\n");
+  return 2;
+}
+
+int bench_identity_main(int argc, char** argv) {
+  std::size_t n = 1'000'000;
+  int runs = 3, variant = 0;
+  std::string json_out;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool has = i + 1 < argc;
+    if (a == "--n" && has) {
+      n = std::stoul(argv[++i]);
+    } else if (a == "--runs" && has) {
+      runs = std::max(1, std::stoi(argv[++i]));
+    } else if (a == "--variant" && has) {
+      variant = std::stoi(argv[++i]);
+    } else if (a == "--json" && has) {
+      json_out = argv[++i];
+    } else {
+      return usage();
+    }
+  }
+
+  using clock = std::chrono::steady_clock;
+  SyntheticSceneConfig cfg;
+  cfg.variant = variant;
+  cfg.target_gaussians = n;
+  cfg.epochs = 8;
+  cfg.converge_epochs = 2;
+  const auto t_gen = clock::now();
+  auto scene = SyntheticScene::create(cfg);
+  if (!scene) {
+    std::fprintf(stderr, "gauss-bench identity: %s\n", scene.message().c_str());
+    return 1;
+  }
+  SceneStore store;
+  while (!scene->finished())
+    if (auto s = scene->produce(store); !s) {
+      std::fprintf(stderr, "gauss-bench identity: %s\n", s.message().c_str());
+      return 1;
+    }
+  const double gen_s = std::chrono::duration<double>(clock::now() - t_gen).count();
+  std::vector<Gaussian> prev(store.gaussians().begin(), store.gaussians().end());
+  std::uint64_t max_id = 0;
+  for (const Gaussian& g : prev) max_id = std::max(max_id, to_underlying(g.id));
+  std::printf("previous epoch: synthetic variant %d, %zu Gaussians (generated in %.2f s)\n\n", variant, prev.size(),
+              gen_s);
+  std::printf("%-12s %9s %9s %9s %9s | %11s %11s %11s | %8s %8s %9s\n", "scenario", "snapshot", "kept", "fresh",
+              "removed", "unchanged%", "perturbed%", "new-fresh%", "cpu_s", "wall_s", "Mgauss/s");
+
+  nlohmann::json rows = nlohmann::json::array();
+  for (const float drift : {0.0f, 0.1f}) {
+    const char* name = drift > 0.0f ? "drift" : "exact+5/2/2";
+    const Snapshot base = make_snapshot(prev, drift, 42);
+    std::vector<double> times, cpu_times;
+    IdentityReport report;
+    std::vector<Gaussian> cur;
+    for (int r = 0; r < runs; ++r) {
+      cur = base.gaussians;
+      std::uint64_t next = max_id + 1;
+      const auto t0 = clock::now();
+      const double c0 = thread_cpu_s();
+      auto rep = track_identity(prev, cur, {}, [&] { return GaussianId{next++}; });
+      cpu_times.push_back(thread_cpu_s() - c0);
+      times.push_back(std::chrono::duration<double>(clock::now() - t0).count());
+      if (!rep) {
+        std::fprintf(stderr, "gauss-bench identity: %s\n", rep.message().c_str());
+        return 1;
+      }
+      report = *rep;
+    }
+    std::sort(times.begin(), times.end());
+    std::sort(cpu_times.begin(), cpu_times.end());
+    const double median = times[times.size() / 2];
+    const double cpu_median = cpu_times[cpu_times.size() / 2];
+    std::size_t un = 0, un_kept = 0, pe = 0, pe_kept = 0, nw = 0, nw_fresh = 0;
+    for (std::size_t i = 0; i < cur.size(); ++i) {
+      const bool kept = cur[i].id == base.truth[i];
+      switch (base.fate[i]) {
+        case Fate::Unchanged: ++un; un_kept += kept; break;
+        case Fate::Perturbed: ++pe; pe_kept += kept; break;
+        case Fate::New: ++nw; nw_fresh += to_underlying(cur[i].id) > max_id; break;
+      }
+    }
+    const auto pct = [](std::size_t a, std::size_t b) { return b ? 100.0 * double(a) / double(b) : 100.0; };
+    std::printf("%-12s %9zu %9zu %9zu %9zu | %11.3f %11.3f %11.3f | %8.3f %8.3f %9.2f\n", name, report.current,
+                report.kept, report.fresh, report.removed, pct(un_kept, un), pct(pe_kept, pe), pct(nw_fresh, nw),
+                cpu_median, median, double(report.current) / cpu_median / 1e6);
+    rows.push_back({{"scenario", name},
+                    {"drift_sigma", drift},
+                    {"previous", report.previous},
+                    {"snapshot", report.current},
+                    {"kept", report.kept},
+                    {"exact", report.exact},
+                    {"fresh", report.fresh},
+                    {"removed", report.removed},
+                    {"unchanged_kept_pct", pct(un_kept, un)},
+                    {"perturbed_kept_pct", pct(pe_kept, pe)},
+                    {"new_fresh_pct", pct(nw_fresh, nw)},
+                    {"cell_size_m", report.cell_size},
+                    {"median_cpu_s", cpu_median},
+                    {"median_wall_s", median},
+                    {"runs_cpu_s", cpu_times},
+                    {"runs_wall_s", times}});
+  }
+  if (!json_out.empty()) {
+    nlohmann::json doc = {{"bench", "identity"}, {"gaussians", prev.size()}, {"variant", variant},
+                          {"generate_s", gen_s}, {"results", rows}};
+    std::ofstream f(json_out);
+    f << doc.dump(2) << "\n";
+    if (!f) {
+      std::fprintf(stderr, "gauss-bench identity: cannot write %s\n", json_out.c_str());
+      return 1;
+    }
+    std::printf("\nwrote %s\n", json_out.c_str());
+  }
+  return 0;
+}
+
+}  // namespace
+
+GAUSS_BENCH("identity", "identity tracking of an id-less, permuted snapshot: kept-id rates and time (1M default)",
+            bench_identity_main);
