@@ -295,6 +295,12 @@ TEST(CodecHostile, LyingCountsAndSizesAreRejectedBeforeAllocating) {
   auto r = decode_edit_batch_raw(m, p);
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.message().find("count"), std::string::npos) << r.message();
+  // 2^21 one-byte removes: a payload that size could hold them, the batch limit cannot.
+  m = {'G', 'A', 'E', 'B', 1, 0, 0, 0x80, 0x80, 0x80, 0x01, 0, 0, 0};
+  m.resize(m.size() + (std::size_t{1} << 21), 1);
+  r = decode_edit_batch_raw(m, p);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.message().find("limit"), std::string::npos) << r.message();
   // Value edits that need more record bytes than present.
   m = {'G', 'A', 'E', 'B', 1, 0, 0, 0, 0, 0, 5, 1, 2, 3, 4, 5};
   EXPECT_FALSE(decode_edit_batch_raw(m, p).ok());

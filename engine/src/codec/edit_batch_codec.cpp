@@ -165,6 +165,10 @@ Expected<EditBatch> decode_edit_batch_raw(std::span<const std::uint8_t> payload,
   }
   const std::size_t rec = record_bytes(params.sh_degree);
   const std::uint64_t n_values = n[1] + n[2] + n[3];
+  if (n[0] + n_values > kMaxBatchEdits) {
+    return decode_error(rd.offset(), std::to_string(n[0] + n_values) + " edits exceed the limit of " +
+                                         std::to_string(kMaxBatchEdits) + " per batch");
+  }
   // Each value edit needs >= 1 id byte, 1 object byte, 1 support byte and its record.
   if (n_values * (rec + 3) + n[0] + n[1] > rd.remaining()) {
     return decode_error(rd.offset(), "edit counts need more bytes than the payload holds");

@@ -114,6 +114,11 @@ inline constexpr double kRotationMaxError = 0.0065;
 // declares more is rejected before any allocation.
 inline constexpr std::size_t kMaxPayloadBytes = std::size_t{96} << 20;
 
+// Most edits one batch may hold: a full swap of the largest client (400k slots out, 400k
+// in) plus updates fits; a header asking for more is rejected before anything is decoded,
+// which bounds the decoded batch (~270 B per edit) whatever the payload says.
+inline constexpr std::size_t kMaxBatchEdits = std::size_t{1} << 20;
+
 constexpr std::size_t record_bytes(int sh_degree) {
   return kRecordBytesSh0 + 3 * static_cast<std::size_t>(sh_rest_count(sh_degree));
 }
