@@ -298,6 +298,26 @@ TEST(PlyGaussian, AcceptsOtherNumericTypesAndSkipsUnknownPropertiesAndElements) 
   EXPECT_TRUE(s->report.has_object_id && s->report.has_support && s->report.has_gaussian_id);
 }
 
+TEST(PlyGaussian, BigEndianBytesAreDecodedInFileOrder) {
+  // Written by hand (not by our writer) so a symmetric byte-order bug cannot hide.
+  std::vector<std::uint8_t> b;
+  const std::string h = minimal_header("binary_big_endian", 1, "property int object_id\n");
+  b.assign(h.begin(), h.end());
+  auto put_be32 = [&](std::uint32_t v) {
+    for (int k = 3; k >= 0; --k) b.push_back(std::uint8_t(v >> (8 * k)));
+  };
+  put_be32(0x3FC00000u);  // x = 1.5
+  for (int k = 1; k < 10; ++k) put_be32(0);
+  put_be32(0x3F800000u);  // rot_0 = 1
+  for (int k = 11; k < 14; ++k) put_be32(0);
+  put_be32(0x00000102u);  // object_id = 258
+  auto s = parse_gaussian_ply(b, "be.ply");
+  ASSERT_TRUE(s.ok()) << s.message();
+  EXPECT_EQ(s->cloud.gaussians[0].position.x, 1.5f);
+  EXPECT_EQ(to_underlying(s->cloud.gaussians[0].object), 258);
+  EXPECT_EQ(s->report.format, PlyFormat::BinaryBigEndian);
+}
+
 TEST(PlyGaussian, CrlfHeaderAndAsciiBlankLinesAccepted) {
   std::string ply = minimal_header("ascii", 1);
   std::string crlf;
@@ -315,7 +335,8 @@ TEST(PlyGaussian, WriterRejectsWhatNoReaderWouldAccept) {
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.message().find("Gaussian 2 has a non-finite 'opacity'"), std::string::npos) << r.message();
 
-  c = make_cloud(3, 4);
+  c = make_cloud(3, 3);
+  c.sh_degree = 4;
   r = encode_gaussian_ply(c);
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.message().find("SH degree 4"), std::string::npos) << r.message();

@@ -132,6 +132,12 @@ std::vector<Case> cases() {
                {"unexpected data after the last element at line 20"}});
   c.push_back({"header_line_too_long", bytes_of("ply\nformat ascii 1.0\ncomment " + std::string(5000, 'a') + "\nend_header\n"),
                {"header line 3", "longer than 4096 bytes"}});
+  {
+    std::string huge_line;
+    for (int k = 0; k < 600000; ++k) huge_line += "0 ";
+    c.push_back({"ascii_line_too_long", bytes_of(header("ascii", 1, props(required())) + huge_line + "\n"),
+                 {"vertex 0 (line 19)", "line 19 is longer than 1048576 bytes"}});
+  }
   c.push_back({"object_id_out_of_range",
                bytes_of(header("ascii", 1, props(required()) + "property int object_id\n") + ascii_line("0 0 0 0 0 0 0 0 0 0 1 0 0 0 -5")),
                {"vertex 0, property 'object_id'", "object id -5 is out of range"}});
