@@ -1,9 +1,10 @@
 #version 460
 // Blend, one workgroup per 16x16 screen tile (splat_math.h "Per pixel"). The workgroup is
-// 16 x 4 invocations and each invocation blends SPLAT_BLEND_PIXELS = 4 pixels of one
-// column (rows ly, ly + 4, ly + 8, ly + 12): every staged splat is read once from shared
-// memory and used for 4 pixels, which on a CPU implementation (lavapipe gathers shared
-// loads per lane) cuts the loads by 4; on GPUs it is the usual several-pixels-per-thread.
+// 16 x SPLAT_BLEND_ROWS invocations and each invocation blends SPLAT_BLEND_PIXELS pixels
+// of one column (rows ly, ly + ROWS, ...): every staged splat is read once from shared
+// memory and used for several pixels. Measured on lavapipe (box 100k@640x360, CPU time
+// per frame): 1 pixel/thread 590 ms, 4 pixels 276 ms, 8 pixels 227 ms, 16 pixels 214 ms;
+// 8 (32 threads per tile) keeps workgroups wide enough for GPUs' 32/64-wide waves.
 // The tile's run of splats (depth order) is staged through shared memory in batches of
 // 256, and the tile stops reading once every pixel in it is done (transmittance stop or
 // outside the image). Output: RGBA8 packed per pixel, rounded with to_unorm8.

@@ -25,8 +25,8 @@ GAUSS_CONST(uint, SPLAT_WORKGROUP, 256u)
 // Screen tile edge; the blend runs one SPLAT_TILE x SPLAT_TILE workgroup per tile.
 GAUSS_CONST(uint, SPLAT_TILE, 16u)
 // Blend: a 16 x SPLAT_BLEND_ROWS workgroup per tile, SPLAT_BLEND_PIXELS pixels per thread.
-GAUSS_CONST(uint, SPLAT_BLEND_ROWS, 4u)
-GAUSS_CONST(uint, SPLAT_BLEND_PIXELS, 4u)  // SPLAT_TILE / SPLAT_BLEND_ROWS
+GAUSS_CONST(uint, SPLAT_BLEND_ROWS, 2u)
+GAUSS_CONST(uint, SPLAT_BLEND_PIXELS, 8u)  // SPLAT_TILE / SPLAT_BLEND_ROWS
 // Radix sort: 4-bit digits (16 bins), every thread owns SORT_ITEMS consecutive keys, so
 // one workgroup sorts a block of SORT_BLOCK keys. No subgroup operation is used: the
 // per-block ranking goes through shared memory, correct at any subgroup size.
