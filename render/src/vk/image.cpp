@@ -55,7 +55,6 @@ Expected<Image> Image::create(Context& context, const ImageCreateInfo& info) {
   img.name_ = info.name;
 
   VkImageCreateInfo ci{};
-
   ci.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
   ci.imageType = VK_IMAGE_TYPE_2D;
   ci.format = info.format;
@@ -78,7 +77,6 @@ Expected<Image> Image::create(Context& context, const ImageCreateInfo& info) {
   GAUSS_VK_TRY(vkBindImageMemory(context.device(), img.image_, img.memory_, 0));
 
   VkImageViewCreateInfo vci{};
-
   vci.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
   vci.image = img.image_;
   vci.viewType = VK_IMAGE_VIEW_TYPE_2D;

@@ -192,7 +192,6 @@ Expected<GraphicsPipeline> GraphicsPipeline::create(Context& context, const Grap
   rendering.depthAttachmentFormat = info.depth_format;
 
   VkGraphicsPipelineCreateInfo ci{};
-
   ci.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
   ci.pNext = &rendering;
   ci.stageCount = 2;

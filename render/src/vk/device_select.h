@@ -1,0 +1,47 @@
+#pragma once
+// Private: physical device enumeration, suitability and choice (rules in vk_context.h).
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <volk.h>
+
+#include "gauss/engine/result.h"
+#include "gauss/render/vk_context.h"
+
+namespace gauss::vk::detail {
+
+inline constexpr std::uint32_t kRequiredApi = VK_API_VERSION_1_3;
+
+// "1.3.230"
+std::string version_string(std::uint32_t version);
+
+// Queue family with graphics + compute and timestamps, or ~0u.
+std::uint32_t pick_queue_family(VkPhysicalDevice device, std::uint32_t* out_timestamp_bits);
+
+// The feature structs of Vulkan 1.0-1.3, chained for vkGetPhysicalDeviceFeatures2 /
+// VkDeviceCreateInfo::pNext. Not copyable: the chain points into itself.
+struct FeatureChain {
+  VkPhysicalDeviceFeatures2 f2{};
+  VkPhysicalDeviceVulkan11Features f11{};
+  VkPhysicalDeviceVulkan12Features f12{};
+  VkPhysicalDeviceVulkan13Features f13{};
+  FeatureChain();
+  FeatureChain(const FeatureChain&) = delete;
+  FeatureChain& operator=(const FeatureChain&) = delete;
+};
+
+struct Candidate {
+  VkPhysicalDevice handle{VK_NULL_HANDLE};
+  DeviceInfo info;
+};
+
+// Every physical device with its suitability.
+Expected<std::vector<Candidate>> enumerate(VkInstance instance);
+
+// The device an override names (index or name part; `override_source` names where the
+// value came from in errors), or the best suitable one when `override_value` is empty.
+Expected<Candidate> choose_device(const std::vector<Candidate>& candidates, const std::string& override_value,
+                                  const char* override_source);
+
+}  // namespace gauss::vk::detail
