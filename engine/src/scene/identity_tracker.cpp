@@ -95,28 +95,24 @@ Expected<IdentityReport> track_identity(std::span<const Gaussian> previous, std:
   std::vector<std::uint32_t> match(current.size(), kNone);  // current -> previous index
   std::vector<std::uint8_t> taken(previous.size(), 0);
 
-  // 1. Exact pass: chained hash buckets over the previous records.
+  // 1. Exact pass: previous records sorted by hash (a flat array: no per-node allocation),
+  //    equal hashes in index order; each snapshot record takes the first unused equal one.
   {
-    std::unordered_map<std::uint64_t, std::uint32_t> head;
-    head.reserve(previous.size());
-    std::vector<std::uint32_t> next(previous.size(), kNone);
-    for (std::size_t j = previous.size(); j-- > 0;) {  // reversed so chains run in index order
-      auto [it, fresh] = head.try_emplace(record_hash(previous[j]), static_cast<std::uint32_t>(j));
-      if (!fresh) {
-        next[j] = it->second;
-        it->second = static_cast<std::uint32_t>(j);
-      }
-    }
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> by_hash(previous.size());
+    for (std::size_t j = 0; j < previous.size(); ++j) by_hash[j] = {record_hash(previous[j]), static_cast<std::uint32_t>(j)};
+    std::sort(by_hash.begin(), by_hash.end());
     for (std::size_t i = 0; i < current.size(); ++i) {
-      auto it = head.find(record_hash(current[i]));
-      if (it == head.end()) continue;
-      for (std::uint32_t j = it->second; j != kNone; j = next[j])
+      const std::uint64_t h = record_hash(current[i]);
+      auto it = std::lower_bound(by_hash.begin(), by_hash.end(), std::make_pair(h, std::uint32_t{0}));
+      for (; it != by_hash.end() && it->first == h; ++it) {
+        const std::uint32_t j = it->second;
         if (!taken[j] && same_record(previous[j], current[i])) {
           taken[j] = 1;
           match[i] = j;
           ++report.exact;
           break;
         }
+      }
     }
   }
 
