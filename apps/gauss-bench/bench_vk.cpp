@@ -137,11 +137,19 @@ int run_vk(int argc, char** argv) {
   // Upload throughput through Buffer::upload (memcpy when mapped, staging otherwise),
   // and GPU-side buffer->buffer copy throughput.
   nlohmann::json uploads = nlohmann::json::array();
-  for (std::size_t mib : {1u, 16u, 64u}) {
+  // Staged cases force the staging path (never_map) that a discrete GPU takes.
+  struct UploadCase {
+    bool staged;
+    std::size_t mib;
+  };
+  const UploadCase cases[] = {{false, 1}, {false, 16}, {false, 64}, {true, 1}, {true, 16}, {true, 64}};
+  for (const UploadCase& uc : cases) {
+    const bool staged = uc.staged;
+    const std::size_t mib = uc.mib;
     const std::size_t bytes = mib << 20;
     std::vector<std::uint8_t> data(bytes);
     for (std::size_t i = 0; i < bytes; ++i) data[i] = static_cast<std::uint8_t>(i * 2654435761u >> 13);
-    auto a = gauss::vk::Buffer::create(ctx, {.size = bytes, .name = "upload"});
+    auto a = gauss::vk::Buffer::create(ctx, {.size = bytes, .name = "upload", .never_map = staged});
     auto b = gauss::vk::Buffer::create(ctx, {.size = bytes, .name = "copy dst"});
     auto q = gauss::vk::TimestampQueries::create(ctx, 2);
     if (!a || !b || !q) {
