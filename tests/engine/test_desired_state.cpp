@@ -240,3 +240,39 @@ TEST(DesiredState, PropertyMatchesReferenceModel) {
     EXPECT_EQ(d.published_epoch(), Epoch{60});
   }
 }
+
+// The flat id index against std::map over random inserts, overwrites and erases
+// (backward-shift deletion must keep every remaining key findable).
+TEST(DesiredState, IdIndexMatchesAReferenceMap) {
+  std::mt19937_64 rng(99);
+  detail::IdIndex idx;
+  std::map<std::uint64_t, std::uint32_t> ref;
+  for (int step = 0; step < 200000; ++step) {
+    // Dense and clustered keys collide in runs: the hard case for linear probing.
+    const std::uint64_t key = (rng() % 3 == 0) ? rng() : rng() % 5000;
+    if (key == detail::IdIndex::kEmpty) continue;
+    if (rng() % 3 == 0) {
+      idx.erase(key);
+      ref.erase(key);
+    } else {
+      const auto v = static_cast<std::uint32_t>(rng());
+      idx.set(key, v);
+      ref[key] = v;
+    }
+    if (step % 20000 == 0) {
+      ASSERT_EQ(idx.size(), ref.size());
+      for (const auto& [k, v] : ref) {
+        const std::uint32_t* f = idx.find(k);
+        ASSERT_NE(f, nullptr) << k;
+        ASSERT_EQ(*f, v);
+      }
+      std::size_t n = 0;
+      idx.for_each([&](std::uint64_t k, std::uint32_t v) {
+        ++n;
+        ASSERT_EQ(ref.at(k), v);
+      });
+      ASSERT_EQ(n, ref.size());
+    }
+  }
+  EXPECT_EQ(idx.find(123456789012345ull), nullptr);
+}

@@ -48,8 +48,8 @@ float change_magnitude(const Gaussian& from, const Gaussian& to) {
 DesiredState::DesiredState(std::uint32_t capacity) : capacity_(capacity) {}
 
 const DesiredEntry* DesiredState::find(GaussianId id) const {
-  auto it = index_.find(id);
-  return it == index_.end() ? nullptr : &entries_[it->second];
+  const std::uint32_t* idx = index_.find(to_underlying(id));
+  return idx ? &entries_[*idx] : nullptr;
 }
 
 std::uint32_t DesiredState::new_entry(GaussianId id) {
@@ -63,12 +63,12 @@ std::uint32_t DesiredState::new_entry(GaussianId id) {
     entries_.emplace_back();
   }
   entries_[idx].id = id;
-  index_.emplace(id, idx);
+  index_.set(to_underlying(id), idx);
   return idx;
 }
 
 void DesiredState::release_entry(std::uint32_t index) {
-  index_.erase(entries_[index].id);
+  index_.erase(to_underlying(entries_[index].id));
   entries_[index].desired = entries_[index].published = entries_[index].dirty = false;
   free_entries_.push_back(index);
 }
@@ -104,10 +104,14 @@ std::string DesiredState::apply_one(Op op, GaussianId id, const Gaussian* value,
     ++stats_.rejected_bad_value;
     return "id " + id_str(id) + ": record has a non-finite field";
   }
-  auto it = index_.find(id);
-  std::uint32_t idx = it == index_.end() ? DesiredEntry::kNotPending : it->second;
+  if (to_underlying(id) == detail::IdIndex::kEmpty) {
+    ++stats_.rejected_unknown_id;
+    return "id " + id_str(id) + " is reserved";
+  }
+  const std::uint32_t* found = index_.find(to_underlying(id));
+  std::uint32_t idx = found ? *found : DesiredEntry::kNotPending;
   if (op == Op::Insert) {
-    if (it != index_.end() && entries_[idx].desired) {
+    if (found && entries_[idx].desired) {
       ++stats_.rejected_duplicate;
       return "insert of id " + id_str(id) + " that is already desired";
     }
@@ -115,7 +119,7 @@ std::string DesiredState::apply_one(Op op, GaussianId id, const Gaussian* value,
       ++stats_.rejected_capacity;
       return "insert of id " + id_str(id) + " beyond the capacity " + std::to_string(capacity_);
     }
-  } else if (it == index_.end() || !entries_[idx].desired) {
+  } else if (!found || !entries_[idx].desired) {
     ++stats_.rejected_unknown_id;
     return std::string(op == Op::Update ? "update" : "remove") + " of id " + id_str(id) + " that is not desired";
   }
@@ -253,8 +257,9 @@ Expected<ApplyReport> DesiredState::apply_resync(const EditBatch& snapshot, doub
     if (ed.kind == EditKind::Insert) in_snapshot.insert(ed.id);
   // Drop what the snapshot no longer holds first, so the budget has room for the rest.
   std::vector<GaussianId> stale;
-  for (const auto& [id, idx] : index_)
-    if (entries_[idx].desired && !in_snapshot.count(id)) stale.push_back(id);
+  index_.for_each([&](std::uint64_t id, std::uint32_t idx) {
+    if (entries_[idx].desired && !in_snapshot.count(GaussianId{id})) stale.push_back(GaussianId{id});
+  });
   for (GaussianId id : stale) {
     ApplyReport inner;
     (void)apply_one(Op::Remove, id, nullptr, snapshot.epoch, now, inner);
@@ -330,18 +335,25 @@ std::optional<Epoch> DesiredState::published_epoch() const {
 
 std::uint64_t DesiredState::desired_checksum() const {
   std::uint64_t sum = 0;
-  for (const auto& [id, idx] : index_)
-    if (entries_[idx].desired) sum += record_hash(id, entries_[idx].value);
+  index_.for_each([&](std::uint64_t id, std::uint32_t idx) {
+    if (entries_[idx].desired) sum += record_hash(GaussianId{id}, entries_[idx].value);
+  });
   return sum;
 }
 
 Status DesiredState::check() const {
   std::size_t desired = 0, published = 0, pending = 0;
   std::map<std::uint64_t, std::uint32_t> counts;
-  for (const auto& [id, idx] : index_) {
+  std::string err;
+  index_.for_each([&](std::uint64_t raw, std::uint32_t idx) {
+    if (!err.empty()) return;
+    const GaussianId id{raw};
     const DesiredEntry& e = entries_[idx];
-    if (e.id != id) return Error{"desired state: index of id " + id_str(id) + " points at another entry"};
-    if (!e.desired && !e.published) return Error{"desired state: id " + id_str(id) + " kept though neither desired nor published"};
+    if (e.id != id) {
+      err = "desired state: index of id " + id_str(id) + " points at another entry";
+    } else if (!e.desired && !e.published) {
+      err = "desired state: id " + id_str(id) + " kept though neither desired nor published";
+    }
     desired += e.desired;
     published += e.published;
     const bool is_pending = e.pending_kind() != PendingKind::None;
@@ -349,11 +361,12 @@ Status DesiredState::check() const {
       ++pending;
       ++counts[to_underlying(e.epoch)];
       if (e.pending_pos >= pending_.size() || pending_[e.pending_pos] != idx)
-        return Error{"desired state: pending id " + id_str(id) + " missing from the pending list"};
+        err = "desired state: pending id " + id_str(id) + " missing from the pending list";
     } else if (e.pending_pos != DesiredEntry::kNotPending) {
-      return Error{"desired state: id " + id_str(id) + " listed pending but has nothing pending"};
+      err = "desired state: id " + id_str(id) + " listed pending but has nothing pending";
     }
-  }
+  });
+  if (!err.empty()) return Error{err};
   if (desired != desired_count_ || published != published_count_ || pending != pending_.size())
     return Error{"desired state: counts disagree (desired " + std::to_string(desired) + "/" + std::to_string(desired_count_) +
                  ", published " + std::to_string(published) + "/" + std::to_string(published_count_) + ", pending " +

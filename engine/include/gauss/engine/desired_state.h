@@ -18,11 +18,11 @@
 // of the same epoch carry selection changes only (the pose or query moved, the scene
 // did not), so receiving a batch of epoch e means every scene edit of epochs <= e has
 // arrived.
+#include <cstddef>
 #include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 #include <glm/vec3.hpp>
@@ -33,6 +33,110 @@
 #include "gauss/engine/result.h"
 
 namespace gauss {
+
+namespace detail {
+
+// IdIndex: GaussianId -> entry index, an open-addressing hash table with linear
+// probing and backward-shift deletion. The client's coalescing does one lookup per
+// received edit into a table of up to M ids; std::unordered_map costs a node (a second
+// cache miss) per lookup, this costs one probe run in two flat arrays.
+// The id 2^64 - 1 marks an empty cell and cannot be stored (DesiredState rejects it).
+
+class IdIndex {
+ public:
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+
+  std::size_t size() const noexcept { return count_; }
+
+  // Pointer to the value of key, or nullptr.
+  std::uint32_t* find(std::uint64_t key) {
+    if (keys_.empty()) return nullptr;
+    for (std::size_t i = slot(key);; i = (i + 1) & mask_) {
+      if (keys_[i] == key) return &vals_[i];
+      if (keys_[i] == kEmpty) return nullptr;
+    }
+  }
+  const std::uint32_t* find(std::uint64_t key) const { return const_cast<IdIndex*>(this)->find(key); }
+
+  // Inserts or overwrites.
+  void set(std::uint64_t key, std::uint32_t value) {
+    if ((count_ + 1) * 2 > keys_.size()) grow();
+    for (std::size_t i = slot(key);; i = (i + 1) & mask_) {
+      if (keys_[i] == key) {
+        vals_[i] = value;
+        return;
+      }
+      if (keys_[i] == kEmpty) {
+        keys_[i] = key;
+        vals_[i] = value;
+        ++count_;
+        return;
+      }
+    }
+  }
+
+  // Removes key if present. Backward shift keeps every probe run unbroken.
+  void erase(std::uint64_t key) {
+    if (keys_.empty()) return;
+    std::size_t i = slot(key);
+    while (keys_[i] != key) {
+      if (keys_[i] == kEmpty) return;
+      i = (i + 1) & mask_;
+    }
+    for (std::size_t j = (i + 1) & mask_;; j = (j + 1) & mask_) {
+      if (keys_[j] == kEmpty) break;
+      const std::size_t home = slot(keys_[j]);
+      // Move j back to i when i lies cyclically in [home, j).
+      if (((j - home) & mask_) >= ((j - i) & mask_)) {
+        keys_[i] = keys_[j];
+        vals_[i] = vals_[j];
+        i = j;
+      }
+    }
+    keys_[i] = kEmpty;
+    --count_;
+  }
+
+  void reserve(std::size_t n) {
+    while (n * 2 > keys_.size()) grow();
+  }
+
+  template <class F>
+  void for_each(F&& f) const {
+    for (std::size_t i = 0; i < keys_.size(); ++i)
+      if (keys_[i] != kEmpty) f(keys_[i], vals_[i]);
+  }
+
+ private:
+  std::size_t slot(std::uint64_t key) const {
+    // Fibonacci hashing: host ids are often dense runs; multiply-shift spreads them.
+    return static_cast<std::size_t>((key * 0x9e3779b97f4a7c15ull) >> shift_) & mask_;
+  }
+  void grow() {
+    std::vector<std::uint64_t> old_keys;
+    std::vector<std::uint32_t> old_vals;
+    old_keys.swap(keys_);
+    old_vals.swap(vals_);
+    const std::size_t cap = old_keys.empty() ? 64 : old_keys.size() * 2;
+    keys_.assign(cap, kEmpty);
+    vals_.assign(cap, 0);
+    mask_ = cap - 1;
+    int bits = 0;
+    while ((std::size_t{1} << bits) < cap) ++bits;
+    shift_ = 64 - bits;
+    count_ = 0;
+    for (std::size_t i = 0; i < old_keys.size(); ++i)
+      if (old_keys[i] != kEmpty) set(old_keys[i], old_vals[i]);
+  }
+
+  std::vector<std::uint64_t> keys_;
+  std::vector<std::uint32_t> vals_;
+  std::size_t count_{0};
+  std::size_t mask_{0};
+  int shift_{64};
+};
+
+}  // namespace detail
 
 enum class PendingKind : std::uint8_t { None = 0, Insert, Update, Remove };
 
@@ -138,7 +242,7 @@ class DesiredState {
   void count_epoch(Epoch e, int delta);
 
   std::uint32_t capacity_;
-  std::unordered_map<GaussianId, std::uint32_t> index_;
+  detail::IdIndex index_;  // id -> entry
   std::vector<DesiredEntry> entries_;
   std::vector<std::uint32_t> free_entries_;
   std::vector<std::uint32_t> pending_;
