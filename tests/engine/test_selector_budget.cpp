@@ -98,6 +98,12 @@ TEST(SelectorBudget, BadRequestsAreClearErrors) {
   ClientPose bad = pose;
   bad.position.x = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(selector.select(store, bad, req).ok());
+  SelectorConfig cfg;
+  cfg.global_fraction = 1.5;
+  Selector misconfigured(cfg);
+  r = misconfigured.select(store, pose, req);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.message().find("global_fraction"), std::string::npos);
   const std::vector<std::uint8_t> short_mask(10, 1);
   EXPECT_FALSE(selector.select(store, pose, req, short_mask).ok());
 }

@@ -63,6 +63,20 @@ Status validate_pose(const ClientPose& p) {
   return Ok{};
 }
 
+Status validate_config(const SelectorConfig& c) {
+  auto bad = [](const char* field, double v) {
+    return Status(Error{std::string("selector config: ") + field + " = " + std::to_string(v) + " is out of range"});
+  };
+  if (!(c.global_fraction >= 0.0 && c.global_fraction <= 1.0)) return bad("global_fraction", c.global_fraction);
+  if (!(c.retention_bonus >= 0.0 && c.retention_bonus <= 100.0)) return bad("retention_bonus", c.retention_bonus);
+  if (!(c.margin_deg >= 0.0 && c.margin_deg <= 90.0)) return bad("margin_deg", c.margin_deg);
+  if (!(c.out_of_view_weight > 0.0 && c.out_of_view_weight <= 1.0)) {
+    return bad("out_of_view_weight", c.out_of_view_weight);
+  }
+  if (!(c.near_distance > 0.0 && std::isfinite(c.near_distance))) return bad("near_distance", c.near_distance);
+  return Ok{};
+}
+
 float sigmoid(float x) { return 1.0f / (1.0f + std::exp(-x)); }
 
 // Partition codes per Gaussian.
@@ -309,6 +323,7 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
                                      const SelectionRequest& request, std::span<const std::uint8_t> eligible) {
   if (Status st = validate_request(request); !st) return st.error();
   if (Status st = validate_pose(pose); !st) return st.error();
+  if (Status st = validate_config(impl_->config); !st) return st.error();
   if (!eligible.empty() && eligible.size() != gaussians.size()) {
     return Error{"selection: eligibility mask has " + std::to_string(eligible.size()) + " entries for " +
                  std::to_string(gaussians.size()) + " Gaussians"};

@@ -62,12 +62,13 @@ struct SelectionRequest {
   double rho{0.0};                       // reservation fraction in [0, 1]
 };
 
+// Out-of-range values make select() fail naming the field.
 struct SelectorConfig {
-  double global_fraction{0.2};      // share of each partition's budget chosen pose-independently
-  double retention_bonus{0.3};      // hysteresis: resident utility multiplier is 1 + bonus
-  double margin_deg{20.0};          // width of the facing ramp outside the frustum (head-turn headroom)
-  double out_of_view_weight{0.02};  // utility factor beyond the ramp (behind / far aside)
-  double near_distance{0.05};       // distances below this count as this (metres)
+  double global_fraction{0.2};      // [0, 1]: share of each partition's budget chosen pose-independently
+  double retention_bonus{0.3};      // >= 0: hysteresis, resident utility multiplier is 1 + bonus
+  double margin_deg{20.0};          // [0, 90]: facing ramp width outside the frustum (head-turn headroom)
+  double out_of_view_weight{0.02};  // (0, 1]: utility factor beyond the ramp (behind / far aside)
+  double near_distance{0.05};       // > 0: distances below this count as this (metres)
 };
 
 struct Selection {
