@@ -97,14 +97,7 @@ Row run(const std::string& name, float voxel, const std::vector<RgbdFrame>& fram
   } else {
     std::vector<double> medians;
     for (const auto& f : frames) {
-      Camera cam;
-      cam.width = f.width;
-      cam.height = f.height;
-      cam.fx = f.fx;
-      cam.fy = f.fy;
-      cam.cx = f.cx;
-      cam.cy = f.cy;
-      cam.world_to_camera = glm::inverse(f.camera_to_world);
+      const Camera cam = frame_camera(f);
       const auto d = render_mesh_depth(mesh, cam);
       std::vector<double> diffs;
       for (std::size_t k = 0; k < d.size(); ++k)

@@ -13,9 +13,6 @@
 #include <string>
 #include <vector>
 
-#include <glm/geometric.hpp>
-#include <glm/mat4x4.hpp>
-
 #include "gauss/engine/query.h"
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/selector.h"
@@ -74,14 +71,7 @@ Camera overview_camera(const SyntheticScene& scene, std::uint32_t width, std::ui
   const glm::dvec3 lo(scene.room_min()), hi(scene.room_max());
   const glm::dvec3 eye(lo.x + 0.12 * (hi.x - lo.x), lo.y + 0.8 * (hi.y - lo.y), lo.z + 0.12 * (hi.z - lo.z));
   const glm::dvec3 target(0.5 * (lo.x + hi.x), lo.y + 0.25 * (hi.y - lo.y), 0.5 * (lo.z + hi.z));
-  const glm::dvec3 f = glm::normalize(target - eye);
-  const glm::dvec3 r = glm::normalize(glm::cross(f, glm::dvec3(0, 1, 0)));
-  const glm::dvec3 d = glm::cross(f, r);
-  glm::dmat4 camera_to_world(1.0);
-  camera_to_world[0] = glm::dvec4(r, 0);
-  camera_to_world[1] = glm::dvec4(d, 0);
-  camera_to_world[2] = glm::dvec4(f, 0);
-  camera_to_world[3] = glm::dvec4(eye, 1);
+  const glm::dmat4 camera_to_world = opencv_look_at(eye, target, glm::dvec3(0, 1, 0));
   Camera cam;
   cam.width = width;
   cam.height = height;

@@ -58,14 +58,7 @@ TEST(TsdfRgbd, StudyRoomMeshReproducesTheInputDepthWithinOneVoxel) {
   const TriangleMesh mesh = vol->extract_all();
   ASSERT_GT(mesh.indices.size(), 10000u);
   for (const auto& f : frames) {
-    Camera cam;
-    cam.width = f.width;
-    cam.height = f.height;
-    cam.fx = f.fx;
-    cam.fy = f.fy;
-    cam.cx = f.cx;
-    cam.cy = f.cy;
-    cam.world_to_camera = glm::inverse(f.camera_to_world);
+    const Camera cam = frame_camera(f);
     const std::vector<float> rendered = render_mesh_depth(mesh, cam);
     std::vector<float> diffs;
     for (std::size_t k = 0; k < rendered.size(); ++k)

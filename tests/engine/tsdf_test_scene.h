@@ -8,6 +8,7 @@
 #include <glm/geometric.hpp>
 #include <glm/mat4x4.hpp>
 
+#include "gauss/engine/camera.h"
 #include "gauss/engine/tsdf.h"
 
 namespace gauss::test {
@@ -41,19 +42,6 @@ struct AnalyticRoom {
     return t;
   }
 
-  // OpenCV look-at pose: x right, y down, z toward the target; world y is up.
-  static glm::dmat4 look_at(const glm::dvec3& eye, const glm::dvec3& target) {
-    const glm::dvec3 f = glm::normalize(target - eye);
-    const glm::dvec3 r = glm::normalize(glm::cross(f, glm::dvec3(0, 1, 0)));
-    const glm::dvec3 dn = glm::cross(f, r);
-    glm::dmat4 T(1.0);
-    T[0] = glm::dvec4(r, 0);
-    T[1] = glm::dvec4(dn, 0);
-    T[2] = glm::dvec4(f, 0);
-    T[3] = glm::dvec4(eye, 1);
-    return T;
-  }
-
   RgbdFrame frame(const glm::dvec3& eye, const glm::dvec3& target, std::uint32_t w, std::uint32_t h,
                   Epoch epoch) const {
     RgbdFrame f;
@@ -63,7 +51,7 @@ struct AnalyticRoom {
     f.fx = f.fy = 0.8 * w;
     f.cx = w / 2.0;
     f.cy = h / 2.0;
-    f.camera_to_world = look_at(eye, target);
+    f.camera_to_world = opencv_look_at(eye, target, glm::dvec3(0, 1, 0));
     f.epoch = epoch;
     f.depth.resize(std::size_t(w) * h);
     const glm::dmat3 R(f.camera_to_world);

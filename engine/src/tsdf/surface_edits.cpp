@@ -17,6 +17,18 @@ Status apply_surface_edits(SceneStore& store, const std::vector<SurfaceEdit>& ed
   return Ok{};
 }
 
+Camera frame_camera(const RgbdFrame& frame) {
+  Camera cam;
+  cam.width = frame.width;
+  cam.height = frame.height;
+  cam.fx = frame.fx;
+  cam.fy = frame.fy;
+  cam.cx = frame.cx;
+  cam.cy = frame.cy;
+  cam.world_to_camera = glm::inverse(frame.camera_to_world);
+  return cam;
+}
+
 RgbdFrame synthetic_rgbd_frame(const SyntheticScene& scene, const Camera& camera, Epoch epoch) {
   GroundTruthImage gt = scene.render_ground_truth(camera);
   RgbdFrame f;

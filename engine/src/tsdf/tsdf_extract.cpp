@@ -69,7 +69,7 @@ TriangleMesh TsdfVolume::Impl::extract_chunk(const glm::ivec3& chunk, Epoch* out
         for (int z = 0; z < kBlockVoxels; ++z)
           for (int y = 0; y < kBlockVoxels; ++y)
             for (int x = 0; x < kBlockVoxels; ++x) {
-              const Corner* cs[8];
+              const Corner* cs[8] = {};
               int mask = 0;
               bool observed = true;
               for (int c = 0; c < 8; ++c) {

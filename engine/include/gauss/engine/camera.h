@@ -5,6 +5,7 @@
 #include <cstdint>
 
 #include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
 
 namespace gauss {
 
@@ -16,5 +17,10 @@ struct Camera {
   double near_plane{0.2};           // the 3DGS reference culls at view depth <= 0.2
   double far_plane{1000.0};
 };
+
+// Camera-to-world transform of an OpenCV camera at `eye` looking at `target`, with
+// image-up as close to `world_up` as the view direction allows (x right, y down, z
+// forward). `target` must differ from `eye` and not lie straight along `world_up`.
+glm::dmat4 opencv_look_at(const glm::dvec3& eye, const glm::dvec3& target, const glm::dvec3& world_up);
 
 }  // namespace gauss

@@ -14,6 +14,7 @@
 
 #include <glm/mat4x4.hpp>
 
+#include "gauss/engine/camera.h"
 #include "gauss/engine/ids.h"
 #include "gauss/engine/image_io.h"
 #include "gauss/engine/mesh.h"
@@ -60,7 +61,9 @@ struct TsdfStats {
 
 class SceneStore;
 class SyntheticScene;
-struct Camera;
+
+// The pinhole camera a frame was taken with (for rendering a mesh back into it).
+Camera frame_camera(const RgbdFrame& frame);
 
 // Applies surface edits to the host scene (inside its open epoch): Add/Replace set the
 // chunk, Remove drops it. Stops at the first edit the store refuses and returns its error.
