@@ -16,10 +16,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <thread>
 
 #include "gauss/engine/synthetic_scene.h"
+#include "gauss/engine/tsdf.h"
 #include "gauss/net/session_host.h"
 
 namespace {
@@ -37,6 +39,7 @@ struct Options {
   std::uint64_t seed{1};
   std::size_t max_clients{8};
   double duration_s{0.0};  // 0: until a signal
+  double surface_voxel{0.04};  // TSDF voxel (m) for the surface fused from each epoch's frames; 0 = none
   std::string events_path;
   bool quiet{false};
 };
@@ -46,7 +49,7 @@ int usage(const char* why) {
                "gauss-host: %s\n"
                "usage: gauss-host [--bind HOST:PORT] [--token T] [--scene synthetic:VARIANT] [--gaussians N]\n"
                "                  [--epochs N] [--epoch-period S] [--seed N] [--max-clients N] [--duration S]\n"
-               "                  [--events FILE] [--quiet]\n",
+               "                  [--surface-voxel M] [--events FILE] [--quiet]\n",
                why);
   return 2;
 }
@@ -91,7 +94,7 @@ int main(int argc, char** argv) {
       if (!v) return usage("--events needs a file");
       o.events_path = v;
     } else if (a == "--gaussians" || a == "--epochs" || a == "--epoch-period" || a == "--seed" ||
-               a == "--max-clients" || a == "--duration") {
+               a == "--max-clients" || a == "--duration" || a == "--surface-voxel") {
       const char* v = value();
       if (!v || !parse_number(v, num) || num < 0) return usage((a + " needs a non-negative number").c_str());
       if (a == "--gaussians") o.gaussians = static_cast<std::size_t>(num);
@@ -100,6 +103,7 @@ int main(int argc, char** argv) {
       if (a == "--seed") o.seed = static_cast<std::uint64_t>(num);
       if (a == "--max-clients") o.max_clients = static_cast<std::size_t>(num);
       if (a == "--duration") o.duration_s = num;
+      if (a == "--surface-voxel") o.surface_voxel = num;
     } else {
       return usage(("unknown option " + a).c_str());
     }
@@ -116,6 +120,19 @@ int main(int argc, char** argv) {
     return 1;
   }
   gauss::SceneStore store;
+  // The surface: each epoch's camera frames (the scene's exact ground-truth depth) are
+  // fused into a TSDF, and the changed chunks enter the store in the following epoch.
+  std::optional<gauss::TsdfVolume> surface;
+  if (o.surface_voxel > 0.0) {
+    gauss::TsdfConfig tc;
+    tc.voxel_size = static_cast<float>(o.surface_voxel);
+    auto v = gauss::TsdfVolume::create(tc);
+    if (!v) {
+      std::fprintf(stderr, "gauss-host: %s\n", v.message().c_str());
+      return 1;
+    }
+    surface.emplace(std::move(*v));
+  }
   // The codec box must cover every Gaussian the scene will ever hold: the room plus a
   // margin for the noisy first observations.
   gauss::CodecParams params;
@@ -160,6 +177,22 @@ int main(int argc, char** argv) {
       if (auto s = scene->produce(store); !s) {
         std::fprintf(stderr, "gauss-host: epoch failed: %s\n", s.message().c_str());
         return 1;
+      }
+      if (surface) {
+        for (const gauss::Camera& cam : scene->cameras_of_epoch(scene->produced() - 1))
+          if (auto s = surface->integrate(gauss::synthetic_rgbd_frame(*scene, cam, store.epoch())); !s) {
+            std::fprintf(stderr, "gauss-host: surface frame skipped: %s\n", s.message().c_str());
+          }
+        const auto edits = surface->extract_changed();
+        if (!edits.empty()) {
+          gauss::Status s = store.begin_next_epoch();
+          if (s) s = gauss::apply_surface_edits(store, edits);
+          if (s) s = store.commit_epoch();
+          if (!s) {
+            std::fprintf(stderr, "gauss-host: surface epoch failed: %s\n", s.message().c_str());
+            return 1;
+          }
+        }
       }
       next_epoch = now + o.epoch_period_s;
     }
