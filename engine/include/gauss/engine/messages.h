@@ -188,9 +188,10 @@ inline constexpr std::uint8_t kBatchResync = 1u << 0;
 inline constexpr std::uint8_t kBatchKnownFlags = kBatchResync;
 
 // One edit batch: the epoch it came from and the "select" codec's bytes
-// (encode_edit_batch output: quantised records, zstd). The host sends exactly one
-// batch per epoch per client (possibly empty), in epoch order on the reliable
-// channel. The wire keeps the payload opaque; the client decodes it with
+// (encode_edit_batch output: quantised records, zstd). Batches go out in
+// non-decreasing epoch order on the reliable channel; several may carry the same
+// epoch (a pose or query change re-selects without a new scene epoch), and the
+// client's published epoch never goes backwards. The wire keeps the payload opaque; the client decodes it with
 // decode_edit_batch and the SceneInfo's codec params.
 struct EditBatchMsg {
   Epoch epoch{0};
