@@ -1,5 +1,6 @@
 // Marching-cubes extraction of TSDF chunks into indexed, vertex-coloured meshes.
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "marching_cubes_table.h"
@@ -69,14 +70,15 @@ TriangleMesh TsdfVolume::Impl::extract_chunk(const glm::ivec3& chunk, Epoch* out
         for (int z = 0; z < kBlockVoxels; ++z)
           for (int y = 0; y < kBlockVoxels; ++y)
             for (int x = 0; x < kBlockVoxels; ++x) {
-              const Corner* cs[8] = {};
+              std::array<const Corner*, 8> cs{};
               int mask = 0;
               bool observed = true;
-              for (int c = 0; c < 8; ++c) {
-                cs[c] = &local[std::size_t(((z + ((c >> 2) & 1)) * kPad + (y + ((c >> 1) & 1))) * kPad +
-                                           (x + (c & 1)))];
-                observed &= cs[c]->weight > 0.0f;
-                mask |= (cs[c]->sdf < 0.0f ? 1 : 0) << c;
+              for (std::size_t corner = 0; corner < cs.size(); ++corner) {
+                const int ox = int(corner & 1), oy = int((corner >> 1) & 1), oz = int((corner >> 2) & 1);
+                const Corner& sample = local[std::size_t(((z + oz) * kPad + (y + oy)) * kPad + (x + ox))];
+                cs[corner] = &sample;
+                observed = observed && sample.weight > 0.0f;
+                if (sample.sdf < 0.0f) mask |= 1 << corner;
               }
               if (!observed || mask == 0 || mask == 255) continue;
               const tsdf::McCase& mc = table[std::size_t(mask)];
@@ -91,8 +93,8 @@ TriangleMesh TsdfVolume::Impl::extract_chunk(const glm::ivec3& chunk, Epoch* out
                 const std::uint64_t key = (pack_key(g0) << 2) | std::uint64_t(e / 4);
                 auto [vit, inserted] = vertex_of_edge.try_emplace(key, std::uint32_t(mesh.positions.size()));
                 if (inserted) {
-                  const Corner& a = *cs[c0];
-                  const Corner& b = *cs[c1];
+                  const Corner& a = *cs[std::size_t(c0)];
+                  const Corner& b = *cs[std::size_t(c1)];
                   const float s = a.sdf / (a.sdf - b.sdf);
                   const glm::vec3 pa = (glm::vec3(g0) + 0.5f) * vs;
                   glm::vec3 p = pa;
