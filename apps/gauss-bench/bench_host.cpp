@@ -76,7 +76,9 @@ struct Options {
 };
 
 std::optional<fs::path> data_file(const std::string& rel) {
-  fs::path dir = "../shared/data";
+  // $GAUSS_DATA_DIR, else shared/data beside the checkout (as the tests find it), so
+  // the bench finds the real scenes from any working directory.
+  fs::path dir = fs::path(__FILE__).parent_path() / ".." / ".." / ".." / "shared" / "data";
   if (const char* env = std::getenv("GAUSS_DATA_DIR"); env && *env) dir = env;
   const fs::path p = dir / rel;
   if (fs::exists(p)) return p;
