@@ -65,23 +65,6 @@ bool parse(int argc, char** argv, Options& o) {
   return true;
 }
 
-// A wide view from high in one corner of the room toward its centre (world y is up;
-// the camera follows OpenCV: x right, y down, z forward).
-Camera overview_camera(const SyntheticScene& scene, std::uint32_t width, std::uint32_t height) {
-  const glm::dvec3 lo(scene.room_min()), hi(scene.room_max());
-  const glm::dvec3 eye(lo.x + 0.12 * (hi.x - lo.x), lo.y + 0.8 * (hi.y - lo.y), lo.z + 0.12 * (hi.z - lo.z));
-  const glm::dvec3 target(0.5 * (lo.x + hi.x), lo.y + 0.25 * (hi.y - lo.y), 0.5 * (lo.z + hi.z));
-  const glm::dmat4 camera_to_world = opencv_look_at(eye, target, glm::dvec3(0, 1, 0));
-  Camera cam;
-  cam.width = width;
-  cam.height = height;
-  cam.fx = cam.fy = 0.55 * width;  // about 85 degrees horizontally
-  cam.cx = 0.5 * width;
-  cam.cy = 0.5 * height;
-  cam.world_to_camera = glm::inverse(camera_to_world);
-  return cam;
-}
-
 int fail(const std::string& what) {
   std::fprintf(stderr, "gauss-demo: %s\n", what.c_str());
   return 1;
@@ -127,7 +110,7 @@ int main(int argc, char** argv) {
               scene->epoch_count(), o.variant, store.size(), store.carrier_count(), store.objects().size(),
               mesh.indices.size() / 3, chunk_edits, host_s);
 
-  const Camera view = overview_camera(*scene, o.width, o.height);
+  const Camera view = scene->overview_camera(o.width, o.height);
 
   // ---- Renderer ----
   vk::ContextCreateInfo ci;

@@ -2,7 +2,6 @@
 // against the CPU reference and its golden image, host and client renderers alike.
 #include <gtest/gtest.h>
 
-#include "gauss/engine/camera.h"
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/synthetic_scene.h"
 #include "gauss/render/splat_renderer.h"
@@ -33,15 +32,7 @@ Room make_room() {
   room.sh_degree = store.sh_degree();
   for (const Gaussian& g : store.gaussians())
     if (!g.carrier) room.gaussians.push_back(g);
-  const glm::dvec3 lo(scene->room_min()), hi(scene->room_max());
-  const glm::dvec3 eye(lo.x + 0.12 * (hi.x - lo.x), lo.y + 0.8 * (hi.y - lo.y), lo.z + 0.12 * (hi.z - lo.z));
-  const glm::dvec3 target(0.5 * (lo.x + hi.x), lo.y + 0.25 * (hi.y - lo.y), 0.5 * (lo.z + hi.z));
-  room.camera.width = 320;
-  room.camera.height = 240;
-  room.camera.fx = room.camera.fy = 0.55 * 320;
-  room.camera.cx = 160;
-  room.camera.cy = 120;
-  room.camera.world_to_camera = glm::inverse(opencv_look_at(eye, target, glm::dvec3(0, 1, 0)));
+  room.camera = scene->overview_camera(320, 240);
   return room;
 }
 

@@ -99,6 +99,9 @@ class SyntheticScene {
   // a stand-in surface until the TSDF is available. Vertex colours are the base colours.
   TriangleMesh surface_mesh() const;
   const std::vector<SyntheticObjectInfo>& objects() const;
+  // A wide (about 85 degrees) view from high in one corner toward the room's centre:
+  // the demo's and the golden test's camera.
+  Camera overview_camera(std::uint32_t width, std::uint32_t height) const;
   // Room interior bounds (floor to ceiling, wall to wall).
   glm::vec3 room_min() const;
   glm::vec3 room_max() const;
