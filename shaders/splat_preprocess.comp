@@ -18,6 +18,7 @@ layout(constant_id = SPLAT_SPEC_EXACT_CULL) const bool EXACT_CULL = true;
 
 layout(std430, binding = SPLAT_BINDING_CORE) readonly buffer CoreBuf { GpuSplatCore cores[]; };
 layout(std430, binding = SPLAT_BINDING_SH) readonly buffer ShBuf { float sh_rest[]; };
+layout(std430, binding = SPLAT_BINDING_SH_HIGH) readonly buffer ShHighBuf { float sh_rest_high[]; };
 layout(std430, binding = SPLAT_BINDING_EDIT) readonly buffer EditBuf { uint edit_words[]; };
 layout(std430, binding = SPLAT_BINDING_HIGHLIGHT) readonly buffer HighlightBuf { int highlight_ids[]; };
 layout(std430, binding = SPLAT_BINDING_PROJECTED) writeonly buffer ProjBuf { GpuProjected projected[]; };
@@ -33,9 +34,14 @@ const float SH_C3[7] = float[7](-0.5900435899266435, 2.890611442640554, -0.45704
                                 0.3731763325901154, -0.4570457994644658, 1.445305721320277,
                                 -0.5900435899266435);
 
-vec3 sh_coeff(uint slot, uint k) {  // k = 1..15: sh_rest[k - 1]
-  const uint base = slot * SH_STRIDE + (k - 1u) * 3u;
-  return vec3(sh_rest[base], sh_rest[base + 1u], sh_rest[base + 2u]);
+// k = 1..15; k is a constant at every call, so each call reads one buffer only.
+vec3 sh_coeff(uint slot, uint k) {
+  if (k <= SPLAT_SH_LOW_COEFFS) {
+    const uint base = slot * SH_STRIDE + (k - 1u) * 3u;
+    return vec3(sh_rest[base], sh_rest[base + 1u], sh_rest[base + 2u]);
+  }
+  const uint base = slot * SPLAT_SH_HIGH_STRIDE + (k - 1u - SPLAT_SH_LOW_COEFFS) * 3u;
+  return vec3(sh_rest_high[base], sh_rest_high[base + 1u], sh_rest_high[base + 2u]);
 }
 
 // computeColorFromSH of the reference, before +0.5 and the clamp.

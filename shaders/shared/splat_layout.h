@@ -57,9 +57,13 @@ GAUSS_CONST(uint, SPLAT_REMOVED_FADE_FRAMES, 8u)
 GAUSS_CONST(float, SPLAT_MESH_DEPTH_SCALE, 65536.0)
 
 // ---- Per-slot data ----------------------------------------------------------------------
-// Core attributes of one slot (64 bytes; 400k slots = 25.6 MB). SH rest lives in its own
-// buffer (3 * sh_rest_count(degree) floats per slot, coefficient-major RGB) so each
-// binding stays far below the 128 MiB storage range.
+// Core attributes of one slot (64 bytes; 1M slots = 64 MB). SH rest lives in two buffers of
+// its own, split by band so that each binding stays within the 128 MiB storage range even
+// at 1M slots of SH degree 3 (one 180-byte-per-slot buffer would need 180 MB):
+//   SPLAT_BINDING_SH       coefficients 1..8 (bands 1-2), 3 * min(sh_rest_count, 8) floats/slot
+//   SPLAT_BINDING_SH_HIGH  coefficients 9..15 (band 3), SPLAT_SH_HIGH_STRIDE floats/slot,
+//                          bound and read only at degree 3
+// Both are coefficient-major RGB per slot.
 struct GpuSplatCore {
   vec4 position_opacity;  // xyz position (m), w opacity logit
   vec4 rotation;          // unit quaternion w, x, y, z
@@ -69,6 +73,8 @@ struct GpuSplatCore {
   uint flags;             // SPLAT_FLAG_*
 };
 GAUSS_CONST(uint, SPLAT_FLAG_OCCUPIED, 1u)
+GAUSS_CONST(uint, SPLAT_SH_LOW_COEFFS, 8u)     // coefficients of bands 1-2
+GAUSS_CONST(uint, SPLAT_SH_HIGH_STRIDE, 21u)   // 7 band-3 coefficients x RGB
 
 // Edit-visualisation word per slot: kind in the top 2 bits (EditTintKind), the display
 // frame of the edit in the low 30 bits; age = (frame - edit_frame) & SPLAT_EDIT_FRAME_MASK.
@@ -126,12 +132,13 @@ GAUSS_BINDING(SPLAT_BINDING_OUTPUT, 15u)
 GAUSS_BINDING(SPLAT_BINDING_MESH_COLOUR, 16u)
 GAUSS_BINDING(SPLAT_BINDING_MESH_DEPTH, 17u)
 GAUSS_BINDING(SPLAT_BINDING_TILE_DEPTH, 18u)
+GAUSS_BINDING(SPLAT_BINDING_SH_HIGH, 19u)
 
 // ---- Specialization constant ids ------------------------------------------------------------
 GAUSS_CONST(uint, SPLAT_SPEC_SH_DEGREE, 0u)   // scene SH degree 0..3 (0: SH rest never read)
 GAUSS_CONST(uint, SPLAT_SPEC_TINT, 1u)        // highlight / edit tint active
 GAUSS_CONST(uint, SPLAT_SPEC_MESH, 2u)        // mesh layer present
-GAUSS_CONST(uint, SPLAT_SPEC_SH_STRIDE, 3u)   // floats of SH rest per slot (buffer layout)
+GAUSS_CONST(uint, SPLAT_SPEC_SH_STRIDE, 3u)   // floats per slot of the bands 1-2 SH buffer
 GAUSS_CONST(uint, SPLAT_SPEC_EXACT_CULL, 4u)  // bin only into tiles alpha >= 1/255 can reach
 GAUSS_CONST(uint, SPLAT_SPEC_SCAN_MODE, 0u)   // splat_scan.comp: SPLAT_SCAN_*
 GAUSS_CONST(uint, SPLAT_SCAN_VISIBLE, 0u)     // flags tile_count[i] > 0 over the slots

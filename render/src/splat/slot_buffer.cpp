@@ -41,24 +41,30 @@ Expected<SlotBuffer> SlotBuffer::create(vk::Context& context, const SlotBufferCr
   SlotBuffer s;
   s.capacity_ = info.capacity;
   s.sh_degree_ = info.sh_degree;
-  s.sh_stride_ = 3u * static_cast<std::uint32_t>(sh_rest_count(info.sh_degree));
+  const auto coeffs = static_cast<std::uint32_t>(sh_rest_count(info.sh_degree));
+  s.sh_stride_ = 3u * std::min(coeffs, gpu::SPLAT_SH_LOW_COEFFS);
+  s.sh_high_stride_ = coeffs > gpu::SPLAT_SH_LOW_COEFFS ? gpu::SPLAT_SH_HIGH_STRIDE : 0u;
   const VkDeviceSize range = context.max_storage_buffer_range();
   const VkDeviceSize core_bytes = VkDeviceSize{info.capacity} * sizeof(gpu::GpuSplatCore);
   const VkDeviceSize sh_bytes = VkDeviceSize{info.capacity} * s.sh_stride_ * sizeof(float);
+  const VkDeviceSize sh_high_bytes = VkDeviceSize{info.capacity} * s.sh_high_stride_ * sizeof(float);
   const VkDeviceSize per_slot = std::max<VkDeviceSize>(sizeof(gpu::GpuSplatCore), s.sh_stride_ * sizeof(float));
-  if (core_bytes > range || sh_bytes > range)
+  if (core_bytes > range || sh_bytes > range || sh_high_bytes > range)
     return Error{"SlotBuffer: capacity " + std::to_string(info.capacity) + " at SH degree " +
                  std::to_string(info.sh_degree) + " exceeds the device's storage binding range of " +
                  std::to_string(range) + " bytes (at most " + std::to_string(range / per_slot) + " slots)"};
 
   auto core = vk::Buffer::create(context, {.size = core_bytes, .name = "splat core slots"});
   if (!core) return core.error();
-  auto sh = vk::Buffer::create(context, {.size = std::max<VkDeviceSize>(16, sh_bytes), .name = "splat SH rest slots"});
+  auto sh = vk::Buffer::create(context, {.size = std::max<VkDeviceSize>(16, sh_bytes), .name = "splat SH rest slots (bands 1-2)"});
   if (!sh) return sh.error();
+  auto sh_high = vk::Buffer::create(context, {.size = std::max<VkDeviceSize>(16, sh_high_bytes), .name = "splat SH rest slots (band 3)"});
+  if (!sh_high) return sh_high.error();
   auto edit = vk::Buffer::create(context, {.size = VkDeviceSize{info.capacity} * 4, .name = "splat edit tints"});
   if (!edit) return edit.error();
   s.core_ = std::move(*core);
   s.sh_ = std::move(*sh);
+  s.sh_high_ = std::move(*sh_high);
   s.edit_ = std::move(*edit);
   s.occupied_.assign(info.capacity, 0);
   s.tinted_.assign(info.capacity, 0);
@@ -103,6 +109,7 @@ Status SlotBuffer::write_slots(std::uint32_t first_slot, std::span<const Gaussia
   const auto n = static_cast<std::uint32_t>(gaussians.size());
   std::vector<gpu::GpuSplatCore> cores(n);
   std::vector<float> sh(std::size_t{n} * sh_stride_, 0.0f);
+  std::vector<float> sh_high(std::size_t{n} * sh_high_stride_, 0.0f);
   std::vector<std::uint8_t> good(n, 0);
   for (std::uint32_t i = 0; i < n; ++i) {
     const Gaussian& g = gaussians[i];
@@ -114,6 +121,9 @@ Status SlotBuffer::write_slots(std::uint32_t first_slot, std::span<const Gaussia
     cores[i] = pack_core(g);
     for (std::uint32_t k = 0; k < sh_stride_ / 3; ++k)
       for (std::uint32_t ch = 0; ch < 3; ++ch) sh[std::size_t{i} * sh_stride_ + k * 3 + ch] = g.sh_rest[k][static_cast<int>(ch)];
+    for (std::uint32_t k = 0; k < sh_high_stride_ / 3; ++k)
+      for (std::uint32_t ch = 0; ch < 3; ++ch)
+        sh_high[std::size_t{i} * sh_high_stride_ + k * 3 + ch] = g.sh_rest[gpu::SPLAT_SH_LOW_COEFFS + k][static_cast<int>(ch)];
   }
   if (auto st = core_.upload(cores.data(), VkDeviceSize{n} * sizeof(gpu::GpuSplatCore),
                              VkDeviceSize{first_slot} * sizeof(gpu::GpuSplatCore));
@@ -122,6 +132,12 @@ Status SlotBuffer::write_slots(std::uint32_t first_slot, std::span<const Gaussia
   if (sh_stride_ > 0) {
     if (auto st = sh_.upload(sh.data(), VkDeviceSize{n} * sh_stride_ * sizeof(float),
                              VkDeviceSize{first_slot} * sh_stride_ * sizeof(float));
+        !st)
+      return st;
+  }
+  if (sh_high_stride_ > 0) {
+    if (auto st = sh_high_.upload(sh_high.data(), VkDeviceSize{n} * sh_high_stride_ * sizeof(float),
+                                  VkDeviceSize{first_slot} * sh_high_stride_ * sizeof(float));
         !st)
       return st;
   }

@@ -104,6 +104,7 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, cons
     if (auto st = (*pre)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
                                    {gpu::SPLAT_BINDING_CORE, &slots.core_buffer()},
                                    {gpu::SPLAT_BINDING_SH, &slots.sh_buffer()},
+                                   {gpu::SPLAT_BINDING_SH_HIGH, &slots.sh_high_buffer()},
                                    {gpu::SPLAT_BINDING_EDIT, &slots.edit_buffer()},
                                    {gpu::SPLAT_BINDING_HIGHLIGHT, &highlight},
                                    {gpu::SPLAT_BINDING_PROJECTED, &projected},

@@ -131,6 +131,7 @@ Expected<const vk::ComputePipeline*> SplatPipelines::preprocess(const Preprocess
                    {{gpu::SPLAT_BINDING_VIEW, DescriptorKind::UniformBuffer},
                     {gpu::SPLAT_BINDING_CORE, SB},
                     {gpu::SPLAT_BINDING_SH, SB},
+                    {gpu::SPLAT_BINDING_SH_HIGH, SB},
                     {gpu::SPLAT_BINDING_EDIT, SB},
                     {gpu::SPLAT_BINDING_HIGHLIGHT, SB},
                     {gpu::SPLAT_BINDING_PROJECTED, SB},

@@ -1,9 +1,11 @@
 #pragma once
 // gauss::render::SlotBuffer: the stable-slot Gaussian store on the GPU. Capacity is fixed
-// at creation; a Gaussian keeps its slot while resident. Three storage buffers, each
+// at creation; a Gaussian keeps its slot while resident. Four storage buffers, each
 // within one binding's range (128 MiB on lavapipe): core attributes (64 B/slot), SH rest
-// (3 * sh_rest_count(degree) floats/slot; absent for degree 0) and one edit-tint word per
-// slot. A contiguous write is one ranged copy per buffer.
+// of bands 1-2 (up to 24 floats/slot; absent for degree 0), SH rest of band 3 (21
+// floats/slot; only at degree 3) and one edit-tint word per slot. Splitting SH rest by
+// band keeps the largest per-slot binding at 96 B, so 1M slots of SH degree 3 fit (one
+// 180 B/slot buffer would stop at ~745k). A contiguous write is one ranged copy per buffer.
 //
 // Input checks: a slot range past the capacity is an error (nothing written). A Gaussian
 // with a NaN/Inf in any field the splat math reads (splat_math.h step 0) is never
@@ -47,8 +49,10 @@ class SlotBuffer {
 
   std::uint32_t capacity() const noexcept { return capacity_; }
   int sh_degree() const noexcept { return sh_degree_; }
-  // Floats of SH rest per slot (0 for degree 0).
+  // Floats per slot of the bands 1-2 SH buffer (0 for degree 0) and of the band-3 buffer
+  // (0 below degree 3).
   std::uint32_t sh_stride() const noexcept { return sh_stride_; }
+  std::uint32_t sh_high_stride() const noexcept { return sh_high_stride_; }
   // One past the highest occupied slot: the preprocess dispatch covers [0, high_water).
   std::uint32_t high_water() const noexcept { return high_water_; }
   std::uint32_t occupied_count() const noexcept { return occupied_count_; }
@@ -72,7 +76,8 @@ class SlotBuffer {
   std::uint32_t tinted_count() const noexcept { return tinted_count_; }
 
   const vk::Buffer& core_buffer() const noexcept { return core_; }
-  const vk::Buffer& sh_buffer() const noexcept { return sh_; }  // 16 dummy bytes for degree 0
+  const vk::Buffer& sh_buffer() const noexcept { return sh_; }            // 16 dummy bytes for degree 0
+  const vk::Buffer& sh_high_buffer() const noexcept { return sh_high_; }  // 16 dummy bytes below degree 3
   const vk::Buffer& edit_buffer() const noexcept { return edit_; }
 
  private:
@@ -82,6 +87,7 @@ class SlotBuffer {
   std::uint32_t capacity_{0};
   int sh_degree_{0};
   std::uint32_t sh_stride_{0};
+  std::uint32_t sh_high_stride_{0};
   std::uint32_t high_water_{0};
   std::uint32_t occupied_count_{0};
   std::uint32_t tinted_count_{0};
@@ -90,6 +96,7 @@ class SlotBuffer {
   std::vector<std::uint8_t> tinted_;
   vk::Buffer core_;
   vk::Buffer sh_;
+  vk::Buffer sh_high_;
   vk::Buffer edit_;
 };
 
