@@ -1,7 +1,8 @@
 // gauss-bench identity: identity tracking of an id-less snapshot against the previous epoch.
 // Previous epoch: a converged synthetic room of N Gaussians. Snapshot: 2 % removed, 5 %
 // perturbed (0.3 sigma, small scale/colour/opacity steps), 2 % new, randomly permuted, ids
-// stripped; scenario "drift" additionally moves every Gaussian by 0.1 sigma (nothing is
+// stripped (make_trainer_snapshot, shared with the identity test); scenario "drift"
+// additionally moves every Gaussian by 0.1 sigma and its SH0 by up to 0.01 (nothing is
 // bit-identical, as between two trainer iterations). Reports the kept-id rates (the error
 // figure) beside the tracking time (median of the runs; thread CPU time and wall time, one
 // core: the tracker is single-threaded).
@@ -14,85 +15,23 @@
 #include <string>
 #include <vector>
 
-#include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
 
 #include "bench_registry.h"
 #include "gauss/engine/identity_tracker.h"
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/synthetic_scene.h"
+#include "gauss/engine/trainer_snapshot.h"
 
 namespace {
 
 using namespace gauss;
-
-struct Rng {
-  std::uint64_t s;
-  std::uint64_t next() {
-    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  float unit() { return float(next() >> 40) / 16777216.0f; }
-  float sym() { return unit() * 2.0f - 1.0f; }
-  glm::vec3 dir() { return glm::normalize(glm::vec3(sym(), sym(), sym()) + glm::vec3(1e-3f)); }
-};
-
-enum class Fate : std::uint8_t { Unchanged, Perturbed, New };
-
-struct Snapshot {
-  std::vector<Gaussian> gaussians;
-  std::vector<Fate> fate;
-  std::vector<GaussianId> truth;
-};
 
 // CPU time of this thread: on a shared machine wall time mostly measures the neighbours.
 double thread_cpu_s() {
   timespec ts{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
   return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
-
-float sigma_of(const Gaussian& g) { return std::exp(std::max(g.log_scale.x, std::max(g.log_scale.y, g.log_scale.z))); }
-
-Snapshot make_snapshot(const std::vector<Gaussian>& prev, float drift, std::uint64_t seed) {
-  Rng rng{seed};
-  Snapshot s;
-  s.gaussians.reserve(prev.size() * 101 / 100);
-  for (const Gaussian& g : prev) {
-    const float r = rng.unit();
-    if (r < 0.02f) continue;
-    Gaussian h = g;
-    Fate f = Fate::Unchanged;
-    if (drift > 0.0f) h.position += drift * sigma_of(g) * rng.dir();
-    if (r < 0.07f) {
-      h.position += 0.3f * sigma_of(g) * rng.dir();
-      h.log_scale += 0.05f * glm::vec3(rng.sym(), rng.sym(), rng.sym());
-      h.sh_dc += 0.05f * glm::vec3(rng.sym(), rng.sym(), rng.sym());
-      h.opacity_logit += 0.2f * rng.sym();
-      f = Fate::Perturbed;
-    }
-    s.gaussians.push_back(h);
-    s.fate.push_back(f);
-    s.truth.push_back(g.id);
-  }
-  for (std::size_t k = 0; k < prev.size() / 50; ++k) {
-    Gaussian h = prev[std::size_t(rng.next() % prev.size())];
-    h.position += (3.0f + 3.0f * rng.unit()) * sigma_of(h) * rng.dir();
-    h.sh_dc = 1.5f * glm::vec3(rng.sym(), rng.sym(), rng.sym());
-    s.gaussians.push_back(h);
-    s.fate.push_back(Fate::New);
-    s.truth.push_back(GaussianId{0});
-  }
-  for (std::size_t i = s.gaussians.size(); i > 1; --i) {
-    const std::size_t j = std::size_t(rng.next() % i);
-    std::swap(s.gaussians[i - 1], s.gaussians[j]);
-    std::swap(s.fate[i - 1], s.fate[j]);
-    std::swap(s.truth[i - 1], s.truth[j]);
-  }
-  for (Gaussian& g : s.gaussians) g.id = GaussianId{0};
-  return s;
 }
 
 int usage() {
@@ -152,7 +91,7 @@ int bench_identity_main(int argc, char** argv) {
   nlohmann::json rows = nlohmann::json::array();
   for (const float drift : {0.0f, 0.1f}) {
     const char* name = drift > 0.0f ? "drift" : "exact+5/2/2";
-    const Snapshot base = make_snapshot(prev, drift, 42);
+    const TrainerSnapshot base = make_trainer_snapshot(prev, {.drift_sigmas = drift}, 42);
     std::vector<double> times, cpu_times;
     IdentityReport report;
     std::vector<Gaussian> cur;
@@ -178,9 +117,9 @@ int bench_identity_main(int argc, char** argv) {
     for (std::size_t i = 0; i < cur.size(); ++i) {
       const bool kept = cur[i].id == base.truth[i];
       switch (base.fate[i]) {
-        case Fate::Unchanged: ++un; un_kept += kept; break;
-        case Fate::Perturbed: ++pe; pe_kept += kept; break;
-        case Fate::New: ++nw; nw_fresh += to_underlying(cur[i].id) > max_id; break;
+        case SnapshotFate::Unchanged: ++un; un_kept += kept; break;
+        case SnapshotFate::Perturbed: ++pe; pe_kept += kept; break;
+        case SnapshotFate::New: ++nw; nw_fresh += to_underlying(cur[i].id) > max_id; break;
       }
     }
     const auto pct = [](std::size_t a, std::size_t b) { return b ? 100.0 * double(a) / double(b) : 100.0; };

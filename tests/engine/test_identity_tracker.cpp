@@ -15,6 +15,7 @@
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/synthetic_scene.h"
+#include "gauss/engine/trainer_snapshot.h"
 #include "test_data.h"
 
 namespace gauss {
@@ -49,69 +50,41 @@ std::vector<Gaussian> synthetic_epoch(std::size_t n) {
   return {store.gaussians().begin(), store.gaussians().end()};
 }
 
-enum class Fate { Unchanged, Perturbed, New };
-
-struct SnapshotPair {
-  std::vector<Gaussian> snapshot;  // ids stripped, permuted
-  std::vector<Fate> fate;          // per snapshot Gaussian
-  std::vector<GaussianId> truth;   // original id (Unchanged/Perturbed), 0 for New
-  std::size_t removed{0};
-};
-
-// `drift`: every surviving Gaussian also moves by this many sigmas (a trainer updates all
-// of them between snapshots), so nothing is bit-identical and all go through similarity.
-SnapshotPair make_pair_of(const std::vector<Gaussian>& previous, std::uint64_t seed, float drift = 0.0f) {
-  Rng rng{seed};
-  SnapshotPair out;
-  for (const Gaussian& g : previous) {
-    const float r = rng.unit();
-    if (r < 0.02f) {  // removed
-      ++out.removed;
-      continue;
-    }
-    Gaussian h = g;
-    Fate f = Fate::Unchanged;
-    if (drift > 0.0f) {
-      const float sigma = std::exp(std::max(g.log_scale.x, std::max(g.log_scale.y, g.log_scale.z)));
-      h.position += drift * sigma * glm::normalize(rng.sym3() + glm::vec3(1e-3f));
-      h.sh_dc += 0.01f * rng.sym3();
-    }
-    if (r < 0.07f) {  // perturbed: a slight optimiser step
-      const float sigma = std::exp(std::max(g.log_scale.x, std::max(g.log_scale.y, g.log_scale.z)));
-      h.position += 0.3f * sigma * glm::normalize(rng.sym3() + glm::vec3(1e-3f));
-      h.log_scale += 0.05f * rng.sym3();
-      h.sh_dc += 0.05f * rng.sym3();
-      h.opacity_logit += 0.2f * rng.sym();
-      f = Fate::Perturbed;
-    }
-    out.snapshot.push_back(h);
-    out.fate.push_back(f);
-    out.truth.push_back(g.id);
-  }
-  const std::size_t n_new = previous.size() / 50;
-  for (std::size_t k = 0; k < n_new; ++k) {  // new: a clone moved away with its own look
-    Gaussian h = previous[std::size_t(rng.next() % previous.size())];
-    const float sigma = std::exp(std::max(h.log_scale.x, std::max(h.log_scale.y, h.log_scale.z)));
-    h.position += (3.0f + 3.0f * rng.unit()) * sigma * glm::normalize(rng.sym3() + glm::vec3(1e-3f));
-    h.sh_dc = 1.5f * rng.sym3();
-    out.snapshot.push_back(h);
-    out.fate.push_back(Fate::New);
-    out.truth.push_back(GaussianId{0});
-  }
-  // Random permutation (Fisher-Yates), ids stripped as a trainer writes them.
-  for (std::size_t i = out.snapshot.size(); i > 1; --i) {
-    const std::size_t j = std::size_t(rng.next() % i);
-    std::swap(out.snapshot[i - 1], out.snapshot[j]);
-    std::swap(out.fate[i - 1], out.fate[j]);
-    std::swap(out.truth[i - 1], out.truth[j]);
-  }
-  for (Gaussian& g : out.snapshot) g.id = GaussianId{0};
-  return out;
-}
-
 std::function<GaussianId()> counter_from(std::uint64_t start) {
   auto next = std::make_shared<std::uint64_t>(start);
   return [next] { return GaussianId{(*next)++}; };
+}
+
+// The generator the identity test and benchmark score against: its fates are what it
+// claims (fractions, truths, stripped ids) and it is a pure function of the seed.
+TEST(TrainerSnapshot, FatesMatchTheConfigAndTheSeedDecides) {
+  std::vector<Gaussian> previous(20000);
+  for (std::size_t i = 0; i < previous.size(); ++i) {
+    previous[i].id = GaussianId{i + 1};
+    previous[i].position = {float(i % 100), float(i / 100), 0.0f};
+  }
+  const TrainerSnapshot a = make_trainer_snapshot(previous, {}, 7);
+  std::size_t unchanged = 0, perturbed = 0, fresh = 0;
+  for (std::size_t i = 0; i < a.gaussians.size(); ++i) {
+    EXPECT_EQ(a.gaussians[i].id, GaussianId{0});
+    switch (a.fate[i]) {
+      case SnapshotFate::Unchanged:
+        ++unchanged;
+        EXPECT_EQ(a.gaussians[i].position, previous[to_underlying(a.truth[i]) - 1].position);
+        break;
+      case SnapshotFate::Perturbed: ++perturbed; break;
+      case SnapshotFate::New: ++fresh; EXPECT_EQ(a.truth[i], GaussianId{0}); break;
+    }
+  }
+  EXPECT_EQ(a.removed + unchanged + perturbed, previous.size());
+  EXPECT_EQ(fresh, previous.size() / 50);
+  EXPECT_NEAR(double(a.removed) / 20000.0, 0.02, 0.005);
+  EXPECT_NEAR(double(perturbed) / 20000.0, 0.05, 0.008);
+  const TrainerSnapshot b = make_trainer_snapshot(previous, {}, 7);
+  const TrainerSnapshot c = make_trainer_snapshot(previous, {}, 8);
+  ASSERT_EQ(a.gaussians.size(), b.gaussians.size());
+  EXPECT_TRUE(std::equal(a.truth.begin(), a.truth.end(), b.truth.begin()));
+  EXPECT_FALSE(c.truth.size() == a.truth.size() && std::equal(a.truth.begin(), a.truth.end(), c.truth.begin()));
 }
 
 TEST(IdentityTracker, KeepsIdsOfUnchangedAndSlightlyChangedGaussiansUnderPermutation) {
@@ -120,16 +93,16 @@ TEST(IdentityTracker, KeepsIdsOfUnchangedAndSlightlyChangedGaussiansUnderPermuta
   for (const Gaussian& g : previous) max_id = std::max(max_id, to_underlying(g.id));
   for (std::uint64_t seed : {1u, 2u, 3u, 4u}) {
     const float drift = seed == 4 ? 0.1f : 0.0f;
-    SnapshotPair pair = make_pair_of(previous, seed, drift);
-    auto r = track_identity(previous, pair.snapshot, {}, counter_from(max_id + 1));
+    TrainerSnapshot pair = make_trainer_snapshot(previous, {.drift_sigmas = drift}, seed);
+    auto r = track_identity(previous, pair.gaussians, {}, counter_from(max_id + 1));
     ASSERT_TRUE(r.ok()) << r.message();
     std::size_t unchanged = 0, unchanged_kept = 0, perturbed = 0, perturbed_kept = 0, fresh_new = 0, n_new = 0;
-    for (std::size_t i = 0; i < pair.snapshot.size(); ++i) {
-      const bool kept = pair.snapshot[i].id == pair.truth[i];
+    for (std::size_t i = 0; i < pair.gaussians.size(); ++i) {
+      const bool kept = pair.gaussians[i].id == pair.truth[i];
       switch (pair.fate[i]) {
-        case Fate::Unchanged: ++unchanged; unchanged_kept += kept; break;
-        case Fate::Perturbed: ++perturbed; perturbed_kept += kept; break;
-        case Fate::New: ++n_new; fresh_new += to_underlying(pair.snapshot[i].id) > max_id; break;
+        case SnapshotFate::Unchanged: ++unchanged; unchanged_kept += kept; break;
+        case SnapshotFate::Perturbed: ++perturbed; perturbed_kept += kept; break;
+        case SnapshotFate::New: ++n_new; fresh_new += to_underlying(pair.gaussians[i].id) > max_id; break;
       }
     }
     std::printf("seed %llu drift %.1f sigma: previous %zu snapshot %zu | kept %zu (exact %zu) fresh %zu removed %zu | "
@@ -139,11 +112,11 @@ TEST(IdentityTracker, KeepsIdsOfUnchangedAndSlightlyChangedGaussiansUnderPermuta
     EXPECT_GE(double(unchanged_kept), 0.99 * double(unchanged));
     EXPECT_GE(double(perturbed_kept), 0.95 * double(perturbed));
     EXPECT_GE(double(fresh_new), 0.9 * double(n_new));
-    EXPECT_EQ(r->kept + r->fresh, pair.snapshot.size());
+    EXPECT_EQ(r->kept + r->fresh, pair.gaussians.size());
     EXPECT_EQ(r->kept + r->removed, previous.size());
     // One-to-one: no id handed out twice.
     std::vector<std::uint64_t> ids;
-    for (const Gaussian& g : pair.snapshot) ids.push_back(to_underlying(g.id));
+    for (const Gaussian& g : pair.gaussians) ids.push_back(to_underlying(g.id));
     std::sort(ids.begin(), ids.end());
     EXPECT_EQ(std::adjacent_find(ids.begin(), ids.end()), ids.end());
   }
