@@ -133,6 +133,10 @@ json bench_select(const SceneStore& store, const SyntheticScene& scene, const Op
     (void)differ.diff(*selector.select(store, pose, req), store);
   }
   std::vector<double> select_ms, diff_ms, total_ms, wall_ms, edit_frac;
+  // FNV-1a over every selected id and edit of the walk: an optimisation of the selector or
+  // differ must leave it unchanged (same scene, same poses, same sets and edits).
+  std::uint64_t digest = 0xcbf29ce484222325ull;
+  auto mix = [&digest](std::uint64_t v) { digest = (digest ^ v) * 0x100000001b3ull; };
   for (int k = 0; k < o.updates; ++k) {
     pose = small_motion(pose);
     t0 = Clock::now();
@@ -146,6 +150,11 @@ json bench_select(const SceneStore& store, const SyntheticScene& scene, const Op
     diff_ms.push_back(c2 - c1);
     total_ms.push_back(c2 - c0);
     edit_frac.push_back(static_cast<double>(b->edits.size()) / static_cast<double>(o.budget));
+    for (GaussianId id : s->ids) mix(to_underlying(id));
+    for (const Edit& e : b->edits) {
+      mix(to_underlying(e.id) * 4 + static_cast<std::uint64_t>(e.kind));
+      mix(to_underlying(e.leaving));
+    }
   }
   // One small motion from a settled set, at several trajectory poses.
   std::vector<double> one_step;
@@ -172,6 +181,7 @@ json bench_select(const SceneStore& store, const SyntheticScene& scene, const Op
               percentile(wall_ms, 0.9), percentile(wall_ms, 1.0));
   std::printf("  first call: select %.1f ms (static terms rebuilt), diff %.1f ms (%zu inserts)\n", cold_select_ms,
               first_diff_ms, first->edits.size());
+  std::printf("  walk digest (selected ids + edits): %016llx\n", static_cast<unsigned long long>(digest));
   std::printf("\n== edits per small head motion (5 cm, 2 deg), fraction of M (target < 1 %%) ==\n");
   std::printf("  one step from a settled set:  median %.3f %%  max %.3f %%  (%zu poses)\n",
               100.0 * percentile(one_step, 0.5), 100.0 * percentile(one_step, 1.0), one_step.size());
@@ -188,6 +198,7 @@ json bench_select(const SceneStore& store, const SyntheticScene& scene, const Op
               {"timing", "thread CPU time unless named wall"},
               {"cold_select_ms", cold_select_ms},
               {"first_diff_ms", first_diff_ms},
+              {"walk_digest", digest},
               {"edit_fraction_one_step", {{"median", percentile(one_step, 0.5)}, {"max", percentile(one_step, 1.0)}}},
               {"edit_fraction_walk", {{"median", percentile(edit_frac, 0.5)}, {"max", percentile(edit_frac, 1.0)}}}};
 }

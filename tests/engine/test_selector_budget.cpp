@@ -143,6 +143,66 @@ TEST(SelectorBudget, DeterministicWithTiesById) {
   EXPECT_EQ(sa->ids, sb->ids);
 }
 
+// The selector ranks in id order internally: the order of the span must not matter.
+// Sorted vs shuffled spans (dense ids: counting sort; ids spread wide: comparison sort;
+// repeated identical Gaussians: ties by id) give the same sets over a walk with
+// hysteresis, a query and an eligibility mask, and indices point at the right Gaussians.
+TEST(SelectorBudget, SpanOrderDoesNotChangeTheSelection) {
+  for (std::uint64_t id_stride : {std::uint64_t{1}, std::uint64_t{1000003}}) {
+    std::mt19937_64 rng(21);
+    std::vector<Gaussian> sorted;
+    for (std::uint64_t i = 0; i < 6000; ++i) sorted.push_back(test::random_test_gaussian(rng, GaussianId{1 + i * id_stride}));
+    for (std::size_t i = 0; i < 300; ++i) {  // a block of identical Gaussians: every utility ties
+      Gaussian g = sorted[0];
+      g.id = GaussianId{to_underlying(sorted.back().id) + id_stride};
+      g.carrier = false;
+      sorted.push_back(g);
+    }
+    std::vector<std::uint8_t> eligible_sorted(sorted.size());
+    for (auto& e : eligible_sorted) e = (rng() % 10) != 0;
+    std::vector<std::size_t> perm(sorted.size());
+    for (std::size_t i = 0; i < perm.size(); ++i) perm[i] = i;
+    std::shuffle(perm.begin(), perm.end(), rng);
+    std::vector<Gaussian> shuffled(sorted.size());
+    std::vector<std::uint8_t> eligible_shuffled(sorted.size());
+    for (std::size_t i = 0; i < perm.size(); ++i) {
+      shuffled[i] = sorted[perm[i]];
+      eligible_shuffled[i] = eligible_sorted[perm[i]];
+    }
+    std::vector<SemanticObject> objects;
+    for (int o = 0; o < test::kTestObjects; ++o) {
+      SemanticObject obj;
+      obj.id = ObjectId{o};
+      obj.label = test::kTestLabels[o];
+      objects.push_back(obj);
+    }
+    SelectionRequest req;
+    req.budget = 1500;
+    req.client_capacity = 4000;
+    req.query = SemanticQuery::for_class("chair");
+    req.rho = 0.25;
+    Selector a;
+    Selector b;
+    ClientPose pose = test::random_test_pose(rng);
+    for (int step = 0; step < 6; ++step) {
+      pose.position.x += 0.05;
+      pose.orientation = glm::angleAxis(0.04, glm::dvec3(0, 1, 0)) * pose.orientation;
+      auto sa = a.select(sorted, objects, 1, Epoch{1}, pose, req, eligible_sorted);
+      auto sb = b.select(shuffled, objects, 1, Epoch{1}, pose, req, eligible_shuffled);
+      ASSERT_TRUE(sa.ok() && sb.ok()) << (sa.ok() ? sb.message() : sa.message());
+      EXPECT_EQ(sa->ids, sb->ids) << "stride " << id_stride << " step " << step;
+      EXPECT_EQ(sa->retained, sb->retained);
+      EXPECT_EQ(sa->object_selected, sb->object_selected);
+      ASSERT_EQ(sb->indices.size(), sb->ids.size());
+      for (std::size_t k = 0; k < sb->ids.size(); ++k) {
+        ASSERT_EQ(shuffled[sb->indices[k]].id, sb->ids[k]);
+        ASSERT_EQ(sorted[sa->indices[k]].id, sa->ids[k]);
+        ASSERT_TRUE(eligible_shuffled[sb->indices[k]]);
+      }
+    }
+  }
+}
+
 TEST(SelectorBudget, CarriersAndIneligibleNeverSelected) {
   SceneStore store;
   test::fill_test_scene(store, 5000, 6);

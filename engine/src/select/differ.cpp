@@ -22,6 +22,7 @@ struct Differ::Impl {
   // Scratch kept between calls.
   std::vector<GaussianId> leavers;
   std::vector<std::uint32_t> enterers;  // positions in the desired selection
+  std::vector<std::uint32_t> updated;   // positions in the desired selection
   std::vector<std::uint32_t> order;     // desired positions in id order (when not sorted)
   std::vector<GaussianId> modified_scratch;
 };
@@ -128,7 +129,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
   s.enterers.clear();
   s.next.clear();
   s.next.reserve(m);
-  std::vector<Edit> updates;
+  s.updated.clear();
   std::size_t a = 0;   // sent
   std::size_t b = 0;   // desired (id order)
   std::size_t mi = 0;  // modified
@@ -161,7 +162,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
       const std::uint64_t h = quantized_hash(value, s.params);
       if (h != e.hash) {
         e.hash = h;
-        updates.push_back(Edit{EditKind::Update, id, GaussianId{0}, value});
+        s.updated.push_back(k);
       }
     }
     s.next.push_back(e);
@@ -170,19 +171,26 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
   EditBatch batch;
   batch.epoch = epoch;
   const std::size_t replaces = std::min(s.leavers.size(), s.enterers.size());
-  batch.edits.reserve(s.leavers.size() + s.enterers.size() - replaces + updates.size());
-  for (std::size_t j = replaces; j < s.leavers.size(); ++j) {
-    batch.edits.push_back(Edit{EditKind::Remove, s.leavers[j], GaussianId{0}, Gaussian{}});
-  }
+  // Edits are built in place: a Gaussian is copied once, straight from the scene.
+  batch.edits.resize(s.leavers.size() + s.enterers.size() - replaces + s.updated.size());
+  std::size_t out = 0;
+  auto emit = [&](EditKind kind, GaussianId id, GaussianId leaving, const Gaussian* value) {
+    Edit& e = batch.edits[out++];
+    e.kind = kind;
+    e.id = id;
+    e.leaving = leaving;
+    if (value) e.value = *value;
+  };
+  for (std::size_t j = replaces; j < s.leavers.size(); ++j) emit(EditKind::Remove, s.leavers[j], GaussianId{0}, nullptr);
   // Leavers and enterers are both in ascending id order: pair them in that order.
   for (std::size_t j = 0; j < replaces; ++j) {
     const std::uint32_t k = s.enterers[j];
-    batch.edits.push_back(Edit{EditKind::Replace, desired.ids[k], s.leavers[j], gaussians[desired.indices[k]]});
+    emit(EditKind::Replace, desired.ids[k], s.leavers[j], &gaussians[desired.indices[k]]);
   }
-  for (Edit& u : updates) batch.edits.push_back(std::move(u));
+  for (std::uint32_t k : s.updated) emit(EditKind::Update, desired.ids[k], GaussianId{0}, &gaussians[desired.indices[k]]);
   for (std::size_t j = replaces; j < s.enterers.size(); ++j) {
     const std::uint32_t k = s.enterers[j];
-    batch.edits.push_back(Edit{EditKind::Insert, desired.ids[k], GaussianId{0}, gaussians[desired.indices[k]]});
+    emit(EditKind::Insert, desired.ids[k], GaussianId{0}, &gaussians[desired.indices[k]]);
   }
   // Enterers' hashes (the next state holds them at their id positions: fill by a second
   // merge-free pass, as both lists are in id order).
@@ -197,7 +205,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
   s.stats.replaces = replaces;
   s.stats.removes = s.leavers.size() - replaces;
   s.stats.inserts = s.enterers.size() - replaces;
-  s.stats.updates = updates.size();
+  s.stats.updates = s.updated.size();
   s.last_epoch = epoch;
   return batch;
 }

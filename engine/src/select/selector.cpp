@@ -7,6 +7,7 @@
 #include <cstring>
 #include <numbers>
 #include <string>
+#include <utility>
 
 #include <glm/mat3x3.hpp>
 
@@ -14,12 +15,9 @@
 #include <emmintrin.h>
 #endif
 
-#include "select/id_table.h"
 #include "select/top_k.h"
 
 namespace gauss {
-
-using select_detail::IdTable;
 
 ClientPose ClientPose::from_camera(const Camera& camera) {
   const glm::dmat3 r_cw(camera.world_to_camera);  // upper 3x3: world -> camera rotation
@@ -190,52 +188,63 @@ void score_view(std::size_t n, const float* __restrict px, const float* __restri
 struct Selector::Impl {
   SelectorConfig config;
 
-  // Static per-Gaussian terms (structure of arrays), valid for one scene version.
+  // Static per-Gaussian terms (structure of arrays), valid for one scene version. Every
+  // array is indexed by the Gaussian's rank in ascending id order ("position" j), not by
+  // its index in the span: a pose update then reads and writes everything sequentially,
+  // ties by id are ties by position, and the selection comes out sorted by id without a
+  // sort or a random-access pass over the scene.
   bool cached{false};
   std::uint64_t version{0};
   const Gaussian* data{nullptr};
   std::size_t n{0};
-  std::vector<float> px, py, pz, radius, weight, global_utility;
-  std::vector<std::uint64_t> ids;
+  std::vector<float> px, py, pz, radius, weight;
+  std::vector<std::uint64_t> ids;     // ascending
   std::vector<std::int32_t> object;
   std::vector<std::uint8_t> carrier;
-  // Indices in ascending id order, only when the span is not already sorted by id
-  // (then the selection is read out through it instead of sorting M ids per call).
-  std::vector<std::uint32_t> id_order;
+  // Span index of position j; empty when the span is already sorted by id (identity).
+  std::vector<std::uint32_t> index_of;
+  std::uint32_t span_index(std::size_t j) const {
+    return index_of.empty() ? static_cast<std::uint32_t>(j) : index_of[j];
+  }
 
   // Per-call scratch, kept between calls so a warm selector does not allocate.
   std::uint64_t generation{0};  // bumped at every rebuild
-  std::vector<std::uint32_t> global_key;  // static: score_key(global_utility)
-  std::vector<std::uint8_t> part, selected, global_flags;
+  std::vector<std::uint32_t> global_key;  // static: score_key(global utility)
+  std::vector<std::uint8_t> part;         // partition code per position
+  std::vector<std::uint8_t> view_part;    // part, or kExcluded where the global layer took it
+  std::vector<std::uint8_t> selected, global_flags;
   std::vector<std::uint32_t> view_key;
   // Cached partition + global layer (see select()).
   bool partition_valid{false};
   PartitionKey partition_key;
   std::size_t n_obj{0}, n_bg{0}, object_budget{0}, bg_budget{0};
-  std::vector<std::uint32_t> global_obj, global_bg;
+  std::size_t global_obj{0}, global_bg{0};
   std::vector<std::uint8_t> eligible_mask;  // EligibleSet indices as a mask
-  // Hysteresis state: the resident ids, and the same as a flag per index of the cached
+  // Hysteresis state: the resident ids, and the same as a flag per position of the cached
   // scene version (the previous selection's flags when the version did not change, so a
   // pose-only update needs no id lookups). resident_flags_valid is false after a rebuild
-  // or set_resident(); the flags are then recomputed from the ids once.
+  // or set_resident(); the flags are then recomputed from the ids once, by one merge of
+  // the sorted resident ids with the (sorted) position ids.
   std::vector<GaussianId> resident_ids;
   std::vector<std::uint8_t> resident_flags;
   bool resident_flags_valid{false};
-  IdTable<std::uint8_t> resident_lookup;
   select_detail::TopK top;
   std::vector<std::uint8_t> object_flags;  // object id -> in query (ids < kFlagLimit)
 
   void rebuild(std::span<const Gaussian> g, std::uint64_t v) {
     n = g.size();
+    // Terms are computed in span order (one sequential pass over the Gaussians), then
+    // each array is permuted into id order: gathering from the small arrays is far
+    // cheaper than reading the large Gaussians in id order.
     px.resize(n);
     py.resize(n);
     pz.resize(n);
     radius.resize(n);
     weight.resize(n);
-    global_utility.resize(n);
     ids.resize(n);
     object.resize(n);
     carrier.resize(n);
+    global_key.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
       const Gaussian& x = g[i];
       ids[i] = to_underlying(x.id);
@@ -251,25 +260,59 @@ struct Selector::Impl {
       // support does not beat a tenfold opacity.
       const float w = sigmoid(x.opacity_logit) * (1.0f + std::log2(1.0f + static_cast<float>(x.support)));
       weight[i] = std::isfinite(w) ? w : 0.0f;
-      global_utility[i] = weight[i] * radius[i];
+      float global_utility = weight[i] * radius[i];
       // A non-finite position cannot be ranked: it never enters (like a carrier).
       if (!std::isfinite(x.position.x) || !std::isfinite(x.position.y) || !std::isfinite(x.position.z)) {
         weight[i] = 0.0f;
-        global_utility[i] = 0.0f;
+        global_utility = 0.0f;
         px[i] = py[i] = pz[i] = 0.0f;
         carrier[i] = 1;
       }
+      global_key[i] = select_detail::score_key(global_utility);
     }
-    global_key.resize(n);
-    for (std::size_t i = 0; i < n; ++i) global_key[i] = select_detail::score_key(global_utility[i]);
+    index_of.clear();
+    if (!std::is_sorted(ids.begin(), ids.end())) {
+      index_of.resize(n);
+      const auto [lo, hi] = std::minmax_element(ids.begin(), ids.end());
+      const std::uint64_t range = *hi - *lo;
+      // Host ids are handed out sequentially, so they usually span a few times N: a
+      // counting sort (one slot per id in the range) is then O(N) and several times
+      // faster than a comparison sort. Equal ids (a plain span may repeat one) and wide
+      // ranges take the comparison sort; both keep equal ids in span order.
+      std::vector<std::uint32_t> first(range < 4 * std::uint64_t{n} ? range + 1 : 0, 0xFFFFFFFFu);
+      bool unique = !first.empty();
+      for (std::size_t i = 0; i < n && unique; ++i) {
+        std::uint32_t& slot = first[ids[i] - *lo];
+        unique = slot == 0xFFFFFFFFu;
+        slot = static_cast<std::uint32_t>(i);
+      }
+      if (unique) {
+        std::size_t j = 0;
+        for (std::uint32_t i : first)
+          if (i != 0xFFFFFFFFu) index_of[j++] = i;
+      } else {
+        // (id, span index) pairs sort without touching the Gaussians.
+        std::vector<std::pair<std::uint64_t, std::uint32_t>> order(n);
+        for (std::size_t i = 0; i < n; ++i) order[i] = {ids[i], static_cast<std::uint32_t>(i)};
+        std::sort(order.begin(), order.end());
+        for (std::size_t j = 0; j < n; ++j) index_of[j] = order[j].second;
+      }
+      auto permute = [&](auto& a) {
+        auto tmp = a;
+        for (std::size_t j = 0; j < n; ++j) a[j] = tmp[index_of[j]];
+      };
+      permute(px);
+      permute(py);
+      permute(pz);
+      permute(radius);
+      permute(weight);
+      permute(ids);
+      permute(object);
+      permute(carrier);
+      permute(global_key);
+    }
     ++generation;
     partition_valid = false;
-    id_order.clear();
-    if (!std::is_sorted(ids.begin(), ids.end())) {
-      id_order.resize(n);
-      for (std::size_t i = 0; i < n; ++i) id_order[i] = static_cast<std::uint32_t>(i);
-      std::sort(id_order.begin(), id_order.end(), [&](std::uint32_t a, std::uint32_t b) { return ids[a] < ids[b]; });
-    }
     data = g.data();
     version = v;
     cached = true;
@@ -346,11 +389,15 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
     s.resident_flags_valid = false;
   }
   if (!s.resident_flags_valid) {
-    s.resident_lookup.clear();
-    for (GaussianId id : s.resident_ids) s.resident_lookup.set(id, 1);
     s.resident_flags.assign(s.n, 0);
     if (!s.resident_ids.empty()) {
-      for (std::size_t i = 0; i < s.n; ++i) s.resident_flags[i] = s.resident_lookup.contains(GaussianId{s.ids[i]});
+      std::vector<GaussianId> r = s.resident_ids;
+      std::sort(r.begin(), r.end());
+      std::size_t a = 0;
+      for (std::size_t j = 0; j < s.n && a < r.size(); ++j) {
+        while (a < r.size() && to_underlying(r[a]) < s.ids[j]) ++a;
+        s.resident_flags[j] = a < r.size() && to_underlying(r[a]) == s.ids[j];
+      }
     }
     s.resident_flags_valid = true;
   }
@@ -407,12 +454,12 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
     s.part.resize(n);
     std::size_t n_obj = 0;
     std::size_t n_bg = 0;
-    for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = 0; j < n; ++j) {
       std::uint8_t p = kExcluded;
-      if (!s.carrier[i] && (eligible.empty() || eligible[i] != 0)) {
-        p = (out.query && in_query(s.object[i])) ? kObject : kBackground;
+      if (!s.carrier[j] && (eligible.empty() || eligible[s.span_index(j)] != 0)) {
+        p = (out.query && in_query(s.object[j])) ? kObject : kBackground;
       }
-      s.part[i] = p;
+      s.part[j] = p;
       n_obj += p == kObject;
       n_bg += p == kBackground;
     }
@@ -425,17 +472,17 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
     }
     s.bg_budget = std::min(n_bg, request.budget - s.object_budget);
     s.global_flags.assign(n, 0);
+    std::size_t global_taken[3] = {0, 0, 0};
     for (std::uint8_t p : {kObject, kBackground}) {
       const std::size_t budget = p == kObject ? s.object_budget : s.bg_budget;
       const auto global_budget = static_cast<std::size_t>(std::floor(cfg.global_fraction * static_cast<double>(budget)));
-      auto pred = [&](std::size_t i) { return s.part[i] == p && !s.global_flags[i]; };
-      s.top.select(s.global_key, s.ids, pred, global_budget, s.global_flags);
+      global_taken[p] = s.top.select(s.global_key, s.part, p, global_budget, s.global_flags);
     }
-    s.global_obj.clear();
-    s.global_bg.clear();
-    for (std::size_t i = 0; i < n; ++i) {
-      if (s.global_flags[i]) (s.part[i] == kObject ? s.global_obj : s.global_bg).push_back(static_cast<std::uint32_t>(i));
-    }
+    s.global_obj = global_taken[kObject];
+    s.global_bg = global_taken[kBackground];
+    // The view layer ranks what the global layer left.
+    s.view_part.resize(n);
+    for (std::size_t j = 0; j < n; ++j) s.view_part[j] = s.global_flags[j] ? kExcluded : s.part[j];
     s.partition_key = std::move(key);
     s.partition_valid = true;
   }
@@ -461,32 +508,39 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
   score_view(n, s.px.data(), s.py.data(), s.pz.data(), s.radius.data(), s.weight.data(), s.part.data(),
              s.resident_flags.data(), vp, s.view_key.data());
 
-  s.selected.assign(n, 0);
-  for (std::uint32_t i : s.global_obj) s.selected[i] = 1;
-  for (std::uint32_t i : s.global_bg) s.selected[i] = 1;
-  out.global_selected = s.global_obj.size() + s.global_bg.size();
+  s.selected = s.global_flags;  // same size: a copy, no allocation once warm
+  out.global_selected = s.global_obj + s.global_bg;
   auto fill = [&](std::uint8_t p, std::size_t budget, std::size_t global) {
-    auto pred = [&](std::size_t i) { return s.part[i] == p && !s.selected[i]; };
-    return global + s.top.select(s.view_key, s.ids, pred, budget - global, s.selected);
+    return global + s.top.select(s.view_key, s.view_part, p, budget - global, s.selected);
   };
-  out.object_selected = s.object_budget > 0 ? fill(kObject, s.object_budget, s.global_obj.size()) : 0;
-  out.background_selected = s.bg_budget > 0 ? fill(kBackground, s.bg_budget, s.global_bg.size()) : 0;
+  out.object_selected = s.object_budget > 0 ? fill(kObject, s.object_budget, s.global_obj) : 0;
+  out.background_selected = s.bg_budget > 0 ? fill(kBackground, s.bg_budget, s.global_bg) : 0;
 
-  // The set in ascending id order.
+  // The set in ascending id order: positions are id ranks, so one sequential pass. About
+  // four in five flags are 0 at M = N / 5: skip zero words eight flags at a time.
   const std::size_t total = out.object_selected + out.background_selected;
   out.ids.reserve(total);
   out.indices.reserve(total);
-  auto take = [&](std::size_t i) {
-    if (!s.selected[i]) return;
-    out.indices.push_back(static_cast<std::uint32_t>(i));
-    out.ids.push_back(GaussianId{s.ids[i]});
-    out.retained += s.resident_flags[i];
-  };
-  if (s.id_order.empty()) {
-    for (std::size_t i = 0; i < n; ++i) take(i);
-  } else {
-    for (std::uint32_t i : s.id_order) take(i);
+  std::size_t retained = 0;
+  const std::uint8_t* sel = s.selected.data();
+  for (std::size_t j = 0; j < n;) {
+    if (j + 8 <= n) {
+      std::uint64_t w;
+      std::memcpy(&w, sel + j, 8);
+      if (w == 0) {
+        j += 8;
+        continue;
+      }
+    }
+    const std::size_t end = std::min(n, j + 8);
+    for (; j < end; ++j) {
+      if (!sel[j]) continue;
+      out.ids.push_back(GaussianId{s.ids[j]});
+      out.indices.push_back(s.span_index(j));
+      retained += s.resident_flags[j];
+    }
   }
+  out.retained = retained;
   s.resident_ids = out.ids;
   s.resident_flags.swap(s.selected);  // same version: the next call's flags, no lookups
   return out;
