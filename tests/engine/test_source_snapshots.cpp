@@ -59,6 +59,16 @@ struct Collect {
   }
 };
 
+// Replays every epoch `src` has into `store`, recording the store size after each.
+void replay_all(SceneSource& src, SceneStore& store, std::vector<std::size_t>& sizes) {
+  for (;;) {
+    auto r = src.next_epoch(store);
+    ASSERT_TRUE(r.ok()) << r.message();
+    if (!*r) break;
+    sizes.push_back(store.size());
+  }
+}
+
 TEST(SourceSnapshots, TrainerLayoutReplaysByIterationNumberWithIdentityTracking) {
   const fs::path root = fresh_dir("trainer");
   // Iterations in an order where name sorting would be wrong: 500 < 7000 < 30000.
@@ -82,12 +92,7 @@ TEST(SourceSnapshots, TrainerLayoutReplaysByIterationNumberWithIdentityTracking)
   ASSERT_TRUE(src.ok()) << src.message();
   SceneStore store;
   std::vector<std::size_t> sizes;
-  for (;;) {
-    auto r = (*src)->next_epoch(store);
-    ASSERT_TRUE(r.ok()) << r.message();
-    if (!*r) break;
-    sizes.push_back(store.size());
-  }
+  ASSERT_NO_FATAL_FAILURE(replay_all(**src, store, sizes));
   EXPECT_EQ(sizes, (std::vector<std::size_t>{300, 320, 250}));
   EXPECT_TRUE(log.lines.empty()) << log.lines.front();
   // Identity tracking kept every unchanged Gaussian: epoch 2 inserted only the 20 new ones,
@@ -128,12 +133,7 @@ TEST(SourceSnapshots, BadSnapshotsAreLoggedAndSkippedKeepingTheLastGoodEpoch) {
   ASSERT_TRUE(src.ok()) << src.message();
   SceneStore store;
   std::vector<std::size_t> sizes;
-  for (;;) {
-    auto r = (*src)->next_epoch(store);
-    ASSERT_TRUE(r.ok()) << r.message();
-    if (!*r) break;
-    sizes.push_back(store.size());
-  }
+  ASSERT_NO_FATAL_FAILURE(replay_all(**src, store, sizes));
   // The third call met snap_3 (corrupt) and snap_4 (NaN), skipped both and applied snap_10.
   EXPECT_EQ(sizes, (std::vector<std::size_t>{100, 110, 130}));
   ASSERT_GE(log.lines.size(), 2u);
