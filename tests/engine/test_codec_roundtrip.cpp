@@ -6,6 +6,8 @@
 #include <limits>
 #include <map>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <zstd.h>
@@ -57,11 +59,10 @@ void expect_within_bounds(const Gaussian& in, const Gaussian& out, const CodecPa
     EXPECT_LE(std::fabs(out.position[a] - in.position[a]), 0.5 * step + slack * 10);
     const double ls = (p.log_scale_max - p.log_scale_min) / 255.0;
     EXPECT_LE(std::fabs(out.log_scale[a] - in.log_scale[a]), 0.5 * ls + slack);
-    const int bits = a == 1 ? kDcBitsG : kDcBitsRB;
-    const double dc = (p.dc_max - p.dc_min) / ((1 << bits) - 1);
+    const double dc = (p.dc_max - p.dc_min) / ((1 << kDcBits) - 1);
     EXPECT_LE(std::fabs(out.sh_dc[a] - in.sh_dc[a]), 0.5 * dc + slack);
   }
-  EXPECT_LE(std::fabs(sigmoid(out.opacity_logit) - sigmoid(in.opacity_logit)), 0.5 / 255.0 + 1e-6);
+  EXPECT_LE(std::fabs(sigmoid(out.opacity_logit) - sigmoid(in.opacity_logit)), 0.5 / ((1 << kOpacityBits) - 1) + 1e-6);
   double same = 0.0;
   double flip = 0.0;
   for (int i = 0; i < 4; ++i) {
@@ -75,9 +76,13 @@ void expect_within_bounds(const Gaussian& in, const Gaussian& out, const CodecPa
                 p.sh_rest_abs_max / 254.0 + slack);
     }
   }
+  // Half a code step in log2(1 + s) (1/8), plus the rounding of s' to an integer.
   const double s_in = 1.0 + in.support;
   const double s_out = 1.0 + out.support;
-  EXPECT_LE(std::fabs(s_out / s_in - 1.0), std::exp2(1.0 / 32.0) - 1.0 + 0.5 / s_in);
+  EXPECT_LE(std::fabs(s_out / s_in - 1.0), std::exp2(0.5 / kSupportCodeSteps) - 1.0 + 0.5 / s_in);
+  if (in.support <= 7) {
+    EXPECT_EQ(out.support, in.support) << "small counts are exact";
+  }
   EXPECT_EQ(out.object, in.object);
   EXPECT_EQ(out.id, in.id);
 }
@@ -149,22 +154,95 @@ TEST(CodecRoundtrip, ErrorBoundsHoldForRandomGaussians) {
   }
 }
 
-TEST(CodecRoundtrip, RecordIsSixteenBytesAtShZero) {
-  EXPECT_EQ(record_bytes(0), 16u);
-  EXPECT_EQ(record_bytes(3), 16u + 45u);
-  // 1000 inserts with consecutive ids and one object: record + 1 id byte + 1 object byte
-  // + 1 support byte each, plus a small header.
+// The rotation bound is tight enough to mean something: the worst error seen over many
+// random rotations is within a factor of two of kRotationMaxError.
+TEST(CodecRoundtrip, RotationBoundIsTight) {
+  std::mt19937_64 rng(17);
+  const CodecParams p = test_params(0);
+  double worst = 0.0;
+  for (int i = 0; i < 200000; ++i) {
+    const Gaussian g = random_gaussian(rng, p, 1);
+    const Gaussian q = quantize_roundtrip(g, p);
+    double same = 0.0;
+    double flip = 0.0;
+    for (int c = 0; c < 4; ++c) {
+      same = std::max(same, static_cast<double>(std::fabs(q.rotation[c] - g.rotation[c])));
+      flip = std::max(flip, static_cast<double>(std::fabs(q.rotation[c] + g.rotation[c])));
+    }
+    worst = std::max(worst, std::min(same, flip));
+  }
+  EXPECT_LE(worst, kRotationMaxError);
+  EXPECT_GT(worst, 0.5 * kRotationMaxError);
+}
+
+// Whole payload per SH0 Gaussian: the 15-byte record plus its share of the id, object and
+// support columns stays at or below 16 bytes for consecutive ids, and for one id in five
+// when support is uniform; varied support costs at most its 6-bit code.
+TEST(CodecRoundtrip, RecordIsFifteenBytesAndAGaussianFitsSixteen) {
+  EXPECT_EQ(record_bytes(0), 15u);
+  EXPECT_EQ(record_bytes(3), 15u + 45u);
   const CodecParams p = test_params(0);
   std::mt19937_64 rng(3);
+  auto payload = [&](std::uint64_t mean_gap, bool varied_support) {
+    EditBatch b;
+    std::uint64_t id = 1000;
+    for (int i = 0; i < 10000; ++i) {
+      id += mean_gap == 1 ? 1 : 1 + rng() % (2 * mean_gap - 1);
+      Gaussian g = random_gaussian(rng, p, id);
+      g.object = ObjectId{i < 4000 ? 2 : (i < 7000 ? -1 : 5)};
+      if (!varied_support) g.support = 0;
+      b.edits.push_back(Edit{EditKind::Insert, g.id, GaussianId{0}, g});
+    }
+    const auto raw = encode_edit_batch_raw(b, p);
+    auto back = decode_edit_batch_raw(raw, p);
+    EXPECT_TRUE(back.ok()) << back.message();
+    return static_cast<double>(raw.size()) / 10000.0;
+  };
+  const double consecutive_uniform = payload(1, false);
+  EXPECT_GE(consecutive_uniform, 15.0);
+  EXPECT_LE(consecutive_uniform, 15.0 + 1.2 / 8.0);  // ~1 bit of id, runs for the rest
+  const double consecutive_varied = payload(1, true);
+  EXPECT_LE(consecutive_varied, 15.0 + (1.2 + kSupportCodeBits) / 8.0);
+  EXPECT_LE(consecutive_varied, 16.0);
+  const double one_in_five_uniform = payload(5, false);
+  EXPECT_LE(one_in_five_uniform, 15.0 + 4.5 / 8.0);  // EG gaps of mean 5: ~4 bits
+  EXPECT_LE(one_in_five_uniform, 16.0);
+}
+
+// Column codes at their extremes: ids next to 2^64 - 1, leaving ids jumping across the
+// whole range, object ids alternating between the int32 ends, saturated support.
+TEST(CodecRoundtrip, ColumnExtremesRoundTripExactly) {
+  const CodecParams p = test_params(0);
   EditBatch b;
-  for (int i = 0; i < 1000; ++i) {
-    Gaussian g = random_gaussian(rng, p, static_cast<std::uint64_t>(i + 1));
-    g.object = ObjectId{2};
-    b.edits.push_back(Edit{EditKind::Insert, g.id, GaussianId{0}, g});
+  b.epoch = Epoch{~std::uint64_t{0}};
+  const std::uint64_t max = ~std::uint64_t{0};
+  const std::uint64_t ids[] = {0, 1, max - 3, max - 2, max};
+  for (int i = 0; i < 5; ++i) {
+    Edit e;
+    e.kind = i % 2 ? EditKind::Replace : EditKind::Insert;
+    e.id = GaussianId{ids[i]};
+    e.leaving = GaussianId{i % 4 == 1 ? max : 0};
+    e.value.object = ObjectId{i % 2 ? std::numeric_limits<std::int32_t>::min() : std::numeric_limits<std::int32_t>::max()};
+    e.value.support = i % 2 ? 0u : 4'000'000'000u;
+    b.edits.push_back(e);
   }
-  const auto raw = encode_edit_batch_raw(b, p);
-  EXPECT_LE(raw.size(), 1000u * 19u + 32u);
-  EXPECT_GE(raw.size(), 1000u * 19u);
+  b.edits.push_back(Edit{EditKind::Remove, GaussianId{max - 1}, GaussianId{0}, Gaussian{}});
+  b.edits.push_back(Edit{EditKind::Remove, GaussianId{7}, GaussianId{0}, Gaussian{}});
+  auto out = decode_edit_batch(encode_edit_batch(b, p), p);
+  ASSERT_TRUE(out.ok()) << out.message();
+  EXPECT_EQ(out->epoch, b.epoch);
+  ASSERT_EQ(out->edits.size(), b.edits.size());
+  for (const Edit& e : out->edits) {
+    const auto src = std::find_if(b.edits.begin(), b.edits.end(), [&](const Edit& x) { return x.id == e.id; });
+    ASSERT_NE(src, b.edits.end());
+    EXPECT_EQ(e.kind, src->kind);
+    if (e.kind == EditKind::Remove) continue;
+    if (e.kind == EditKind::Replace) {
+      EXPECT_EQ(e.leaving, src->leaving);
+    }
+    EXPECT_EQ(e.value.object, src->value.object);
+    EXPECT_EQ(e.value.support, src->value.support == 0 ? 0u : kMaxSupport);
+  }
 }
 
 TEST(CodecRoundtrip, OutOfRangeValuesClampAndCountNeverWrap) {
@@ -219,12 +297,15 @@ TEST(CodecRoundtrip, NonFiniteValuesAreReplacedAndCounted) {
   EXPECT_NEAR(q.position.x, 0.5f * (p.box.min.x + p.box.max.x), 1e-3f);
   EXPECT_EQ(q.rotation, glm::vec4(1.0f, 0.0f, 0.0f, 0.0f));  // identity is exact
   EXPECT_TRUE(std::isfinite(q.opacity_logit));
-  // Infinite opacity logits are legitimate limits: decoded finite, near 0 and 1.
+  // Infinite opacity logits are legitimate limits: decoded finite, a quarter step inside
+  // 0 and 1 (within the half-step bound).
+  const double quarter = 0.25 / ((1 << kOpacityBits) - 1);
   g = Gaussian{};
   g.opacity_logit = std::numeric_limits<float>::infinity();
-  EXPECT_GT(sigmoid(quantize_roundtrip(g, p).opacity_logit), 0.999);
+  EXPECT_TRUE(std::isfinite(quantize_roundtrip(g, p).opacity_logit));
+  EXPECT_NEAR(sigmoid(quantize_roundtrip(g, p).opacity_logit), 1.0 - quarter, 1e-6);
   g.opacity_logit = -std::numeric_limits<float>::infinity();
-  EXPECT_LT(sigmoid(quantize_roundtrip(g, p).opacity_logit), 0.001);
+  EXPECT_NEAR(sigmoid(quantize_roundtrip(g, p).opacity_logit), quarter, 1e-6);
 }
 
 TEST(CodecRoundtrip, FitParamsCoverTheScene) {
@@ -286,7 +367,7 @@ TEST(CodecHostile, TruncatedAndCorruptPayloadsAreRejected) {
 TEST(CodecHostile, LyingCountsAndSizesAreRejectedBeforeAllocating) {
   const CodecParams p = test_params(0);
   // Header claiming 2^60 removes in a 20-byte payload.
-  std::vector<std::uint8_t> m = {'G', 'A', 'E', 'B', 1, 0, 0};
+  std::vector<std::uint8_t> m = {'G', 'A', 'E', 'B', kCodecVersion, 0, 0};
   for (int i = 0; i < 8; ++i) m.push_back(0xFF);
   m.push_back(0x0F);
   m.push_back(0);
@@ -296,13 +377,13 @@ TEST(CodecHostile, LyingCountsAndSizesAreRejectedBeforeAllocating) {
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.message().find("count"), std::string::npos) << r.message();
   // 2^21 one-byte removes: a payload that size could hold them, the batch limit cannot.
-  m = {'G', 'A', 'E', 'B', 1, 0, 0, 0x80, 0x80, 0x80, 0x01, 0, 0, 0};
+  m = {'G', 'A', 'E', 'B', kCodecVersion, 0, 0, 0x80, 0x80, 0x80, 0x01, 0, 0, 0};
   m.resize(m.size() + (std::size_t{1} << 21), 1);
   r = decode_edit_batch_raw(m, p);
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.message().find("limit"), std::string::npos) << r.message();
   // Value edits that need more record bytes than present.
-  m = {'G', 'A', 'E', 'B', 1, 0, 0, 0, 0, 0, 5, 1, 2, 3, 4, 5};
+  m = {'G', 'A', 'E', 'B', kCodecVersion, 0, 0, 0, 0, 0, 5, 1, 2, 3, 4, 5};
   EXPECT_FALSE(decode_edit_batch_raw(m, p).ok());
   // A zstd frame that declares a 1 GiB payload.
   std::vector<std::uint8_t> big(1 << 20, 0);
@@ -314,9 +395,84 @@ TEST(CodecHostile, LyingCountsAndSizesAreRejectedBeforeAllocating) {
   ASSERT_FALSE(rz.ok());
   EXPECT_FALSE(decode_edit_batch(std::span<const std::uint8_t>(), p).ok());
   // Overlong varint (11 continuation bytes) in the epoch.
-  m = {'G', 'A', 'E', 'B', 1, 0};
+  m = {'G', 'A', 'E', 'B', kCodecVersion, 0};
   for (int i = 0; i < 11; ++i) m.push_back(0x80);
   EXPECT_FALSE(decode_edit_batch_raw(m, p).ok());
+}
+
+// Bit-column lies: runs that cover more or fewer edits than the header declares, a
+// support code beyond 6 bits, non-zero padding and an older version are all rejected
+// with the byte offset named.
+TEST(CodecHostile, BitColumnLiesAreRejectedWithAnOffset) {
+  const CodecParams p = test_params(0);
+  // One insert: id 1, object 3, support 0. Header: magic, version, degree, epoch 0,
+  // counts 0 0 0 1 = 11 bytes; the bit columns follow, then the record.
+  EditBatch b;
+  Gaussian g;
+  g.object = ObjectId{3};
+  b.edits.push_back(Edit{EditKind::Insert, GaussianId{1}, GaussianId{0}, g});
+  const auto raw = encode_edit_batch_raw(b, p);
+  ASSERT_TRUE(decode_edit_batch_raw(raw, p).ok());
+  ASSERT_EQ(raw.size(), 11u + 5u + record_bytes(0)) << "header, 5 bytes of bit columns, one record";
+  using Fields = std::vector<std::pair<std::uint64_t, int>>;  // (value, bits), LSB-first
+  auto payload = [&](const Fields& fields) {
+    std::vector<std::uint8_t> m(raw.begin(), raw.begin() + 11);
+    std::uint64_t acc = 0;
+    int fill = 0;
+    for (auto [v, n] : fields) {
+      for (int i = 0; i < n; ++i) {
+        acc |= ((v >> i) & 1u) << fill;
+        if (++fill == 8) {
+          m.push_back(static_cast<std::uint8_t>(acc));
+          acc = 0;
+          fill = 0;
+        }
+      }
+    }
+    if (fill) m.push_back(static_cast<std::uint8_t>(acc));
+    m.insert(m.end(), raw.end() - static_cast<std::ptrdiff_t>(record_bytes(0)), raw.end());
+    return m;
+  };
+  auto cat = [](Fields a, const Fields& c) {
+    a.insert(a.end(), c.begin(), c.end());
+    return a;
+  };
+  // EG_k(v): x = v + 2^k, n = top bit of x: n - k zeros, a one, x's n low bits.
+  const Fields ids = {{0, 6}, {0, 1}, {1, 1}, {0, 1}};           // k = 0, EG_0(1)
+  const Fields object_head = {{1, 1}, {0, 6}, {3, 6}};           // EG_0(runs - 1 = 0), k_len 0, k_obj 3
+  const Fields object_run = {{1, 1}, {1, 1}, {6, 3}};            // EG_0(0), EG_3(zigzag 3 = 6)
+  const Fields support_packed = {{0, 1}, {0, 6}};                // mode 0, code 0
+  const Fields honest = cat(cat(cat(ids, object_head), object_run), support_packed);
+  {
+    auto r = decode_edit_batch_raw(payload(honest), p);
+    ASSERT_TRUE(r.ok()) << r.message();
+    EXPECT_EQ(r->edits[0].id, GaussianId{1});
+    EXPECT_EQ(r->edits[0].value.object, ObjectId{3});
+  }
+  auto expect_reject = [&](const Fields& fields, const char* what) {
+    auto r = decode_edit_batch_raw(payload(fields), p);
+    ASSERT_FALSE(r.ok()) << what;
+    EXPECT_NE(r.message().find("byte "), std::string::npos) << r.message();
+    EXPECT_NE(r.message().find(what), std::string::npos) << r.message();
+  };
+  // Two runs for one value edit: EG_0(1) = 0, 1, 0.
+  expect_reject(cat(cat(cat(ids, {{0, 1}, {1, 1}, {0, 1}, {0, 6}, {3, 6}}), object_run), support_packed),
+                "runs than value edits");
+  // A run of length 2 for one value edit: EG_0(1) as the length.
+  expect_reject(cat(cat(cat(ids, object_head), {{0, 1}, {1, 1}, {0, 1}, {1, 1}, {6, 3}}), support_packed),
+                "passes the last");
+  // Support runs whose code is 64: EG_7(zigzag 64 = 128): x = 256, n = 8: 0, 1, 8 zeros.
+  expect_reject(cat(cat(cat(ids, object_head), object_run),
+                    {{1, 1}, {1, 1}, {0, 6}, {7, 6}, {1, 1}, {0, 1}, {1, 1}, {0, 8}}),
+                "support code");
+  // Non-zero padding after an honest stream (34 bits, then a stray one).
+  expect_reject(cat(honest, {{1, 1}}), "padding");
+  // Version 1 payloads are no longer understood.
+  auto old = raw;
+  old[4] = 1;
+  auto r = decode_edit_batch_raw(old, p);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.message().find("version"), std::string::npos);
 }
 
 TEST(CodecHostile, EmptyBatchRoundTrips) {

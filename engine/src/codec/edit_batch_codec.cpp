@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <string>
 
 #include <zstd.h>
@@ -34,12 +35,70 @@ int wire_group(EditKind k) {
   return 3;
 }
 
-void put_sorted_ids(std::vector<std::uint8_t>& out, const std::vector<const Edit*>& edits) {
+using codec_detail::BitStreamReader;
+using codec_detail::BitStreamWriter;
+using codec_detail::best_eg_order;
+using codec_detail::eg_bits;
+
+// 6-bit field holding an exponential-Golomb order.
+constexpr int kOrderBits = 6;
+
+// Values of one column coded with the order that makes them shortest.
+void put_eg_column(BitStreamWriter& w, const std::vector<std::uint64_t>& values) {
+  const int k = best_eg_order(values).first;
+  w.put(static_cast<std::uint64_t>(k), kOrderBits);
+  for (std::uint64_t v : values) w.put_eg(v, k);
+}
+
+// Sorted ids as gaps: the first id itself, then id - previous - 1 (0 for consecutive ids,
+// so a run of them costs one bit each at order 0).
+void put_sorted_ids(BitStreamWriter& w, const std::vector<const Edit*>& edits, std::vector<std::uint64_t>& scratch) {
+  if (edits.empty()) return;
+  scratch.clear();
   std::uint64_t prev = 0;
-  for (const Edit* e : edits) {
-    const std::uint64_t id = to_underlying(e->id);
-    put_varint(out, id - prev);
+  for (std::size_t i = 0; i < edits.size(); ++i) {
+    const std::uint64_t id = to_underlying(edits[i]->id);
+    // A repeated id (which a batch must not hold) gives 2^64 - 1: the decoder rejects it.
+    scratch.push_back(i == 0 ? id : id - prev - 1);
     prev = id;
+  }
+  put_eg_column(w, scratch);
+}
+
+// Runs of equal values: (length - 1, zigzag delta of the value from the previous run's).
+struct Runs {
+  std::vector<std::uint64_t> lengths;
+  std::vector<std::uint64_t> deltas;
+};
+
+Runs make_runs(const std::vector<std::int64_t>& values) {
+  Runs r;
+  std::int64_t prev = 0;
+  for (std::size_t i = 0; i < values.size();) {
+    std::size_t j = i + 1;
+    while (j < values.size() && values[j] == values[i]) ++j;
+    r.lengths.push_back(j - i - 1);
+    r.deltas.push_back(zigzag(values[i] - prev));
+    prev = values[i];
+    i = j;
+  }
+  return r;
+}
+
+std::uint64_t runs_bits(const Runs& r) {
+  return eg_bits(r.lengths.size() - 1, 0) + 2 * kOrderBits + best_eg_order(r.lengths).second +
+         best_eg_order(r.deltas).second;
+}
+
+void put_runs(BitStreamWriter& w, const Runs& r) {
+  w.put_eg(r.lengths.size() - 1, 0);
+  const int k_len = best_eg_order(r.lengths).first;
+  const int k_val = best_eg_order(r.deltas).first;
+  w.put(static_cast<std::uint64_t>(k_len), kOrderBits);
+  w.put(static_cast<std::uint64_t>(k_val), kOrderBits);
+  for (std::size_t i = 0; i < r.lengths.size(); ++i) {
+    w.put_eg(r.lengths[i], k_len);
+    w.put_eg(r.deltas[i], k_val);
   }
 }
 
@@ -90,35 +149,55 @@ std::vector<std::uint8_t> encode_edit_batch_raw(const EditBatch& batch, const Co
   const std::size_t n_values = g.group[1].size() + g.group[2].size() + g.group[3].size();
 
   std::vector<std::uint8_t> out;
-  out.reserve(32 + g.group[0].size() * 3 + g.group[1].size() * 3 + n_values * (rec + 6));
+  out.reserve(32 + (g.group[0].size() + 2 * g.group[1].size()) / 2 + n_values * (rec + 2));
   for (std::uint8_t m : kMagic) out.push_back(m);
   out.push_back(static_cast<std::uint8_t>(kCodecVersion));
   out.push_back(static_cast<std::uint8_t>(degree));
   put_varint(out, to_underlying(batch.epoch));
   for (const auto& grp : g.group) put_varint(out, grp.size());
 
-  put_sorted_ids(out, g.group[0]);
-  put_sorted_ids(out, g.group[1]);
-  std::uint64_t prev_leaving = 0;
-  for (const Edit* e : g.group[1]) {
-    const std::uint64_t id = to_underlying(e->leaving);
-    put_varint(out, zigzag(static_cast<std::int64_t>(id - prev_leaving)));  // wraps on purpose: exact inverse
-    prev_leaving = id;
+  BitStreamWriter w(out);
+  std::vector<std::uint64_t> scratch;
+  put_sorted_ids(w, g.group[0], scratch);
+  put_sorted_ids(w, g.group[1], scratch);
+  if (!g.group[1].empty()) {
+    scratch.clear();
+    std::uint64_t prev_leaving = 0;
+    for (const Edit* e : g.group[1]) {
+      const std::uint64_t id = to_underlying(e->leaving);
+      scratch.push_back(zigzag(static_cast<std::int64_t>(id - prev_leaving)));  // wraps on purpose: exact inverse
+      prev_leaving = id;
+    }
+    put_eg_column(w, scratch);
   }
-  put_sorted_ids(out, g.group[2]);
-  put_sorted_ids(out, g.group[3]);
+  put_sorted_ids(w, g.group[2], scratch);
+  put_sorted_ids(w, g.group[3], scratch);
 
-  std::int64_t prev_obj = 0;
-  for (int k = 1; k < 4; ++k) {
-    for (const Edit* e : g.group[k]) {
-      const std::int64_t obj = to_underlying(e->value.object);
-      put_varint(out, zigzag(obj - prev_obj));
-      prev_obj = obj;
+  if (n_values > 0) {
+    std::vector<std::int64_t> objects;
+    std::vector<std::int64_t> support;
+    objects.reserve(n_values);
+    support.reserve(n_values);
+    for (int k = 1; k < 4; ++k) {
+      for (const Edit* e : g.group[k]) {
+        objects.push_back(to_underlying(e->value.object));
+        support.push_back(codec_detail::support_code(e->value.support, stats));
+      }
+    }
+    put_runs(w, make_runs(objects));
+    // Support: whichever of fixed 6-bit codes and runs is shorter (uniform support, e.g.
+    // a PLY without it, costs next to nothing; varied support at most 6 bits).
+    const Runs support_runs = make_runs(support);
+    const bool use_runs = runs_bits(support_runs) < n_values * static_cast<std::uint64_t>(kSupportCodeBits);
+    w.put(use_runs ? 1 : 0, 1);
+    if (use_runs) {
+      put_runs(w, support_runs);
+    } else {
+      for (std::int64_t c : support) w.put(static_cast<std::uint64_t>(c), kSupportCodeBits);
     }
   }
-  for (int k = 1; k < 4; ++k) {
-    for (const Edit* e : g.group[k]) out.push_back(codec_detail::support_code(e->value.support, stats));
-  }
+  w.align();
+
   const std::size_t rec_start = out.size();
   out.resize(rec_start + n_values * rec);
   std::uint8_t* r = out.data() + rec_start;
@@ -159,9 +238,9 @@ Expected<EditBatch> decode_edit_batch_raw(std::span<const std::uint8_t> payload,
   for (auto& c : n) {
     const std::size_t at = rd.offset();
     if (!rd.varint(c)) return decode_error(at, "truncated or overlong edit count");
-    // Every edit costs at least one payload byte, so a count beyond the payload is a
-    // lie: reject it before reserving anything.
-    if (c > payload.size()) return decode_error(at, "edit count " + std::to_string(c) + " exceeds payload size");
+    // Every edit costs at least one payload bit, so a count beyond the payload's bits is
+    // a lie: reject it before reserving anything (and before the sums below can wrap).
+    if (c > 8 * payload.size()) return decode_error(at, "edit count " + std::to_string(c) + " exceeds payload size");
   }
   const std::size_t rec = record_bytes(params.sh_degree);
   const std::uint64_t n_values = n[1] + n[2] + n[3];
@@ -169,8 +248,9 @@ Expected<EditBatch> decode_edit_batch_raw(std::span<const std::uint8_t> payload,
     return decode_error(rd.offset(), std::to_string(n[0] + n_values) + " edits exceed the limit of " +
                                          std::to_string(kMaxBatchEdits) + " per batch");
   }
-  // Each value edit needs >= 1 id byte, 1 object byte, 1 support byte and its record.
-  if (n_values * (rec + 3) + n[0] + n[1] > rd.remaining()) {
+  // Each id (and leaving id) needs >= 1 bit, each value edit its record: a count the
+  // payload cannot hold is rejected before anything is allocated.
+  if (n_values * rec + (n[0] + 2 * n[1] + n[2] + n[3] + 7) / 8 > rd.remaining()) {
     return decode_error(rd.offset(), "edit counts need more bytes than the payload holds");
   }
   batch.edits.resize(static_cast<std::size_t>(n[0] + n_values));
@@ -184,58 +264,117 @@ Expected<EditBatch> decode_edit_batch_raw(std::span<const std::uint8_t> payload,
       at += static_cast<std::size_t>(n[k]);
     }
   }
-  auto read_ids = [&](int k) -> Status {
+  const std::size_t bits_start = rd.offset();
+  BitStreamReader bits(payload.subspan(bits_start));
+  auto bit_error = [&](const std::string& what) { return decode_error(bits_start + bits.byte_offset(), what); };
+  auto read_order = [&](int& k) {
+    std::uint64_t order = 0;
+    if (!bits.get(kOrderBits, order)) return false;
+    k = static_cast<int>(order);
+    return true;
+  };
+  auto read_ids = [&](int g) -> Status {
+    if (n[g] == 0) return Ok{};
+    int k = 0;
+    if (!read_order(k)) return Status(bit_error("truncated id column"));
     std::uint64_t prev = 0;
-    for (std::uint64_t i = 0; i < n[k]; ++i) {
-      const std::size_t at = rd.offset();
+    for (std::uint64_t i = 0; i < n[g]; ++i) {
       std::uint64_t d = 0;
-      if (!rd.varint(d)) return Status(decode_error(at, "truncated or overlong id varint"));
-      if (i > 0 && d == 0) return Status(decode_error(at, "id repeated within a group"));
-      if (d > std::numeric_limits<std::uint64_t>::max() - prev) {
-        return Status(decode_error(at, "id delta overflows 64 bits"));
+      if (!bits.get_eg(k, d)) return Status(bit_error("truncated or overlong id code"));
+      std::uint64_t id = d;
+      if (i > 0) {
+        // id = prev + d + 1 must fit 64 bits.
+        if (d >= std::numeric_limits<std::uint64_t>::max() - prev) return Status(bit_error("id gap overflows 64 bits"));
+        id = prev + d + 1;
       }
-      prev += d;
-      Edit& e = batch.edits[first[k] + static_cast<std::size_t>(i)];
-      e.kind = kinds[k];
-      e.id = GaussianId{prev};
+      prev = id;
+      Edit& e = batch.edits[first[g] + static_cast<std::size_t>(i)];
+      e.kind = kinds[g];
+      e.id = GaussianId{id};
     }
     return Ok{};
   };
   if (Status st = read_ids(0); !st) return st.error();
   if (Status st = read_ids(1); !st) return st.error();
-  std::uint64_t prev_leaving = 0;
-  for (std::uint64_t i = 0; i < n[1]; ++i) {
-    const std::size_t at = rd.offset();
-    if (!rd.varint(v)) return decode_error(at, "truncated or overlong leaving-id varint");
-    prev_leaving += static_cast<std::uint64_t>(unzigzag(v));
-    batch.edits[first[1] + static_cast<std::size_t>(i)].leaving = GaussianId{prev_leaving};
+  if (n[1] > 0) {
+    int k = 0;
+    if (!read_order(k)) return bit_error("truncated leaving-id column");
+    std::uint64_t prev_leaving = 0;
+    for (std::uint64_t i = 0; i < n[1]; ++i) {
+      if (!bits.get_eg(k, v)) return bit_error("truncated or overlong leaving-id code");
+      prev_leaving += static_cast<std::uint64_t>(unzigzag(v));
+      batch.edits[first[1] + static_cast<std::size_t>(i)].leaving = GaussianId{prev_leaving};
+    }
   }
   if (Status st = read_ids(2); !st) return st.error();
   if (Status st = read_ids(3); !st) return st.error();
 
   const std::size_t values_begin = first[1];
   const std::size_t values_end = batch.edits.size();
-  std::int64_t prev_obj = 0;
-  for (std::size_t i = values_begin; i < values_end; ++i) {
-    const std::size_t at = rd.offset();
-    if (!rd.varint(v)) return decode_error(at, "truncated or overlong object-id varint");
-    // Check the delta before adding so a hostile delta cannot overflow the sum.
-    const std::int64_t delta = unzigzag(v);
-    if (delta > (std::int64_t{1} << 33) || delta < -(std::int64_t{1} << 33)) {
-      return decode_error(at, "object id delta outside 33 bits");
+  // Runs of equal values over the value edits; `apply(i, delta)` takes the run's value
+  // from the previous run's and the zigzag-decoded delta, or fails with a reason.
+  auto read_runs = [&](const char* what, auto&& apply) -> Status {
+    std::uint64_t runs_minus_1 = 0;
+    int k_len = 0;
+    int k_val = 0;
+    if (!bits.get_eg(0, runs_minus_1) || !read_order(k_len) || !read_order(k_val)) {
+      return Status(bit_error(std::string("truncated ") + what + " runs"));
     }
-    const std::int64_t obj = prev_obj + delta;
-    if (obj < std::numeric_limits<std::int32_t>::min() || obj > std::numeric_limits<std::int32_t>::max()) {
-      return decode_error(at, "object id outside 32 bits");
+    if (runs_minus_1 >= values_end - values_begin) {
+      return Status(bit_error(std::string("more ") + what + " runs than value edits"));
     }
-    prev_obj = obj;
-    batch.edits[i].value.object = ObjectId{static_cast<std::int32_t>(obj)};
+    std::size_t i = values_begin;
+    for (std::uint64_t r = 0; r <= runs_minus_1; ++r) {
+      std::uint64_t len_minus_1 = 0;
+      std::uint64_t zz = 0;
+      if (!bits.get_eg(k_len, len_minus_1) || !bits.get_eg(k_val, zz)) {
+        return Status(bit_error(std::string("truncated or overlong ") + what + " run"));
+      }
+      if (len_minus_1 >= values_end - i) return Status(bit_error(std::string(what) + " run passes the last value edit"));
+      const std::size_t end_i = i + static_cast<std::size_t>(len_minus_1) + 1;
+      if (std::optional<std::string> bad = apply(i, end_i, unzigzag(zz))) return Status(bit_error(*bad));
+      i = end_i;
+    }
+    if (i != values_end) return Status(bit_error(std::string(what) + " runs cover fewer edits than the batch holds"));
+    return Ok{};
+  };
+  if (values_end > values_begin) {
+    std::int64_t prev_obj = 0;
+    Status st = read_runs("object-id", [&](std::size_t from, std::size_t to, std::int64_t delta) -> std::optional<std::string> {
+      // Check the delta before adding so a hostile delta cannot overflow the sum.
+      if (delta > (std::int64_t{1} << 33) || delta < -(std::int64_t{1} << 33)) return "object id delta outside 33 bits";
+      const std::int64_t obj = prev_obj + delta;
+      if (obj < std::numeric_limits<std::int32_t>::min() || obj > std::numeric_limits<std::int32_t>::max()) {
+        return "object id outside 32 bits";
+      }
+      prev_obj = obj;
+      for (std::size_t i = from; i < to; ++i) batch.edits[i].value.object = ObjectId{static_cast<std::int32_t>(obj)};
+      return std::nullopt;
+    });
+    if (!st) return st.error();
+    std::uint64_t mode = 0;
+    if (!bits.get(1, mode)) return bit_error("truncated support column");
+    if (mode == 0) {
+      for (std::size_t i = values_begin; i < values_end; ++i) {
+        if (!bits.get(kSupportCodeBits, v)) return bit_error("truncated support column");
+        batch.edits[i].value.support = codec_detail::dequantize_support(static_cast<std::uint8_t>(v));
+      }
+    } else {
+      std::int64_t prev_code = 0;
+      st = read_runs("support", [&](std::size_t from, std::size_t to, std::int64_t delta) -> std::optional<std::string> {
+        if (delta > std::int64_t{kMaxSupportCode} || delta < -std::int64_t{kMaxSupportCode}) return "support code delta out of range";
+        const std::int64_t code = prev_code + delta;
+        if (code < 0 || code > std::int64_t{kMaxSupportCode}) return "support code out of range";
+        prev_code = code;
+        const std::uint32_t s = codec_detail::dequantize_support(static_cast<std::uint8_t>(code));
+        for (std::size_t i = from; i < to; ++i) batch.edits[i].value.support = s;
+        return std::nullopt;
+      });
+      if (!st) return st.error();
+    }
   }
-  const std::uint8_t* support = nullptr;
-  if (!rd.bytes(values_end - values_begin, support)) return decode_error(rd.offset(), "truncated support column");
-  for (std::size_t i = values_begin; i < values_end; ++i) {
-    batch.edits[i].value.support = codec_detail::dequantize_support(support[i - values_begin]);
-  }
+  if (!bits.align()) return bit_error("non-zero padding after the bit columns");
+  if (!rd.bytes(bits.byte_offset(), head)) return decode_error(rd.offset(), "truncated bit columns");
   const std::uint8_t* records = nullptr;
   if (!rd.bytes((values_end - values_begin) * rec, records)) {
     return decode_error(rd.offset(), "truncated records (" + std::to_string(values_end - values_begin) + " x " +

@@ -1,4 +1,4 @@
-// Per-Gaussian quantisation: the 16-byte record (+ SH rest bytes), its inverse, the
+// Per-Gaussian quantisation: the 15-byte record (+ SH rest bytes), its inverse, the
 // record hash the differ compares, and fitting quantiser ranges to a scene.
 #include <algorithm>
 #include <cmath>
@@ -99,10 +99,10 @@ glm::vec4 dequantize_rotation(std::uint32_t index, const std::uint32_t codes[3])
 double sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
 
 std::uint32_t quantize_support(std::uint32_t s, CodecStats* stats) {
-  const double code = std::nearbyint(16.0 * std::log2(1.0 + static_cast<double>(s)));
-  if (code > 255.0) {
+  const double code = std::nearbyint(kSupportCodeSteps * std::log2(1.0 + static_cast<double>(s)));
+  if (code > static_cast<double>(kMaxSupportCode)) {
     if (stats) ++stats->support_clamped;
-    return 255u;
+    return kMaxSupportCode;
   }
   return static_cast<std::uint32_t>(code);
 }
@@ -112,7 +112,10 @@ std::uint32_t quantize_support(std::uint32_t s, CodecStats* stats) {
 namespace codec_detail {
 
 std::uint32_t dequantize_support(std::uint8_t code) {
-  return static_cast<std::uint32_t>(std::nearbyint(std::exp2(code / 16.0) - 1.0));
+  // A hostile payload cannot pass a larger code (the column reader checks), but clamp
+  // anyway so this stays total.
+  const unsigned c = std::min<unsigned>(code, kMaxSupportCode);
+  return static_cast<std::uint32_t>(std::nearbyint(std::exp2(c / static_cast<double>(kSupportCodeSteps)) - 1.0));
 }
 
 std::uint8_t support_code(std::uint32_t support, CodecStats* stats) {
@@ -150,12 +153,11 @@ void write_record(const Gaussian& g, const CodecParams& p, std::uint8_t* out, Co
     logit = 0.0;
   }
   w.put(quantize_uniform(sigmoid(logit), 0.0, 1.0, max_code_of(kOpacityBits, false), nullptr, nullptr), kOpacityBits);
-  const int dc_bits[3] = {kDcBitsRB, kDcBitsG, kDcBitsRB};
   for (int c = 0; c < 3; ++c) {
-    w.put(quantize_uniform(g.sh_dc[c], p.dc_min, p.dc_max, max_code_of(dc_bits[c], false), stats ? &stats->dc_clamped : nullptr, nf),
-          dc_bits[c]);
+    w.put(quantize_uniform(g.sh_dc[c], p.dc_min, p.dc_max, max_code_of(kDcBits, false), stats ? &stats->dc_clamped : nullptr, nf),
+          kDcBits);
   }
-  w.store(out);
+  w.store(out, static_cast<int>(kRecordBytesSh0));
   const int rest = sh_rest_count(std::clamp(p.sh_degree, 0, kMaxShDegree));
   std::uint8_t* r = out + kRecordBytesSh0;
   for (int k = 0; k < rest; ++k) {
@@ -168,7 +170,7 @@ void write_record(const Gaussian& g, const CodecParams& p, std::uint8_t* out, Co
 }
 
 void read_record(const std::uint8_t* in, const CodecParams& p, Gaussian& g) {
-  BitReader128 r(in);
+  BitReader128 r(in, static_cast<int>(kRecordBytesSh0));
   for (int a = 0; a < 3; ++a) {
     g.position[a] = static_cast<float>(dequantize_uniform(r.get(kPositionBits), p.box.min[a], p.box.max[a],
                                                           max_code_of(kPositionBits, false)));
@@ -181,15 +183,14 @@ void read_record(const std::uint8_t* in, const CodecParams& p, Gaussian& g) {
     g.log_scale[a] = static_cast<float>(
         dequantize_uniform(r.get(kLogScaleBits), p.log_scale_min, p.log_scale_max, max_code_of(kLogScaleBits, false)));
   }
-  // Code 0 and 255 would decode to logits of -Inf/+Inf; a quarter step inside keeps the
+  // The end codes would decode to logits of -Inf/+Inf; a quarter step inside keeps the
   // value finite and still within the stated half-step bound.
-  const double lim = 0.25 / 255.0;
+  const double lim = 0.25 / static_cast<double>(max_code_of(kOpacityBits, false));
   const double opacity =
       std::clamp(dequantize_uniform(r.get(kOpacityBits), 0.0, 1.0, max_code_of(kOpacityBits, false)), lim, 1.0 - lim);
   g.opacity_logit = static_cast<float>(std::log(opacity / (1.0 - opacity)));
-  const int dc_bits[3] = {kDcBitsRB, kDcBitsG, kDcBitsRB};
   for (int c = 0; c < 3; ++c) {
-    g.sh_dc[c] = static_cast<float>(dequantize_uniform(r.get(dc_bits[c]), p.dc_min, p.dc_max, max_code_of(dc_bits[c], false)));
+    g.sh_dc[c] = static_cast<float>(dequantize_uniform(r.get(kDcBits), p.dc_min, p.dc_max, max_code_of(kDcBits, false)));
   }
   g.sh_rest = {};
   const int rest = sh_rest_count(std::clamp(p.sh_degree, 0, kMaxShDegree));

@@ -1,47 +1,64 @@
 #pragma once
 // Edit-batch codec: quantised compact Gaussian records, batched and zstd-compressed.
 //
-// A Gaussian crosses the wire as a fixed 16-byte record (SH degree 0) plus 3 bytes per
-// higher SH coefficient at the scene's degree, plus an id (delta varint), an object id
-// (zigzag delta varint) and a 1-byte log-quantised support. Quantisation ranges come
-// from CodecParams, which host and client share for a session, so a Gaussian quantises
-// to the same record in every batch: quantize_roundtrip() is exactly what the client sees
-// and the differ can compare records to skip no-op updates.
+// A Gaussian crosses the wire as a fixed 15-byte record (SH degree 0) plus 3 bytes per
+// higher SH coefficient at the scene's degree; its id, object id and support travel in
+// bit-packed columns beside the records (a few bits each, often less than one: see the
+// layout below). Quantisation ranges come from CodecParams, which host and client share
+// for a session, so a Gaussian quantises to the same record in every batch:
+// quantize_roundtrip() is exactly what the client sees and the differ can compare
+// records to skip no-op updates.
 //
-// 16-byte record, bit-packed little-endian into two 64-bit words (widths below):
-//   position   3 x 15 bits, uniform in params.box
-//   rotation   2 + 3 x 9 bits, smallest-three (index of the dropped largest component,
+// 15-byte record (120 bits), bit-packed little-endian (fields LSB-first, widths below).
+// Version 1 had 16 bytes (15-bit positions, 9-bit rotation components, 8-bit opacity,
+// 7+8+7-bit colour); the bits were taken where the measured render error grew least
+// (gauss-bench host: quantised vs float PSNR on the synthetic room, guitar and
+// fruit_drops; a 7-bit log-scale instead cost fruit_drops 6 dB, to 44.5 dB):
+//   position   3 x 14 bits, uniform in params.box
+//   rotation   2 + 3 x 8 bits, smallest-three (index of the dropped largest component,
 //              the other three in [-1/sqrt2, 1/sqrt2], sign fixed so the largest is >= 0)
 //   log-scale  3 x 8 bits, uniform in [log_scale_min, log_scale_max]
-//   opacity    8 bits, uniform in sigmoid space [0, 1]
-//   SH0 colour 7 + 8 + 7 bits (R, G, B), uniform in [dc_min, dc_max]; green carries most
-//              luminance so it gets the spare bit
+//   opacity    7 bits, uniform in sigmoid space [0, 1]
+//   SH0 colour 3 x 7 bits, uniform in [dc_min, dc_max]
 // SH rest: 8 bits per coefficient and channel, uniform in [-sh_rest_abs_max, +sh_rest_abs_max].
 //
 // Decode error bounds for in-range finite input (tested in tests/engine/test_codec_*.cpp):
-//   position   |err| <= 0.5 * (box.max - box.min) / (2^15 - 1) per axis
+//   position   |err| <= 0.5 * (box.max - box.min) / (2^14 - 1) per axis
 //   log-scale  |err| <= 0.5 * (log_scale_max - log_scale_min) / 255
-//   opacity    |sigmoid err| <= 0.5 / 255
-//   SH0        |err| <= 0.5 * (dc_max - dc_min) / (2^bits - 1), bits = 7 (R, B) or 8 (G)
+//   opacity    |sigmoid err| <= 0.5 / 127
+//   SH0        |err| <= 0.5 * (dc_max - dc_min) / 127
 //   SH rest    |err| <= 0.5 * 2 * sh_rest_abs_max / 254 (254 steps so 0 is exact)
 //   rotation   unit quaternion; max component error (up to sign) <= kRotationMaxError
-//              (510 steps per component so the identity is exact)
-//   support    code round(16 log2(1 + s)) in 8 bits: relative error of (1 + s) <= 2^(1/32) - 1
-//              (~2.2 %), small counts exact; saturates at kMaxSupport (counted)
+//              (254 steps per component so the identity is exact)
+//   support    6-bit code c = round(4 log2(1 + s)): |log2(1 + s') - log2(1 + s)| <= 1/8
+//              before s' is rounded to an integer, i.e. (1 + s) is off by at most
+//              2^(1/8) - 1 (~9.1 %) plus 0.5; 0..7 are exact; saturates at kMaxSupport
+//              (counted). Support only orders the client's progressive publication, so
+//              the coarse code costs no image quality.
 //   id, object id, epoch, edit kinds: exact
 // Out-of-range input is clamped to the nearest representable value and counted in
 // CodecStats (never wrapped); non-finite values are replaced (position: box centre,
 // others: range midpoint / identity rotation) and counted.
 //
-// Wire layout of the uncompressed payload (all varints are LEB128, unsigned):
+// Wire layout of the uncompressed payload, version 2:
 //   "GAEB" | u8 version | u8 sh_degree | varint epoch |
-//   varint n_remove | varint n_replace | varint n_update | varint n_insert |
-//   remove ids           (sorted ascending, delta varints)
-//   replace ids          (sorted ascending, delta varints) then their leaving ids (zigzag delta varints)
-//   update ids, insert ids (each sorted ascending, delta varints)
-//   object ids for replace+update+insert (zigzag delta varints, in that order)
-//   support bytes        (one per replace+update+insert)
-//   records              (16 + 3 * sh_rest_count(sh_degree) bytes each, same order)
+//   varint n_remove | varint n_replace | varint n_update | varint n_insert |   (LEB128)
+//   bit stream, LSB-first; EG_k(v) is the order-k exponential-Golomb code of v (2n-k+1
+//   bits, n = index of the top bit of v + 2^k), k a 6-bit field chosen by the encoder:
+//     for each of remove, replace, update, insert ids (sorted ascending) with n > 0:
+//       k, then EG_k(first id), EG_k(id - previous id - 1) for the others
+//     replace leaving ids (n_replace > 0): k, EG_k(zigzag(leaving - previous leaving))
+//     the value edits (replace, update, insert, in that order), when there are any:
+//       object ids as runs of equal ids: EG_0(runs - 1), k_len, k_obj, then per run
+//         EG_k_len(length - 1), EG_k_obj(zigzag(object - previous run's object))
+//       support codes: 1 bit mode; 0: 6 bits per edit; 1: runs, as the object ids
+//         (EG_0(runs - 1), k_len, k_code, EG_k_len(length - 1), EG_k_code(zigzag(delta)))
+//       (the encoder picks the shorter mode)
+//     zero bits up to the next byte (a decoder rejects non-zero padding)
+//   records              (15 + 3 * sh_rest_count(sh_degree) bytes each, value-edit order)
+// So an SH0 Gaussian costs 15 bytes plus ~1 bit of id when ids are consecutive, ~4 when
+// one in five is sent, and its share of the object and support runs (6 bits at most
+// for support). gauss-bench host prints the figures.
 // The compressed batch is one zstd frame (level kZstdLevel) with its content size set.
 // Decoded batches hold removes, then replaces, updates, inserts, each sorted by id: the
 // client can free slots before it fills them. A batch names each id at most once.
@@ -94,26 +111,32 @@ struct CodecStats {
   }
 };
 
-inline constexpr int kCodecVersion = 1;
-// zstd level 1. Measured with `gauss-bench host` (bytes per Gaussian after zstd, 100k-200k
-// inserts): synthetic room SH0 8.67 (level 3: 8.49, level 9: 8.17), SH1 8.10 (level 3:
-// 8.29), 200k SH0 7.65 (7.40); real guitar.ply 16.00 at levels 1-9 (the record bits are
-// incompressible; zstd removes the id/object/support columns). Level 1 ran 1.5-4x faster
-// than level 3 for at most 3 % more bytes.
+inline constexpr int kCodecVersion = 2;
+// zstd level 1. Measured with `gauss-bench host` on version 1 (bytes per Gaussian after
+// zstd, 100k-200k inserts): synthetic room SH0 8.67 (level 3: 8.49, level 9: 8.17), SH1
+// 8.10 (level 3: 8.29), 200k SH0 7.65 (7.40); real guitar.ply 16.00 at levels 1-9 (the
+// record bits are incompressible). Level 1 ran 1.5-4x faster than level 3 for at most
+// 3 % more bytes.
 inline constexpr int kZstdLevel = 1;
-inline constexpr int kPositionBits = 15;
-inline constexpr int kRotationBits = 9;
+inline constexpr int kPositionBits = 14;
+inline constexpr int kRotationBits = 8;
 inline constexpr int kLogScaleBits = 8;
-inline constexpr int kOpacityBits = 8;
-inline constexpr int kDcBitsRB = 7;
-inline constexpr int kDcBitsG = 8;
+inline constexpr int kOpacityBits = 7;
+inline constexpr int kDcBits = 7;
 inline constexpr int kShRestBits = 8;
-inline constexpr std::size_t kRecordBytesSh0 = 16;
-// Largest decoded support, round(2^(255/16) - 1); input whose code would pass 255 (support
-// above ~64,130) is clamped and counted.
-inline constexpr std::uint32_t kMaxSupport = 62756;
-inline constexpr double kRotationMaxError = 0.0065;
-// Largest decoded payload accepted: 1M value edits at SH3 (61 B + ids) fit; a header that
+inline constexpr std::size_t kRecordBytesSh0 = 15;
+static_assert(3 * kPositionBits + 2 + 3 * kRotationBits + 3 * kLogScaleBits + kOpacityBits + 3 * kDcBits ==
+                  8 * kRecordBytesSh0,
+              "the SH0 record's fields fill its bytes exactly");
+// Support code: c = round(kSupportCodeSteps * log2(1 + s)) in kSupportCodeBits bits.
+inline constexpr int kSupportCodeBits = 6;
+inline constexpr int kSupportCodeSteps = 4;
+inline constexpr std::uint32_t kMaxSupportCode = (1u << kSupportCodeBits) - 1;
+// Largest decoded support, round(2^(63/4) - 1); input whose code would pass 63 (support
+// above ~60,100) is clamped and counted.
+inline constexpr std::uint32_t kMaxSupport = 55108;
+inline constexpr double kRotationMaxError = 0.013;
+// Largest decoded payload accepted: 1M value edits at SH3 (60 B + ids) fit; a header that
 // declares more is rejected before any allocation.
 inline constexpr std::size_t kMaxPayloadBytes = std::size_t{96} << 20;
 
