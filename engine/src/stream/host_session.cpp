@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <type_traits>
+#include <utility>
 
+#include <glm/common.hpp>
 #include <glm/gtc/quaternion.hpp>
 
 #include "gauss/engine/query.h"
@@ -105,6 +107,7 @@ std::vector<wire::Message> HostSession::on_message(const wire::Message& m, const
       return out;
     }
     pose_ = *pose;
+    follow_pose(*pose, now);
     return out;
   }
   if (const auto* q = std::get_if<msg::Query>(&m)) {
@@ -166,12 +169,42 @@ std::vector<wire::Message> HostSession::on_message(const wire::Message& m, const
   return out;
 }
 
-bool HostSession::pose_moved() const {
-  if (!pose_) return false;
-  if (!selected_pose_) return true;
-  const double d = glm::length(glm::dvec3(pose_->position) - glm::dvec3(selected_pose_->position));
-  const double c = glm::dot(forward_of(*pose_), forward_of(*selected_pose_));
-  return d > config_.pose_epsilon_m || std::acos(std::clamp(c, -1.0, 1.0)) > config_.pose_epsilon_rad;
+namespace {
+
+// Distance in metres and angle between view directions in radians.
+std::pair<double, double> pose_distance(const msg::HeadPose& a, const msg::HeadPose& b) {
+  const double d = glm::length(glm::dvec3(a.position) - glm::dvec3(b.position));
+  const double c = glm::dot(forward_of(a), forward_of(b));
+  return {d, std::acos(std::clamp(c, -1.0, 1.0))};
+}
+
+}  // namespace
+
+void HostSession::follow_pose(const msg::HeadPose& pose, double now) {
+  if (!centre_ || !(config_.pose_smoothing_s > 0.0)) {
+    centre_ = pose;
+    centre_time_ = now;
+    return;
+  }
+  // Exponential low-pass in host time: poses arrive at an uneven rate over a real link.
+  const double a = 1.0 - std::exp(-std::max(0.0, now - centre_time_) / config_.pose_smoothing_s);
+  centre_time_ = now;
+  msg::HeadPose c = pose;  // FOV and sequence from the newest pose
+  c.position = glm::mix(centre_->position, pose.position, static_cast<float>(a));
+  const glm::dquat from(centre_->rotation[0], centre_->rotation[1], centre_->rotation[2], centre_->rotation[3]);
+  const glm::dquat to(pose.rotation[0], pose.rotation[1], pose.rotation[2], pose.rotation[3]);
+  const glm::dquat q = glm::normalize(glm::slerp(glm::normalize(from), glm::normalize(to), a));
+  c.rotation = glm::vec4(static_cast<float>(q.w), static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z));
+  centre_ = c;
+}
+
+HostSession::Motion HostSession::pose_motion() const {
+  if (!pose_) return Motion::None;
+  if (!selected_pose_) return Motion::Jump;
+  const auto [raw_m, raw_rad] = pose_distance(*pose_, *selected_pose_);
+  if (raw_m > config_.pose_jump_m || raw_rad > config_.pose_jump_rad) return Motion::Jump;
+  const auto [m, rad] = pose_distance(centre_.value_or(*pose_), *selected_pose_);
+  return m > config_.pose_epsilon_m || rad > config_.pose_epsilon_rad ? Motion::Drift : Motion::None;
 }
 
 msg::SceneInfo HostSession::scene_info(const SceneStore& scene) const {
@@ -195,7 +228,8 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
   const bool new_epoch = !sent_epoch_ || to_underlying(epoch) > to_underlying(*sent_epoch_);
   const std::uint64_t acked = last_ack_ ? last_ack_->last_batch_id : 0;
   const bool link_keeps_up = (next_batch_id_ - 1) - acked <= config_.max_unacked_batches;
-  const bool moved = pose_moved() || query_changed_;
+  const Motion motion = pose_motion();
+  const bool moved = motion != Motion::None || query_changed_;
   if (!needs_resync_ && !new_epoch && !(moved && link_keeps_up)) return out;
 
   SelectionRequest req;
@@ -203,13 +237,20 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
   req.client_capacity = capacity_;
   req.query = query_;
   req.rho = query_ ? rho_ : 0.0;
-  const msg::HeadPose pose = pose_.value_or(msg::HeadPose{});
+  // A jump selects at the raw pose and restarts the sway centre there; anything else
+  // (drift, a new epoch, a query) selects at the sway centre, so a scene update while
+  // the user sways does not pick up the sway's current extreme.
+  if (motion == Motion::Jump && pose_) {
+    centre_ = pose_;
+    centre_time_ = now;
+  }
+  const msg::HeadPose pose = centre_ ? *centre_ : pose_.value_or(msg::HeadPose{});
   auto sel = selector_.select(scene, to_client_pose(pose), req);
   if (!sel) return Error{"host session " + std::to_string(client_id_) + ": selection failed: " + sel.message()};
   if (needs_resync_) differ_.reset();
   auto batch = differ_.diff(*sel, scene);
   if (!batch) return Error{"host session " + std::to_string(client_id_) + ": diff failed: " + batch.message()};
-  selected_pose_ = pose_;
+  if (pose_) selected_pose_ = pose;
   const bool had_query_change = query_changed_;
   query_changed_ = false;
   sent_ids_ = sel->ids;

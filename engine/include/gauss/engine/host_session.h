@@ -42,10 +42,27 @@ struct HostSessionConfig {
   // more than this many batches are unacknowledged: a slow link gets one coalesced
   // batch later instead of a queue of stale ones.
   std::uint32_t max_unacked_batches{2};
-  // A pose change smaller than this (metres, or radians of view direction) does not
-  // trigger a selection-only batch.
+  // Re-selection under head motion (selection-only batches). A standing user sways a
+  // few centimetres and degrees around a pose; re-selecting at each extreme of that
+  // sway swaps the selector's marginal Gaussians out and back in (flicker): its
+  // retention bonus is relative, and the facing ramp outside the frustum changes the
+  // utility of a Gaussian near the ramp's end by far more than 30 % per degree.
+  // So the host follows two poses:
+  //   - the sway centre: the reported pose low-passed with time constant
+  //     `pose_smoothing_s` (0 = follow the raw pose, no sway rejection). When it has
+  //     drifted more than `pose_epsilon_m` / `pose_epsilon_rad` (radians of view
+  //     direction) from the pose of the last selection, the host re-selects at it.
+  //   - the raw pose: a move beyond `pose_jump_m` / `pose_jump_rad` from the pose of the
+  //     last selection (walking, a head turn, a teleport) re-selects at once at the raw
+  //     pose and restarts the low-pass there, so real motion is never lagged by more
+  //     than the jump threshold.
+  // A sway whose low-passed amplitude stays below epsilon and whose raw amplitude stays
+  // below the jump threshold never re-selects: no churn, no flicker.
   double pose_epsilon_m{0.05};
   double pose_epsilon_rad{0.05};
+  double pose_smoothing_s{1.0};
+  double pose_jump_m{0.15};
+  double pose_jump_rad{0.15};
 };
 
 struct HostSessionStats {
@@ -94,7 +111,10 @@ class HostSession {
  private:
   void reject(std::uint64_t& counter, std::string reason);
   msg::SceneInfo scene_info(const SceneStore& scene) const;
-  bool pose_moved() const;
+  // Why the host should re-select for the client's motion, if at all.
+  enum class Motion { None, Drift, Jump };
+  Motion pose_motion() const;
+  void follow_pose(const msg::HeadPose& pose, double now);
 
   std::uint32_t client_id_;
   std::uint64_t session_id_;
@@ -109,8 +129,10 @@ class HostSession {
   bool closed_{false};
   bool needs_resync_{false};
   std::uint32_t capacity_{0};
-  std::optional<msg::HeadPose> pose_;
-  std::optional<msg::HeadPose> selected_pose_;  // pose of the last selection
+  std::optional<msg::HeadPose> pose_;           // latest reported (raw) pose
+  std::optional<msg::HeadPose> centre_;         // low-passed pose: the sway centre
+  double centre_time_{0.0};                     // host time of the last low-pass step
+  std::optional<msg::HeadPose> selected_pose_;  // pose the last selection was made at
   std::optional<SemanticQuery> query_;
   double rho_{0.0};
   bool query_changed_{false};
