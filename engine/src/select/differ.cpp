@@ -23,6 +23,7 @@ struct Differ::Impl {
   std::vector<GaussianId> leavers;
   std::vector<std::uint32_t> enterers;  // positions in the desired selection
   std::vector<std::uint32_t> updated;   // positions in the desired selection
+  std::vector<std::uint32_t> enterer_slots;  // their entries in `next`
   std::vector<std::uint32_t> order;     // desired positions in id order (when not sorted)
   std::vector<GaussianId> modified_scratch;
 };
@@ -127,6 +128,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
   s.stats = DiffStats{};
   s.leavers.clear();
   s.enterers.clear();
+  s.enterer_slots.clear();
   s.next.clear();
   s.next.reserve(m);
   s.updated.clear();
@@ -145,6 +147,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
     if (!has_a || id < s.sent[a].id) {
       if (auto err = mismatch(k)) return *err;
       s.enterers.push_back(k);
+      s.enterer_slots.push_back(static_cast<std::uint32_t>(s.next.size()));
       s.next.push_back(Impl::Sent{id, 0});  // hash filled below
       continue;
     }
@@ -171,11 +174,11 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
   EditBatch batch;
   batch.epoch = epoch;
   const std::size_t replaces = std::min(s.leavers.size(), s.enterers.size());
-  // Edits are built in place: a Gaussian is copied once, straight from the scene.
-  batch.edits.resize(s.leavers.size() + s.enterers.size() - replaces + s.updated.size());
-  std::size_t out = 0;
+  // Edits are built in place: a Gaussian is copied once, straight from the scene (an
+  // Edit{...} temporary pushed back would copy it twice).
+  batch.edits.reserve(s.leavers.size() + s.enterers.size() - replaces + s.updated.size());
   auto emit = [&](EditKind kind, GaussianId id, GaussianId leaving, const Gaussian* value) {
-    Edit& e = batch.edits[out++];
+    Edit& e = batch.edits.emplace_back();
     e.kind = kind;
     e.id = id;
     e.leaving = leaving;
@@ -192,14 +195,9 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
     const std::uint32_t k = s.enterers[j];
     emit(EditKind::Insert, desired.ids[k], GaussianId{0}, &gaussians[desired.indices[k]]);
   }
-  // Enterers' hashes (the next state holds them at their id positions: fill by a second
-  // merge-free pass, as both lists are in id order).
-  std::size_t e = 0;
-  for (Impl::Sent& n : s.next) {
-    if (e < s.enterers.size() && n.id == desired.ids[s.enterers[e]]) {
-      n.hash = quantized_hash(gaussians[desired.indices[s.enterers[e]]], s.params);
-      ++e;
-    }
+  // Enterers' hashes, at the entries the merge gave them.
+  for (std::size_t j = 0; j < s.enterers.size(); ++j) {
+    s.next[s.enterer_slots[j]].hash = quantized_hash(gaussians[desired.indices[s.enterers[j]]], s.params);
   }
   s.sent.swap(s.next);
   s.stats.replaces = replaces;

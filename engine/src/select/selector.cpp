@@ -228,6 +228,17 @@ struct Selector::Impl {
   std::vector<GaussianId> resident_ids;
   std::vector<std::uint8_t> resident_flags;
   bool resident_flags_valid{false};
+  // After a select() the resident set is held as flags only (copying M ids per call
+  // would cost more than the lookups it saves); resident_ids is filled from them when a
+  // rebuild is about to replace the positions they refer to.
+  bool resident_ids_from_flags{false};
+  void materialise_resident_ids() {
+    if (!resident_ids_from_flags) return;
+    resident_ids.clear();
+    for (std::size_t j = 0; j < resident_flags.size(); ++j)
+      if (resident_flags[j]) resident_ids.push_back(GaussianId{ids[j]});
+    resident_ids_from_flags = false;
+  }
   select_detail::TopK top;
   std::vector<std::uint8_t> object_flags;  // object id -> in query (ids < kFlagLimit)
 
@@ -328,11 +339,13 @@ const SelectorConfig& Selector::config() const { return impl_->config; }
 
 void Selector::set_resident(std::span<const GaussianId> ids) {
   impl_->resident_ids.assign(ids.begin(), ids.end());
+  impl_->resident_ids_from_flags = false;
   impl_->resident_flags_valid = false;
 }
 
 void Selector::clear_resident() {
   impl_->resident_ids.clear();
+  impl_->resident_ids_from_flags = false;
   impl_->resident_flags_valid = false;
 }
 
@@ -385,6 +398,7 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
     out.query = std::move(*res);
   }
   if (!s.cached || s.version != scene_version || s.data != gaussians.data() || s.n != gaussians.size()) {
+    s.materialise_resident_ids();
     s.rebuild(gaussians, scene_version);
     s.resident_flags_valid = false;
   }
@@ -519,11 +533,16 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
   // The set in ascending id order: positions are id ranks, so one sequential pass. About
   // four in five flags are 0 at M = N / 5: skip zero words eight flags at a time.
   const std::size_t total = out.object_selected + out.background_selected;
-  out.ids.reserve(total);
-  out.indices.reserve(total);
+  out.ids.resize(total);
+  out.indices.resize(total);
+  GaussianId* out_id = out.ids.data();
+  std::uint32_t* out_index = out.indices.data();
+  std::size_t t = 0;
   std::size_t retained = 0;
   const std::uint8_t* sel = s.selected.data();
-  for (std::size_t j = 0; j < n;) {
+  // t < total always holds (the layers marked exactly `total` flags); the bound keeps a
+  // broken invariant from writing past the output.
+  for (std::size_t j = 0; j < n && t < total;) {
     if (j + 8 <= n) {
       std::uint64_t w;
       std::memcpy(&w, sel + j, 8);
@@ -533,16 +552,21 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
       }
     }
     const std::size_t end = std::min(n, j + 8);
-    for (; j < end; ++j) {
+    for (; j < end && t < total; ++j) {
       if (!sel[j]) continue;
-      out.ids.push_back(GaussianId{s.ids[j]});
-      out.indices.push_back(s.span_index(j));
+      out_id[t] = GaussianId{s.ids[j]};
+      out_index[t] = s.span_index(j);
       retained += s.resident_flags[j];
+      ++t;
     }
   }
+  out.ids.resize(t);
+  out.indices.resize(t);
   out.retained = retained;
-  s.resident_ids = out.ids;
-  s.resident_flags.swap(s.selected);  // same version: the next call's flags, no lookups
+  // Same version next time: these flags are the next call's hysteresis state, no id
+  // lookups; the ids are only materialised if the scene changes first (see select()).
+  s.resident_flags.swap(s.selected);
+  s.resident_ids_from_flags = true;
   return out;
 }
 
