@@ -177,10 +177,16 @@ TEST(DesiredState, ResyncKeepsEqualRecordsAndDropsTheRest) {
 // Reference model: a map of the desired set; after publishing everything, the slot
 // table must hold exactly that map. Random batches with bad edits mixed in, random
 // partial publication between them.
-TEST(DesiredState, PropertyMatchesReferenceModel) {
-  for (std::uint64_t seed = 1; seed <= 40; ++seed) {
+namespace {
+
+// Random batches of up to `max_edits` edits against a std::map model, publishing
+// progressively in between; the end state must equal the model exactly. Batches longer
+// than DesiredState::apply's prefetch distance (16 edits) exercise its software
+// pipeline, including ids edited again (cancelled, re-inserted) within that distance.
+void property_run(std::uint64_t first_seed, int seeds, int max_edits, std::uint32_t max_cap) {
+  for (std::uint64_t seed = first_seed; seed < first_seed + static_cast<std::uint64_t>(seeds); ++seed) {
     std::mt19937_64 rng(seed);
-    const std::uint32_t cap = 1 + static_cast<std::uint32_t>(rng() % 40);
+    const std::uint32_t cap = 1 + static_cast<std::uint32_t>(rng() % max_cap);
     DesiredState d(cap);
     auto t = SlotTable::create(cap).value();
     Publisher pub(PublisherConfig{.mode = PublishMode::Progressive, .allowance_min = 1, .allowance_max = 3, .allowance_initial = 2});
@@ -189,13 +195,22 @@ TEST(DesiredState, PropertyMatchesReferenceModel) {
     for (std::uint64_t epoch = 1; epoch <= 60; ++epoch) {
       std::vector<Edit> edits;
       std::map<std::uint64_t, float> after = model;
-      const int n = static_cast<int>(rng() % 8);
+      const int n = static_cast<int>(rng() % static_cast<std::uint64_t>(max_edits));
+      std::vector<std::uint64_t> removed;
       for (int k = 0; k < n; ++k) {
         const float x = static_cast<float>(rng() % 1000);
-        const int op = static_cast<int>(rng() % 5);
+        const int op = static_cast<int>(rng() % 6);
         if (op == 0 && after.size() < cap) {
           edits.push_back(ins(next, x));
           after[next++] = x;
+        } else if (op == 5 && !removed.empty() && after.size() < cap) {
+          // Re-insert an id removed earlier in this batch: a pending insert cancelled
+          // and its entry released, or a published id's remove superseded.
+          const std::uint64_t id = removed.back();
+          removed.pop_back();
+          if (after.count(id)) continue;
+          edits.push_back(ins(id, x));
+          after[id] = x;
         } else if (op == 1 && !after.empty()) {
           auto it = std::next(after.begin(), static_cast<long>(rng() % after.size()));
           edits.push_back(upd(it->first, x));
@@ -203,6 +218,7 @@ TEST(DesiredState, PropertyMatchesReferenceModel) {
         } else if (op == 2 && !after.empty()) {
           auto it = std::next(after.begin(), static_cast<long>(rng() % after.size()));
           edits.push_back(rem(it->first));
+          removed.push_back(it->first);
           after.erase(it);
         } else if (op == 3 && !after.empty()) {
           auto it = std::next(after.begin(), static_cast<long>(rng() % after.size()));
@@ -239,6 +255,46 @@ TEST(DesiredState, PropertyMatchesReferenceModel) {
     EXPECT_EQ(d.desired_checksum(), model_sum);
     EXPECT_EQ(d.published_epoch(), Epoch{60});
   }
+}
+
+}  // namespace
+
+TEST(DesiredState, PropertyMatchesReferenceModel) { property_run(1, 40, 8, 40); }
+
+TEST(DesiredState, PropertyMatchesReferenceModelInLargeBatches) { property_run(100, 20, 400, 64); }
+
+// gaussian_is_finite checks the record's floats as one block of exponent bits: a NaN
+// or infinity in any float field is caught, every finite value (zero, -0, denormals,
+// the largest float) passes.
+TEST(DesiredState, NonFiniteValueInAnyFloatFieldIsRejected) {
+  const float bad[] = {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
+                       -std::numeric_limits<float>::infinity()};
+  const float good[] = {0.0f, -0.0f, std::numeric_limits<float>::denorm_min(), std::numeric_limits<float>::max(),
+                        -std::numeric_limits<float>::max()};
+  std::vector<float*(*)(Gaussian&)> fields = {
+      [](Gaussian& g) { return &g.position.x; },       [](Gaussian& g) { return &g.position.z; },
+      [](Gaussian& g) { return &g.log_scale.y; },      [](Gaussian& g) { return &g.rotation[0]; },
+      [](Gaussian& g) { return &g.rotation[3]; },      [](Gaussian& g) { return &g.opacity_logit; },
+      [](Gaussian& g) { return &g.sh_dc.z; },          [](Gaussian& g) { return &g.sh_rest[0].x; },
+      [](Gaussian& g) { return &g.sh_rest[kMaxShRest - 1].z; }};
+  for (auto field : fields) {
+    for (float v : bad) {
+      Gaussian g = val(1.0f);
+      *field(g) = v;
+      EXPECT_FALSE(gaussian_is_finite(g));
+    }
+    for (float v : good) {
+      Gaussian g = val(1.0f);
+      *field(g) = v;
+      EXPECT_TRUE(gaussian_is_finite(g));
+    }
+  }
+  // Non-float fields hold any bits.
+  Gaussian g = val(1.0f);
+  g.id = GaussianId{~std::uint64_t{0} - 1};
+  g.support = 0xFFFFFFFFu;
+  g.object = ObjectId{-1};
+  EXPECT_TRUE(gaussian_is_finite(g));
 }
 
 // The flat id index against std::map over random inserts, overwrites and erases

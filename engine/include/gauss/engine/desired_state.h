@@ -20,7 +20,6 @@
 // arrived.
 #include <cstddef>
 #include <cstdint>
-#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -36,10 +35,31 @@ namespace gauss {
 
 namespace detail {
 
+// Allocator for the coalescing tables (id index, entry pool): blocks of 4 MiB and more
+// are 2 MiB aligned and, on Linux, advised onto transparent huge pages. Coalescing
+// touches one random index cell and one random entry per edit; over hundreds of
+// megabytes of 4 KiB pages nearly every touch also misses the TLB, and the page walk
+// costs about as much as the miss itself.
+void* alloc_table(std::size_t bytes, std::size_t align);
+void free_table(void* p, std::size_t bytes, std::size_t align) noexcept;
+
+template <class T>
+struct TableAllocator {
+  using value_type = T;
+  TableAllocator() noexcept = default;
+  template <class U>
+  TableAllocator(const TableAllocator<U>&) noexcept {}
+  T* allocate(std::size_t n) { return static_cast<T*>(alloc_table(n * sizeof(T), alignof(T))); }
+  void deallocate(T* p, std::size_t n) noexcept { free_table(p, n * sizeof(T), alignof(T)); }
+  template <class U>
+  bool operator==(const TableAllocator<U>&) const noexcept { return true; }
+};
+
 // IdIndex: GaussianId -> entry index, an open-addressing hash table with linear
 // probing and backward-shift deletion. The client's coalescing does one lookup per
 // received edit into a table of up to M ids; std::unordered_map costs a node (a second
-// cache miss) per lookup, this costs one probe run in two flat arrays.
+// cache miss) per lookup, this costs one probe run in one flat array of (key, value)
+// cells (key and value side by side: one cache miss per lookup, not two).
 // The id 2^64 - 1 marks an empty cell and cannot be stored (DesiredState rejects it).
 
 class IdIndex {
@@ -50,25 +70,30 @@ class IdIndex {
 
   // Pointer to the value of key, or nullptr.
   std::uint32_t* find(std::uint64_t key) {
-    if (keys_.empty()) return nullptr;
+    if (cells_.empty()) return nullptr;
     for (std::size_t i = slot(key);; i = (i + 1) & mask_) {
-      if (keys_[i] == key) return &vals_[i];
-      if (keys_[i] == kEmpty) return nullptr;
+      if (cells_[i].key == key) return &cells_[i].value;
+      if (cells_[i].key == kEmpty) return nullptr;
     }
   }
   const std::uint32_t* find(std::uint64_t key) const { return const_cast<IdIndex*>(this)->find(key); }
 
+  // Asks the cache for the cell where a lookup of key starts (batched lookups issue
+  // this a few edits ahead so the miss overlaps other work).
+  // Unconditional on purpose: GCC drops a prefetch guarded by a branch that does
+  // nothing else. On an empty table this prefetches data() + 0, which never faults.
+  void prefetch(std::uint64_t key) const { __builtin_prefetch(cells_.data() + slot(key), 0, 3); }
+
   // Inserts or overwrites.
   void set(std::uint64_t key, std::uint32_t value) {
-    if ((count_ + 1) * 2 > keys_.size()) grow();
+    if ((count_ + 1) * 2 > cells_.size()) grow();
     for (std::size_t i = slot(key);; i = (i + 1) & mask_) {
-      if (keys_[i] == key) {
-        vals_[i] = value;
+      if (cells_[i].key == key) {
+        cells_[i].value = value;
         return;
       }
-      if (keys_[i] == kEmpty) {
-        keys_[i] = key;
-        vals_[i] = value;
+      if (cells_[i].key == kEmpty) {
+        cells_[i] = Cell{key, value};
         ++count_;
         return;
       }
@@ -77,63 +102,63 @@ class IdIndex {
 
   // Removes key if present. Backward shift keeps every probe run unbroken.
   void erase(std::uint64_t key) {
-    if (keys_.empty()) return;
+    if (cells_.empty()) return;
     std::size_t i = slot(key);
-    while (keys_[i] != key) {
-      if (keys_[i] == kEmpty) return;
+    while (cells_[i].key != key) {
+      if (cells_[i].key == kEmpty) return;
       i = (i + 1) & mask_;
     }
     for (std::size_t j = (i + 1) & mask_;; j = (j + 1) & mask_) {
-      if (keys_[j] == kEmpty) break;
-      const std::size_t home = slot(keys_[j]);
+      if (cells_[j].key == kEmpty) break;
+      const std::size_t home = slot(cells_[j].key);
       // Move j back to i when i lies cyclically in [home, j).
       if (((j - home) & mask_) >= ((j - i) & mask_)) {
-        keys_[i] = keys_[j];
-        vals_[i] = vals_[j];
+        cells_[i] = cells_[j];
         i = j;
       }
     }
-    keys_[i] = kEmpty;
+    cells_[i].key = kEmpty;
     --count_;
   }
 
   void reserve(std::size_t n) {
-    while (n * 2 > keys_.size()) grow();
+    while (n * 2 > cells_.size()) grow();
   }
 
   template <class F>
   void for_each(F&& f) const {
-    for (std::size_t i = 0; i < keys_.size(); ++i)
-      if (keys_[i] != kEmpty) f(keys_[i], vals_[i]);
+    for (const Cell& c : cells_)
+      if (c.key != kEmpty) f(c.key, c.value);
   }
 
  private:
+  struct Cell {
+    std::uint64_t key{kEmpty};
+    std::uint32_t value{0};
+  };
+
   std::size_t slot(std::uint64_t key) const {
     // Fibonacci hashing: host ids are often dense runs; multiply-shift spreads them.
     return static_cast<std::size_t>((key * 0x9e3779b97f4a7c15ull) >> shift_) & mask_;
   }
   void grow() {
-    std::vector<std::uint64_t> old_keys;
-    std::vector<std::uint32_t> old_vals;
-    old_keys.swap(keys_);
-    old_vals.swap(vals_);
-    const std::size_t cap = old_keys.empty() ? 64 : old_keys.size() * 2;
-    keys_.assign(cap, kEmpty);
-    vals_.assign(cap, 0);
+    std::vector<Cell, TableAllocator<Cell>> old;
+    old.swap(cells_);
+    const std::size_t cap = old.empty() ? 64 : old.size() * 2;
+    cells_.assign(cap, Cell{});
     mask_ = cap - 1;
     int bits = 0;
     while ((std::size_t{1} << bits) < cap) ++bits;
     shift_ = 64 - bits;
     count_ = 0;
-    for (std::size_t i = 0; i < old_keys.size(); ++i)
-      if (old_keys[i] != kEmpty) set(old_keys[i], old_vals[i]);
+    for (const Cell& c : old)
+      if (c.key != kEmpty) set(c.key, c.value);
   }
 
-  std::vector<std::uint64_t> keys_;
-  std::vector<std::uint32_t> vals_;
+  std::vector<Cell, TableAllocator<Cell>> cells_;
   std::size_t count_{0};
   std::size_t mask_{0};
-  int shift_{64};
+  int shift_{63};  // with mask_ 0 every key maps to cell 0 (and the shift stays defined)
 };
 
 }  // namespace detail
@@ -163,10 +188,10 @@ struct ApplyReport {
 };
 
 // One persistent id's state. Kept while the id is desired, published or pending.
-struct DesiredEntry {
+// Cache-line aligned with the bookkeeping first: coalescing touches an entry at random
+// per edit, and a known line layout lets DesiredState::apply prefetch exactly it.
+struct alignas(64) DesiredEntry {
   GaussianId id{0};
-  Gaussian value{};                 // newest desired record (last published one after a remove)
-  glm::vec3 published_position{0.0f};  // of the published record: view relevance of a remove
   Epoch epoch{0};                   // epoch of the newest edit of this id
   double pending_since{0.0};        // when the id first had something pending (age)
   float magnitude{0.0f};            // change size of the pending edit in [0, 1]
@@ -174,6 +199,11 @@ struct DesiredEntry {
   bool published{false};            // resident in a slot
   bool dirty{false};                // desired record differs from the published one
   std::uint32_t pending_pos{kNotPending};  // position in the pending list
+  glm::vec3 published_position{0.0f};  // of the published record: view relevance of a remove
+  // Places `value` so that all but its first 8 bytes fill whole cache lines (1..4):
+  // coalescing overwrites those with streaming stores, never reading them first.
+  std::uint8_t pad_[8]{};
+  Gaussian value{};                 // newest desired record (last published one after a remove)
   static constexpr std::uint32_t kNotPending = 0xFFFFFFFFu;
 
   PendingKind pending_kind() const {
@@ -187,6 +217,9 @@ struct DesiredEntry {
 class DesiredState {
  public:
   // capacity = the client's budget M (validated by SlotTable::create beforehand).
+  // Allocates (and touches) the id index and the entries for M ids up front, as the
+  // SlotTable does for its records: a batch then costs no allocation, no rehash and no
+  // first-touch page faults (which were most of the cost of a large insert batch).
   explicit DesiredState(std::uint32_t capacity);
 
   // Applies one received batch at time `now` (seconds, for the age of pending edits).
@@ -220,7 +253,7 @@ class DesiredState {
   // Epoch of the oldest pending edit (nullopt when nothing is pending).
   std::optional<Epoch> oldest_pending_epoch() const {
     if (epoch_counts_.empty()) return std::nullopt;
-    return Epoch{epoch_counts_.begin()->first};
+    return Epoch{epoch_counts_.front().epoch};
   }
 
   // Order-independent checksums (see record_hash) of the desired set and of the
@@ -243,12 +276,18 @@ class DesiredState {
 
   std::uint32_t capacity_;
   detail::IdIndex index_;  // id -> entry
-  std::vector<DesiredEntry> entries_;
+  std::vector<DesiredEntry, detail::TableAllocator<DesiredEntry>> entries_;
   std::vector<std::uint32_t> free_entries_;
   std::vector<std::uint32_t> pending_;
-  // Pending entries per epoch: the oldest pending epoch bounds the barrier. Few distinct
-  // epochs are pending at once, so the map stays tiny.
-  std::map<std::uint64_t, std::uint32_t> epoch_counts_;
+  // Pending entries per epoch, ascending by epoch: the oldest pending epoch bounds the
+  // barrier. Few distinct epochs are pending at once and nearly every edit counts into
+  // the newest, so a flat vector searched from the back beats a map (two tree walks per
+  // edit).
+  struct EpochCount {
+    std::uint64_t epoch;
+    std::uint32_t count;
+  };
+  std::vector<EpochCount> epoch_counts_;
   std::optional<Epoch> received_;
   mutable std::optional<Epoch> published_floor_;  // highest published epoch reported so far
   std::size_t desired_count_{0};
