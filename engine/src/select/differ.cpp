@@ -175,29 +175,40 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
   batch.epoch = epoch;
   const std::size_t replaces = std::min(s.leavers.size(), s.enterers.size());
   // Edits are built in place: a Gaussian is copied once, straight from the scene (an
-  // Edit{...} temporary pushed back would copy it twice).
+  // Edit{...} temporary pushed back would copy it twice). The scene is large and the
+  // copied Gaussians are scattered through it, so the copy is cache misses more than
+  // work: the Gaussians a few edits ahead are prefetched, and an enterer's hash is taken
+  // from its fresh copy rather than from the scene again.
   batch.edits.reserve(s.leavers.size() + s.enterers.size() - replaces + s.updated.size());
-  auto emit = [&](EditKind kind, GaussianId id, GaussianId leaving, const Gaussian* value) {
+  auto prefetch = [&](std::uint32_t k) {
+    const auto* p = reinterpret_cast<const char*>(&gaussians[desired.indices[k]]);
+    for (std::size_t line = 0; line < sizeof(Gaussian); line += 64) __builtin_prefetch(p + line);
+  };
+  constexpr std::size_t kAhead = 8;
+  auto emit = [&](EditKind kind, GaussianId id, GaussianId leaving, const Gaussian* value) -> Edit& {
     Edit& e = batch.edits.emplace_back();
     e.kind = kind;
     e.id = id;
     e.leaving = leaving;
     if (value) e.value = *value;
+    return e;
   };
   for (std::size_t j = replaces; j < s.leavers.size(); ++j) emit(EditKind::Remove, s.leavers[j], GaussianId{0}, nullptr);
   // Leavers and enterers are both in ascending id order: pair them in that order.
-  for (std::size_t j = 0; j < replaces; ++j) {
-    const std::uint32_t k = s.enterers[j];
-    emit(EditKind::Replace, desired.ids[k], s.leavers[j], &gaussians[desired.indices[k]]);
-  }
-  for (std::uint32_t k : s.updated) emit(EditKind::Update, desired.ids[k], GaussianId{0}, &gaussians[desired.indices[k]]);
-  for (std::size_t j = replaces; j < s.enterers.size(); ++j) {
-    const std::uint32_t k = s.enterers[j];
-    emit(EditKind::Insert, desired.ids[k], GaussianId{0}, &gaussians[desired.indices[k]]);
-  }
-  // Enterers' hashes, at the entries the merge gave them.
   for (std::size_t j = 0; j < s.enterers.size(); ++j) {
-    s.next[s.enterer_slots[j]].hash = quantized_hash(gaussians[desired.indices[s.enterers[j]]], s.params);
+    if (j + kAhead < s.enterers.size()) prefetch(s.enterers[j + kAhead]);
+    if (j == replaces) {
+      // Updates sit between replaces and inserts in the batch.
+      for (std::uint32_t k : s.updated) emit(EditKind::Update, desired.ids[k], GaussianId{0}, &gaussians[desired.indices[k]]);
+    }
+    const std::uint32_t k = s.enterers[j];
+    const bool replace = j < replaces;
+    const Edit& e = emit(replace ? EditKind::Replace : EditKind::Insert, desired.ids[k],
+                         replace ? s.leavers[j] : GaussianId{0}, &gaussians[desired.indices[k]]);
+    s.next[s.enterer_slots[j]].hash = quantized_hash(e.value, s.params);
+  }
+  if (replaces == s.enterers.size()) {
+    for (std::uint32_t k : s.updated) emit(EditKind::Update, desired.ids[k], GaussianId{0}, &gaussians[desired.indices[k]]);
   }
   s.sent.swap(s.next);
   s.stats.replaces = replaces;
