@@ -112,11 +112,11 @@ struct CodecStats {
 };
 
 inline constexpr int kCodecVersion = 2;
-// zstd level 1. Measured with `gauss-bench host` on version 1 (bytes per Gaussian after
-// zstd, 100k-200k inserts): synthetic room SH0 8.67 (level 3: 8.49, level 9: 8.17), SH1
-// 8.10 (level 3: 8.29), 200k SH0 7.65 (7.40); real guitar.ply 16.00 at levels 1-9 (the
-// record bits are incompressible). Level 1 ran 1.5-4x faster than level 3 for at most
-// 3 % more bytes.
+// zstd level 1. Measured with `gauss-bench host` at version 2 (bytes per Gaussian after
+// zstd, 100k-200k inserts; raw 15.15): synthetic room SH0 8.00 (level 3: 7.71, level 9:
+// 7.20), SH1 7.28 (7.25), 200k SH0 6.93 (6.50); real guitar.ply 14.98 at levels 1-9 (the
+// record bits are incompressible; raw 15.13). Level 1 ran ~2x faster than level 3 for
+// at most 7 % more bytes.
 inline constexpr int kZstdLevel = 1;
 inline constexpr int kPositionBits = 14;
 inline constexpr int kRotationBits = 8;
