@@ -138,3 +138,44 @@ TEST(Publisher, FullReplacementNeverExceedsTheBudget) {
   for (std::uint64_t i = 0; i < cap; ++i) ASSERT_TRUE(f.slots.contains(GaussianId{i + 1001}));
   EXPECT_EQ(frames, (cap + 6) / 7);
 }
+
+// A far teleport replaces a full table: the leaving Gaussians are all out of view, so
+// which of them gives up its slot first does not matter to the viewer, but it decides
+// how many upload ranges a frame needs. They go in slot order: a frame's inserts land
+// in consecutive slots. (Ordered by their support-driven priority instead, the slots
+// were scattered: about one upload range per write.)
+TEST(Publisher, InvisibleRemovesGiveUpTheirSlotsInSlotOrder) {
+  constexpr std::uint32_t kCap = 4000;
+  Fixture f(kCap);
+  std::mt19937 rng(5);
+  std::vector<Edit> first;
+  for (std::uint64_t i = 0; i < kCap; ++i) {
+    Edit e = ins(i + 1, {0, 0, -2});  // behind the viewer of the second frame
+    e.value.support = rng() % 64;       // priorities differ, visibility does not
+    first.push_back(e);
+  }
+  ASSERT_TRUE(f.desired.apply({Epoch{1}, first}, 0.0).ok());
+  Publisher imm(PublisherConfig{.mode = PublishMode::Immediate});
+  ASSERT_TRUE(imm.publish(f.desired, f.slots, {}, 0.0).ok());
+  (void)f.slots.take_dirty_ranges();
+  std::vector<Edit> swap;
+  for (std::uint64_t i = 0; i < kCap; ++i) swap.push_back(Edit{EditKind::Remove, GaussianId{i + 1}, GaussianId{0}, {}});
+  for (std::uint64_t i = 0; i < kCap; ++i) swap.push_back(ins(kCap + i + 1, {0, 0, 2}));
+  ASSERT_TRUE(f.desired.apply({Epoch{2}, swap}, 1.0).ok());
+  Publisher p(PublisherConfig{.mode = PublishMode::Progressive, .allowance_min = 500, .allowance_max = 500, .allowance_initial = 500});
+  const ViewState view{{0, 0, 0}, {0, 0, 1}};
+  for (int frame = 0; frame < 3; ++frame) {
+    auto r = p.publish(f.desired, f.slots, view, 1.0);
+    ASSERT_TRUE(r.ok()) << r.message();
+    EXPECT_EQ(r->slot_writes(), 500u);
+    const auto ranges = f.slots.take_dirty_ranges();
+    EXPECT_LE(ranges.size(), 2u) << "frame " << frame;
+    EXPECT_TRUE(f.slots.check().ok());
+  }
+  while (f.desired.pending_count() > 0) ASSERT_TRUE(p.publish(f.desired, f.slots, view, 1.0).ok());
+  EXPECT_EQ(f.slots.size(), kCap);
+  for (std::uint64_t i = 0; i < kCap; ++i) {
+    EXPECT_EQ(f.slots.slot_of(GaussianId{i + 1}), kNoSlot);
+    EXPECT_NE(f.slots.slot_of(GaussianId{kCap + i + 1}), kNoSlot);
+  }
+}

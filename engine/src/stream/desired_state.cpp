@@ -404,7 +404,7 @@ Expected<ApplyReport> DesiredState::apply_resync(const EditBatch& snapshot, doub
   return rep;
 }
 
-void DesiredState::mark_published(std::uint32_t index) {
+void DesiredState::mark_published(std::uint32_t index, SlotIndex slot) {
   DesiredEntry& e = entries_[index];
   const PendingKind kind = e.pending_kind();
   if (kind == PendingKind::None) return;
@@ -422,6 +422,7 @@ void DesiredState::mark_published(std::uint32_t index) {
   }
   e.dirty = false;
   e.published_position = e.value.position;
+  if (slot != kNoSlot) e.slot = slot;
   refresh_pending(index, old_epoch, true);
 }
 

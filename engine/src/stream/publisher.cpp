@@ -14,16 +14,21 @@ Publisher::Publisher(PublisherConfig config) : config_(config) {
   allowance_ = std::clamp(config_.allowance_initial, config_.allowance_min, config_.allowance_max);
 }
 
-float Publisher::priority(const DesiredEntry& e, const ViewState& view, double now) const {
-  const float support = std::min(1.0f, std::log1p(static_cast<float>(e.value.support)) /
-                                           std::log1p(std::max(config_.support_reference, 1.0f)));
+float Publisher::view_relevance(const DesiredEntry& e, const ViewState& view) const {
   // A remove matters where the published Gaussian is; anything else where it will be.
   const glm::vec3 pos = e.pending_kind() == PendingKind::Remove ? e.published_position : e.value.position;
   const glm::vec3 d = pos - view.eye;
   const float dist = glm::length(d);
   const float c = dist > 1e-6f ? glm::dot(d, view.forward) / dist : 1.0f;
   const float in_view = c >= config_.view_cos_half_fov ? 1.0f : std::max(0.0f, c) * 0.5f;
-  const float relevance = in_view / (1.0f + dist / std::max(config_.view_distance_reference, 1e-3f));
+  const float r = in_view / (1.0f + dist / std::max(config_.view_distance_reference, 1e-3f));
+  return std::isfinite(r) ? r : 0.0f;
+}
+
+float Publisher::priority(const DesiredEntry& e, const ViewState& view, double now) const {
+  const float support = std::min(1.0f, std::log1p(static_cast<float>(e.value.support)) /
+                                           std::log1p(std::max(config_.support_reference, 1.0f)));
+  const float relevance = view_relevance(e, view);
   const float age = std::min(1.0f, static_cast<float>(now - e.pending_since) / std::max(config_.age_reference_s, 1e-3f));
   const float p = config_.w_support * support + config_.w_view * relevance + config_.w_magnitude * e.magnitude +
                   config_.w_age * std::max(0.0f, age);
@@ -49,7 +54,8 @@ Status Publisher::publish_entry(DesiredState& desired, SlotTable& slots, std::ui
       auto s = slots.insert(e.id, e.value);
       if (!s) return s.error();
       ++rep.inserted;
-      break;
+      desired.mark_published(index, *s);
+      return Ok{};
     }
     case PendingKind::None: return Ok{};
   }
@@ -63,6 +69,7 @@ Expected<PublishReport> Publisher::publish(DesiredState& desired, SlotTable& slo
   scratch_.assign(pending.begin(), pending.end());
   prio_.resize(desired.entry_slots());
   if (config_.mode == PublishMode::Immediate) {
+    view_ = view;
     for (std::uint32_t i : scratch_) prio_[i] = priority(desired.entry(i), view, now);
     Status s = apply_chosen(desired, slots, 0, scratch_.size(), rep);
     if (!s) return s.error();
@@ -70,6 +77,7 @@ Expected<PublishReport> Publisher::publish(DesiredState& desired, SlotTable& slo
     return rep;
   }
   rep.allowance = allowance_;
+  view_ = view;
   for (std::uint32_t i : scratch_) prio_[i] = priority(desired.entry(i), view, now);
   // Age escape first: the oldest edits past the limit, up to the quota, on top of the allowance.
   auto old_end = std::partition(scratch_.begin(), scratch_.end(), [&](std::uint32_t i) {
@@ -112,10 +120,12 @@ Expected<PublishReport> Publisher::publish(DesiredState& desired, SlotTable& slo
 
 // Publishes scratch_[begin, end). Chosen inserts pair with chosen removes first (one
 // slot write each); an insert finding the table full takes the slot of an unchosen
-// remove (least relevant first, so what vanishes early is what the viewer is least
-// likely to see); a chosen remove left over takes an unchosen insert (most relevant
-// first) rather than leaving a hole a later frame refills. Unchosen candidates come
-// from scratch_[end, size).
+// remove (least visible first, so what vanishes early is what the viewer is least
+// likely to see; among equally visible ones in slot order, so that a frame's inserts
+// land in consecutive slots and upload as a few long ranges, not thousands of copy
+// commands); a chosen remove left over takes an unchosen insert (most relevant first)
+// rather than leaving a hole a later frame refills. Unchosen candidates come from
+// scratch_[end, size); only as many as can be used are ordered.
 Status Publisher::apply_chosen(DesiredState& desired, SlotTable& slots, std::size_t begin, std::size_t end,
                                PublishReport& rep) {
   std::vector<std::uint32_t> inserts, removes;
@@ -137,23 +147,48 @@ Status Publisher::apply_chosen(DesiredState& desired, SlotTable& slots, std::siz
     auto s = slots.replace(desired.entry(leaving).id, e.id, e.value);
     if (!s) return s.error();
     desired.mark_published(leaving);
-    desired.mark_published(entering);
+    desired.mark_published(entering, *s);
     ++rep.replaced;
     return Ok{};
   };
-  // Unchosen candidates of one kind, sorted so the preferred one is at the back.
-  auto spares = [&](PendingKind kind, bool prefer_low) {
+  // Unchosen removes, the `need` to use first at the back: visibility in 1/16 steps,
+  // then slot.
+  auto spare_removes_for = [&](std::size_t need) {
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed;
+    for (std::size_t k = end; k < scratch_.size(); ++k) {
+      const DesiredEntry& e = desired.entry(scratch_[k]);
+      if (e.pending_kind() != PendingKind::Remove) continue;
+      const auto bucket = static_cast<std::uint64_t>(std::min(15.0f, view_relevance(e, view_) * 16.0f));
+      const SlotIndex slot = e.slot != kNoSlot ? e.slot : slots.slot_of(e.id);
+      keyed.emplace_back((bucket << 32) | to_underlying(slot), scratch_[k]);
+    }
+    if (keyed.size() > need) {
+      std::nth_element(keyed.begin(), keyed.begin() + static_cast<std::ptrdiff_t>(need), keyed.end());
+      keyed.resize(need);
+    }
+    std::sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::vector<std::uint32_t> out;
+    out.reserve(keyed.size());
+    for (const auto& k : keyed) out.push_back(k.second);
+    return out;
+  };
+  // Unchosen inserts, the `need` most relevant, the most relevant at the back.
+  auto spare_inserts_for = [&](std::size_t need) {
     std::vector<std::uint32_t> out;
     for (std::size_t k = end; k < scratch_.size(); ++k)
-      if (desired.entry(scratch_[k]).pending_kind() == kind) out.push_back(scratch_[k]);
-    std::sort(out.begin(), out.end(), [&](std::uint32_t a, std::uint32_t b) {
-      return prefer_low ? prio_[a] > prio_[b] : prio_[a] < prio_[b];
-    });
+      if (desired.entry(scratch_[k]).pending_kind() == PendingKind::Insert) out.push_back(scratch_[k]);
+    auto higher = [&](std::uint32_t a, std::uint32_t b) { return prio_[a] > prio_[b]; };
+    if (out.size() > need) {
+      std::nth_element(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(need), out.end(), higher);
+      out.resize(need);
+    }
+    std::sort(out.begin(), out.end(), [&](std::uint32_t a, std::uint32_t b) { return higher(b, a); });
     return out;
   };
   std::vector<std::uint32_t> spare_removes;
   bool spare_removes_listed = false;
-  for (std::uint32_t ins : inserts) {
+  for (std::size_t n = 0; n < inserts.size(); ++n) {
+    const std::uint32_t ins = inserts[n];
     if (!removes.empty()) {
       const std::uint32_t r = removes.back();
       removes.pop_back();
@@ -163,7 +198,7 @@ Status Publisher::apply_chosen(DesiredState& desired, SlotTable& slots, std::siz
     }
     if (slots.free_count() == 0) {
       if (!spare_removes_listed) {
-        spare_removes = spares(PendingKind::Remove, true);
+        spare_removes = spare_removes_for(inserts.size() - n);
         spare_removes_listed = true;
       }
       if (spare_removes.empty()) return Error{"publisher: slot table full and no pending remove to make room"};
@@ -177,7 +212,7 @@ Status Publisher::apply_chosen(DesiredState& desired, SlotTable& slots, std::siz
     if (!s) return s;
   }
   std::vector<std::uint32_t> spare_inserts;
-  if (!removes.empty()) spare_inserts = spares(PendingKind::Insert, false);
+  if (!removes.empty()) spare_inserts = spare_inserts_for(removes.size());
   for (std::uint32_t r : removes) {
     if (!spare_inserts.empty()) {
       const std::uint32_t ins = spare_inserts.back();

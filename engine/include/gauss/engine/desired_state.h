@@ -200,9 +200,10 @@ struct alignas(64) DesiredEntry {
   bool dirty{false};                // desired record differs from the published one
   std::uint32_t pending_pos{kNotPending};  // position in the pending list
   glm::vec3 published_position{0.0f};  // of the published record: view relevance of a remove
+  SlotIndex slot{kNoSlot};          // slot it is published in, as the Publisher reported it
   // Places `value` so that all but its first 8 bytes fill whole cache lines (1..4):
   // coalescing overwrites those with streaming stores, never reading them first.
-  std::uint8_t pad_[8]{};
+  std::uint8_t pad_[4]{};
   Gaussian value{};                 // newest desired record (last published one after a remove)
   static constexpr std::uint32_t kNotPending = 0xFFFFFFFFu;
 
@@ -230,8 +231,9 @@ class DesiredState {
   // record stay published untouched (no flicker on reconnect). Same rejection rules.
   Expected<ApplyReport> apply_resync(const EditBatch& snapshot, double now);
 
-  // Publication side: called by the Publisher after it wrote the entry's slot.
-  void mark_published(std::uint32_t entry_index);
+  // Publication side: called by the Publisher after it wrote the entry's slot, with
+  // that slot when the entry is (still) published afterwards.
+  void mark_published(std::uint32_t entry_index, SlotIndex slot = kNoSlot);
 
   std::uint32_t capacity() const noexcept { return capacity_; }
   std::size_t desired_count() const noexcept { return desired_count_; }

@@ -82,6 +82,8 @@ class Publisher {
   double smoothed_slack() const noexcept { return slack_; }
   const PublisherConfig& config() const noexcept { return config_; }
   float priority(const DesiredEntry& e, const ViewState& view, double now) const;
+  // The view term of the priority in [0, 1]: in view and near scores high.
+  float view_relevance(const DesiredEntry& e, const ViewState& view) const;
 
  private:
   Status publish_entry(DesiredState& desired, SlotTable& slots, std::uint32_t index, PublishReport& rep);
@@ -93,6 +95,7 @@ class Publisher {
   bool saturated_{false};  // the last progressive frame used its whole allowance
   std::vector<std::uint32_t> scratch_;  // pending entry indices, in selection order
   std::vector<float> prio_;             // priority per entry index, this frame
+  ViewState view_;                      // this frame's view
 };
 
 }  // namespace gauss
