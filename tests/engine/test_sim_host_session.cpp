@@ -199,3 +199,77 @@ TEST(ClientState, FollowsAHostSessionToAnExactCopy) {
   ASSERT_TRUE(host.last_ack().has_value());
   EXPECT_EQ(host.last_ack()->last_batch_id, host.last_batch_id());
 }
+
+namespace {
+
+SurfaceChunk triangle_chunk(std::uint32_t id, float x) {
+  SurfaceChunk c;
+  c.chunk_id = id;
+  c.mesh.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x, 1, 0}};
+  c.mesh.colors = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  c.mesh.indices = {0, 1, 2};
+  return c;
+}
+
+// Delivers everything the host sends, then displays frames until nothing is pending.
+void deliver_and_settle(HostSession& host, ClientState& client, World& w, double t) {
+  auto out = host.tick(w.store, t);
+  ASSERT_TRUE(out.ok()) << out.message();
+  for (const auto& m : *out) ASSERT_TRUE(client.on_message(m, t).ok());
+  for (std::uint64_t f = 0; f < 50; ++f) {
+    ASSERT_TRUE(client.frame(ViewState{}, t, f).ok());
+    ASSERT_TRUE(client.check().ok()) << client.check().message();
+  }
+  for (const auto& m : client.take_outgoing()) (void)host.on_message(m, w.store, t);
+}
+
+}  // namespace
+
+// A chunk the scene dropped while the client was away must not stay on the client's
+// screen after the reconnect: the resync resends the whole surface, and whatever the
+// client holds that the resync did not resend is stale. (It stayed committed for ever:
+// the resync only ever sent chunks the scene still had.)
+TEST(ClientState, ResyncDropsSurfaceChunksTheSceneLostMeanwhile) {
+  World w;
+  ASSERT_TRUE(w.store.begin_next_epoch().ok());
+  ASSERT_TRUE(w.store.set_surface_chunk(triangle_chunk(1, 0.0f)).ok());
+  ASSERT_TRUE(w.store.set_surface_chunk(triangle_chunk(2, 5.0f)).ok());
+  ASSERT_TRUE(w.store.commit_epoch().ok());
+  ClientConfig cfg;
+  cfg.capacity = 500;
+  cfg.publisher.mode = PublishMode::Immediate;
+  auto client = ClientState::create(0, cfg);
+  ASSERT_TRUE(client.ok());
+  {
+    HostSession host(1, 9, w.params);
+    for (const auto& m : host.on_message(client->hello(), w.store, 0.0)) ASSERT_TRUE(client->on_message(m, 0.0).ok());
+    deliver_and_settle(host, *client, w, 0.0);
+  }
+  ASSERT_EQ(client->surface().committed().size(), 2u);
+  client->on_disconnect();
+
+  // Meanwhile chunk 2 disappears and chunk 1 changes.
+  ASSERT_TRUE(w.store.begin_next_epoch().ok());
+  ASSERT_TRUE(w.store.remove_surface_chunk(2).ok());
+  ASSERT_TRUE(w.store.set_surface_chunk(triangle_chunk(1, 1.0f)).ok());
+  ASSERT_TRUE(w.store.commit_epoch().ok());
+
+  HostSession host(2, 9, w.params);  // a reconnect is a new session
+  for (const auto& m : host.on_message(client->hello(), w.store, 1.0)) ASSERT_TRUE(client->on_message(m, 1.0).ok());
+  deliver_and_settle(host, *client, w, 1.0);
+  EXPECT_EQ(client->stats().resyncs, 2u);  // every Welcome is followed by a resync
+  EXPECT_EQ(client->surface().stats().dropped_on_resync, 1u);
+  ASSERT_EQ(client->surface().committed().size(), 1u);
+  ASSERT_EQ(client->surface().committed().count(1), 1u);
+  EXPECT_EQ(client->surface().committed().at(1).mesh.positions[0].x, 1.0f);
+  EXPECT_EQ(client->surface().pending_count(), 0u);
+  EXPECT_TRUE(client->check().ok()) << client->check().message();
+
+  // A second reconnect with nothing changed keeps the surface as it is.
+  client->on_disconnect();
+  HostSession again(3, 9, w.params);
+  for (const auto& m : again.on_message(client->hello(), w.store, 2.0)) ASSERT_TRUE(client->on_message(m, 2.0).ok());
+  deliver_and_settle(again, *client, w, 2.0);
+  EXPECT_EQ(client->surface().committed().size(), 1u);
+  EXPECT_EQ(client->surface().committed().count(1), 1u);
+}

@@ -163,3 +163,28 @@ TEST(SurfaceStage, EpochBarrierHoldsOverRandomInterleavings) {
     EXPECT_EQ(surf.pending_count(), 0u);
   }
 }
+
+// After a resync of epoch e resent the surface, chunks it did not resend are removed:
+// committed ones and pending ones alike, each behind the barrier at e; chunks it resent
+// (same epoch again, or newer) and chunks already removed are left alone.
+TEST(SurfaceStage, ResyncDropsWhatItDidNotResend) {
+  SurfaceStage s;
+  ASSERT_TRUE(s.offer(chunk(1, 2)).ok());
+  ASSERT_TRUE(s.offer(chunk(2, 2)).ok());
+  ASSERT_TRUE(s.offer(chunk(3, 2)).ok());
+  ASSERT_EQ(s.commit(Epoch{2}), 3u);
+  ASSERT_TRUE(s.offer(StagedChunk{3, Epoch{3}, {}}).ok());  // chunk 3 removed at 3
+  ASSERT_EQ(s.commit(Epoch{3}), 1u);
+  ASSERT_TRUE(s.offer(chunk(4, 4)).ok());  // pending, never committed
+  // Resync at epoch 6 resends chunk 1 only.
+  ASSERT_TRUE(s.offer(chunk(1, 6)).ok());
+  EXPECT_EQ(s.drop_not_resent(Epoch{6}), 2u);  // chunks 2 (committed) and 4 (pending)
+  EXPECT_EQ(s.stats().dropped_on_resync, 2u);
+  EXPECT_EQ(s.commit(Epoch{5}), 0u);  // the barrier holds the removals too
+  EXPECT_EQ(s.committed().size(), 2u);
+  EXPECT_EQ(s.commit(Epoch{6}), 3u);
+  ASSERT_EQ(s.committed().size(), 1u);
+  EXPECT_EQ(s.committed().count(1), 1u);
+  EXPECT_EQ(s.committed_epoch(), Epoch{6});
+  EXPECT_EQ(s.drop_not_resent(Epoch{6}), 0u);  // idempotent
+}

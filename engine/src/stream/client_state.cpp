@@ -53,7 +53,12 @@ Status ClientState::on_batch(const msg::EditBatchMsg& b, double now) {
   last_batch_id_ = b.batch_id;
   ++stats_.batches;
   stats_.edits_received += b.edit_count;
-  if (resync) ++stats_.resyncs;
+  if (resync) {
+    ++stats_.resyncs;
+    // The resync's surface arrived before its batch (HostSession::tick): what it did not
+    // resend, the scene no longer holds.
+    surface_.drop_not_resent(b.epoch);
+  }
   events_.batch(now, client_index_, b.epoch, BatchStage::Desired, rep->accepted);
   events_.batch(now, client_index_, b.epoch, BatchStage::Queued, rep->newly_pending);
   unpublished_.push_back({b.batch_id, b.epoch, b.edit_count, false});

@@ -257,6 +257,14 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
   if (!needs_resync_ && !new_epoch && batch->edits.empty()) return out;
 
   if (needs_resync_) out.push_back(scene_info(scene));
+  std::vector<wire::Message> patches = surface_patches(scene, epoch);
+  // A resync's surface goes before its batch: when the client applies the resync batch,
+  // every chunk the scene holds has arrived (same ordered channel), so whatever else
+  // the client holds is stale and goes (SurfaceStage::drop_not_resent).
+  if (needs_resync_) {
+    for (auto& p : patches) out.push_back(std::move(p));
+    patches.clear();
+  }
   msg::EditBatchMsg bm;
   bm.epoch = epoch;
   bm.batch_id = next_batch_id_++;
@@ -273,43 +281,9 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
     events_.query(now, client_id_, query_id_, QueryStage::DesiredResidency,
                   sel->query->objects.empty() ? kNoObject : sel->query->objects.front().id, sel->object_selected);
   out.push_back(std::move(bm));
+  for (auto& p : patches) out.push_back(std::move(p));
 
-  // Surface: everything on a resync or when the change log no longer reaches back;
-  // otherwise the chunks changed in the epochs since the last batch.
-  std::vector<std::uint32_t> chunks;
-  bool all_chunks = needs_resync_;
-  bool objects_changed = false;
-  if (!all_chunks && new_epoch) {
-    const std::uint64_t from = sent_epoch_ ? to_underlying(*sent_epoch_) + 1 : 1;
-    for (std::uint64_t e = from; e <= to_underlying(epoch); ++e) {
-      const EpochChanges* ch = scene.changes(Epoch{e});
-      if (!ch) {
-        all_chunks = true;
-        objects_changed = true;
-        break;
-      }
-      chunks.insert(chunks.end(), ch->chunks_changed.begin(), ch->chunks_changed.end());
-      objects_changed |= ch->objects_changed;
-    }
-  }
-  if (all_chunks) {
-    chunks.clear();
-    for (const auto& c : scene.surface_chunks()) chunks.push_back(c.chunk_id);
-    // Chunks the client may hold that the scene dropped since: send removals too.
-  }
-  std::sort(chunks.begin(), chunks.end());
-  chunks.erase(std::unique(chunks.begin(), chunks.end()), chunks.end());
-  const auto& held = scene.surface_chunks();
-  for (std::uint32_t id : chunks) {
-    msg::SurfacePatch patch;
-    patch.epoch = epoch;
-    patch.chunk_id = id;
-    auto it = std::lower_bound(held.begin(), held.end(), id,
-                               [](const SurfaceChunk& c, std::uint32_t v) { return c.chunk_id < v; });
-    if (it != held.end() && it->chunk_id == id) patch.mesh = it->mesh;  // absent: empty mesh removes it
-    out.push_back(std::move(patch));
-  }
-
+  const bool objects_changed = objects_changed_since_sent(scene, epoch);
   if (needs_resync_) {
     sent_objects_.clear();
     for (const auto& o : scene.objects()) sent_objects_.insert(to_underlying(o.id));
@@ -329,6 +303,54 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
   }
   needs_resync_ = false;
   sent_epoch_ = epoch;
+  return out;
+}
+
+bool HostSession::objects_changed_since_sent(const SceneStore& scene, Epoch epoch) const {
+  if (needs_resync_ || (sent_epoch_ && to_underlying(epoch) <= to_underlying(*sent_epoch_))) return false;
+  const std::uint64_t from = sent_epoch_ ? to_underlying(*sent_epoch_) + 1 : 1;
+  for (std::uint64_t e = from; e <= to_underlying(epoch); ++e) {
+    const EpochChanges* ch = scene.changes(Epoch{e});
+    if (!ch || ch->objects_changed) return true;  // a log that no longer reaches back: assume changed
+  }
+  return false;
+}
+
+// Surface: everything on a resync or when the change log no longer reaches back;
+// otherwise the chunks changed in the epochs since the last batch (an empty mesh for a
+// chunk the scene dropped removes it).
+std::vector<wire::Message> HostSession::surface_patches(const SceneStore& scene, Epoch epoch) const {
+  std::vector<std::uint32_t> chunks;
+  const bool new_epoch = !sent_epoch_ || to_underlying(epoch) > to_underlying(*sent_epoch_);
+  bool all_chunks = needs_resync_;
+  if (!all_chunks && new_epoch) {
+    const std::uint64_t from = sent_epoch_ ? to_underlying(*sent_epoch_) + 1 : 1;
+    for (std::uint64_t e = from; e <= to_underlying(epoch); ++e) {
+      const EpochChanges* ch = scene.changes(Epoch{e});
+      if (!ch) {
+        all_chunks = true;
+        break;
+      }
+      chunks.insert(chunks.end(), ch->chunks_changed.begin(), ch->chunks_changed.end());
+    }
+  }
+  if (all_chunks) {
+    chunks.clear();
+    for (const auto& c : scene.surface_chunks()) chunks.push_back(c.chunk_id);
+  }
+  std::sort(chunks.begin(), chunks.end());
+  chunks.erase(std::unique(chunks.begin(), chunks.end()), chunks.end());
+  std::vector<wire::Message> out;
+  const auto& held = scene.surface_chunks();
+  for (std::uint32_t id : chunks) {
+    msg::SurfacePatch patch;
+    patch.epoch = epoch;
+    patch.chunk_id = id;
+    auto it = std::lower_bound(held.begin(), held.end(), id,
+                               [](const SurfaceChunk& c, std::uint32_t v) { return c.chunk_id < v; });
+    if (it != held.end() && it->chunk_id == id) patch.mesh = it->mesh;  // absent: empty mesh removes it
+    out.push_back(std::move(patch));
+  }
   return out;
 }
 

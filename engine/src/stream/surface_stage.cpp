@@ -38,6 +38,21 @@ Status SurfaceStage::offer(StagedChunk chunk) {
   return Ok{};
 }
 
+std::uint32_t SurfaceStage::drop_not_resent(Epoch e) {
+  std::uint32_t n = 0;
+  for (auto& [id, latest] : latest_) {
+    if (to_underlying(latest) >= to_underlying(e)) continue;  // resent by this resync (or newer)
+    auto pending = pending_.find(id);
+    const bool held = committed_.count(id) != 0 || (pending != pending_.end() && !pending->second.mesh.positions.empty());
+    if (!held) continue;  // already removed, or its removal is pending
+    latest = e;
+    pending_.insert_or_assign(id, StagedChunk{id, e, {}});
+    ++n;
+  }
+  stats_.dropped_on_resync += n;
+  return n;
+}
+
 std::uint32_t SurfaceStage::commit(std::optional<Epoch> published_gaussian_epoch) {
   if (!published_gaussian_epoch) return 0;
   const std::uint64_t bound = to_underlying(*published_gaussian_epoch);

@@ -88,9 +88,11 @@ class HostSession {
 
   // The host loop's tick, between epochs: when the scene advanced, or the pose/query
   // moved (and the link keeps up), select + diff + encode. Returns the model-stream
-  // messages to send: SceneInfo and a resync snapshot first after the Welcome, then
-  // one batch per new epoch (possibly empty) plus selection-only batches, surface
-  // patches and object-table updates. Errors name a selector/differ failure; the
+  // messages to send, in order: after the Welcome, SceneInfo, every surface chunk the
+  // scene holds, then the resync snapshot (the client drops any chunk the resync did
+  // not resend when it applies the snapshot); later, one batch per new epoch (possibly
+  // empty) plus selection-only batches, each followed by its surface patches and
+  // object-table update. Errors name a selector/differ failure; the
   // session stays usable.
   Expected<std::vector<wire::Message>> tick(const SceneStore& scene, double now);
 
@@ -111,6 +113,9 @@ class HostSession {
  private:
   void reject(std::uint64_t& counter, std::string reason);
   msg::SceneInfo scene_info(const SceneStore& scene) const;
+  // Surface patches for a batch of `epoch` (all chunks on a resync).
+  std::vector<wire::Message> surface_patches(const SceneStore& scene, Epoch epoch) const;
+  bool objects_changed_since_sent(const SceneStore& scene, Epoch epoch) const;
   // Why the host should re-select for the client's motion, if at all.
   enum class Motion { None, Drift, Jump };
   Motion pose_motion() const;

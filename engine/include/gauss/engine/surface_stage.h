@@ -29,6 +29,7 @@ struct SurfaceStats {
   std::uint64_t duplicates{0};      // same chunk, same epoch again (resync): ignored
   std::uint64_t rejected_stale{0};  // older than the chunk's pending/committed epoch
   std::uint64_t rejected_bad{0};    // malformed mesh (index out of range, colour count)
+  std::uint64_t dropped_on_resync{0};  // held chunks a resync did not resend (removed)
   std::uint64_t committed{0};
 };
 
@@ -36,6 +37,12 @@ class SurfaceStage {
  public:
   // Queues a received patch. Errors name the chunk and why; the stage is untouched.
   Status offer(StagedChunk chunk);
+  // A resync of epoch `e` has resent every chunk the scene holds (the host sends them
+  // before the resync batch, on the same ordered channel). A chunk held here, committed
+  // or pending, whose newest patch is older than `e` was dropped by the scene while the
+  // connection was down: its removal is staged at `e`, behind the barrier like any
+  // patch. Returns the number of removals staged.
+  std::uint32_t drop_not_resent(Epoch e);
   // Commits every pending patch whose epoch <= the Gaussian published epoch; returns
   // the number committed. nullopt (nothing published yet) commits nothing.
   std::uint32_t commit(std::optional<Epoch> published_gaussian_epoch);
