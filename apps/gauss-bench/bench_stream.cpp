@@ -177,6 +177,8 @@ SimConfig base_config(const Options& o, PublishMode mode, bool evolving) {
   c.client.publisher.age_escape_s = 0.25;
   c.client.publisher.escape_quota = 5000;
   c.client.range_merge_gap = 4;
+  // The frame cost model's price of a copy command, in slot writes (2 us / 0.15 us).
+  c.client.publisher.range_cost = static_cast<float>(cfg.cost.per_range_s / cfg.cost.per_write_s);
   c.display_hz = o.display_hz;
   c.down.bandwidth_bps = c.up.bandwidth_bps = o.bandwidth_bps;
   c.down.latency_s = c.up.latency_s = o.latency_s;

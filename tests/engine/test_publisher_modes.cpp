@@ -179,3 +179,41 @@ TEST(Publisher, InvisibleRemovesGiveUpTheirSlotsInSlotOrder) {
     EXPECT_NE(f.slots.slot_of(GaussianId{kCap + i + 1}), kNoSlot);
   }
 }
+
+// The allowance is charged for the upload ranges a frame opens, not only for slot
+// writes: scattered writes (each its own copy command) get fewer per frame than
+// adjacent ones, so either kind of frame fits the same display budget.
+TEST(Publisher, AllowanceChargesUploadRanges) {
+  auto writes_in_one_frame = [](std::uint64_t stride) {
+    Fixture f(1000);
+    std::vector<Edit> edits;
+    for (std::uint64_t i = 0; i < 1000; ++i) edits.push_back(ins(i + 1, {0, 0, 1}));
+    EXPECT_TRUE(f.desired.apply({Epoch{1}, edits}, 0.0).ok());
+    Publisher imm(PublisherConfig{.mode = PublishMode::Immediate});
+    EXPECT_TRUE(imm.publish(f.desired, f.slots, {}, 0.0).ok());
+    (void)f.slots.take_dirty_ranges();
+    std::vector<Edit> updates;
+    for (std::uint64_t i = 0; i < 1000; i += stride) {
+      Edit u = ins(i + 1, {0, 0, 2});
+      u.kind = EditKind::Update;
+      updates.push_back(u);
+    }
+    EXPECT_TRUE(f.desired.apply({Epoch{2}, updates}, 1.0).ok());
+    PublisherConfig cfg{.mode = PublishMode::Progressive, .allowance_min = 100, .allowance_max = 100, .allowance_initial = 100};
+    cfg.range_cost = 9.0f;
+    cfg.range_gap = 2;
+    Publisher p(cfg);
+    auto r = p.publish(f.desired, f.slots, ViewState{{0, 0, 0}, {0, 0, 1}}, 1.0);
+    EXPECT_TRUE(r.ok());
+    const auto ranges = f.slots.take_dirty_ranges(2);
+    EXPECT_LE(r->slot_writes() + 9 * ranges.size(), 100u + 10u) << "stride " << stride;  // at most one write over
+    EXPECT_GE(r->new_ranges, ranges.size());
+    return r->slot_writes();
+  };
+  const std::uint32_t adjacent = writes_in_one_frame(1);
+  const std::uint32_t scattered = writes_in_one_frame(10);
+  // The estimate is conservative (a round's first write may look isolated until its
+  // neighbours follow), so adjacent writes get most, not all, of the allowance.
+  EXPECT_GE(adjacent, 60u);
+  EXPECT_LE(scattered, 11u);
+}

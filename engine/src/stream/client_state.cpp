@@ -19,7 +19,12 @@ ClientState::ClientState(std::uint32_t client_index, ClientConfig config, SlotTa
       mutex_(std::make_unique<std::mutex>()),
       desired_(config_.capacity),
       slots_(std::move(slots)),
-      publisher_(config_.publisher) {}
+      publisher_([this] {
+        // The publisher's range estimate uses the same gap the uploads are merged with.
+        PublisherConfig p = config_.publisher;
+        p.range_gap = config_.range_merge_gap;
+        return p;
+      }()) {}
 
 msg::Hello ClientState::hello() const {
   msg::Hello h;

@@ -39,6 +39,14 @@ struct PublisherConfig {
   // most `escape_quota` per frame on top of the allowance.
   double age_escape_s{0.5};
   std::uint32_t escape_quota{2000};
+  // Upload ranges: a slot write with no other slot written this frame within
+  // `range_gap` slots of it opens a new upload range (a copy command), which costs the
+  // frame about as much as `range_cost` slot writes. The allowance is charged for both,
+  // so a frame of scattered writes stays within the display budget like a frame of
+  // contiguous ones. 0 = charge slot writes only. range_gap should equal the client's
+  // range_merge_gap (ClientState sets it so).
+  float range_cost{0.0f};
+  std::uint32_t range_gap{0};
   // Priority weights (each term lies in [0, 1]).
   float w_support{0.2f};
   float w_view{0.5f};
@@ -62,6 +70,7 @@ struct PublishReport {
   std::uint32_t replaced{0};   // insert + remove sharing one slot write
   std::uint32_t escaped{0};    // slot writes spent on the age escape
   std::uint32_t allowance{0};  // allowance in force this frame (0 = unbounded)
+  std::uint32_t new_ranges{0}; // writes that opened an upload range (counted when range_cost > 0)
   std::uint32_t pending_after{0};
   std::uint32_t slot_writes() const { return inserted + updated + removed + replaced; }
   std::uint32_t edits() const { return inserted + updated + removed + 2 * replaced; }
@@ -84,15 +93,24 @@ class Publisher {
   float priority(const DesiredEntry& e, const ViewState& view, double now) const;
   // The view term of the priority in [0, 1]: in view and near scores high.
   float view_relevance(const DesiredEntry& e, const ViewState& view) const;
+  // Inside the cone of half-angle acos(view_cos_half_fov) around the view direction.
+  bool in_view_cone(const glm::vec3& position, const ViewState& view) const;
 
  private:
   Status publish_entry(DesiredState& desired, SlotTable& slots, std::uint32_t index, PublishReport& rep);
+  void count_range(const SlotTable& slots, SlotIndex slot, PublishReport& rep) const;
+  // Allowance units used this frame (writes and ranges beyond the age escape).
+  double charged_work(const PublishReport& rep) const;
+  bool over_budget(const PublishReport& rep) const;
   Status apply_chosen(DesiredState& desired, SlotTable& slots, std::size_t begin, std::size_t end, PublishReport& rep);
 
   PublisherConfig config_;
   std::uint32_t allowance_;
   double slack_{0.5};
   bool saturated_{false};  // the last progressive frame used its whole allowance
+  double range_fraction_{1.0};  // new ranges per slot write in the last busy frame
+  double budget_{0.0};          // allowance units apply_chosen may use this frame (0 = no limit)
+  std::uint32_t escaped_ranges_{0};  // ranges opened by this frame's age escape
   std::vector<std::uint32_t> scratch_;  // pending entry indices, in selection order
   std::vector<float> prio_;             // priority per entry index, this frame
   ViewState view_;                      // this frame's view

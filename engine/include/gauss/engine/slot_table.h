@@ -59,6 +59,8 @@ class SlotTable {
   // (re-uploading a few clean slots is cheaper than another copy command).
   std::vector<SlotRange> take_dirty_ranges(std::uint32_t max_gap = 0);
   std::uint32_t dirty_count() const noexcept { return static_cast<std::uint32_t>(dirty_list_.size()); }
+  // Written since the last take_dirty_ranges() (false out of range).
+  bool is_dirty(std::uint32_t slot) const noexcept { return slot < dirty_.size() && dirty_[slot] != 0; }
 
   // Full consistency check (id <-> slot bijection, free list disjoint from used slots,
   // no slot twice). O(capacity); for tests and the simulation's per-frame invariants.
