@@ -396,7 +396,7 @@ json bench_identity(const SceneStore& store) {
     Gaussian c = g;
     if (r < 0.07f) {  // perturbed: a fraction of a sigma, small colour / opacity change
       const float sigma = std::exp(std::max({g.log_scale.x, g.log_scale.y, g.log_scale.z}));
-      c.position += sigma * 0.3f * glm::vec3(u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f);
+      c.position += sigma * 0.3f * glm::vec3{u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f};
       c.sh_dc += 0.05f * glm::vec3(u(rng) - 0.5f);
       c.opacity_logit += 0.2f * (u(rng) - 0.5f);
     }
@@ -407,7 +407,7 @@ json bench_identity(const SceneStore& store) {
   const std::size_t n_new = previous.size() / 50;
   for (std::size_t i = 0; i < n_new; ++i) {
     Gaussian c = previous[rng() % previous.size()];
-    c.position += glm::vec3(u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f);  // a different place
+    c.position += glm::vec3{u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f};  // a different place
     current.push_back(c);
     truth.push_back(GaussianId{0});
   }

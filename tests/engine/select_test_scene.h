@@ -20,11 +20,13 @@ inline Gaussian random_test_gaussian(std::mt19937_64& rng, GaussianId id) {
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   Gaussian g;
   g.id = id;
-  g.position = glm::vec3(u(rng) * 10.0f - 5.0f, u(rng) * 3.0f, u(rng) * 10.0f - 5.0f);
-  g.log_scale = glm::vec3(-5.0f + 2.5f * u(rng), -5.0f + 2.5f * u(rng), -6.0f + 2.0f * u(rng));
-  g.rotation = glm::normalize(glm::vec4(u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f) + 0.01f);
+  // Braced lists: their elements are evaluated in order (function arguments are not, so
+  // glm::vec3(u(rng), u(rng), ...) gave GCC and clang different scenes).
+  g.position = glm::vec3{u(rng) * 10.0f - 5.0f, u(rng) * 3.0f, u(rng) * 10.0f - 5.0f};
+  g.log_scale = glm::vec3{-5.0f + 2.5f * u(rng), -5.0f + 2.5f * u(rng), -6.0f + 2.0f * u(rng)};
+  g.rotation = glm::normalize(glm::vec4{u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f} + 0.01f);
   g.opacity_logit = 6.0f * u(rng) - 3.0f;
-  g.sh_dc = glm::vec3(u(rng) * 3.0f - 1.5f, u(rng) * 3.0f - 1.5f, u(rng) * 3.0f - 1.5f);
+  g.sh_dc = glm::vec3{u(rng) * 3.0f - 1.5f, u(rng) * 3.0f - 1.5f, u(rng) * 3.0f - 1.5f};
   g.support = static_cast<std::uint32_t>(rng() % 200);
   const int o = static_cast<int>(rng() % 12) - 1;  // about 40 % unlabelled
   g.object = o < kTestObjects && o >= 0 ? ObjectId{o} : kNoObject;
@@ -68,7 +70,7 @@ inline void evolve_test_scene(SceneStore& store, std::mt19937_64& rng, double fr
 inline ClientPose random_test_pose(std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   ClientPose p;
-  p.position = glm::dvec3(u(rng) * 6.0 - 3.0, 1.6, u(rng) * 6.0 - 3.0);
+  p.position = glm::dvec3{u(rng) * 6.0 - 3.0, 1.6, u(rng) * 6.0 - 3.0};
   const double yaw = u(rng) * 6.283185307179586;
   const double pitch = (u(rng) - 0.5) * 0.6;
   p.orientation = glm::angleAxis(yaw, glm::dvec3(0, 1, 0)) * glm::angleAxis(pitch, glm::dvec3(1, 0, 0));

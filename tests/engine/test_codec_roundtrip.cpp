@@ -28,7 +28,7 @@ Gaussian random_gaussian(std::mt19937_64& rng, const CodecParams& p, std::uint64
     g.log_scale[a] = p.log_scale_min + u(rng) * (p.log_scale_max - p.log_scale_min);
     g.sh_dc[a] = p.dc_min + u(rng) * (p.dc_max - p.dc_min);
   }
-  glm::vec4 q(n(rng), n(rng), n(rng), n(rng));
+  glm::vec4 q{n(rng), n(rng), n(rng), n(rng)};  // braces: drawn in order
   g.rotation = q / std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
   g.opacity_logit = n(rng) * 4.0f;
   for (int k = 0; k < sh_rest_count(p.sh_degree); ++k) {

@@ -299,6 +299,7 @@ TEST(SelectorBudget, HysteresisKeepsSmallHeadMotionBelowOnePercent) {
                           std::back_inserter(entered));
       const double f = static_cast<double>(entered.size()) / static_cast<double>(req.budget);
       (bonus > 0.0 ? worst : worst_without) = std::max(bonus > 0.0 ? worst : worst_without, f);
+      std::printf("trial %d bonus %.1f entering %.4f\n", trial, bonus, f);
     }
   }
   std::printf("worst entering fraction after 5 cm + 2 deg: %.4f with bonus 0.3, %.4f without\n", worst,

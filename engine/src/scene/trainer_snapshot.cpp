@@ -60,7 +60,8 @@ TrainerSnapshot make_trainer_snapshot(std::span<const Gaussian> previous, const 
   const auto n_new = static_cast<std::size_t>(std::llround(double(config.new_fraction) * double(previous.size())));
   for (std::size_t k = 0; k < n_new && !previous.empty(); ++k) {
     Gaussian h = previous[rng.next() % previous.size()];
-    h.position += (3.0f + 3.0f * rng.unit()) * largest_sigma(h) * rng.dir();
+    const float distance = 3.0f + 3.0f * rng.unit();  // drawn before the direction, on every compiler
+    h.position += distance * largest_sigma(h) * rng.dir();
     h.sh_dc = 1.5f * rng.sym3();
     out.gaussians.push_back(h);
     out.fate.push_back(SnapshotFate::New);

