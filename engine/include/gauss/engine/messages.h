@@ -183,7 +183,9 @@ bool operator==(const SceneInfo& a, const SceneInfo& b);
 
 // EditBatch flags.
 // A snapshot: the payload is the client's complete desired set at `epoch`, inserts
-// only (DesiredState::apply_resync). The host sends one after every Welcome.
+// only (DesiredState::apply_resync). The host sends one after every Welcome, preceded on
+// the same ordered channel by a SurfacePatch for every chunk the scene holds: applying the
+// snapshot drops (behind the epoch barrier) any chunk the client holds that was not resent.
 inline constexpr std::uint8_t kBatchResync = 1u << 0;
 inline constexpr std::uint8_t kBatchKnownFlags = kBatchResync;
 
