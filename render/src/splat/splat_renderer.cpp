@@ -4,10 +4,11 @@
 // depth order and tiles), recorded into one command buffer after one upload. Sorting the
 // depth keys once from a centre eye could only save the per-eye depth sort, because tile
 // binning and the tile sort depend on each eye's footprints anyway. Measured with
-// `gauss-bench render --sizes 200k@1024x1024:stereo` on lavapipe (2 shared cores, load
-// ~15): GPU time per stereo frame 6620 ms, of which both eyes' depth sorts 98 ms (1.5 %)
-// and both tile sorts 1049 ms. A shared centre-eye sort would save at most ~49 ms (0.7 %)
-// while making each eye's order differ from its own reference image, so we sort per eye.
+// `gauss-bench render` (200k@1024x1024:stereo, box scene) on lavapipe, 2 cores, load ~1,
+// three runs: GPU time per stereo frame 817-1116 ms, of which both eyes' depth sorts
+// 41-62 ms (5.0-5.5 %) and both tile sorts 127-177 ms. A shared centre-eye sort would save
+// at most half the depth sorts (~2.5-2.8 %) while making each eye's order differ from its
+// own reference image, so each eye sorts itself.
 #include "gauss/render/splat_renderer.h"
 
 #include <algorithm>
