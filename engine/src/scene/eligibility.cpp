@@ -3,11 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
-#include <unordered_map>
 #include <utility>
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+
+#include "cell_grid.h"
 
 namespace gauss {
 namespace {
@@ -35,11 +36,6 @@ glm::vec3 closest_on_triangle(const glm::vec3& p, const glm::vec3& a, const glm:
   return a + ab * v + ac * w;
 }
 
-std::uint64_t cell_key(std::int64_t x, std::int64_t y, std::int64_t z) {
-  const auto wrap = [](std::int64_t v) { return static_cast<std::uint64_t>(v) & 0x1FFFFFull; };
-  return (wrap(x) << 42) | (wrap(y) << 21) | wrap(z);
-}
-
 // A triangle touching more grid cells than this is kept in a short list tested by every
 // query instead (a few huge triangles must not flood the grid).
 constexpr std::int64_t kMaxCellsPerTriangle = 4096;
@@ -50,12 +46,10 @@ struct SurfaceDistanceIndex::Impl {
   float cell{1.0f};
   std::vector<glm::vec3> tri;  // 3 per triangle
   std::vector<std::pair<std::uint64_t, std::uint32_t>> by_cell;  // sorted (cell, triangle)
-  std::unordered_map<std::uint64_t, std::pair<std::uint32_t, std::uint32_t>> ranges;
+  scene::CellRanges ranges;
   std::vector<std::uint32_t> big;
 
-  std::int64_t coord(float v) const {
-    return static_cast<std::int64_t>(std::clamp(std::floor(double(v) / double(cell)), -1.0e6, 1.0e6));
-  }
+  std::int64_t coord(float v) const { return scene::cell_coord(v, cell); }
   bool near(std::uint32_t t, const glm::vec3& p, float d2) const {
     const glm::vec3 q = closest_on_triangle(p, tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]);
     const glm::vec3 e = q - p;
@@ -88,15 +82,10 @@ SurfaceDistanceIndex::SurfaceDistanceIndex(std::span<const TriangleMesh* const> 
     }
     for (std::int64_t x = x0; x <= x1; ++x)
       for (std::int64_t y = y0; y <= y1; ++y)
-        for (std::int64_t z = z0; z <= z1; ++z) m.by_cell.emplace_back(cell_key(x, y, z), t);
+        for (std::int64_t z = z0; z <= z1; ++z) m.by_cell.emplace_back(scene::cell_key(x, y, z), t);
   }
   std::sort(m.by_cell.begin(), m.by_cell.end());
-  for (std::size_t a = 0; a < m.by_cell.size();) {
-    std::size_t b = a;
-    while (b < m.by_cell.size() && m.by_cell[b].first == m.by_cell[a].first) ++b;
-    m.ranges.emplace(m.by_cell[a].first, std::make_pair(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b)));
-    a = b;
-  }
+  m.ranges = scene::cell_ranges(m.by_cell);
 }
 
 SurfaceDistanceIndex::~SurfaceDistanceIndex() = default;
@@ -115,7 +104,7 @@ bool SurfaceDistanceIndex::within(const glm::vec3& p, float d) const {
   for (std::int64_t x = x0; x <= x1; ++x)
     for (std::int64_t y = y0; y <= y1; ++y)
       for (std::int64_t z = z0; z <= z1; ++z) {
-        auto it = m.ranges.find(cell_key(x, y, z));
+        auto it = m.ranges.find(scene::cell_key(x, y, z));
         if (it == m.ranges.end()) continue;
         for (std::uint32_t a = it->second.first; a < it->second.second; ++a)
           if (m.near(m.by_cell[a].second, p, d2)) return true;

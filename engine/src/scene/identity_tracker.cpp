@@ -6,9 +6,9 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
+#include "cell_grid.h"
 #include "prng.h"
 
 namespace gauss {
@@ -53,16 +53,6 @@ bool same_record(const Gaussian& a, const Gaussian& b) {
 }
 
 float max_abs3(const glm::vec3& v) { return std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))); }
-
-std::uint64_t cell_key(std::int64_t x, std::int64_t y, std::int64_t z) {
-  const auto wrap = [](std::int64_t v) { return static_cast<std::uint64_t>(v) & 0x1FFFFFull; };
-  return (wrap(x) << 42) | (wrap(y) << 21) | wrap(z);
-}
-
-std::int64_t cell_of(float v, float cell) {
-  const double c = std::floor(double(v) / double(cell));
-  return static_cast<std::int64_t>(std::clamp(c, -1.0e6, 1.0e6));  // far outliers share border cells
-}
 
 struct Pair {
   float cost;
@@ -152,7 +142,7 @@ Expected<IdentityReport> track_identity(std::span<const Gaussian> previous, std:
       bool carrier;
     };
     const auto key_of = [&](const glm::vec3& p) {
-      return cell_key(cell_of(p.x, cell), cell_of(p.y, cell), cell_of(p.z, cell));
+      return scene::cell_key(scene::cell_coord(p.x, cell), scene::cell_coord(p.y, cell), scene::cell_coord(p.z, cell));
     };
     std::vector<std::pair<std::uint64_t, std::uint32_t>> by_cell(prev_left.size());
     for (std::size_t k = 0; k < prev_left.size(); ++k)
@@ -165,14 +155,7 @@ Expected<IdentityReport> track_identity(std::span<const Gaussian> previous, std:
       compact[a] = {q.position, std::min(config.max_distance_sigmas * sigma[k], 0.5f * cell), q.log_scale,
                     q.opacity_logit, q.sh_dc, prev_left[k], q.carrier};
     }
-    std::unordered_map<std::uint64_t, std::pair<std::uint32_t, std::uint32_t>> ranges;
-    ranges.reserve(by_cell.size());
-    for (std::size_t a = 0; a < by_cell.size();) {
-      std::size_t b = a;
-      while (b < by_cell.size() && by_cell[b].first == by_cell[a].first) ++b;
-      ranges.emplace(by_cell[a].first, std::make_pair(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b)));
-      a = b;
-    }
+    const scene::CellRanges ranges = scene::cell_ranges(by_cell);
     // Queries in cell order too, for the same locality (the result does not depend on it:
     // pairs are sorted by cost and index before the greedy assignment).
     std::vector<std::pair<std::uint64_t, std::uint32_t>> queries(cur_left.size());
@@ -185,15 +168,15 @@ Expected<IdentityReport> track_identity(std::span<const Gaussian> previous, std:
       const std::uint32_t i = query.second;
       const Gaussian& g = current[i];
       // Every candidate lies within half a cell per axis: the 2x2x2 cells from p - cell/2.
-      const std::int64_t bx = cell_of(g.position.x - 0.5f * cell, cell);
-      const std::int64_t by = cell_of(g.position.y - 0.5f * cell, cell);
-      const std::int64_t bz = cell_of(g.position.z - 0.5f * cell, cell);
+      const std::int64_t bx = scene::cell_coord(g.position.x - 0.5f * cell, cell);
+      const std::int64_t by = scene::cell_coord(g.position.y - 0.5f * cell, cell);
+      const std::int64_t bz = scene::cell_coord(g.position.z - 0.5f * cell, cell);
       std::array<Pair, kCandidates> best;
       std::size_t n_best = 0;
       for (int dx = 0; dx < 2; ++dx)
         for (int dy = 0; dy < 2; ++dy)
           for (int dz = 0; dz < 2; ++dz) {
-            auto r = ranges.find(cell_key(bx + dx, by + dy, bz + dz));
+            auto r = ranges.find(scene::cell_key(bx + dx, by + dy, bz + dz));
             if (r == ranges.end()) continue;
             for (std::uint32_t a = r->second.first; a < r->second.second; ++a) {
               const Compact& q = compact[a];
