@@ -193,23 +193,20 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
     if (value) e.value = *value;
     return e;
   };
-  for (std::size_t j = replaces; j < s.leavers.size(); ++j) emit(EditKind::Remove, s.leavers[j], GaussianId{0}, nullptr);
-  // Leavers and enterers are both in ascending id order: pair them in that order.
-  for (std::size_t j = 0; j < s.enterers.size(); ++j) {
+  auto enter = [&](std::size_t j) {
     if (j + kAhead < s.enterers.size()) prefetch(s.enterers[j + kAhead]);
-    if (j == replaces) {
-      // Updates sit between replaces and inserts in the batch.
-      for (std::uint32_t k : s.updated) emit(EditKind::Update, desired.ids[k], GaussianId{0}, &gaussians[desired.indices[k]]);
-    }
     const std::uint32_t k = s.enterers[j];
     const bool replace = j < replaces;
     const Edit& e = emit(replace ? EditKind::Replace : EditKind::Insert, desired.ids[k],
                          replace ? s.leavers[j] : GaussianId{0}, &gaussians[desired.indices[k]]);
     s.next[s.enterer_slots[j]].hash = quantized_hash(e.value, s.params);
-  }
-  if (replaces == s.enterers.size()) {
-    for (std::uint32_t k : s.updated) emit(EditKind::Update, desired.ids[k], GaussianId{0}, &gaussians[desired.indices[k]]);
-  }
+  };
+  // Batch order: removes, replaces, updates, inserts. Leavers and enterers are both in
+  // ascending id order: a replace pairs them in that order.
+  for (std::size_t j = replaces; j < s.leavers.size(); ++j) emit(EditKind::Remove, s.leavers[j], GaussianId{0}, nullptr);
+  for (std::size_t j = 0; j < replaces; ++j) enter(j);
+  for (std::uint32_t k : s.updated) emit(EditKind::Update, desired.ids[k], GaussianId{0}, &gaussians[desired.indices[k]]);
+  for (std::size_t j = replaces; j < s.enterers.size(); ++j) enter(j);
   s.sent.swap(s.next);
   s.stats.replaces = replaces;
   s.stats.removes = s.leavers.size() - replaces;
