@@ -64,20 +64,22 @@ void Publisher::count_range(const SlotTable& slots, SlotIndex slot, PublishRepor
 
 Status Publisher::publish_entry(DesiredState& desired, SlotTable& slots, std::uint32_t index, PublishReport& rep) {
   const DesiredEntry& e = desired.entry(index);
-  const SlotIndex held = e.slot != kNoSlot ? e.slot : slots.slot_of(e.id);
+  // The slot a remove or update writes (an insert learns its slot from the table).
+  auto held = [&] { return e.slot != kNoSlot ? e.slot : slots.slot_of(e.id); };
   switch (e.pending_kind()) {
     case PendingKind::Remove: {
+      const SlotIndex slot = held();
       Status s = slots.remove(e.id);
       if (!s) return s;
       ++rep.removed;
-      count_range(slots, held, rep);
+      count_range(slots, slot, rep);
       break;
     }
     case PendingKind::Update: {
       Status s = slots.update(e.id, e.value);
       if (!s) return s;
       ++rep.updated;
-      count_range(slots, held, rep);
+      count_range(slots, held(), rep);
       break;
     }
     case PendingKind::Insert: {
@@ -98,18 +100,17 @@ Expected<PublishReport> Publisher::publish(DesiredState& desired, SlotTable& slo
   PublishReport rep;
   const std::vector<std::uint32_t>& pending = desired.pending();
   scratch_.assign(pending.begin(), pending.end());
-  prio_.resize(desired.entry_slots());
+  view_ = view;
   if (config_.mode == PublishMode::Immediate) {
-    view_ = view;
+    // Everything is chosen: no unchosen candidate is ever ranked, so no priorities.
     budget_ = 0.0;
-    for (std::uint32_t i : scratch_) prio_[i] = priority(desired.entry(i), view, now);
     Status s = apply_chosen(desired, slots, 0, scratch_.size(), rep);
     if (!s) return s.error();
     rep.pending_after = static_cast<std::uint32_t>(desired.pending_count());
     return rep;
   }
   rep.allowance = allowance_;
-  view_ = view;
+  prio_.resize(desired.entry_slots());
   for (std::uint32_t i : scratch_) prio_[i] = priority(desired.entry(i), view, now);
   // Age escape first: the oldest edits past the limit, up to the quota, on top of the allowance.
   auto old_end = std::partition(scratch_.begin(), scratch_.end(), [&](std::uint32_t i) {
