@@ -443,22 +443,24 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
   // which the retention bonus absorbs.
   const glm::dmat3 r_wh = glm::mat3_cast(glm::normalize(pose.orientation));
   const glm::dmat3 r_hw = glm::transpose(r_wh);
-  const float ftx = static_cast<float>(pose.tan_half_fov_x);
-  const float fty = static_cast<float>(pose.tan_half_fov_y);
-  const float inv_kx = static_cast<float>(1.0 / std::sqrt(1.0 + pose.tan_half_fov_x * pose.tan_half_fov_x));
-  const float inv_ky = static_cast<float>(1.0 / std::sqrt(1.0 + pose.tan_half_fov_y * pose.tan_half_fov_y));
+  ViewParams vp;
+  // Row i of r_hw maps world offsets to head axis i (GLM is column-major: m[col][row]).
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) vp.row[i][j] = static_cast<float>(r_hw[j][i]);
+  vp.cx = static_cast<float>(pose.position.x);
+  vp.cy = static_cast<float>(pose.position.y);
+  vp.cz = static_cast<float>(pose.position.z);
+  vp.ftx = static_cast<float>(pose.tan_half_fov_x);
+  vp.fty = static_cast<float>(pose.tan_half_fov_y);
+  vp.inv_kx = static_cast<float>(1.0 / std::sqrt(1.0 + pose.tan_half_fov_x * pose.tan_half_fov_x));
+  vp.inv_ky = static_cast<float>(1.0 / std::sqrt(1.0 + pose.tan_half_fov_y * pose.tan_half_fov_y));
   // Outside-ness e = (distance of the sphere beyond a side plane) / distance ~ sine of the
   // angle outside; the ramp spans e in [0, sin(margin)].
-  const float ramp = static_cast<float>(std::sin(std::clamp(cfg.margin_deg, 0.1, 90.0) * std::numbers::pi / 180.0));
-  const float inv_ramp = 1.0f / ramp;
-  // Row i of r_hw maps world offsets to head axis i (GLM is column-major: m[col][row]).
-  float row[3][3];
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) row[i][j] = static_cast<float>(r_hw[j][i]);
-  const double cx = pose.position.x, cy = pose.position.y, cz = pose.position.z;
-  const float near = static_cast<float>(cfg.near_distance);
-  const float out_w = static_cast<float>(cfg.out_of_view_weight);
-  const float bonus = static_cast<float>(1.0 + cfg.retention_bonus);
+  vp.inv_ramp = 1.0f / static_cast<float>(std::sin(std::clamp(cfg.margin_deg, 0.1, 90.0) * std::numbers::pi / 180.0));
+  vp.near = static_cast<float>(cfg.near_distance);
+  vp.out_w = static_cast<float>(cfg.out_of_view_weight);
+  // Rounded through 1 + bonus in float, as the keys (and the walk digest) always were.
+  vp.bonus = static_cast<float>(1.0 + cfg.retention_bonus) - 1.0f;
 
   // Partitions and the global layer depend on the scene, the query, the eligibility mask
   // and the budgets, not on the pose: computed once and reused while those stay the same,
@@ -504,20 +506,6 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
   out.background_candidates = s.n_bg;
   out.object_budget = s.object_budget;
 
-  ViewParams vp;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) vp.row[i][j] = row[i][j];
-  vp.cx = static_cast<float>(cx);
-  vp.cy = static_cast<float>(cy);
-  vp.cz = static_cast<float>(cz);
-  vp.ftx = ftx;
-  vp.fty = fty;
-  vp.inv_kx = inv_kx;
-  vp.inv_ky = inv_ky;
-  vp.inv_ramp = inv_ramp;
-  vp.near = near;
-  vp.out_w = out_w;
-  vp.bonus = bonus - 1.0f;
   s.view_key.resize(n);
   score_view(n, s.px.data(), s.py.data(), s.pz.data(), s.radius.data(), s.weight.data(), s.part.data(),
              s.resident_flags.data(), vp, s.view_key.data());
