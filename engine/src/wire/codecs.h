@@ -35,6 +35,24 @@ void write(const msg::QueryReply& m, Writer& w);
 void write(const msg::Ack& m, Writer& w);
 void write(const msg::ClientStats& m, Writer& w);
 
+// An id list on the wire: u32 count, then each ObjectId as i32 (QueryReply targets,
+// ObjectTableUpdate removed). read_ids bounds the count by `max` and by the bytes left.
+inline void write_ids(const std::vector<ObjectId>& ids, Writer& w) {
+  w.u32(static_cast<std::uint32_t>(ids.size()));
+  for (ObjectId id : ids) w.i32(to_underlying(id));
+}
+inline bool read_ids(Reader& r, const char* field, std::size_t max, std::vector<ObjectId>& out) {
+  std::uint32_t n = 0;
+  if (!r.count(field, n, max, 4)) return false;
+  out.resize(n);
+  for (auto& id : out) {
+    std::int32_t v = 0;
+    r.i32(field, v);
+    id = ObjectId{v};
+  }
+  return r.ok();
+}
+
 // Runs check() on a structurally decoded message: the decoder's last step.
 template <class T>
 Expected<T> checked(T m) {

@@ -93,8 +93,7 @@ void write(const msg::QueryReply& m, Writer& w) {
   w.u32(m.query_id);
   w.u8(static_cast<std::uint8_t>(m.status));
   w.u64(to_underlying(m.epoch));
-  w.u32(static_cast<std::uint32_t>(m.targets.size()));
-  for (ObjectId id : m.targets) w.i32(to_underlying(id));
+  write_ids(m.targets, w);
   w.u64(m.target_gaussians);
   w.str(m.reason);
 }
@@ -158,15 +157,7 @@ Expected<msg::QueryReply> decode_query_reply(std::span<const std::uint8_t> body)
   m.status = static_cast<msg::QueryStatus>(status);
   r.u64("epoch", epoch);
   m.epoch = Epoch{epoch};
-  std::uint32_t n = 0;
-  if (r.count("targets", n, msg::kMaxQueryTargets, 4)) {
-    m.targets.resize(n);
-    for (auto& id : m.targets) {
-      std::int32_t v = 0;
-      r.i32("targets", v);
-      id = ObjectId{v};
-    }
-  }
+  detail::read_ids(r, "targets", msg::kMaxQueryTargets, m.targets);
   r.u64("target_gaussians", m.target_gaussians);
   r.str("reason", m.reason, msg::kMaxReasonBytes);
   if (!r.finish()) return r.error();

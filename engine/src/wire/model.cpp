@@ -15,6 +15,13 @@ namespace {
 // id, label length, centroid, extent_min, extent_max, quality, member_count
 constexpr std::size_t kObjectInfoMinBytes = 4 + 4 + 3 * 12 + 4 + 4;
 
+// Sorts `ids` and returns the first one that appears twice, or nullptr.
+const std::int32_t* first_duplicate(std::vector<std::int32_t>& ids) {
+  std::sort(ids.begin(), ids.end());
+  const auto dup = std::adjacent_find(ids.begin(), ids.end());
+  return dup == ids.end() ? nullptr : &*dup;
+}
+
 Status check_object(const char* message, const std::string& where, const msg::ObjectInfo& o) {
   if (to_underlying(o.id) < 0) return field_error(message, where + ".id", "negative object id " + std::to_string(to_underlying(o.id)));
   if (o.label.size() > msg::kMaxLabelBytes)
@@ -37,8 +44,7 @@ Status check_objects(const char* message, const char* field, const std::vector<m
     if (auto s = check_object(message, std::string(field) + "[" + std::to_string(i) + "]", objects[i]); !s) return s;
     ids.push_back(to_underlying(objects[i].id));
   }
-  std::sort(ids.begin(), ids.end());
-  if (auto dup = std::adjacent_find(ids.begin(), ids.end()); dup != ids.end())
+  if (const auto* dup = first_duplicate(ids))
     return field_error(message, field, "object id " + std::to_string(*dup) + " appears twice");
   return Ok{};
 }
@@ -102,8 +108,7 @@ Status check(const msg::ObjectTableUpdate& m) {
     if (to_underlying(id) < 0) return field_error("ObjectTableUpdate", "removed", "negative object id " + std::to_string(to_underlying(id)));
     removed.push_back(to_underlying(id));
   }
-  std::sort(removed.begin(), removed.end());
-  if (auto dup = std::adjacent_find(removed.begin(), removed.end()); dup != removed.end())
+  if (const auto* dup = first_duplicate(removed))  // leaves `removed` sorted
     return field_error("ObjectTableUpdate", "removed", "object id " + std::to_string(*dup) + " appears twice");
   for (const auto& o : m.upserts)
     if (std::binary_search(removed.begin(), removed.end(), to_underlying(o.id)))
@@ -141,8 +146,7 @@ void write(const msg::ObjectTableUpdate& m, Writer& w) {
   w.u64(to_underlying(m.epoch));
   w.u32(static_cast<std::uint32_t>(m.upserts.size()));
   for (const auto& o : m.upserts) write_object(o, w);
-  w.u32(static_cast<std::uint32_t>(m.removed.size()));
-  for (ObjectId id : m.removed) w.i32(to_underlying(id));
+  write_ids(m.removed, w);
 }
 
 }  // namespace detail
@@ -193,15 +197,7 @@ Expected<msg::ObjectTableUpdate> decode_object_table_update(std::span<const std:
   r.u64("epoch", epoch);
   m.epoch = Epoch{epoch};
   if (r.ok()) detail::read_objects(r, "upserts", m.upserts);
-  std::uint32_t n = 0;
-  if (r.count("removed", n, msg::kMaxObjects, 4)) {
-    m.removed.resize(n);
-    for (auto& id : m.removed) {
-      std::int32_t v = 0;
-      r.i32("removed", v);
-      id = ObjectId{v};
-    }
-  }
+  detail::read_ids(r, "removed", msg::kMaxObjects, m.removed);
   if (!r.finish()) return r.error();
   return detail::checked(std::move(m));
 }
