@@ -8,10 +8,20 @@
 namespace gauss::wire {
 namespace detail {
 
+namespace {
+
+// Hello asks for a capacity, Welcome confirms one: the same bound either way.
+Status check_slot_capacity(const char* message, std::uint32_t capacity) {
+  if (capacity < 1 || capacity > gauss::kMaxSlotCapacity)
+    return field_error(message, "slot_capacity",
+                       std::to_string(capacity) + " outside [1, " + std::to_string(gauss::kMaxSlotCapacity) + "]");
+  return Ok{};
+}
+
+}  // namespace
+
 Status check(const msg::Hello& m) {
-  if (m.slot_capacity < 1 || m.slot_capacity > gauss::kMaxSlotCapacity)
-    return field_error("Hello", "slot_capacity",
-                       std::to_string(m.slot_capacity) + " outside [1, " + std::to_string(gauss::kMaxSlotCapacity) + "]");
+  if (auto s = check_slot_capacity("Hello", m.slot_capacity); !s) return s;
   if (m.access_token.size() > msg::kMaxTokenBytes)
     return field_error("Hello", "access_token", "longer than " + std::to_string(msg::kMaxTokenBytes) + " bytes");
   if (m.client_name.size() > msg::kMaxLabelBytes)
@@ -19,12 +29,7 @@ Status check(const msg::Hello& m) {
   return Ok{};
 }
 
-Status check(const msg::Welcome& m) {
-  if (m.slot_capacity < 1 || m.slot_capacity > gauss::kMaxSlotCapacity)
-    return field_error("Welcome", "slot_capacity",
-                       std::to_string(m.slot_capacity) + " outside [1, " + std::to_string(gauss::kMaxSlotCapacity) + "]");
-  return Ok{};
-}
+Status check(const msg::Welcome& m) { return check_slot_capacity("Welcome", m.slot_capacity); }
 
 Status check(const msg::Refuse& m) {
   const auto r = static_cast<std::uint8_t>(m.reason);
