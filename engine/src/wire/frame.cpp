@@ -106,14 +106,18 @@ Expected<FrameHeader> decode_header(std::span<const std::uint8_t> frame) {
   r.u16("reserved", reserved);
   r.u32("body_length", length);
   if (!r.ok()) return r.error();
+  const auto bad = [&](const char* field, std::size_t at, const std::string& what) {
+    r.fail_at(field, at, what);
+    return r.error();
+  };
   if (type < msg::kFirstMessageType || type > msg::kLastMessageType)
-    return Error{"frame: field 'type' at byte 0: unknown message type " + std::to_string(type)};
-  if (reserved != 0) return Error{"frame: field 'reserved' at byte 2: must be 0, is " + std::to_string(reserved)};
+    return bad("type", 0, "unknown message type " + std::to_string(type));
+  if (reserved != 0) return bad("reserved", 2, "must be 0, is " + std::to_string(reserved));
   if (length > msg::kMaxMessageBytes - kHeaderBytes)
-    return Error{"frame: field 'body_length' at byte 4: " + std::to_string(length) + " exceeds the message limit"};
+    return bad("body_length", 4, std::to_string(length) + " exceeds the message limit");
   if (length != frame.size() - kHeaderBytes)
-    return Error{"frame: field 'body_length' at byte 4: says " + std::to_string(length) + " bytes, frame carries " +
-                 std::to_string(frame.size() - kHeaderBytes)};
+    return bad("body_length", 4,
+               "says " + std::to_string(length) + " bytes, frame carries " + std::to_string(frame.size() - kHeaderBytes));
   return FrameHeader{static_cast<msg::MessageType>(type), length};
 }
 

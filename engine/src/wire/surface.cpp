@@ -4,8 +4,6 @@
 // The decompressed size follows from the two counts (both bounded by the schema),
 // and the zstd frame must declare exactly that size, so a forged frame can never
 // make the decoder allocate beyond the schema's chunk bound.
-#include <bit>
-#include <cstring>
 #include <string>
 
 #include <zstd.h>
@@ -98,22 +96,22 @@ Expected<msg::SurfacePatch> decode_surface_patch(std::span<const std::uint8_t> b
   r.view("compressed", packed_size, packed);
   if (!r.finish()) return r.error();
 
+  // The zstd frame's problems are reported like any other field's.
+  const auto bad_frame = [&](const std::string& what) {
+    r.fail_at("compressed", packed_at, what);
+    return r.error();
+  };
   const std::size_t expected = detail::raw_size(vertices, indices);
   const unsigned long long declared = ZSTD_getFrameContentSize(packed.data(), packed.size());
   if (declared == ZSTD_CONTENTSIZE_ERROR || declared == ZSTD_CONTENTSIZE_UNKNOWN)
-    return Error{"SurfacePatch: field 'compressed' at byte " + std::to_string(packed_at) +
-                 ": not a zstd frame with a declared content size"};
+    return bad_frame("not a zstd frame with a declared content size");
   if (declared != expected)
-    return Error{"SurfacePatch: field 'compressed' at byte " + std::to_string(packed_at) + ": declares " +
-                 std::to_string(declared) + " bytes, counts need " + std::to_string(expected)};
+    return bad_frame("declares " + std::to_string(declared) + " bytes, counts need " + std::to_string(expected));
   std::vector<std::uint8_t> raw(expected);
   const std::size_t got = ZSTD_decompress(raw.data(), raw.size(), packed.data(), packed.size());
-  if (ZSTD_isError(got))
-    return Error{"SurfacePatch: field 'compressed' at byte " + std::to_string(packed_at) +
-                 ": zstd: " + ZSTD_getErrorName(got)};
+  if (ZSTD_isError(got)) return bad_frame(std::string("zstd: ") + ZSTD_getErrorName(got));
   if (got != expected)
-    return Error{"SurfacePatch: field 'compressed' at byte " + std::to_string(packed_at) + ": decompressed " +
-                 std::to_string(got) + " bytes, expected " + std::to_string(expected)};
+    return bad_frame("decompressed " + std::to_string(got) + " bytes, expected " + std::to_string(expected));
 
   // The raw block is read with the same reader so non-finite positions are named.
   detail::Reader rr(raw, "SurfacePatch(decompressed)");
