@@ -20,6 +20,20 @@ struct Outgoing {
   bool reliable{true};
   detail::Frame frame;
 };
+
+// Encodes a client->host message for the outbox. Fails for a host->client type or a
+// Hello (only the service sends one, once per connection) and for a message the
+// schema refuses.
+Expected<Outgoing> outgoing(const wire::Message& m) {
+  const msg::MessageType type = wire::type_of(m);
+  if (msg::direction_of(type) != msg::Direction::ClientToHost || type == msg::MessageType::Hello)
+    return Error{std::string("NetClient::send: ") + msg::to_string(type) + " is not a client message to send"};
+  auto bytes = wire::encode(m);
+  if (!bytes) return bytes.error();
+  // A lost pose is replaced by the next one within ~100 ms; everything else must arrive.
+  return Outgoing{msg::channel_of(type), type != msg::MessageType::HeadPose,
+                  std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value())};
+}
 }  // namespace
 
 struct NetClient::Impl {
@@ -27,6 +41,7 @@ struct NetClient::Impl {
   ClientSink* sink{nullptr};
   detail::EnetRef enet;
   ENetAddress server{};
+  detail::Frame hello;  // encoded once in start(), sent on every connection
   std::thread thread;
   std::atomic<bool> stop{false};
   std::atomic<bool> abandoned{false};
@@ -69,18 +84,15 @@ struct NetClient::Impl {
 
   void flush(ENetPeer* peer) {
     for (const auto& m : sink->take_outgoing()) {
-      auto bytes = wire::encode(m);
-      const msg::MessageType type = wire::type_of(m);
-      if (!bytes.ok() || msg::direction_of(type) != msg::Direction::ClientToHost) {
-        log("dropping an outgoing " + std::string(msg::to_string(type)) + ": " +
-            (bytes.ok() ? std::string("not a client message") : bytes.message()));
+      auto o = outgoing(m);
+      if (!o) {
+        log("dropping an outgoing " + std::string(msg::to_string(wire::type_of(m))) + ": " + o.message());
         std::lock_guard lock(mu);
         ++counters.send_dropped;
         continue;
       }
       std::lock_guard lock(mu);
-      outbox.push_back(Outgoing{msg::channel_of(type), type != msg::MessageType::HeadPose,
-                                std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value())});
+      outbox.push_back(std::move(o).value());
     }
     std::vector<Outgoing> out;
     {
@@ -179,18 +191,7 @@ struct NetClient::Impl {
       std::lock_guard lock(mu);
       ++counters.connects;
     }
-    msg::Hello hello;
-    hello.slot_capacity = cfg.slot_capacity;
-    hello.access_token = cfg.access_token;
-    hello.client_name = cfg.name;
-    auto bytes = wire::encode(hello);
-    if (!bytes.ok()) {  // checked in start(); kept for safety against later edits
-      log("cannot encode Hello: " + bytes.message());
-      enet_peer_reset(peer);
-      return;
-    }
-    auto frame = std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value());
-    if (ENetPacket* p = detail::make_packet(frame, true, nullptr)) {
+    if (ENetPacket* p = detail::make_packet(hello, true, nullptr)) {
       if (enet_peer_send(peer, msg::kChannelModel, p) != 0) enet_packet_destroy(p);
     }
     bool alive = true;
@@ -252,13 +253,15 @@ NetClient::NetClient(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 NetClient::~NetClient() = default;
 
 Expected<std::unique_ptr<NetClient>> NetClient::start(NetClientConfig config, ClientSink& sink) {
-  msg::Hello probe;
-  probe.slot_capacity = config.slot_capacity;
-  probe.access_token = config.access_token;
-  probe.client_name = config.name;
-  if (auto e = wire::encode(probe); !e) return Error{"ClientConfig: " + e.message()};
+  msg::Hello hello;
+  hello.slot_capacity = config.slot_capacity;
+  hello.access_token = config.access_token;
+  hello.client_name = config.name;
+  auto bytes = wire::encode(hello);
+  if (!bytes) return Error{"ClientConfig: " + bytes.message()};
   auto impl = std::make_unique<Impl>();
   impl->cfg = std::move(config);
+  impl->hello = std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value());
   impl->sink = &sink;
   if (auto s = impl->enet.acquire(); !s) return s.error();
   auto addr = detail::resolve(impl->cfg.server);
@@ -273,20 +276,14 @@ Expected<std::unique_ptr<NetClient>> NetClient::start(NetClientConfig config, Cl
 }
 
 Status NetClient::send(const wire::Message& m) {
-  const msg::MessageType type = wire::type_of(m);
-  if (msg::direction_of(type) != msg::Direction::ClientToHost || type == msg::MessageType::Hello)
-    return Error{std::string("NetClient::send: ") + msg::to_string(type) + " is not a client message to send"};
-  auto bytes = wire::encode(m);
-  if (!bytes) return bytes.error();
+  auto o = outgoing(m);
+  if (!o) return o.error();
   std::lock_guard lock(impl_->mu);
   if (impl_->status != ClientStatus::Connected) {
     ++impl_->counters.send_dropped;
     return Ok{};
   }
-  // A lost pose is replaced by the next one within ~100 ms; everything else must arrive.
-  const bool reliable = type != msg::MessageType::HeadPose;
-  impl_->outbox.push_back(
-      Outgoing{msg::channel_of(type), reliable, std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value())});
+  impl_->outbox.push_back(std::move(o).value());
   return Ok{};
 }
 
