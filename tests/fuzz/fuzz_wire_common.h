@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 #include <span>
 #include <type_traits>
 
@@ -38,15 +39,27 @@ void check_round_trip(const T& value, std::span<const std::uint8_t> body) {
   }
 }
 
+// True when a decoder accepted its input; a rejection must carry a reason.
+template <class E>
+bool accepted(const E& decoded) {
+  if (!decoded.ok() && decoded.message().empty()) fail("rejection without a reason");
+  return decoded.ok();
+}
+
+// Decodes one body and checks the invariants; returns the accepted message, if any,
+// for targets that check more of it.
 template <class T, class Decode>
-int fuzz_body(const std::uint8_t* data, std::size_t size, Decode decode) {
+std::optional<T> fuzz_decode(const std::uint8_t* data, std::size_t size, Decode decode) {
   const std::span<const std::uint8_t> body(data, size);
   auto decoded = decode(body);
-  if (!decoded.ok()) {
-    if (decoded.message().empty()) fail("rejection without a reason");
-    return 0;
-  }
+  if (!accepted(decoded)) return std::nullopt;
   check_round_trip<T>(decoded.value(), body);
+  return std::move(decoded).value();
+}
+
+template <class T, class Decode>
+int fuzz_body(const std::uint8_t* data, std::size_t size, Decode decode) {
+  fuzz_decode<T>(data, size, decode);
   return 0;
 }
 

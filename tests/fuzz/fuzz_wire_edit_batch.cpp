@@ -43,8 +43,7 @@ void check_codec(const std::vector<std::uint8_t>& payload) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  gauss::fuzz::fuzz_body<gauss::msg::EditBatchMsg>(data, size, gauss::wire::decode_edit_batch_msg);
-  auto m = gauss::wire::decode_edit_batch_msg(std::span<const std::uint8_t>(data, size));
-  if (m.ok()) check_codec(m.value().payload);
+  if (auto m = gauss::fuzz::fuzz_decode<gauss::msg::EditBatchMsg>(data, size, gauss::wire::decode_edit_batch_msg))
+    check_codec(m->payload);
   return 0;
 }
