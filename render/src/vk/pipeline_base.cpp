@@ -133,7 +133,8 @@ Status PipelineBase::create_layout(Context& context, const std::string& name,
 
 Status PipelineBase::bind(VkCommandBuffer cmd, std::span<const Resource> resources) const {
   if (!valid()) return Error{"bind of an empty pipeline"};
-  const std::string what = "pipeline '" + name_ + "'";
+  // Error texts are built only on failure: bind runs for every pass of every frame.
+  auto what = [&] { return "pipeline '" + name_ + "'"; };
   const VkPhysicalDeviceLimits& limits = context_->limits();
   std::vector<VkWriteDescriptorSet> writes;
   std::vector<VkDescriptorBufferInfo> buffer_infos;
@@ -146,15 +147,15 @@ Status PipelineBase::bind(VkCommandBuffer cmd, std::span<const Resource> resourc
     const auto count = std::count_if(resources.begin(), resources.end(),
                                      [&](const Resource& r) { return r.binding == decl.binding; });
     if (count != 1) {
-      return Error{what + ": binding " + std::to_string(decl.binding) + " (" + kind_name(decl.kind) + ") given " +
+      return Error{what() + ": binding " + std::to_string(decl.binding) + " (" + kind_name(decl.kind) + ") given " +
                    std::to_string(count) + " times, expected once"};
     }
   }
   for (const Resource& r : resources) {
     const auto decl = std::find_if(bindings_.begin(), bindings_.end(),
                                    [&](const DescriptorBinding& d) { return d.binding == r.binding; });
-    if (decl == bindings_.end()) return Error{what + ": binding " + std::to_string(r.binding) + " is not declared"};
-    const std::string where = what + " binding " + std::to_string(r.binding) + " (" + kind_name(decl->kind) + ")";
+    if (decl == bindings_.end()) return Error{what() + ": binding " + std::to_string(r.binding) + " is not declared"};
+    auto where = [&] { return what() + " binding " + std::to_string(r.binding) + " (" + kind_name(decl->kind) + ")"; };
     VkWriteDescriptorSet w{};
     w.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
     w.dstBinding = r.binding;
@@ -162,28 +163,28 @@ Status PipelineBase::bind(VkCommandBuffer cmd, std::span<const Resource> resourc
     w.descriptorType = descriptor_type(decl->kind);
     const bool wants_buffer = decl->kind == DescriptorKind::StorageBuffer || decl->kind == DescriptorKind::UniformBuffer;
     if (wants_buffer) {
-      if (r.buffer == nullptr || !r.buffer->valid()) return Error{where + ": needs a (created) buffer"};
+      if (r.buffer == nullptr || !r.buffer->valid()) return Error{where() + ": needs a (created) buffer"};
       const VkDeviceSize range = r.range == 0 ? (r.offset <= r.buffer->size() ? r.buffer->size() - r.offset : 0) : r.range;
-      if (range == 0) return Error{where + ": empty range at offset " + std::to_string(r.offset) + " of buffer '" + r.buffer->name() + "'"};
-      if (auto st = r.buffer->check_range(r.offset, range); !st) return Error{where + ": " + st.message()};
+      if (range == 0) return Error{where() + ": empty range at offset " + std::to_string(r.offset) + " of buffer '" + r.buffer->name() + "'"};
+      if (auto st = r.buffer->check_range(r.offset, range); !st) return Error{where() + ": " + st.message()};
       const bool storage = decl->kind == DescriptorKind::StorageBuffer;
       const VkDeviceSize max_range = storage ? limits.maxStorageBufferRange : limits.maxUniformBufferRange;
       if (range > max_range) {
-        return Error{where + ": buffer '" + r.buffer->name() + "' range of " + std::to_string(range) +
+        return Error{where() + ": buffer '" + r.buffer->name() + "' range of " + std::to_string(range) +
                      " bytes exceeds " + (storage ? "maxStorageBufferRange " : "maxUniformBufferRange ") +
                      std::to_string(max_range) + "; bind it in pieces"};
       }
       const VkDeviceSize align =
           storage ? limits.minStorageBufferOffsetAlignment : limits.minUniformBufferOffsetAlignment;
       if (align > 0 && r.offset % align != 0) {
-        return Error{where + ": offset " + std::to_string(r.offset) + " is not a multiple of " + std::to_string(align)};
+        return Error{where() + ": offset " + std::to_string(r.offset) + " is not a multiple of " + std::to_string(align)};
       }
       buffer_infos.push_back({r.buffer->handle(), r.offset, range});
       w.pBufferInfo = &buffer_infos.back();
     } else {
-      if (r.image == nullptr || !r.image->valid()) return Error{where + ": needs a (created) image"};
+      if (r.image == nullptr || !r.image->valid()) return Error{where() + ": needs a (created) image"};
       if (!layout_suits(decl->kind, r.image->layout())) {
-        return Error{where + ": image '" + r.image->name() + "' is in layout " + std::to_string(r.image->layout()) +
+        return Error{where() + ": image '" + r.image->name() + "' is in layout " + std::to_string(r.image->layout()) +
                      (decl->kind == DescriptorKind::StorageImage ? ", needs GENERAL" : ", needs a read-only layout") +
                      " (transition it before bind)"};
       }
