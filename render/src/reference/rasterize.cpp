@@ -90,11 +90,8 @@ void blend_tile_rows(const Context& ctx, std::uint32_t ty_begin, std::uint32_t t
             C += s.colour * (alpha * T);
             T = test_T;
           }
-          glm::dvec3 bg = ctx.options->clear_colour;
-          if (mesh) {
-            const std::uint8_t* m = &mesh->colour->pixels[px * 4];
-            bg = glm::dvec3(m[0], m[1], m[2]) / 255.0;
-          }
+          // out.rgb already holds this pixel's background (filled before the blend).
+          const glm::dvec3 bg(out.rgb[px * 3 + 0], out.rgb[px * 3 + 1], out.rgb[px * 3 + 2]);
           const glm::dvec3 final_colour = C + T * bg;
           out.rgb[px * 3 + 0] = final_colour.x;
           out.rgb[px * 3 + 1] = final_colour.y;
@@ -202,7 +199,8 @@ Expected<ReferenceImage> render_reference(std::span<const Gaussian> slots, std::
     }
   }
 
-  // Background everywhere first (rows outside the range keep it), then blend tile rows.
+  // Background everywhere first (rows outside the range keep it; blend_tile_rows reads it
+  // back as the pixel's background), then blend tile rows.
   for (std::size_t px = 0; px < pixels; ++px) {
     glm::dvec3 bg = options.clear_colour;
     if (options.mesh) {
