@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "gauss/render/vk_check.h"
+#include "gauss/render/vk_commands.h"
 #include "vk/debug_messenger.h"
 #include "vk/device_select.h"
 
@@ -319,37 +320,12 @@ Status Context::submit(VkCommandBuffer cmd, VkFence fence) {
 Status Context::submit_and_wait(const std::function<void(VkCommandBuffer)>& record) {
   // A command buffer and a fence of its own per call: `record` may itself call
   // submit_and_wait (e.g. a staged Buffer::upload); that inner work then runs first.
-  VkCommandBufferAllocateInfo ai{};
-  ai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-  ai.commandPool = command_pool_;
-  ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-  ai.commandBufferCount = 1;
-  VkCommandBuffer cmd = VK_NULL_HANDLE;
-  VkFence fence = VK_NULL_HANDLE;
-  struct Cleanup {
-    VkDevice device;
-    VkCommandPool pool;
-    VkCommandBuffer* cmd;
-    VkFence* fence;
-    ~Cleanup() {
-      if (*cmd) vkFreeCommandBuffers(device, pool, 1, cmd);
-      if (*fence) vkDestroyFence(device, *fence, nullptr);
-    }
-  } cleanup{device_, command_pool_, &cmd, &fence};
-  GAUSS_VK_TRY(vkAllocateCommandBuffers(device_, &ai, &cmd));
-  VkFenceCreateInfo fci{};
-  fci.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-  GAUSS_VK_TRY(vkCreateFence(device_, &fci, nullptr, &fence));
-
-  VkCommandBufferBeginInfo bi{};
-  bi.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
-  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-  GAUSS_VK_TRY(vkBeginCommandBuffer(cmd, &bi));
-  record(cmd);
-  GAUSS_VK_TRY(vkEndCommandBuffer(cmd));
-  if (auto st = submit(cmd, fence); !st) return st;
-  GAUSS_VK_TRY(vkWaitForFences(device_, 1, &fence, VK_TRUE, UINT64_MAX));
-  return Ok{};
+  auto cb = CommandBuffer::create(*this);
+  if (!cb) return cb.error();
+  if (auto st = cb->begin(); !st) return st;
+  record(cb->handle());
+  if (auto st = cb->end(); !st) return st;
+  return cb->submit_and_wait();
 }
 
 Status Context::wait_idle() {
