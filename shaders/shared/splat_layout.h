@@ -1,7 +1,7 @@
 // Layout of the compute splat renderer (render/src/splat/, shaders/splat_*.comp,
 // shaders/sort_radix_*.comp, shaders/mesh.*): GPU structs, bindings, workgroup sizes,
 // specialization constant ids and the splat-math constants the shaders need. Included
-// by GLSL and C++; render/src/splat/splat_layout_check.cpp static_asserts that the
+// by GLSL and C++; render/src/splat/splat_pipelines.cpp static_asserts that the
 // math constants equal those of render/include/gauss/render/splat_math.h.
 //
 // Pass sequence per view (all on the GPU, no readback inside a frame):
@@ -99,7 +99,7 @@ struct GpuView {
   vec4 limits;           // lim_x, lim_y (frustum clamp), mesh margin, unused
   vec4 clear_colour;     // rgb background without a mesh
   uvec4 size;            // width, height, tiles_x, tiles_y
-  uvec4 frame;           // high-water mark, display frame, highlight count, sort key bits
+  uvec4 frame;           // unused, display frame, highlight count, unused
 };
 
 // ---- Counters (per view, uint[SPLAT_COUNTER_WORDS]) -----------------------------------------

@@ -49,7 +49,7 @@ Status SplatRenderer::Impl::prepare_view(std::uint32_t v, const Camera& camera, 
                        options.mesh_margin, 0.0);
   g.clear_colour = glm::vec4(options.clear_colour, 1.0f);
   g.size = glm::uvec4(camera.width, camera.height, render::tile_count(camera.width), render::tile_count(camera.height));
-  g.frame = glm::uvec4(slots.high_water(), display_frame, highlight_count, 0u);
+  g.frame = glm::uvec4(0u, display_frame, highlight_count, 0u);  // the high-water mark travels as a push constant
   return view.view_ubo.upload(&g, sizeof(g));
 }
 
