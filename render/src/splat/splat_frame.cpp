@@ -1,8 +1,8 @@
 // Recording of one view's passes (see splat_renderer.h for the sequence) and the
 // per-frame statistics read back after the frame has finished.
-#include <algorithm>
 #include <bit>
-#include <cmath>
+#include <initializer_list>
+#include <utility>
 
 #include "gauss/render/vk_context.h"
 #include "splat_frame.h"
