@@ -26,8 +26,13 @@ Room make_room() {
   sc.target_gaussians = 10000;
   auto scene = SyntheticScene::create(sc);
   EXPECT_TRUE(scene) << scene.message();
+  if (!scene) return {};  // an empty room fails the size assertion below
   SceneStore store;
-  while (!scene->finished()) EXPECT_TRUE(scene->produce(store));
+  while (!scene->finished()) {
+    const Status st = scene->produce(store);
+    EXPECT_TRUE(st) << st.message();
+    if (!st) return {};  // a failing produce() would otherwise never finish
+  }
   Room room;
   room.sh_degree = store.sh_degree();
   for (const Gaussian& g : store.gaussians())
