@@ -207,10 +207,10 @@ int run_gpu(const Args& a, const PlyGaussianScene& scene, const TriangleMesh* me
               scene.cloud.sh_degree, cam.width, cam.height, mesh ? ", with mesh" : "");
   render::SplatRenderOptions opt;
   opt.clear_colour = glm::vec3(a.clear);
+  const Camera left = render::stereo_eye_camera(cam, a.ipd, render::Eye::Left);
+  const Camera right = render::stereo_eye_camera(cam, a.ipd, render::Eye::Right);
   for (int f = 0; f < a.frames; ++f) {
     if (a.stereo) {
-      const Camera left = render::stereo_eye_camera(cam, a.ipd, render::Eye::Left);
-      const Camera right = render::stereo_eye_camera(cam, a.ipd, render::Eye::Right);
       auto st = r.render_stereo(left, right, opt);
       if (!st) {
         std::fprintf(stderr, "gauss-render: %s\n", st.message().c_str());
