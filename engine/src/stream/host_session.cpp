@@ -53,10 +53,14 @@ HostSession::HostSession(std::uint32_t client_id, std::uint64_t session_id, Code
       differ_(params),
       bucket_(config_.query_burst) {}
 
-void HostSession::reject(std::uint64_t& counter, std::string reason) {
-  ++counter;
+void HostSession::reject(std::string reason) {
   ++stats_.rejected_messages;
   stats_.last_rejection = std::move(reason);
+}
+
+void HostSession::reject(std::uint64_t& counter, std::string reason) {
+  ++counter;
+  reject(std::move(reason));
 }
 
 std::vector<wire::Message> HostSession::on_message(const wire::Message& m, const SceneStore& scene, double now) {
@@ -158,8 +162,7 @@ std::vector<wire::Message> HostSession::on_message(const wire::Message& m, const
   if (const auto* ack = std::get_if<msg::Ack>(&m)) {
     if (ack->last_batch_id >= next_batch_id_ ||
         (last_ack_ && ack->last_batch_id < last_ack_->last_batch_id)) {
-      reject(stats_.rejected_messages, "ack of batch " + std::to_string(ack->last_batch_id) + " out of order or never sent");
-      --stats_.rejected_messages;  // counted once, in the line above
+      reject("ack of batch " + std::to_string(ack->last_batch_id) + " out of order or never sent");
       return out;
     }
     last_ack_ = *ack;
@@ -257,7 +260,11 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
   if (!needs_resync_ && !new_epoch && batch->edits.empty()) return out;
 
   if (needs_resync_) out.push_back(scene_info(scene));
-  std::vector<wire::Message> patches = surface_patches(scene, epoch);
+  // A resync sends the whole surface and object table; a batch of a new epoch what the
+  // epochs since the last batch changed; a selection-only batch neither.
+  SceneDelta delta = !needs_resync_ && new_epoch ? delta_since_sent(scene, epoch) : SceneDelta{};
+  std::vector<wire::Message> patches =
+      surface_patches(scene, epoch, needs_resync_ || !delta.complete, std::move(delta.chunks));
   // A resync's surface goes before its batch: when the client applies the resync batch,
   // every chunk the scene holds has arrived (same ordered channel), so whatever else
   // the client holds is stale and goes (SurfaceStage::drop_not_resent).
@@ -283,11 +290,10 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
   out.push_back(std::move(bm));
   for (auto& p : patches) out.push_back(std::move(p));
 
-  const bool objects_changed = objects_changed_since_sent(scene, epoch);
   if (needs_resync_) {
     sent_objects_.clear();
     for (const auto& o : scene.objects()) sent_objects_.insert(to_underlying(o.id));
-  } else if (objects_changed) {
+  } else if (delta.objects_changed || !delta.complete) {  // a log that no longer reaches back: assume changed
     msg::ObjectTableUpdate upd;
     upd.epoch = epoch;
     std::set<std::int32_t> now_ids;
@@ -306,35 +312,26 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
   return out;
 }
 
-bool HostSession::objects_changed_since_sent(const SceneStore& scene, Epoch epoch) const {
-  if (needs_resync_ || (sent_epoch_ && to_underlying(epoch) <= to_underlying(*sent_epoch_))) return false;
+HostSession::SceneDelta HostSession::delta_since_sent(const SceneStore& scene, Epoch epoch) const {
+  SceneDelta d;
   const std::uint64_t from = sent_epoch_ ? to_underlying(*sent_epoch_) + 1 : 1;
   for (std::uint64_t e = from; e <= to_underlying(epoch); ++e) {
     const EpochChanges* ch = scene.changes(Epoch{e});
-    if (!ch || ch->objects_changed) return true;  // a log that no longer reaches back: assume changed
+    if (!ch) {
+      d.complete = false;
+      break;
+    }
+    d.objects_changed |= ch->objects_changed;
+    d.chunks.insert(d.chunks.end(), ch->chunks_changed.begin(), ch->chunks_changed.end());
   }
-  return false;
+  return d;
 }
 
-// Surface: everything on a resync or when the change log no longer reaches back;
-// otherwise the chunks changed in the epochs since the last batch (an empty mesh for a
+// Surface: every chunk the scene holds when `all`, else `changed` (an empty mesh for a
 // chunk the scene dropped removes it).
-std::vector<wire::Message> HostSession::surface_patches(const SceneStore& scene, Epoch epoch) const {
-  std::vector<std::uint32_t> chunks;
-  const bool new_epoch = !sent_epoch_ || to_underlying(epoch) > to_underlying(*sent_epoch_);
-  bool all_chunks = needs_resync_;
-  if (!all_chunks && new_epoch) {
-    const std::uint64_t from = sent_epoch_ ? to_underlying(*sent_epoch_) + 1 : 1;
-    for (std::uint64_t e = from; e <= to_underlying(epoch); ++e) {
-      const EpochChanges* ch = scene.changes(Epoch{e});
-      if (!ch) {
-        all_chunks = true;
-        break;
-      }
-      chunks.insert(chunks.end(), ch->chunks_changed.begin(), ch->chunks_changed.end());
-    }
-  }
-  if (all_chunks) {
+std::vector<wire::Message> HostSession::surface_patches(const SceneStore& scene, Epoch epoch, bool all,
+                                                        std::vector<std::uint32_t> chunks) const {
+  if (all) {
     chunks.clear();
     for (const auto& c : scene.surface_chunks()) chunks.push_back(c.chunk_id);
   }

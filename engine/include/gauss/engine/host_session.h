@@ -71,7 +71,7 @@ struct HostSessionStats {
   std::uint64_t rejected_duplicate_hello{0};
   std::uint64_t rejected_direction{0};
   std::uint64_t stale_poses{0};
-  std::uint64_t rejected_queries{0};    // rate limit or unresolvable
+  std::uint64_t rejected_queries{0};    // rate limit (a query matching nothing is answered NoMatch, not counted)
   std::uint64_t batches_sent{0};
   std::uint64_t edits_sent{0};
   std::uint64_t payload_bytes_sent{0};  // codec bytes (compressed)
@@ -111,11 +111,22 @@ class HostSession {
   std::uint64_t last_batch_id() const noexcept { return next_batch_id_ - 1; }
 
  private:
+  // Counts a rejection in rejected_messages (and in `counter`, its reason's own count).
+  void reject(std::string reason);
   void reject(std::uint64_t& counter, std::string reason);
   msg::SceneInfo scene_info(const SceneStore& scene) const;
-  // Surface patches for a batch of `epoch` (all chunks on a resync).
-  std::vector<wire::Message> surface_patches(const SceneStore& scene, Epoch epoch) const;
-  bool objects_changed_since_sent(const SceneStore& scene, Epoch epoch) const;
+  // What the scene's change log says changed in the epochs after the last batch up to
+  // `epoch`: one walk for the surface patches and the object-table update.
+  struct SceneDelta {
+    bool complete{true};                // the log still reaches back to the last batch
+    bool objects_changed{false};
+    std::vector<std::uint32_t> chunks;  // surface chunks changed (unsorted, may repeat)
+  };
+  SceneDelta delta_since_sent(const SceneStore& scene, Epoch epoch) const;
+  // Surface patches for a batch of `epoch`: every chunk when `all` (a resync, or a
+  // log that no longer reaches back), else those in `chunks`.
+  std::vector<wire::Message> surface_patches(const SceneStore& scene, Epoch epoch, bool all,
+                                             std::vector<std::uint32_t> chunks) const;
   // Why the host should re-select for the client's motion, if at all.
   enum class Motion { None, Drift, Jump };
   Motion pose_motion() const;
