@@ -1,7 +1,6 @@
 #include "gauss/engine/desired_state.h"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
@@ -86,6 +85,17 @@ void store_fence() {
 #if defined(__SSE2__)
   _mm_sfence();
 #endif
+}
+
+// Counts one edit of a batch in its report: accepted (empty reason) or rejected, keeping
+// the first rejection's reason.
+void note(ApplyReport& rep, std::string reason) {
+  if (reason.empty()) {
+    ++rep.accepted;
+    return;
+  }
+  ++rep.rejected;
+  if (rep.first_rejection.empty()) rep.first_rejection = std::move(reason);
 }
 
 }  // namespace
@@ -268,14 +278,6 @@ Expected<ApplyReport> DesiredState::apply(const EditBatch& batch, double now) {
                  " refused: epoch goes backwards (last received " + std::to_string(to_underlying(*received_)) + ")"};
   }
   ApplyReport rep;
-  auto note = [&rep](std::string reason) {
-    if (reason.empty()) {
-      ++rep.accepted;
-      return;
-    }
-    ++rep.rejected;
-    if (rep.first_rejection.empty()) rep.first_rejection = std::move(reason);
-  };
   // Software pipeline over the batch: the id index cell of the edit kIndexAhead ahead
   // and the entry of the edit kEntryAhead ahead are requested from memory while this
   // edit is applied. An edit to a random id otherwise waits for two cache misses in a
@@ -297,9 +299,9 @@ Expected<ApplyReport> DesiredState::apply(const EditBatch& batch, double now) {
     }
     const Edit& ed = edits[k];
     switch (ed.kind) {
-      case EditKind::Insert: note(apply_one(Op::Insert, ed.id, &ed.value, batch.epoch, now, rep)); break;
-      case EditKind::Update: note(apply_one(Op::Update, ed.id, &ed.value, batch.epoch, now, rep)); break;
-      case EditKind::Remove: note(apply_one(Op::Remove, ed.id, nullptr, batch.epoch, now, rep)); break;
+      case EditKind::Insert: note(rep, apply_one(Op::Insert, ed.id, &ed.value, batch.epoch, now, rep)); break;
+      case EditKind::Update: note(rep, apply_one(Op::Update, ed.id, &ed.value, batch.epoch, now, rep)); break;
+      case EditKind::Remove: note(rep, apply_one(Op::Remove, ed.id, nullptr, batch.epoch, now, rep)); break;
       case EditKind::Replace: {
         // Validate both halves first so a bad replace changes nothing.
         const DesiredEntry* leaving = find(ed.leaving);
@@ -316,23 +318,23 @@ Expected<ApplyReport> DesiredState::apply(const EditBatch& batch, double now) {
           reason = "replace into id " + id_str(ed.id) + " that is already desired";
         }
         if (!reason.empty()) {
-          note(std::move(reason));
+          note(rep, std::move(reason));
           break;
         }
         if (ed.leaving == ed.id) {
-          note(apply_one(Op::Update, ed.id, &ed.value, batch.epoch, now, rep));
+          note(rep, apply_one(Op::Update, ed.id, &ed.value, batch.epoch, now, rep));
           break;
         }
         ApplyReport inner;
         (void)apply_one(Op::Remove, ed.leaving, nullptr, batch.epoch, now, inner);
         --stats_.accepted;  // the two halves count as one edit
-        note(apply_one(Op::Insert, ed.id, &ed.value, batch.epoch, now, rep));
+        note(rep, apply_one(Op::Insert, ed.id, &ed.value, batch.epoch, now, rep));
         rep.newly_pending += inner.newly_pending;
         break;
       }
       default:
         ++stats_.rejected_unknown_id;
-        note("edit of id " + id_str(ed.id) + " has an unknown kind " + std::to_string(static_cast<int>(ed.kind)));
+        note(rep, "edit of id " + id_str(ed.id) + " has an unknown kind " + std::to_string(static_cast<int>(ed.kind)));
     }
   }
   received_ = batch.epoch;
@@ -347,14 +349,6 @@ Expected<ApplyReport> DesiredState::apply_resync(const EditBatch& snapshot, doub
                  " refused: older than the last received epoch " + std::to_string(to_underlying(*received_))};
   }
   ApplyReport rep;
-  auto note = [&rep](std::string reason) {
-    if (reason.empty()) {
-      ++rep.accepted;
-      return;
-    }
-    ++rep.rejected;
-    if (rep.first_rejection.empty()) rep.first_rejection = std::move(reason);
-  };
   std::unordered_set<GaussianId> in_snapshot;
   in_snapshot.reserve(snapshot.edits.size());
   for (const Edit& ed : snapshot.edits)
@@ -374,24 +368,24 @@ Expected<ApplyReport> DesiredState::apply_resync(const EditBatch& snapshot, doub
   for (const Edit& ed : snapshot.edits) {
     if (ed.kind != EditKind::Insert) {
       ++stats_.rejected_unknown_id;
-      note("resync snapshot holds a non-insert edit for id " + id_str(ed.id));
+      note(rep, "resync snapshot holds a non-insert edit for id " + id_str(ed.id));
       continue;
     }
     if (!seen.insert(ed.id).second) {
       ++stats_.rejected_duplicate;
-      note("resync snapshot names id " + id_str(ed.id) + " twice");
+      note(rep, "resync snapshot names id " + id_str(ed.id) + " twice");
       continue;
     }
     const DesiredEntry* cur = find(ed.id);
     if (cur && cur->desired) {
       if (same_record(cur->value, ed.value)) {
         ++stats_.accepted;
-        note({});
+        note(rep, {});
       } else {
-        note(apply_one(Op::Update, ed.id, &ed.value, snapshot.epoch, now, rep));
+        note(rep, apply_one(Op::Update, ed.id, &ed.value, snapshot.epoch, now, rep));
       }
     } else {
-      note(apply_one(Op::Insert, ed.id, &ed.value, snapshot.epoch, now, rep));
+      note(rep, apply_one(Op::Insert, ed.id, &ed.value, snapshot.epoch, now, rep));
     }
   }
   // The snapshot is the complete state of its epoch: whatever is still pending is
