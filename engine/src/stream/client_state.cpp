@@ -143,7 +143,7 @@ Status ClientState::on_message(const wire::Message& m, double now) {
   return Ok{};
 }
 
-void ClientState::track_query(double now, std::uint64_t frame_index, bool rendered) {
+void ClientState::track_query(double now, std::uint64_t frame_index, bool rendered, bool slots_written) {
   if (!query_track_) return;
   QueryTrack& q = *query_track_;
   const ObjectId first = q.targets.empty() ? kNoObject : q.targets.front();
@@ -155,13 +155,19 @@ void ClientState::track_query(double now, std::uint64_t frame_index, bool render
     return;
   }
   if (q.converged) return;
-  // Target residency by a scan of the published slots: only while a query converges.
+  // Target residency by a scan of the published slots: only while a query converges,
+  // and only after a frame that wrote slots (a query waiting for its batch must not
+  // cost an O(M) scan on every idle frame).
   auto is_target = [&q](ObjectId o) { return std::binary_search(q.targets.begin(), q.targets.end(), o); };
-  std::uint64_t resident = 0;
-  for (std::uint32_t s = 0; s < slots_.capacity(); ++s) {
-    GaussianId id{0};
-    if (slots_.occupant(SlotIndex{s}, id) && is_target(slots_.records()[s].object)) ++resident;
+  if (!q.resident || slots_written) {
+    std::uint64_t n = 0;
+    for (std::uint32_t s = 0; s < slots_.capacity(); ++s) {
+      GaussianId id{0};
+      if (slots_.occupant(SlotIndex{s}, id) && is_target(slots_.records()[s].object)) ++n;
+    }
+    q.resident = n;
   }
+  const std::uint64_t resident = *q.resident;
   if (!q.initial) {
     q.initial = resident;
     events_.query(now, client_index_, q.query_id, QueryStage::InitialResidency, first, resident, frame_index);
@@ -186,7 +192,10 @@ Expected<FrameResult> ClientState::frame(const ViewState& view, double now, std:
   std::lock_guard<std::mutex> lock(*mutex_);
   FrameResult out;
   auto rep = publisher_.publish(desired_, slots_, view, now);
-  if (!rep) return Error{"client " + config_.name + ": " + rep.message()};
+  if (!rep) {
+    if (query_track_) query_track_->resident.reset();  // it may have written slots before failing
+    return Error{"client " + config_.name + ": " + rep.message()};
+  }
   out.publish = *rep;
   out.published_epoch = desired_.published_epoch();
   out.surface_committed = surface_.commit(out.published_epoch);
@@ -204,7 +213,7 @@ Expected<FrameResult> ClientState::frame(const ViewState& view, double now, std:
     acked_published_ = out.published_epoch;
     outgoing_.push_back(msg::Ack{last_batch_id_, desired_.received_epoch().value_or(Epoch{0}), *out.published_epoch});
   }
-  track_query(now, frame_index, false);
+  track_query(now, frame_index, false, out.publish.slot_writes() > 0);
   return out;
 }
 
@@ -215,7 +224,7 @@ void ClientState::frame_rendered(double now, std::uint64_t frame_index) {
     events_.batch(now, client_index_, b.epoch, BatchStage::FirstFrame, b.edits, frame_index);
     return true;
   });
-  track_query(now, frame_index, true);
+  track_query(now, frame_index, true, false);
 }
 
 void ClientState::report_frame_cost(double seconds) {

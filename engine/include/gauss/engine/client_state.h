@@ -102,7 +102,8 @@ class ClientState {
   ClientState(std::uint32_t client_index, ClientConfig config, SlotTable slots);
   Status reject(std::string reason);
   Status on_batch(const msg::EditBatchMsg& b, double now);
-  void track_query(double now, std::uint64_t frame_index, bool rendered);
+  // `slots_written`: this frame's publication wrote slots (target residency may differ).
+  void track_query(double now, std::uint64_t frame_index, bool rendered, bool slots_written);
 
   std::uint32_t client_index_;
   ClientConfig config_;
@@ -137,6 +138,7 @@ class ClientState {
     std::uint32_t query_id{0};
     std::vector<ObjectId> targets;  // sorted
     std::optional<std::uint64_t> initial;
+    std::optional<std::uint64_t> resident;  // target members published, as of the last scan
     bool highlight_shown{false};
     bool first_additional{false};
     bool converged{false};
