@@ -6,18 +6,20 @@ namespace gauss {
 
 Status SurfaceStage::offer(StagedChunk chunk) {
   ++stats_.offered;
-  const std::string name = "surface chunk " + std::to_string(chunk.chunk_id) + " (epoch " +
-                           std::to_string(to_underlying(chunk.epoch)) + ")";
+  // Built only for an error: an accepted patch costs no string.
+  auto name = [&chunk] {
+    return "surface chunk " + std::to_string(chunk.chunk_id) + " (epoch " + std::to_string(to_underlying(chunk.epoch)) + ")";
+  };
   const TriangleMesh& m = chunk.mesh;
   if (m.colors.size() != m.positions.size() || m.indices.size() % 3 != 0) {
     ++stats_.rejected_bad;
-    return Error{name + ": " + std::to_string(m.colors.size()) + " colours for " + std::to_string(m.positions.size()) +
+    return Error{name() + ": " + std::to_string(m.colors.size()) + " colours for " + std::to_string(m.positions.size()) +
                  " vertices, " + std::to_string(m.indices.size()) + " indices"};
   }
   for (std::size_t i = 0; i < m.indices.size(); ++i) {
     if (m.indices[i] >= m.positions.size()) {
       ++stats_.rejected_bad;
-      return Error{name + ": index " + std::to_string(i) + " = " + std::to_string(m.indices[i]) + " is out of range"};
+      return Error{name() + ": index " + std::to_string(i) + " = " + std::to_string(m.indices[i]) + " is out of range"};
     }
   }
   auto latest = latest_.find(chunk.chunk_id);
@@ -29,7 +31,7 @@ Status SurfaceStage::offer(StagedChunk chunk) {
   }
   if (latest != latest_.end() && to_underlying(chunk.epoch) < to_underlying(latest->second)) {
     ++stats_.rejected_stale;
-    return Error{name + ": older than the epoch already held for this chunk"};
+    return Error{name() + ": older than the epoch already held for this chunk"};
   }
   if (pending_.count(chunk.chunk_id)) ++stats_.superseded;
   const std::uint64_t id = chunk.chunk_id;
