@@ -10,6 +10,7 @@
 #include "gauss/engine/eligibility.h"
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/synthetic_scene.h"
+#include "synthetic_test_scene.h"
 
 namespace gauss {
 namespace {
@@ -170,17 +171,12 @@ TEST(Eligibility, BadConfigAndOpenEpochAreErrors) {
 }
 
 TEST(Eligibility, ConvergedSyntheticSceneLiesOnItsOwnSurfaceMesh) {
-  SyntheticSceneConfig sc;
-  sc.target_gaussians = 20000;
-  sc.epochs = 6;
+  SyntheticSceneConfig sc = test::small_synthetic_config(20000, 6);
   sc.converge_epochs = 2;
-  sc.image_width = 160;
-  sc.image_height = 120;
-  sc.focal_px = 120.0;
   auto scene = SyntheticScene::create(sc);
   ASSERT_TRUE(scene.ok());
   SceneStore s;
-  while (!scene->finished()) ASSERT_TRUE(scene->produce(s).ok());
+  ASSERT_NO_FATAL_FAILURE(test::produce_all(*scene, s));
   ASSERT_TRUE(s.begin_next_epoch().ok());
   ASSERT_TRUE(s.set_surface_chunk({0, Epoch{0}, scene->surface_mesh()}).ok());
   ASSERT_TRUE(s.commit_epoch().ok());

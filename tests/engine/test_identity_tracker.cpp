@@ -16,6 +16,7 @@
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/synthetic_scene.h"
 #include "gauss/engine/trainer_snapshot.h"
+#include "synthetic_test_scene.h"
 #include "test_data.h"
 
 namespace gauss {
@@ -36,17 +37,12 @@ struct Rng {
 };
 
 std::vector<Gaussian> synthetic_epoch(std::size_t n) {
-  SyntheticSceneConfig c;
-  c.target_gaussians = n;
-  c.epochs = 6;
+  SyntheticSceneConfig c = test::small_synthetic_config(n, 6);
   c.converge_epochs = 2;
-  c.image_width = 160;
-  c.image_height = 120;
-  c.focal_px = 120.0;
   auto scene = SyntheticScene::create(c);
   EXPECT_TRUE(scene.ok());
   SceneStore store;
-  while (!scene->finished()) EXPECT_TRUE(scene->produce(store).ok());
+  test::produce_all(*scene, store);
   return {store.gaussians().begin(), store.gaussians().end()};
 }
 

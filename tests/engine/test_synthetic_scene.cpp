@@ -11,20 +11,16 @@
 
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/synthetic_scene.h"
+#include "synthetic_test_scene.h"
 #include "test_data.h"
 
 namespace gauss {
 namespace {
 
 SyntheticSceneConfig small(int variant = 0, std::uint64_t seed = 7) {
-  SyntheticSceneConfig c;
+  SyntheticSceneConfig c = test::small_synthetic_config(20000, 8);
   c.variant = variant;
   c.seed = seed;
-  c.target_gaussians = 20000;
-  c.epochs = 8;
-  c.image_width = 160;
-  c.image_height = 120;
-  c.focal_px = 120.0;
   return c;
 }
 
@@ -32,10 +28,6 @@ SyntheticScene make(const SyntheticSceneConfig& c) {
   auto s = SyntheticScene::create(c);
   EXPECT_TRUE(s.ok()) << (s.ok() ? "" : s.message());
   return std::move(s).value();
-}
-
-void run_all(SyntheticScene& scene, SceneStore& store) {
-  while (!scene.finished()) ASSERT_TRUE(scene.produce(store).ok());
 }
 
 glm::vec3 world_point(const Camera& cam, std::uint32_t x, std::uint32_t y, float depth) {
@@ -71,9 +63,9 @@ TEST(SyntheticScene, RejectsBadConfigNamingTheField) {
 TEST(SyntheticScene, DeterministicFromSeed) {
   SceneStore a, b, other;
   auto sa = make(small(1, 42)), sb = make(small(1, 42)), so = make(small(1, 43));
-  run_all(sa, a);
-  run_all(sb, b);
-  run_all(so, other);
+  test::produce_all(sa, a);
+  test::produce_all(sb, b);
+  test::produce_all(so, other);
   ASSERT_EQ(a.size(), b.size());
   const auto ga = a.gaussians(), gb = b.gaussians();
   for (std::size_t i = 0; i < ga.size(); ++i) {
@@ -93,7 +85,7 @@ TEST(SyntheticScene, ObjectsCarriersAndLabels) {
     SceneStore store;
     auto cfg = small(variant);
     auto scene = make(cfg);
-    run_all(scene, store);
+    test::produce_all(scene, store);
     std::multiset<std::string> labels;
     for (const auto& o : scene.objects()) labels.insert(o.label);
     EXPECT_GE(labels.count("chair"), 2u) << variant;
@@ -129,7 +121,7 @@ TEST(SyntheticScene, ConvergedGaussiansLieOnTheSurfaceFlatAndNormalAligned) {
   SceneStore store;
   auto cfg = small(2);
   auto scene = make(cfg);
-  run_all(scene, store);
+  test::produce_all(scene, store);
   const std::uint32_t converged_support = 1 + 3 * std::uint32_t(cfg.converge_epochs);
   std::size_t converged = 0;
   for (const Gaussian& g : store.gaussians()) {
@@ -154,7 +146,7 @@ TEST(SyntheticScene, GaussiansCoverWhatTheLastCamerasSeeWithoutHoles) {
   SceneStore store;
   auto cfg = small(0);
   auto scene = make(cfg);
-  run_all(scene, store);
+  test::produce_all(scene, store);
   // Spatial hash of the Gaussians, cells of 10 cm.
   const float cell = 0.1f;
   const auto key = [&](const glm::vec3& p) {
@@ -310,7 +302,7 @@ TEST(SyntheticScene, TrajectoryAndMesh) {
   for (std::uint32_t i : mesh.indices) ASSERT_LT(i, mesh.positions.size());
   for (std::size_t i = 0; i < mesh.positions.size(); i += 7) ASSERT_LT(scene.distance_to_surface(mesh.positions[i]), 1e-4f);
   SceneStore store;
-  run_all(scene, store);
+  test::produce_all(scene, store);
   EXPECT_FALSE(scene.produce(store).ok()) << "produce past the last epoch";
 }
 

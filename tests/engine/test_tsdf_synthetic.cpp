@@ -5,17 +5,13 @@
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/synthetic_scene.h"
 #include "gauss/engine/tsdf.h"
+#include "synthetic_test_scene.h"
 
 namespace gauss {
 namespace {
 
 TEST(TsdfSynthetic, FusedRoomLiesOnTheAnalyticSurfaceWithinHalfAVoxel) {
-  SyntheticSceneConfig sc;
-  sc.target_gaussians = 2000;
-  sc.epochs = 4;
-  sc.image_width = 160;
-  sc.image_height = 120;
-  sc.focal_px = 120.0;
+  const SyntheticSceneConfig sc = test::small_synthetic_config(2000, 4);
   auto scene = SyntheticScene::create(sc);
   ASSERT_TRUE(scene) << scene.message();
   TsdfConfig tc;
