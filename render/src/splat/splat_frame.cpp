@@ -12,14 +12,6 @@ namespace gauss::render {
 
 namespace {
 
-// Compute writes -> compute reads/writes and indirect-argument reads.
-void compute_barrier(VkCommandBuffer c) {
-  vk::memory_barrier(c, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
-                     VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_SHADER_WRITE_BIT |
-                         VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
-}
-
 std::uint32_t groups(std::uint64_t items, std::uint32_t per_group) {
   return static_cast<std::uint32_t>((items + per_group - 1) / per_group);
 }
@@ -89,7 +81,7 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, cons
       return st;
     push(p, 0, 0, 0);
     vkCmdDispatch(c, tiles_x, tiles_y, 1);
-    compute_barrier(c);
+    vk::compute_to_compute_barrier(c);
   }
   ts(1);
 
@@ -114,7 +106,7 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, cons
       return st;
     push(**pre, hwm, 0, 0);
     vkCmdDispatch(c, groups(hwm, gpu::SPLAT_WORKGROUP), 1, 1);
-    compute_barrier(c);
+    vk::compute_to_compute_barrier(c);
   }
   ts(2);
 
@@ -127,7 +119,7 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, cons
   if (auto st = pipelines.scan_visible().bind(c, scan_res); !st) return st;
   push(pipelines.scan_visible(), hwm, 0, 0);
   vkCmdDispatch(c, 1, 1, 1);
-  compute_barrier(c);
+  vk::compute_to_compute_barrier(c);
   if (hwm > 0) {
     if (auto st = pipelines.compact().bind(c, {{gpu::SPLAT_BINDING_PROJECTED, &projected},
                                                {gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
@@ -138,7 +130,7 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, cons
       return st;
     push(pipelines.compact(), hwm, 0, 0);
     vkCmdDispatch(c, groups(hwm, gpu::SPLAT_WORKGROUP), 1, 1);
-    compute_barrier(c);
+    vk::compute_to_compute_barrier(c);
   }
   ts(3);
 
@@ -153,11 +145,11 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, cons
       return st;
     push(pipelines.radix_count(), 0, count_index, shift);
     indirect(blocks_args);
-    compute_barrier(c);
+    vk::compute_to_compute_barrier(c);
     if (auto st = pipelines.scan_hist().bind(c, scan_res); !st) return st;
     push(pipelines.scan_hist(), 0, count_index, shift);
     vkCmdDispatch(c, 1, 1, 1);
-    compute_barrier(c);
+    vk::compute_to_compute_barrier(c);
     if (auto st = pipelines.radix_scatter().bind(c, {{gpu::SPLAT_BINDING_KEYS_IN, &keys[src]},
                                                      {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
                                                      {gpu::SPLAT_BINDING_KEYS_OUT, &keys[dst]},
@@ -168,7 +160,7 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, cons
       return st;
     push(pipelines.radix_scatter(), 0, count_index, shift);
     indirect(blocks_args);
-    compute_barrier(c);
+    vk::compute_to_compute_barrier(c);
     return Ok{};
   };
 
@@ -190,7 +182,7 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, cons
     return st;
   push(pipelines.scan_pairs(), 0, 0, 0);
   vkCmdDispatch(c, 1, 1, 1);
-  compute_barrier(c);
+  vk::compute_to_compute_barrier(c);
   auto emit = pipelines.emit(with_mesh, options.exact_culling);
   if (!emit) return emit.error();
   if (auto st = (*emit)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
@@ -206,7 +198,7 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, cons
     return st;
   push(**emit, 0, 0, 0);
   indirect(gpu::SPLAT_ARGS_VISIBLE_ITEMS);
-  compute_barrier(c);
+  vk::compute_to_compute_barrier(c);
   src = 1 - src;
   ts(5);
 
@@ -227,7 +219,7 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, cons
     return st;
   push(pipelines.ranges(), 0, 0, 0);
   indirect(gpu::SPLAT_ARGS_PAIR_ITEMS);
-  compute_barrier(c);
+  vk::compute_to_compute_barrier(c);
   ts(7);
 
   // ---- Blend, then the packed pixels into the target's colour image ----

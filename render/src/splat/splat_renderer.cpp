@@ -177,10 +177,7 @@ Expected<std::array<SplatFrameStats, 2>> SplatRenderer::Impl::render_views(std::
     if (auto st = vk::record_fill(c, views[v].counters, 0, VK_WHOLE_SIZE, 0u); !st) return st.error();
     if (auto st = vk::record_fill(c, views[v].ranges, 0, tiles * 8, 0u); !st) return st.error();
   }
-  vk::memory_barrier(c, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
-                     VK_ACCESS_2_SHADER_READ_BIT | VK_ACCESS_2_SHADER_WRITE_BIT |
-                         VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+  vk::transfer_to_compute_barrier(c);
   for (std::uint32_t v = 0; v < cameras.size(); ++v) {
     if (auto st = record_view(c, v, cameras[v], options); !st) {
       (void)cmd.end();

@@ -51,16 +51,16 @@ class CommandBuffer {
 void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
                     VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access);
 
-// Compute shader writes -> later compute shader reads/writes (pass to pass).
+// Compute shader writes -> later compute shader reads/writes and indirect dispatch
+// arguments (pass to pass).
 void compute_to_compute_barrier(VkCommandBuffer cmd);
-// Transfer writes (uploads, fills, clears) -> compute shader reads/writes.
+// Transfer writes (uploads, fills, clears) -> compute shader reads/writes and indirect
+// dispatch arguments.
 void transfer_to_compute_barrier(VkCommandBuffer cmd);
 // Compute shader writes -> transfer reads (readback) and host reads.
 void compute_to_transfer_barrier(VkCommandBuffer cmd);
 // Transfer writes -> vertex input / index reads and vertex/fragment shader reads.
 void transfer_to_graphics_barrier(VkCommandBuffer cmd);
-// Compute shader writes -> indirect draw/dispatch arguments reads.
-void compute_to_indirect_barrier(VkCommandBuffer cmd);
 
 // Records vkCmdCopyBuffer with `regions` after checking every region lies inside
 // both buffers (nothing is recorded on error; the error names buffers and region).
