@@ -1,7 +1,6 @@
 #include "gauss/engine/sim_link.h"
 
 #include <algorithm>
-#include <cmath>
 
 namespace gauss::sim {
 

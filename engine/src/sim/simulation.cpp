@@ -1,7 +1,6 @@
 #include "gauss/engine/sim.h"
 
 #include <algorithm>
-#include <cmath>
 #include <map>
 #include <queue>
 #include <string>
@@ -83,10 +82,8 @@ struct Simulation::Impl {
 
   void connect(std::uint32_t c) {
     Client& cl = clients[c];
-    ++cl.gen;
+    drop(c);  // a new connection: the old one's traffic and session are gone
     cl.connected = true;
-    cl.session.reset();
-    cl.expected.clear();
     cl.down.reset(t);
     cl.up.reset(t);
     (void)send(c, cl.state->hello(), false);

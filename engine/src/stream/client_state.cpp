@@ -1,7 +1,6 @@
 #include "gauss/engine/client_state.h"
 
 #include <algorithm>
-#include <type_traits>
 
 #include "gauss/engine/codec.h"
 
