@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "gauss/engine/sim.h"
+#include "stream/splitmix.h"
 
 namespace gauss::sim {
 
@@ -11,13 +12,8 @@ namespace {
 // splitmix64 stream: the whole schedule derives from the seed, identically everywhere.
 struct Rng {
   std::uint64_t s;
-  std::uint64_t next() {
-    std::uint64_t z = (s += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-  }
-  double uniform(double lo, double hi) { return lo + (hi - lo) * static_cast<double>(next() >> 11) * (1.0 / 9007199254740992.0); }
+  std::uint64_t next() { return splitmix64_next(s); }
+  double uniform(double lo, double hi) { return lo + (hi - lo) * unit_double(next()); }
   std::uint32_t below(std::uint32_t n) { return static_cast<std::uint32_t>(next() % n); }
   bool chance(double p) { return uniform(0.0, 1.0) < p; }
 };

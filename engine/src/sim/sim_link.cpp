@@ -2,18 +2,13 @@
 
 #include <algorithm>
 
+#include "stream/splitmix.h"
+
 namespace gauss::sim {
 
-Link::Link(std::uint64_t seed, LinkConditions conditions) : state_(seed * 0x9e3779b97f4a7c15ull + 1), cond_(conditions) {}
+Link::Link(std::uint64_t seed, LinkConditions conditions) : state_(seed * kSplitmixGamma + 1), cond_(conditions) {}
 
-// splitmix64: tiny, seedable, identical on every platform (std distributions are not).
-double Link::uniform() {
-  std::uint64_t z = (state_ += 0x9e3779b97f4a7c15ull);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-  z ^= z >> 31;
-  return static_cast<double>(z >> 11) * (1.0 / 9007199254740992.0);
-}
+double Link::uniform() { return unit_double(splitmix64_next(state_)); }
 
 double Link::send(double now, std::uint64_t bytes) {
   ++stats_.messages;

@@ -3,26 +3,21 @@
 #include <algorithm>
 #include <bit>
 
+#include "stream/splitmix.h"
+
 namespace gauss {
 
 namespace {
 
 std::string id_str(GaussianId id) { return std::to_string(to_underlying(id)); }
 
-// splitmix64 finaliser: a well-mixed 64-bit value per field, so the sum over a set
-// (order independent) still separates sets that differ in one bit of one record.
-std::uint64_t mix(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ull;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-  return x ^ (x >> 31);
-}
-
 }  // namespace
 
+// A well-mixed 64-bit value per field (splitmix64), so the sum over a set (order
+// independent) still separates sets that differ in one bit of one record.
 std::uint64_t record_hash(GaussianId id, const Gaussian& g) {
-  std::uint64_t h = mix(to_underlying(id));
-  auto add = [&h](std::uint64_t v) { h = mix(h ^ v); };
+  std::uint64_t h = splitmix64(to_underlying(id));
+  auto add = [&h](std::uint64_t v) { h = splitmix64(h ^ v); };
   auto add_f = [&add](float f) { add(std::bit_cast<std::uint32_t>(f)); };
   for (int i = 0; i < 3; ++i) add_f(g.position[i]);
   for (int i = 0; i < 3; ++i) add_f(g.log_scale[i]);
