@@ -9,6 +9,10 @@
 // The check uses the process-wide validation error count, so it also covers contexts
 // a test creates itself. A test that provokes validation errors on purpose calls
 // allow_validation_errors(). No usable Vulkan device fails the test with the reason.
+// With GAUSS_EXPECT_SUBGROUP_SIZE set (the LP_NATIVE_VECTOR_WIDTH variants in
+// tests/CMakeLists.txt), every test first checks the device really has that subgroup
+// size, so a variant can never silently repeat the default run.
+#include <cstdlib>
 #include <memory>
 #include <string>
 
@@ -73,6 +77,14 @@ class VkTest : public ::testing::Test {
     context_ = shared_vk_context(&error);
     ASSERT_NE(context_, nullptr) << "no usable Vulkan device: " << error;
     errors_at_start_ = vk::process_validation_error_count();
+    if (const char* expect = std::getenv("GAUSS_EXPECT_SUBGROUP_SIZE"); expect && *expect) {
+      if (context_->device_name().find("llvmpipe") == std::string::npos) {
+        GTEST_SKIP() << "LP_NATIVE_VECTOR_WIDTH only changes lavapipe's subgroup size; device is "
+                     << context_->device_name();
+      }
+      ASSERT_EQ(context_->subgroup_size(), static_cast<std::uint32_t>(std::atoi(expect)))
+          << "GAUSS_EXPECT_SUBGROUP_SIZE: the LP_NATIVE_VECTOR_WIDTH of this variant did not take effect";
+    }
   }
 
   void TearDown() override {
