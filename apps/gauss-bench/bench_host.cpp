@@ -12,9 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <ctime>
 #include <filesystem>
-#include <fstream>
 #include <numeric>
 #include <optional>
 #include <random>
@@ -28,6 +26,7 @@
 #include <glm/gtc/quaternion.hpp>
 
 #include "bench_registry.h"
+#include "bench_util.h"
 #include "gauss/engine/codec.h"
 #include "gauss/engine/differ.h"
 #include "gauss/engine/identity_tracker.h"
@@ -39,22 +38,11 @@
 
 namespace {
 
+using namespace gauss::bench;
+
 using namespace gauss;
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 using nlohmann::json;
-
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-// CPU time of this thread: the machine running the bench may be shared, and the
-// target is "one core", so this is the figure to hold against it (wall time beside it).
-double thread_cpu_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
-}
 
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
@@ -481,11 +469,7 @@ int bench_host_main(int argc, char** argv) {
   out["select"] = bench_select(store, *scene, o);
   if (o.codec) out["codec"] = bench_codec(store, o);
   if (o.identity) out["identity"] = bench_identity(store);
-  if (!o.json_out.empty()) {
-    std::ofstream f(o.json_out);
-    f << out.dump(2) << "\n";
-    std::printf("\nJSON written to %s\n", o.json_out.string().c_str());
-  }
+  if (!o.json_out.empty() && !write_json(o.json_out, out, "host")) return 1;
   return 0;
 }
 

@@ -8,16 +8,15 @@
 // core: the tracker is single-threaded).
 #include <algorithm>
 #include <chrono>
-#include <ctime>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "bench_registry.h"
+#include "bench_util.h"
 #include "gauss/engine/identity_tracker.h"
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/synthetic_scene.h"
@@ -25,14 +24,9 @@
 
 namespace {
 
-using namespace gauss;
+using namespace gauss::bench;
 
-// CPU time of this thread: on a shared machine wall time mostly measures the neighbours.
-double thread_cpu_s() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
+using namespace gauss;
 
 int usage() {
   std::fprintf(stderr,
@@ -146,13 +140,7 @@ int bench_identity_main(int argc, char** argv) {
   if (!json_out.empty()) {
     nlohmann::json doc = {{"bench", "identity"}, {"gaussians", prev.size()}, {"variant", variant},
                           {"generate_s", gen_s}, {"results", rows}};
-    std::ofstream f(json_out);
-    f << doc.dump(2) << "\n";
-    if (!f) {
-      std::fprintf(stderr, "gauss-bench identity: cannot write %s\n", json_out.c_str());
-      return 1;
-    }
-    std::printf("\nwrote %s\n", json_out.c_str());
+    if (!write_json(json_out, doc, "identity")) return 1;
   }
   return 0;
 }

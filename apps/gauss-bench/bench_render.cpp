@@ -14,7 +14,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -27,6 +26,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench_registry.h"
+#include "bench_util.h"
 #include "gauss/engine/camera_io.h"
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/render/image_metrics.h"
@@ -35,6 +35,8 @@
 #include "gauss/render/vk_context.h"
 
 namespace {
+
+using namespace gauss::bench;
 
 using namespace gauss;
 namespace fs = std::filesystem;
@@ -236,23 +238,11 @@ double baseline_ms(const Config& c) {
 
 // Process CPU time (all threads, lavapipe's included) in ms: with the machine shared, wall
 // time swings with the load while CPU time per frame stays comparable between runs.
-double process_cpu_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
-}
-
 // 1-minute load average ("?" when unreadable), printed beside the timings.
 std::string load_average() {
   std::ifstream f("/proc/loadavg");
   std::string one;
   return (f >> one) ? one : std::string("?");
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
 // $GAUSS_BENCH_DIR, else shared/bench beside the checkout (as the tests find shared/data).
@@ -551,13 +541,7 @@ int bench_render_main(int argc, char** argv) {
                           {"frames", o.frames},
                           {"note", "wall and gpu ms are medians over the measured frames on a shared, loaded machine"},
                           {"results", results}};
-    std::ofstream f(o.json_out);
-    f << doc.dump(2) << "\n";
-    if (!f) {
-      std::fprintf(stderr, "gauss-bench render: cannot write %s\n", o.json_out.c_str());
-      return 1;
-    }
-    std::printf("\nwrote %s\n", o.json_out.c_str());
+    if (!write_json(o.json_out, doc, "render")) return 1;
   }
   return rc;
 }

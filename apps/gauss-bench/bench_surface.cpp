@@ -10,7 +10,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <string>
 #include <vector>
 
@@ -18,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench_registry.h"
+#include "bench_util.h"
 #include "gauss/engine/mesh_raster.h"
 #include "gauss/engine/rgbd_source.h"
 #include "gauss/engine/scene_store.h"
@@ -26,18 +26,9 @@
 
 namespace {
 
+using namespace gauss::bench;
+
 using namespace gauss;
-using Clock = std::chrono::steady_clock;
-
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
 
 double mesh_area(const TriangleMesh& m) {
   double a = 0.0;
@@ -172,8 +163,7 @@ int bench_surface(int argc, char** argv) {
                    {"accuracy", r.accuracy},
                    {"accuracy_metric", r.accuracy_name}});
   }
-  std::ofstream(json_path) << out.dump(2) << "\n";
-  std::printf("\nJSON: %s\n", json_path.c_str());
+  if (!write_json(json_path, out, "surface")) return 1;
   return 0;
 }
 

@@ -10,13 +10,13 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "bench_registry.h"
+#include "bench_util.h"
 #include "gauss/render/vk_buffer.h"
 #include "gauss/render/vk_commands.h"
 #include "gauss/render/vk_context.h"
@@ -28,16 +28,8 @@
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using namespace gauss::bench;
 
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
 
 int run_vk(int argc, char** argv) {
   std::string device = gauss::vk::device_override_from_args(argc, argv);
@@ -219,12 +211,7 @@ int run_vk(int argc, char** argv) {
     std::printf("%-34s %7.2f GiB/s\n", label, u["gpu_copy_gib_s"].get<double>());
   }
   if (!json_path.empty()) {
-    std::ofstream f(json_path);
-    f << out.dump(2) << "\n";
-    if (!f) {
-      std::fprintf(stderr, "gauss-bench vk: could not write %s\n", json_path.c_str());
-      return 1;
-    }
+    if (!write_json(json_path, out, "vk")) return 1;
   }
   return 0;
 }
