@@ -108,39 +108,35 @@ Status SlotBuffer::write_slots(std::uint32_t first_slot, std::span<const Gaussia
   if (gaussians.empty()) return Ok{};
   const auto n = static_cast<std::uint32_t>(gaussians.size());
   std::vector<gpu::GpuSplatCore> cores(n);
-  std::vector<float> sh(std::size_t{n} * sh_stride_, 0.0f);
-  std::vector<float> sh_high(std::size_t{n} * sh_high_stride_, 0.0f);
   std::vector<std::uint8_t> good(n, 0);
   for (std::uint32_t i = 0; i < n; ++i) {
-    const Gaussian& g = gaussians[i];
-    if (!gaussian_is_finite(g, sh_degree_)) {
+    if (!gaussian_is_finite(gaussians[i], sh_degree_)) {
       ++rejected_nonfinite_;
       continue;  // cores[i] stays zero: an empty slot
     }
     good[i] = 1;
-    cores[i] = pack_core(g);
-    for (std::uint32_t k = 0; k < sh_stride_ / 3; ++k)
-      for (std::uint32_t ch = 0; ch < 3; ++ch) sh[std::size_t{i} * sh_stride_ + k * 3 + ch] = g.sh_rest[k][static_cast<int>(ch)];
-    for (std::uint32_t k = 0; k < sh_high_stride_ / 3; ++k)
-      for (std::uint32_t ch = 0; ch < 3; ++ch)
-        sh_high[std::size_t{i} * sh_high_stride_ + k * 3 + ch] = g.sh_rest[gpu::SPLAT_SH_LOW_COEFFS + k][static_cast<int>(ch)];
+    cores[i] = pack_core(gaussians[i]);
   }
   if (auto st = core_.upload(cores.data(), VkDeviceSize{n} * sizeof(gpu::GpuSplatCore),
                              VkDeviceSize{first_slot} * sizeof(gpu::GpuSplatCore));
       !st)
     return st;
-  if (sh_stride_ > 0) {
-    if (auto st = sh_.upload(sh.data(), VkDeviceSize{n} * sh_stride_ * sizeof(float),
-                             VkDeviceSize{first_slot} * sh_stride_ * sizeof(float));
-        !st)
-      return st;
-  }
-  if (sh_high_stride_ > 0) {
-    if (auto st = sh_high_.upload(sh_high.data(), VkDeviceSize{n} * sh_high_stride_ * sizeof(float),
-                                  VkDeviceSize{first_slot} * sh_high_stride_ * sizeof(float));
-        !st)
-      return st;
-  }
+  // One SH band buffer: `stride` floats per slot, coefficients from `first_coeff` on
+  // (zeros for refused Gaussians, like their core).
+  auto write_band = [&](vk::Buffer& buffer, std::uint32_t stride, std::uint32_t first_coeff) -> Status {
+    if (stride == 0) return Ok{};
+    std::vector<float> band(std::size_t{n} * stride, 0.0f);
+    for (std::uint32_t i = 0; i < n; ++i) {
+      if (!good[i]) continue;
+      for (std::uint32_t k = 0; k < stride / 3; ++k)
+        for (std::uint32_t ch = 0; ch < 3; ++ch)
+          band[std::size_t{i} * stride + k * 3 + ch] = gaussians[i].sh_rest[first_coeff + k][static_cast<int>(ch)];
+    }
+    return buffer.upload(band.data(), VkDeviceSize{n} * stride * sizeof(float),
+                         VkDeviceSize{first_slot} * stride * sizeof(float));
+  };
+  if (auto st = write_band(sh_, sh_stride_, 0); !st) return st;
+  if (auto st = write_band(sh_high_, sh_high_stride_, gpu::SPLAT_SH_LOW_COEFFS); !st) return st;
   for (std::uint32_t i = 0; i < n; ++i) set_occupied(first_slot + i, good[i] != 0);
   return Ok{};
 }

@@ -49,10 +49,9 @@ class SlotBuffer {
 
   std::uint32_t capacity() const noexcept { return capacity_; }
   int sh_degree() const noexcept { return sh_degree_; }
-  // Floats per slot of the bands 1-2 SH buffer (0 for degree 0) and of the band-3 buffer
-  // (0 below degree 3).
+  // Floats per slot of the bands 1-2 SH buffer (0 for degree 0; the preprocess shader's
+  // SH_STRIDE). The band-3 buffer always holds SPLAT_SH_HIGH_STRIDE per slot at degree 3.
   std::uint32_t sh_stride() const noexcept { return sh_stride_; }
-  std::uint32_t sh_high_stride() const noexcept { return sh_high_stride_; }
   // One past the highest occupied slot: the preprocess dispatch covers [0, high_water).
   std::uint32_t high_water() const noexcept { return high_water_; }
   std::uint32_t occupied_count() const noexcept { return occupied_count_; }
