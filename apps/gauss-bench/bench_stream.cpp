@@ -27,8 +27,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <ctime>
-#include <fstream>
 #include <random>
 #include <string>
 #include <vector>
@@ -36,14 +34,16 @@
 #include <nlohmann/json.hpp>
 
 #include "bench_registry.h"
+#include "bench_util.h"
 #include "gauss/engine/desired_state.h"
 #include "gauss/engine/sim.h"
 
 namespace {
 
+using namespace gauss::bench;
+
 using namespace gauss;
 using namespace gauss::sim;
-using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
 struct Options {
@@ -59,15 +59,7 @@ struct Options {
   double pose_smoothing_s{-1.0};  // < 0: HostSessionConfig's default
 };
 
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
-// CPU time of this thread: the machine may be shared, and "edits/s on one core" is
-// about the work, not about how often the scheduler let us run.
-double thread_cpu_s() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
+double seconds_since(Clock::time_point t0) { return 1e-3 * ms_since(t0); }
 
 Gaussian record(std::uint64_t i, float v) {
   Gaussian g;
@@ -388,12 +380,7 @@ int bench_stream(int argc, char** argv) {
       {"flicker", "churn undone within the window (id left and came back, or came and left): changes - |start XOR end|, per second"},
       {"time", "virtual simulation time; frame cost from sim::FrameCostModel"}};
   if (!o.json_out.empty()) {
-    std::ofstream f(o.json_out);
-    f << out.dump(2) << "\n";
-    if (!f) {
-      std::fprintf(stderr, "gauss-bench stream: cannot write %s\n", o.json_out.c_str());
-      return 1;
-    }
+    if (!write_json(o.json_out, out, "stream")) return 1;
   }
   return 0;
 }
