@@ -76,10 +76,7 @@ Expected<SnapshotApplyReport> apply_snapshot(SceneStore& store, GaussianCloud cl
   }
   for (const Gaussian& g : cloud.gaussians) {
     if (const Gaussian* old = store.find(g.id)) {
-      const bool changed = old->position != g.position || old->log_scale != g.log_scale ||
-                           old->rotation != g.rotation || old->opacity_logit != g.opacity_logit ||
-                           old->sh_dc != g.sh_dc || old->sh_rest != g.sh_rest || old->object != g.object ||
-                           old->support != g.support || old->carrier != g.carrier;
+      const bool changed = !same_value(*old, g);
       if (changed) {
         check(store.modify(g));
         ++report.modified;

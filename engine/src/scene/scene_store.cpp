@@ -32,14 +32,6 @@ std::string invalid_field(const Gaussian& g, int sh_degree) {
   return {};
 }
 
-// Field-wise equality: a bit-identical modify is not a change (and Gaussian has padding,
-// so memcmp would be wrong).
-bool same_record(const Gaussian& a, const Gaussian& b) {
-  return a.position == b.position && a.log_scale == b.log_scale && a.rotation == b.rotation &&
-         a.opacity_logit == b.opacity_logit && a.sh_dc == b.sh_dc && a.sh_rest == b.sh_rest &&
-         a.object == b.object && a.support == b.support && a.carrier == b.carrier;
-}
-
 bool same_object(const SemanticObject& a, const SemanticObject& b) {
   return a.id == b.id && a.label == b.label && a.members == b.members && a.centroid == b.centroid &&
          a.extent_min == b.extent_min && a.extent_max == b.extent_max && a.quality == b.quality;
@@ -105,7 +97,7 @@ Status SceneStore::modify(const Gaussian& g) {
   if (auto why = invalid_field(g, sh_degree_); !why.empty())
     return Error{"SceneStore::modify: Gaussian id " + id_text(g.id) + ": " + why};
   Gaussian& stored = gaussians_[it->second];
-  if (same_record(stored, g)) return Ok{};
+  if (same_value(stored, g)) return Ok{};
   if (stored.carrier != g.carrier) {
     if (g.carrier)
       --appearance_count_;

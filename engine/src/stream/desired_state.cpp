@@ -55,11 +55,7 @@ namespace {
 
 std::string id_str(GaussianId id) { return std::to_string(to_underlying(id)); }
 
-bool same_record(const Gaussian& a, const Gaussian& b) {
-  return a.position == b.position && a.log_scale == b.log_scale && a.rotation == b.rotation &&
-         a.opacity_logit == b.opacity_logit && a.sh_dc == b.sh_dc && a.sh_rest == b.sh_rest && a.id == b.id &&
-         a.object == b.object && a.support == b.support && a.carrier == b.carrier;
-}
+bool same_record(const Gaussian& a, const Gaussian& b) { return a.id == b.id && same_value(a, b); }
 
 // Stores a received record into its entry. Coalescing writes records at random over an
 // entry pool far larger than the cache; an ordinary store first reads each line it

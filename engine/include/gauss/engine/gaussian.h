@@ -33,6 +33,14 @@ struct Gaussian {
   bool carrier{false};  // upstream semantic carrier: never counts as appearance residency
 };
 
+// Field-wise equality of everything but the id: "the same value" (a bit-identical modify is
+// no change). Not memcmp: Gaussian has padding.
+inline bool same_value(const Gaussian& a, const Gaussian& b) {
+  return a.position == b.position && a.log_scale == b.log_scale && a.rotation == b.rotation &&
+         a.opacity_logit == b.opacity_logit && a.sh_dc == b.sh_dc && a.sh_rest == b.sh_rest &&
+         a.object == b.object && a.support == b.support && a.carrier == b.carrier;
+}
+
 // A set of Gaussians with the SH degree they actually carry.
 struct GaussianCloud {
   int sh_degree{0};
