@@ -14,9 +14,11 @@
 #include <cstring>
 #include <filesystem>
 #include <numeric>
+#include <memory>
 #include <optional>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -27,6 +29,7 @@
 
 #include "bench_registry.h"
 #include "bench_util.h"
+#include "gauss_cli.h"
 #include "gauss/engine/codec.h"
 #include "gauss/engine/differ.h"
 #include "gauss/engine/identity_tracker.h"
@@ -429,30 +432,7 @@ json bench_identity(const SceneStore& store) {
           {"removed", rep->removed}};
 }
 
-int usage() {
-  std::fprintf(stderr,
-               "usage: gauss-bench host [--gaussians N] [--budget M] [--updates K] [--psnr-gaussians N]\n"
-               "                        [--psnr-size WxH] [--no-psnr] [--no-codec] [--no-identity] [--json out.json]\n");
-  return 2;
-}
-
-int bench_host_main(int argc, char** argv) {
-  Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const bool has = i + 1 < argc;
-    if (a == "--gaussians" && has) o.gaussians = std::stoull(argv[++i]);
-    else if (a == "--budget" && has) o.budget = std::stoull(argv[++i]);
-    else if (a == "--updates" && has) o.updates = std::stoi(argv[++i]);
-    else if (a == "--psnr-gaussians" && has) o.psnr_gaussians = std::stoull(argv[++i]);
-    else if (a == "--psnr-size" && has && std::sscanf(argv[i + 1], "%ux%u", &o.psnr_width, &o.psnr_height) == 2) ++i;
-    else if (a == "--no-psnr") o.psnr = false;
-    else if (a == "--no-identity") o.identity = false;
-    else if (a == "--no-codec") o.codec = false;
-    else if (a == "--json" && has) o.json_out = argv[++i];
-    else return usage();
-  }
-  if (o.budget == 0 || o.updates < 1) return usage();
+int bench_host_main(const Options& o) {
   SceneStore store;
   double build_ms = 0.0;
   auto scene = build_synthetic(o.gaussians, store, build_ms);
@@ -473,7 +453,29 @@ int bench_host_main(int argc, char** argv) {
   return 0;
 }
 
+BenchRun bench_host_setup(CLI::App& cmd) {
+  auto o = std::make_shared<Options>();
+  cmd.add_option("--gaussians", o->gaussians, "eligible Gaussians of the synthetic room")
+      ->check(gauss::apps::at_least<std::size_t>(1))
+      ->type_name("N");
+  cmd.add_option("--budget", o->budget, "M: the client's budget")->check(gauss::apps::at_least<std::size_t>(1))->type_name("M");
+  cmd.add_option("--updates", o->updates, "steps of the continuous head walk")->check(gauss::apps::at_least(1))->type_name("K");
+  cmd.add_option("--psnr-gaussians", o->psnr_gaussians, "Gaussians of the scene the quantisation PSNR is measured on")
+      ->check(gauss::apps::at_least<std::size_t>(1))
+      ->type_name("N");
+  cmd.add_option_function<std::string>(
+         "--psnr-size", [o](const std::string& s) { std::tie(o->psnr_width, o->psnr_height) = *gauss::apps::parse_size(s); },
+         "size of the PSNR renders")
+      ->check(gauss::apps::image_size())
+      ->default_str(std::to_string(o->psnr_width) + "x" + std::to_string(o->psnr_height));
+  cmd.add_flag_callback("--no-psnr", [o] { o->psnr = false; }, "skip the quantisation PSNR renders");
+  cmd.add_flag_callback("--no-codec", [o] { o->codec = false; }, "skip the wire-bytes part");
+  cmd.add_flag_callback("--no-identity", [o] { o->identity = false; }, "skip identity tracking");
+  cmd.add_option("--json", o->json_out, "write the results as JSON")->type_name("FILE");
+  return [o] { return bench_host_main(*o); };
+}
+
 }  // namespace
 
 GAUSS_BENCH("host", "host pipeline: select+diff ms, edits per head motion, wire bytes + PSNR, identity tracking",
-            bench_host_main);
+            bench_host_setup);

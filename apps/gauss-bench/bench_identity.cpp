@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,7 @@
 
 #include "bench_registry.h"
 #include "bench_util.h"
+#include "gauss_cli.h"
 #include "gauss/engine/identity_tracker.h"
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/synthetic_scene.h"
@@ -28,33 +30,17 @@ using namespace gauss::bench;
 
 using namespace gauss;
 
-int usage() {
-  std::fprintf(stderr,
-               "usage: gauss-bench identity [--n N] [--runs R] [--variant V] [--json out.json]\n"
-               "  N Gaussians in the previous epoch (default 1000000), R timed runs per scenario (default 3)\n");
-  return 2;
-}
-
-int bench_identity_main(int argc, char** argv) {
-  std::size_t n = 1'000'000;
-  int runs = 3, variant = 0;
+struct Options {
+  std::size_t n{1'000'000};  // Gaussians in the previous epoch
+  int runs{3};               // timed runs per scenario
+  int variant{0};            // synthetic room variant
   std::string json_out;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const bool has = i + 1 < argc;
-    if (a == "--n" && has) {
-      n = std::stoul(argv[++i]);
-    } else if (a == "--runs" && has) {
-      runs = std::max(1, std::stoi(argv[++i]));
-    } else if (a == "--variant" && has) {
-      variant = std::stoi(argv[++i]);
-    } else if (a == "--json" && has) {
-      json_out = argv[++i];
-    } else {
-      return usage();
-    }
-  }
+};
 
+int bench_identity_main(const Options& o) {
+  const std::size_t n = o.n;
+  const int runs = o.runs, variant = o.variant;
+  const std::string& json_out = o.json_out;
   using clock = std::chrono::steady_clock;
   SyntheticSceneConfig cfg;
   cfg.variant = variant;
@@ -68,11 +54,17 @@ int bench_identity_main(int argc, char** argv) {
     return 1;
   }
   SceneStore store;
-  while (!scene->finished())
+  gauss::apps::StatusLine status;  // seconds for a million Gaussians
+  while (!scene->finished()) {
+    status.update("generating the previous epoch: epoch " + std::to_string(scene->produced() + 1) + "/" +
+                      std::to_string(scene->epoch_count()),
+                  true);
     if (auto s = scene->produce(store); !s) {
       std::fprintf(stderr, "gauss-bench identity: %s\n", s.message().c_str());
       return 1;
     }
+  }
+  status.done({});
   const double gen_s = std::chrono::duration<double>(clock::now() - t_gen).count();
   std::vector<Gaussian> prev(store.gaussians().begin(), store.gaussians().end());
   std::uint64_t max_id = 0;
@@ -145,7 +137,16 @@ int bench_identity_main(int argc, char** argv) {
   return 0;
 }
 
+BenchRun bench_identity_setup(CLI::App& cmd) {
+  auto o = std::make_shared<Options>();
+  cmd.add_option("--n", o->n, "Gaussians in the previous epoch")->check(gauss::apps::at_least<std::size_t>(1))->type_name("N");
+  cmd.add_option("--runs", o->runs, "timed runs per scenario")->check(gauss::apps::at_least(1))->type_name("R");
+  cmd.add_option("--variant", o->variant, "synthetic room variant")->check(gauss::apps::in_range(0, 3))->type_name("V");
+  cmd.add_option("--json", o->json_out, "write the results as JSON")->type_name("FILE");
+  return [o] { return bench_identity_main(*o); };
+}
+
 }  // namespace
 
 GAUSS_BENCH("identity", "identity tracking of an id-less, permuted snapshot: kept-id rates and time (1M default)",
-            bench_identity_main);
+            bench_identity_setup);

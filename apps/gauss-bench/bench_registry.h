@@ -1,17 +1,23 @@
 #pragma once
 // gauss-bench sub-commands register themselves here, one file per benchmark
 // (bench_render.cpp, bench_host.cpp, ...), so adding one touches no shared file.
+// A sub-command registers a setup function: it adds its options to its CLI11 sub-app
+// (bound to an options struct it owns, so --help lists them with their defaults) and
+// returns the function that runs the benchmark once the command line has been parsed.
 #include <functional>
 #include <map>
 #include <string>
 
+#include <CLI/CLI.hpp>
+
 namespace gauss::bench {
 
-using BenchMain = std::function<int(int argc, char** argv)>;
+using BenchRun = std::function<int()>;
+using BenchSetup = std::function<BenchRun(CLI::App& cmd)>;
 
 struct BenchEntry {
   std::string summary;
-  BenchMain run;
+  BenchSetup setup;
 };
 
 inline std::map<std::string, BenchEntry>& registry() {
@@ -20,8 +26,8 @@ inline std::map<std::string, BenchEntry>& registry() {
 }
 
 struct BenchRegistrar {
-  BenchRegistrar(const std::string& name, std::string summary, BenchMain run) {
-    registry()[name] = BenchEntry{std::move(summary), std::move(run)};
+  BenchRegistrar(const std::string& name, std::string summary, BenchSetup setup) {
+    registry()[name] = BenchEntry{std::move(summary), std::move(setup)};
   }
 };
 

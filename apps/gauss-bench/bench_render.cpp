@@ -18,6 +18,7 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -27,6 +28,7 @@
 
 #include "bench_registry.h"
 #include "bench_util.h"
+#include "gauss_cli.h"
 #include "gauss/engine/camera_io.h"
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/render/image_metrics.h"
@@ -280,59 +282,43 @@ std::pair<std::uint32_t, std::uint32_t> reference_rows(const Options& o, const C
 
 namespace {
 
-constexpr const char* kBenchUsage =
-    "usage: gauss-bench render [--sizes N@WxH[:stereo],...] [--frames K] [--json out.json]\n"
-    "                          [--device NAME] [--no-reference] [--ref-rows R] [--ref-threads T]\n"
-    "                          [--bench-dir DIR] [--verify-box box_scene_output.ply]\n"
-    "  default sizes: 10k@320x180,100k@640x360,100k@1280x720,250k@1280x720,400k@1280x720,\n"
-    "                 200k@1024x1024:stereo,500k@1280x720,1M@1280x720\n"
-    "  --frames K     measured frames per size after one warm-up frame (default 5)\n"
-    "  --ref-rows R   rows compared with the CPU reference (default: all when cheap, else 96)\n";
+constexpr const char* kDefaultSizes =
+    "10k@320x180,100k@640x360,100k@1280x720,250k@1280x720,400k@1280x720,200k@1024x1024:stereo,500k@1280x720,"
+    "1M@1280x720";
 
-int parse_options(int argc, char** argv, Options& o) {
-  std::string sizes = "10k@320x180,100k@640x360,100k@1280x720,250k@1280x720,400k@1280x720,"
-                      "200k@1024x1024:stereo,500k@1280x720,1M@1280x720";
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&](std::string& out) {
-      if (i + 1 >= argc) return false;
-      out = argv[++i];
-      return true;
-    };
-    std::string v;
-    char* end = nullptr;
-    if (a == "--no-reference") o.reference = false;
-    else if (a == "--sizes" && value(v)) sizes = v;
-    else if (a == "--json" && value(v)) o.json_out = v;
-    else if (a == "--device" && value(v)) o.device = v;
-    else if (a == "--bench-dir" && value(v)) o.bench_dir = v;
-    else if (a == "--verify-box" && value(v)) o.verify_box_file = v;
-    else if (a == "--frames" && value(v) && (o.frames = int(std::strtol(v.c_str(), &end, 10)), !*end) && o.frames >= 1 &&
-             o.frames <= 1000) {
-    } else if (a == "--ref-rows" && value(v) && (o.ref_rows = std::uint32_t(std::strtoul(v.c_str(), &end, 10)), !*end) &&
-               o.ref_rows >= 1) {
-    } else if (a == "--ref-threads" && value(v) &&
-               (o.ref_threads = unsigned(std::strtoul(v.c_str(), &end, 10)), !*end) && o.ref_threads >= 1 &&
-               o.ref_threads <= 64) {
-    } else {
-      std::fprintf(stderr, "gauss-bench render: bad argument '%s'\n%s", a.c_str(), kBenchUsage);
-      return 2;
-    }
-  }
-  std::size_t start = 0;
-  while (start <= sizes.size()) {
-    const std::size_t comma = std::min(sizes.find(',', start), sizes.size());
-    const std::string item = sizes.substr(start, comma - start);
-    auto c = parse_config(item);
-    if (!c) {
-      std::fprintf(stderr, "gauss-bench render: bad size '%s' (want N@WxH or N@WxH:stereo)\n%s", item.c_str(),
-                   kBenchUsage);
-      return 2;
-    }
-    o.configs.push_back(*c);
-    start = comma + 1;
-  }
-  return 0;
+// Adds the options to `cmd`; the sizes are parsed into o.configs once the command line is.
+void add_options(CLI::App& cmd, Options& o, std::vector<std::string>& sizes) {
+  cmd.add_option("--sizes", sizes, "comma-separated sizes: N@WxH or N@WxH:stereo (N with k/M suffixes)")
+      ->delimiter(',')
+      ->check(CLI::Validator(
+          [](std::string& in) -> std::string {
+            return parse_config(in) ? std::string{} : "bad size '" + in + "' (want N@WxH or N@WxH:stereo)";
+          },
+          ""))
+      ->type_name("N@WxH[:stereo],...")
+      ->default_str(kDefaultSizes);
+  cmd.add_option("--frames", o.frames, "measured frames per size after one warm-up frame")
+      ->check(gauss::apps::in_range(1, 1000))
+      ->type_name("K");
+  cmd.add_option("--json", o.json_out, "write the results as JSON")->type_name("FILE");
+  cmd.add_option("--device", o.device, "Vulkan device index or name substring (else $GAUSS_DEVICE, else the best)")
+      ->type_name("NAME");
+  cmd.add_flag_callback("--no-reference", [&o] { o.reference = false; }, "skip the comparison with the CPU reference");
+  cmd.add_option("--ref-rows", o.ref_rows, "rows compared with the CPU reference (default: all when cheap, else 96)")
+      ->check(gauss::apps::at_least(1u))
+      ->type_name("R")
+      ->default_str("auto");
+  cmd.add_option("--ref-threads", o.ref_threads, "CPU reference blend threads")
+      ->check(gauss::apps::in_range(1u, 64u))
+      ->type_name("T");
+  cmd.add_option("--bench-dir", o.bench_dir, "folder of box_camera_WxH.json (default $GAUSS_BENCH_DIR, else "
+                                             "shared/bench beside the checkout)")
+      ->type_name("DIR")
+      ->check(CLI::ExistingDirectory);
+  cmd.add_option("--verify-box", o.verify_box_file,
+                 "first check that the in-process box scene equals this output of box_scene.c (N=1000)")
+      ->check(CLI::ExistingFile)
+      ->type_name("PLY");
 }
 
 // Per-pass GPU ms of one frame, summed over the views of the frame.
@@ -501,9 +487,7 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
 
 }  // namespace
 
-int bench_render_main(int argc, char** argv) {
-  Options o;
-  if (int rc = parse_options(argc, argv, o); rc != 0) return rc;
+int bench_render_main(const Options& o) {
   if (!o.verify_box_file.empty() && !verify_box(o.verify_box_file)) return 1;
   auto ctx = vk::Context::create({.app_name = "gauss-bench render", .device_override = o.device});
   if (!ctx) {
@@ -546,5 +530,23 @@ int bench_render_main(int argc, char** argv) {
   return rc;
 }
 
+namespace {
+
+BenchRun bench_render_setup(CLI::App& cmd) {
+  struct State {
+    Options o;
+    std::vector<std::string> sizes;
+  };
+  auto st = std::make_shared<State>();
+  add_options(cmd, st->o, st->sizes);
+  return [st] {
+    if (st->sizes.empty()) st->sizes = CLI::detail::split(kDefaultSizes, ',');
+    for (const std::string& item : st->sizes) st->o.configs.push_back(*parse_config(item));  // checked by the option
+    return bench_render_main(st->o);
+  };
+}
+
+}  // namespace
+
 GAUSS_BENCH("render", "splat renderer on the box scene: GPU ms per pass, wall ms, PSNR vs the CPU reference",
-            bench_render_main);
+            bench_render_setup);

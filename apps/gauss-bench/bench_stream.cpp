@@ -27,6 +27,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -35,6 +36,7 @@
 
 #include "bench_registry.h"
 #include "bench_util.h"
+#include "gauss_cli.h"
 #include "gauss/engine/desired_state.h"
 #include "gauss/engine/sim.h"
 
@@ -331,38 +333,7 @@ json bench_steady(const Options& o) {
               {"upload_ranges_per_frame", frames ? static_cast<double>(ranges) / frames : 0.0}};
 }
 
-int bench_stream(int argc, char** argv) {
-  Options o;
-  for (int i = 1; i < argc; ++i) {
-    auto next = [&](const char* what) -> const char* {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "gauss-bench stream: %s needs a value\n", what);
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (!std::strcmp(argv[i], "--budget")) o.budget = static_cast<std::uint32_t>(std::strtoul(next("--budget"), nullptr, 10));
-    else if (!std::strcmp(argv[i], "--scene")) o.scene_gaussians = std::strtoull(next("--scene"), nullptr, 10);
-    else if (!std::strcmp(argv[i], "--coalesce-ids")) o.coalesce_ids = std::strtoull(next("--coalesce-ids"), nullptr, 10);
-    else if (!std::strcmp(argv[i], "--mbit")) o.bandwidth_bps = std::strtod(next("--mbit"), nullptr) * 1e6;
-    else if (!std::strcmp(argv[i], "--latency-ms")) o.latency_s = std::strtod(next("--latency-ms"), nullptr) * 1e-3;
-    else if (!std::strcmp(argv[i], "--hz")) o.display_hz = std::strtod(next("--hz"), nullptr);
-    else if (!std::strcmp(argv[i], "--json")) o.json_out = next("--json");
-    else if (!std::strcmp(argv[i], "--no-teleport")) o.teleport = false;
-    else if (!std::strcmp(argv[i], "--no-steady")) o.steady = false;
-    else if (!std::strcmp(argv[i], "--pose-smoothing")) o.pose_smoothing_s = std::strtod(next("--pose-smoothing"), nullptr);
-    else {
-      std::fprintf(stderr,
-                   "usage: gauss-bench stream [--budget M] [--scene N] [--coalesce-ids N] [--mbit B] [--latency-ms L]\n"
-                   "                          [--hz H] [--json FILE] [--no-teleport] [--no-steady] [--pose-smoothing S]\n"
-                   "  --pose-smoothing S: the host's sway low-pass time constant (0 = re-select at the raw pose)\n");
-      return 2;
-    }
-  }
-  if (o.budget == 0 || o.budget > kMaxSlotCapacity || o.coalesce_ids == 0 || o.coalesce_ids > kMaxSlotCapacity) {
-    std::fprintf(stderr, "gauss-bench stream: budget and --coalesce-ids must be in [1, %u]\n", kMaxSlotCapacity);
-    return 2;
-  }
+int bench_stream(const Options& o) {
   json out;
   out["coalescing"] = bench_coalescing(o);
   if (o.teleport) {
@@ -385,7 +356,39 @@ int bench_stream(int argc, char** argv) {
   return 0;
 }
 
+BenchRun bench_stream_setup(CLI::App& cmd) {
+  using gauss::apps::at_least;
+  using gauss::apps::in_range;
+  auto o = std::make_shared<Options>();
+  cmd.add_option("--budget", o->budget, "M: the client's budget")->check(in_range(1u, kMaxSlotCapacity))->type_name("M");
+  cmd.add_option("--scene", o->scene_gaussians, "Gaussians of the synthetic room")
+      ->check(at_least<std::size_t>(1))
+      ->type_name("N");
+  cmd.add_option("--coalesce-ids", o->coalesce_ids, "distinct ids of the coalescing benchmark")
+      ->check(in_range<std::size_t>(1, kMaxSlotCapacity))
+      ->type_name("N");
+  cmd.add_option_function<double>("--mbit", [o](double v) { o->bandwidth_bps = v * 1e6; }, "link bandwidth, Mbit/s")
+      ->check(at_least(0.001))
+      ->default_str(CLI::detail::to_string(o->bandwidth_bps / 1e6))
+      ->type_name("B");
+  cmd.add_option_function<double>("--latency-ms", [o](double v) { o->latency_s = v * 1e-3; }, "link latency, ms")
+      ->check(at_least(0.0))
+      ->default_str(CLI::detail::to_string(o->latency_s * 1e3))
+      ->type_name("L");
+  cmd.add_option("--hz", o->display_hz, "display rate")->check(in_range(1.0, 1000.0))->type_name("H");
+  cmd.add_option("--json", o->json_out, "write the results as JSON")->type_name("FILE");
+  cmd.add_flag_callback("--no-teleport", [o] { o->teleport = false; }, "skip the far-teleport part (2+3)");
+  cmd.add_flag_callback("--no-steady", [o] { o->steady = false; }, "skip the steady-state part (4)");
+  cmd.add_option("--pose-smoothing", o->pose_smoothing_s,
+                 "the host's sway low-pass time constant in s (0 = re-select at the raw pose; default: the "
+                 "session's own)")
+      ->check(at_least(0.0))
+      ->default_str("session default")
+      ->type_name("S");
+  return [o] { return bench_stream(*o); };
+}
+
 }  // namespace
 
 GAUSS_BENCH("stream", "streaming policy: coalescing edits/s, teleport convergence + flicker per mode, ranges/frame, wire bytes/s",
-            bench_stream);
+            bench_stream_setup);

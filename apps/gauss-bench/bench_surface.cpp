@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -101,16 +102,7 @@ Row run(const std::string& name, float voxel, const std::vector<RgbdFrame>& fram
   return row;
 }
 
-int bench_surface(int argc, char** argv) {
-  std::string json_path = "surface_bench.json";
-  for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--json") == 0 && i + 1 < argc) {
-      json_path = argv[++i];
-    } else {
-      std::fprintf(stderr, "usage: gauss-bench surface [--json out.json]\n");
-      return 2;
-    }
-  }
+int bench_surface(const std::string& json_path) {
   std::vector<Row> rows;
 
   SyntheticSceneConfig sc;
@@ -167,6 +159,12 @@ int bench_surface(int argc, char** argv) {
   return 0;
 }
 
+BenchRun bench_surface_setup(CLI::App& cmd) {
+  auto json_path = std::make_shared<std::string>("surface_bench.json");
+  cmd.add_option("--json", *json_path, "write the results as JSON")->type_name("FILE");
+  return [json_path] { return bench_surface(*json_path); };
+}
+
 }  // namespace
 
-GAUSS_BENCH("surface", "TSDF integration / extraction time vs voxel size, with mesh accuracy", bench_surface);
+GAUSS_BENCH("surface", "TSDF integration / extraction time vs voxel size, with mesh accuracy", bench_surface_setup);

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,7 @@
 
 #include "bench_registry.h"
 #include "bench_util.h"
+#include "gauss_cli.h"
 #include "gauss/render/vk_buffer.h"
 #include "gauss/render/vk_commands.h"
 #include "gauss/render/vk_context.h"
@@ -31,14 +33,16 @@ namespace {
 using namespace gauss::bench;
 
 
-int run_vk(int argc, char** argv) {
-  std::string device = gauss::vk::device_override_from_args(argc, argv);
-  int repeat = 5;
+struct Options {
+  std::string device;  // Vulkan device index or name substring
+  int repeat{5};       // timed repetitions after the cold first one
   std::string json_path;
-  for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) repeat = std::max(1, std::atoi(argv[++i]));
-    if (std::strcmp(argv[i], "--json") == 0 && i + 1 < argc) json_path = argv[++i];
-  }
+};
+
+int run_vk(const Options& o) {
+  const std::string& device = o.device;
+  const int repeat = o.repeat;
+  const std::string& json_path = o.json_path;
   nlohmann::json out;
 
   // Context creation, cold first (driver JIT/caches), then the median of the rest.
@@ -216,6 +220,17 @@ int run_vk(int argc, char** argv) {
   return 0;
 }
 
+BenchRun bench_vk_setup(CLI::App& cmd) {
+  auto o = std::make_shared<Options>();
+  cmd.add_option("--device", o->device, "Vulkan device index or name substring (else $GAUSS_DEVICE, else the best)")
+      ->type_name("NAME");
+  cmd.add_option("--repeat", o->repeat, "timed repetitions of each measurement")
+      ->check(gauss::apps::at_least(1))
+      ->type_name("N");
+  cmd.add_option("--json", o->json_path, "write the results as JSON")->type_name("PATH");
+  return [o] { return run_vk(*o); };
+}
+
 }  // namespace
 
-GAUSS_BENCH("vk", "Vulkan core: context creation, 1024^2 dispatch, upload throughput", run_vk);
+GAUSS_BENCH("vk", "Vulkan core: context creation, 1024^2 dispatch, upload throughput", bench_vk_setup);

@@ -1,16 +1,20 @@
 // gauss-bench SUBCOMMAND [options]: benchmarks that print a table and write JSON,
 // with an error figure beside every time. Timing never decides a test.
-#include <cstdio>
-#include <cstring>
+// `gauss-bench --help` lists the sub-commands, `gauss-bench SUBCOMMAND --help` their options.
+#include <map>
+#include <string>
 
 #include "bench_registry.h"
+#include "gauss_cli.h"
 
 int main(int argc, char** argv) {
-  auto& reg = gauss::bench::registry();
-  if (argc < 2 || std::strcmp(argv[1], "--help") == 0 || reg.find(argv[1]) == reg.end()) {
-    std::fprintf(stderr, "usage: gauss-bench SUBCOMMAND [options]\n\nsubcommands:\n");
-    for (const auto& [name, entry] : reg) std::fprintf(stderr, "  %-10s %s\n", name.c_str(), entry.summary.c_str());
-    return argc < 2 || std::strcmp(argv[1], "--help") != 0 ? 2 : 0;
-  }
-  return reg.at(argv[1]).run(argc - 1, argv + 1);
+  CLI::App app{"gauss-bench: benchmarks that print a table and optionally write JSON, with an error figure\n"
+               "beside every time. Timing never decides a test.",
+               "gauss-bench"};
+  gauss::apps::configure(app);  // before the sub-commands: they inherit it
+  app.require_subcommand(1);
+  std::map<std::string, gauss::bench::BenchRun> runs;
+  for (const auto& [name, entry] : gauss::bench::registry()) runs[name] = entry.setup(*app.add_subcommand(name, entry.summary));
+  if (auto rc = gauss::apps::parse(app, argc, argv)) return *rc;
+  return runs.at(app.get_subcommands().front()->get_name())();
 }

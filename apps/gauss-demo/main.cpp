@@ -7,10 +7,9 @@
 // it are printed.
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "gauss/engine/query.h"
@@ -20,50 +19,12 @@
 #include "gauss/engine/tsdf.h"
 #include "gauss/render/splat_renderer.h"
 #include "gauss/render/vk_context.h"
+#include "gauss_cli.h"
+#include "options.h"
 
 namespace {
 
 using namespace gauss;
-
-struct Options {
-  int variant{0};
-  std::size_t gaussians{60000};
-  std::size_t budget{20000};
-  std::string query{"chair"};
-  double rho{0.6};
-  std::uint32_t width{640}, height{480};
-  std::filesystem::path out{"out/demo"};
-  std::string device;
-};
-
-int usage() {
-  std::fprintf(stderr,
-               "usage: gauss-demo [--variant 0..3] [--gaussians N] [--budget M] [--query CLASS] [--rho R]\n"
-               "                  [--size WxH] [--out DIR] [--device NAME]\n");
-  return 2;
-}
-
-bool parse(int argc, char** argv, Options& o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
-    const char* v = (a == "--help") ? nullptr : next();
-    if (!v) return false;
-    char* end = nullptr;
-    if (a == "--variant") o.variant = int(std::strtol(v, &end, 10));
-    else if (a == "--gaussians") o.gaussians = std::strtoull(v, &end, 10);
-    else if (a == "--budget") o.budget = std::strtoull(v, &end, 10);
-    else if (a == "--rho") o.rho = std::strtod(v, &end);
-    else if (a == "--query") o.query = v;
-    else if (a == "--out") o.out = v;
-    else if (a == "--device") o.device = v;
-    else if (a == "--size") {
-      if (std::sscanf(v, "%ux%u", &o.width, &o.height) != 2) return false;
-    } else return false;
-    if (end && *end) return false;
-  }
-  return true;
-}
 
 int fail(const std::string& what) {
   std::fprintf(stderr, "gauss-demo: %s\n", what.c_str());
@@ -73,9 +34,10 @@ int fail(const std::string& what) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options o;
-  if (!parse(argc, argv, o)) return usage();
-  std::filesystem::create_directories(o.out);
+  demo_app::Options o;
+  if (auto rc = demo_app::parse_options(argc, argv, o)) return *rc;
+  if (std::error_code ec; !std::filesystem::create_directories(o.out, ec) && ec)
+    return fail("cannot create " + o.out.string() + ": " + ec.message());
   const auto t0 = std::chrono::steady_clock::now();
 
   // ---- Host: the evolving scene and its surface ----
@@ -93,7 +55,11 @@ int main(int argc, char** argv) {
   if (!volume) return fail(volume.message());
   SceneStore store;
   std::size_t chunk_edits = 0;
+  apps::StatusLine status;  // the host phase takes seconds
   for (int e = 0; e < scene->epoch_count(); ++e) {
+    status.update("host: epoch " + std::to_string(e + 1) + "/" + std::to_string(scene->epoch_count()) + ", " +
+                      std::to_string(store.size()) + " Gaussians so far",
+                  true);
     if (auto st = scene->produce(store); !st) return fail(st.message());
     for (const Camera& cam : scene->cameras_of_epoch(e))
       if (auto st = volume->integrate(synthetic_rgbd_frame(*scene, cam, store.epoch())); !st) return fail(st.message());
@@ -103,7 +69,9 @@ int main(int argc, char** argv) {
     if (auto st = apply_surface_edits(store, edits); !st) return fail(st.message());
     if (auto st = store.commit_epoch(); !st) return fail(st.message());
   }
+  status.update("host: extracting the surface mesh", true);
   const TriangleMesh mesh = volume->extract_all();
+  status.done({});
   const double host_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("host: %d epochs of synthetic room %d: %zu Gaussians (%zu carriers), %zu objects, surface %zu "
               "triangles in %zu chunk edits (%.1f s)\n",

@@ -2,112 +2,47 @@
 //
 //   gauss-host [--bind HOST:PORT] [--token T] [--scene synthetic:VARIANT]
 //              [--gaussians N] [--epochs N] [--epoch-period S] [--seed N]
-//              [--max-clients N] [--duration S] [--events FILE] [--quiet]
+//              [--max-clients N] [--duration S] [--surface-voxel M] [--events FILE]
+//              [--dump-sent DIR] [--quiet]          (options.cpp; --help lists them)
 //
 // Binds 127.0.0.1 by default: other machines reach the host only with an explicit
 // --bind. New epochs of the synthetic scene are produced every --epoch-period seconds
 // until the trajectory ends; the host then keeps serving the final scene (clients
 // may still connect, move and query) until --duration passes or SIGINT/SIGTERM.
 // Once a second it prints clients, epoch and wire throughput; --events writes every
-// session's stage events as JSON lines.
+// session's stage events as JSON lines; --dump-sent writes what each client was sent
+// when its session ends (dump_sent.h).
+//
+// Exit status: 0 stopped by --duration or a signal; 1 the scene or the transport failed
+// (the message says which); 2 bad arguments.
 #include <atomic>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <optional>
 #include <string>
+#include <system_error>
 #include <thread>
 
+#include "dump_sent.h"
 #include "gauss/engine/synthetic_scene.h"
 #include "gauss/engine/tsdf.h"
 #include "gauss/net/session_host.h"
+#include "options.h"
 
 namespace {
 
 std::atomic<bool> g_stop{false};
 void on_signal(int) { g_stop = true; }
 
-struct Options {
-  gauss::net::Endpoint bind{};
-  std::string token;
-  int variant{0};
-  std::size_t gaussians{100000};
-  int epochs{12};
-  double epoch_period_s{0.1};
-  std::uint64_t seed{1};
-  std::size_t max_clients{8};
-  double duration_s{0.0};  // 0: until a signal
-  double surface_voxel{0.04};  // TSDF voxel (m) for the surface fused from each epoch's frames; 0 = none
-  std::string events_path;
-  bool quiet{false};
-};
-
-int usage(const char* why) {
-  std::fprintf(stderr,
-               "gauss-host: %s\n"
-               "usage: gauss-host [--bind HOST:PORT] [--token T] [--scene synthetic:VARIANT] [--gaussians N]\n"
-               "                  [--epochs N] [--epoch-period S] [--seed N] [--max-clients N] [--duration S]\n"
-               "                  [--surface-voxel M] [--events FILE] [--quiet]\n",
-               why);
-  return 2;
-}
-
-bool parse_number(const char* text, double& out) {
-  char* end = nullptr;
-  out = std::strtod(text, &end);
-  return end != text && *end == '\0';
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
-    double num = 0.0;
-    if (a == "--help" || a == "-h") {
-      usage("streams an evolving synthetic scene to clients");
-      return 0;
-    } else if (a == "--quiet") {
-      o.quiet = true;
-    } else if (a == "--bind") {
-      const char* v = value();
-      if (!v) return usage("--bind needs HOST:PORT");
-      auto e = gauss::net::parse_endpoint(v);
-      if (!e) return usage(e.message().c_str());
-      o.bind = e.value();
-    } else if (a == "--token") {
-      const char* v = value();
-      if (!v) return usage("--token needs a value");
-      o.token = v;
-    } else if (a == "--scene") {
-      const char* v = value();
-      const std::string s = v ? v : "";
-      if (s.rfind("synthetic:", 0) != 0 || !parse_number(s.c_str() + 10, num) || num < 0 || num > 3)
-        return usage("--scene must be synthetic:0..3");
-      o.variant = static_cast<int>(num);
-    } else if (a == "--events") {
-      const char* v = value();
-      if (!v) return usage("--events needs a file");
-      o.events_path = v;
-    } else if (a == "--gaussians" || a == "--epochs" || a == "--epoch-period" || a == "--seed" ||
-               a == "--max-clients" || a == "--duration" || a == "--surface-voxel") {
-      const char* v = value();
-      if (!v || !parse_number(v, num) || num < 0) return usage((a + " needs a non-negative number").c_str());
-      if (a == "--gaussians") o.gaussians = static_cast<std::size_t>(num);
-      if (a == "--epochs") o.epochs = static_cast<int>(num);
-      if (a == "--epoch-period") o.epoch_period_s = num;
-      if (a == "--seed") o.seed = static_cast<std::uint64_t>(num);
-      if (a == "--max-clients") o.max_clients = static_cast<std::size_t>(num);
-      if (a == "--duration") o.duration_s = num;
-      if (a == "--surface-voxel") o.surface_voxel = num;
-    } else {
-      return usage(("unknown option " + a).c_str());
-    }
-  }
+  gauss::host_app::Options o;
+  if (auto rc = gauss::host_app::parse_options(argc, argv, o)) return *rc;
 
   gauss::SyntheticSceneConfig sc;
   sc.variant = o.variant;
@@ -145,6 +80,23 @@ int main(int argc, char** argv) {
   hc.net.access_token = o.token;
   hc.net.max_clients = o.max_clients;
   hc.session.access_token = o.token;
+  if (!o.dump_sent_dir.empty()) {
+    // Synchronous in the host loop: a sent set is at most a few 100k Gaussians.
+    hc.on_session_closed = [&](std::uint32_t client, const std::string& name, const gauss::HostSession& session) {
+      if (!session.accepted()) return;  // refused at the Hello: it was sent nothing
+      const std::string stem = gauss::host_app::dump_file_stem(name, client);
+      auto r = gauss::host_app::dump_sent(o.dump_sent_dir, stem, session, store, params);
+      if (!r) {
+        std::fprintf(stderr, "gauss-host: --dump-sent for client %u (%s): %s\n", client, stem.c_str(),
+                     r.message().c_str());
+        return;
+      }
+      std::printf("gauss-host: wrote %s (%zu Gaussians)\n", r->gaussians_path.c_str(), r->gaussians);
+      if (!r->mesh_path.empty())
+        std::printf("gauss-host: wrote %s (%zu triangles)\n", r->mesh_path.c_str(), r->triangles);
+      std::fflush(stdout);
+    };
+  }
   auto host = gauss::net::SessionHost::start(hc, params);
   if (!host) {
     std::fprintf(stderr, "gauss-host: %s\n", host.message().c_str());
@@ -157,6 +109,14 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "gauss-host: cannot write events to %s\n", o.events_path.c_str());
       return 1;
     }
+  }
+  if (!o.dump_sent_dir.empty()) {
+    // Said now rather than at the first session's end; the host serves on regardless.
+    std::error_code ec;
+    std::filesystem::create_directories(o.dump_sent_dir, ec);
+    if (ec)
+      std::fprintf(stderr, "gauss-host: --dump-sent: cannot create %s: %s (dumps will fail)\n",
+                   o.dump_sent_dir.c_str(), ec.message().c_str());
   }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
@@ -218,6 +178,7 @@ int main(int argc, char** argv) {
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
+  (*host)->close_all();  // --dump-sent: the still-connected clients' dumps
   std::printf("gauss-host: stopping\n");
   return 0;
 }

@@ -1,12 +1,12 @@
 // gauss-render: renders one view (or a stereo pair) of a 3DGS scene to PNG, on the GPU
 // (SplatRenderer) or with the CPU reference rasterizer (--reference).
 //
+// Options in options.cpp (--help lists them).
+//
 // Exit status: 0 written; 1 a file could not be read or written, no usable Vulkan device,
-// or a render error (the message says which); 2 bad arguments (usage printed).
+// or a render error (the message says which); 2 bad arguments (CLI11's message printed).
 #include <chrono>
-#include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -23,109 +23,15 @@
 #include "gauss/render/splat_renderer.h"
 #include "gauss/render/vk_context.h"
 #include "gauss/render/vk_image.h"
+#include "gauss_cli.h"
+#include "options.h"
 
 namespace {
 
 using namespace gauss;
 namespace fs = std::filesystem;
 
-constexpr const char* kUsage =
-    "usage: gauss-render --scene S.ply [--mesh M.ply] --camera C.json --out O.png\n"
-    "                    [--reference] [--stereo IPD] [--device NAME] [--clear R,G,B]\n"
-    "                    [--frames K] [--threads N] [--compare A.png]\n"
-    "  --reference   CPU reference rasterizer (double precision); with --mesh the mesh layer\n"
-    "                is still rasterized by the GPU mesh pass (the splats are blended on the CPU)\n"
-    "  --stereo IPD  left/right eyes IPD metres apart; writes O_left.png and O_right.png\n"
-    "  --device NAME Vulkan device index or name substring (else $GAUSS_DEVICE, else the best)\n"
-    "  --clear R,G,B background without a mesh, each in [0, 1] (default 0,0,0)\n"
-    "  --frames K    GPU: render K times, print every frame's pass times (first = cold)\n"
-    "  --threads N   --reference: blend threads (default 1)\n"
-    "  --compare A   print PSNR and max error of the written image against A.png (mono only)\n";
-
-struct Args {
-  fs::path scene, mesh, camera, out, compare;
-  bool reference{false};
-  bool stereo{false};
-  double ipd{0.0};
-  std::string device;
-  glm::dvec3 clear{0.0};
-  int frames{1};
-  unsigned threads{1};
-};
-
-bool parse_double(const std::string& s, double& out) {
-  char* end = nullptr;
-  out = std::strtod(s.c_str(), &end);
-  return !s.empty() && end == s.c_str() + s.size() && std::isfinite(out);
-}
-
-bool parse_int(const std::string& s, long lo, long hi, long& out) {
-  char* end = nullptr;
-  out = std::strtol(s.c_str(), &end, 10);
-  return !s.empty() && end == s.c_str() + s.size() && out >= lo && out <= hi;
-}
-
-// Returns an empty string on success, else what is wrong with the arguments.
-std::string parse_args(int argc, char** argv, Args& a) {
-  for (int i = 1; i < argc; ++i) {
-    std::string key = argv[i], value;
-    const bool has_eq = key.rfind("--", 0) == 0 && key.find('=') != std::string::npos;
-    if (has_eq) {
-      value = key.substr(key.find('=') + 1);
-      key = key.substr(0, key.find('='));
-    }
-    if (key == "--reference" && !has_eq) {
-      a.reference = true;
-      continue;
-    }
-    static const char* kWithValue[] = {"--scene", "--mesh", "--camera", "--out", "--stereo",
-                                       "--device", "--clear", "--frames", "--threads", "--compare"};
-    bool known = false;
-    for (const char* k : kWithValue) known = known || key == k;
-    if (!known) return "unknown argument '" + std::string(argv[i]) + "'";
-    if (!has_eq) {
-      if (i + 1 >= argc) return key + " needs a value";
-      value = argv[++i];
-    }
-    if (key == "--scene") a.scene = value;
-    else if (key == "--mesh") a.mesh = value;
-    else if (key == "--camera") a.camera = value;
-    else if (key == "--out") a.out = value;
-    else if (key == "--device") a.device = value;
-    else if (key == "--compare") a.compare = value;
-    else if (key == "--stereo") {
-      if (!parse_double(value, a.ipd) || a.ipd < 0.0 || a.ipd > 1.0)
-        return "--stereo wants an IPD in metres in [0, 1], got '" + value + "'";
-      a.stereo = true;
-    } else if (key == "--clear") {
-      double c[3];
-      std::size_t start = 0;
-      for (int k = 0; k < 3; ++k) {
-        const std::size_t comma = value.find(',', start);
-        if ((k < 2) != (comma != std::string::npos) ||
-            !parse_double(value.substr(start, k < 2 ? comma - start : std::string::npos), c[k]) || c[k] < 0.0 ||
-            c[k] > 1.0)
-          return "--clear wants R,G,B in [0, 1], got '" + value + "'";
-        start = comma + 1;
-      }
-      a.clear = glm::dvec3(c[0], c[1], c[2]);
-    } else if (key == "--frames") {
-      long v = 0;
-      if (!parse_int(value, 1, 1000, v)) return "--frames wants 1..1000, got '" + value + "'";
-      a.frames = int(v);
-    } else if (key == "--threads") {
-      long v = 0;
-      if (!parse_int(value, 1, 64, v)) return "--threads wants 1..64, got '" + value + "'";
-      a.threads = unsigned(v);
-    }
-  }
-  if (a.scene.empty()) return "--scene is required";
-  if (a.camera.empty()) return "--camera is required";
-  if (a.out.empty()) return "--out is required";
-  if (a.reference && a.frames != 1) return "--frames applies to the GPU path only";
-  if (a.stereo && !a.compare.empty()) return "--compare applies to mono renders only";
-  return {};
-}
+using Args = render_app::Options;
 
 // Writes the image, then (with --compare) prints its difference to another PNG.
 int write_and_compare(const Args& a, const fs::path& path, const ImageRGBA8& image) {
@@ -297,7 +203,10 @@ int run_reference(const Args& a, const PlyGaussianScene& scene, const TriangleMe
       opt.mesh = &layer;
     }
     const auto t0 = std::chrono::steady_clock::now();
-    auto im = render::render_reference(gs, {}, scene.cloud.sh_degree, view_cam, opt);
+    // Seconds to minutes for big scenes, with no progress of its own: count up meanwhile.
+    auto im = apps::with_elapsed_status(
+        std::string("gauss-render: reference ") + (a.stereo ? (v == 0 ? "left" : "right") : "view"),
+        [&] { return render::render_reference(gs, {}, scene.cloud.sh_degree, view_cam, opt); });
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     if (!im) {
       std::fprintf(stderr, "gauss-render: %s\n", im.message().c_str());
@@ -319,17 +228,10 @@ int run_reference(const Args& a, const PlyGaussianScene& scene, const TriangleMe
 }  // namespace
 
 int main(int argc, char** argv) {
-  for (int i = 1; i < argc; ++i)
-    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    }
   Args args;
-  if (const std::string err = parse_args(argc, argv, args); !err.empty()) {
-    std::fprintf(stderr, "gauss-render: %s\n%s", err.c_str(), kUsage);
-    return 2;
-  }
-  auto scene = read_gaussian_ply(args.scene);
+  if (auto rc = render_app::parse_options(argc, argv, args)) return *rc;
+  auto scene = apps::with_elapsed_status("gauss-render: reading " + args.scene.string(),
+                                        [&] { return read_gaussian_ply(args.scene); });
   if (!scene) {
     std::fprintf(stderr, "gauss-render: %s\n", scene.message().c_str());
     return 1;

@@ -35,6 +35,7 @@ void SessionHost::pump(const SceneStore& scene, double now) {
       case HostEventKind::Connected: {
         auto [it, fresh] = sessions_.try_emplace(e.client, e.client, net_->session_id(), params_, config_.session);
         if (fresh) ++stats_.sessions_opened;
+        client_names_[e.client] = e.hello.client_name;
         send_all(e.client, it->second.on_message(wire::Message{e.hello}, scene, now));
         break;
       }
@@ -46,7 +47,7 @@ void SessionHost::pump(const SceneStore& scene, double now) {
       }
       case HostEventKind::Disconnected:
         // A client gone mid-batch costs nothing more: its session and queues go.
-        if (sessions_.erase(e.client) > 0) ++stats_.sessions_closed;
+        if (auto it = sessions_.find(e.client); it != sessions_.end()) close(it);
         break;
     }
   }
@@ -64,6 +65,22 @@ void SessionHost::pump(const SceneStore& scene, double now) {
       continue;
     }
     send_all(client, out.value());
+  }
+}
+
+void SessionHost::close(std::map<std::uint32_t, HostSession>::iterator it) {
+  const std::uint32_t client = it->first;
+  if (config_.on_session_closed) config_.on_session_closed(client, client_names_[client], it->second);
+  client_names_.erase(client);
+  sessions_.erase(it);
+  ++stats_.sessions_closed;
+}
+
+void SessionHost::close_all() {
+  while (!sessions_.empty()) {
+    const std::uint32_t client = sessions_.begin()->first;
+    close(sessions_.begin());
+    net_->disconnect(client);
   }
 }
 

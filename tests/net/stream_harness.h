@@ -19,16 +19,7 @@
 
 namespace gauss::test {
 
-inline msg::HeadPose head_pose_of(const Camera& camera) {
-  const ClientPose p = ClientPose::from_camera(camera);
-  msg::HeadPose h;
-  h.position = glm::vec3(p.position);
-  const glm::dquat q = glm::normalize(p.orientation);
-  h.rotation = {static_cast<float>(q.w), static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z)};
-  h.tan_half_fov_x = static_cast<float>(p.tan_half_fov_x);
-  h.tan_half_fov_y = static_cast<float>(p.tan_half_fov_y);
-  return h;
-}
+inline msg::HeadPose head_pose_of(const Camera& camera) { return head_pose_from_camera(camera); }
 
 struct StreamClient {
   std::string name;

@@ -132,6 +132,7 @@ Status ClientState::on_message(const wire::Message& m, double now) {
       QueryTrack t;
       t.query_id = r->query_id;
       t.targets = r->targets;
+      t.target_gaussians = r->target_gaussians;
       std::sort(t.targets.begin(), t.targets.end());
       query_track_ = std::move(t);
     } else if (r->status == msg::QueryStatus::Cleared) {
@@ -229,6 +230,11 @@ void ClientState::frame_rendered(double now, std::uint64_t frame_index) {
 void ClientState::report_frame_cost(double seconds) {
   std::lock_guard<std::mutex> lock(*mutex_);
   publisher_.report_frame_cost(seconds);
+}
+
+void ClientState::set_publish_mode(PublishMode mode) {
+  std::lock_guard<std::mutex> lock(*mutex_);
+  publisher_.set_mode(mode);
 }
 
 std::vector<wire::Message> ClientState::take_outgoing() {

@@ -43,6 +43,17 @@ ClientPose to_client_pose(const msg::HeadPose& pose) {
   return c;
 }
 
+msg::HeadPose head_pose_from_camera(const Camera& camera) {
+  const ClientPose p = ClientPose::from_camera(camera);
+  msg::HeadPose h;
+  h.position = glm::vec3(p.position);
+  const glm::dquat q = glm::normalize(p.orientation);
+  h.rotation = {static_cast<float>(q.w), static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z)};
+  h.tan_half_fov_x = static_cast<float>(p.tan_half_fov_x);
+  h.tan_half_fov_y = static_cast<float>(p.tan_half_fov_y);
+  return h;
+}
+
 HostSession::HostSession(std::uint32_t client_id, std::uint64_t session_id, CodecParams params, HostSessionConfig config)
     : client_id_(client_id),
       session_id_(session_id),

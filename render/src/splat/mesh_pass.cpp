@@ -10,6 +10,8 @@
 
 #include "gauss/render/splat_math.h"
 #include "gauss/render/vk_context.h"
+#include "gauss/render/vk_frame_ring.h"
+#include "gauss/render/vk_staged_uploads.h"
 #include "gauss/shaders/mesh.frag.spv.h"
 #include "gauss/shaders/mesh.vert.spv.h"
 #include "splat_layout.h"
@@ -43,26 +45,40 @@ Expected<MeshPass> MeshPass::create(vk::Context& context) {
   return pass;
 }
 
-Status MeshPass::set_mesh(vk::Context& context, const TriangleMesh& mesh) {
+Status MeshPass::set_mesh(vk::Context& context, const TriangleMesh& mesh, const MeshUpdate& via) {
+  if (mesh.positions.empty() || mesh.indices.empty()) return Error{"MeshPass::set_mesh: the mesh is empty"};
+  std::map<std::uint64_t, Chunk> old;
+  old.swap(chunks_);
+  if (auto st = set_chunk(context, 0, mesh, via); !st) {
+    chunks_.swap(old);
+    return st;
+  }
+  for (auto& [id, chunk] : old) retire(std::move(chunk), via);
+  return Ok{};
+}
+
+Status MeshPass::set_chunk(vk::Context& context, std::uint64_t id, const TriangleMesh& mesh, const MeshUpdate& via) {
   const std::size_t nv = mesh.positions.size();
-  if (nv == 0 || mesh.indices.empty()) return Error{"MeshPass::set_mesh: the mesh is empty"};
+  if (nv == 0 && mesh.indices.empty()) {
+    remove_chunk(id, via);
+    return Ok{};
+  }
+  const std::string where = "MeshPass::set_chunk: chunk " + std::to_string(id) + ": ";
+  if (nv == 0 || mesh.indices.empty()) return Error{"MeshPass::set_chunk: the mesh is empty"};
   if (mesh.colors.size() != nv)
-    return Error{"MeshPass::set_mesh: " + std::to_string(mesh.colors.size()) + " colours for " + std::to_string(nv) +
-                 " positions"};
+    return Error{where + std::to_string(mesh.colors.size()) + " colours for " + std::to_string(nv) + " positions"};
   if (mesh.indices.size() % 3 != 0)
-    return Error{"MeshPass::set_mesh: index count " + std::to_string(mesh.indices.size()) +
-                 " is not a multiple of 3"};
-  if (mesh.indices.size() > std::numeric_limits<std::uint32_t>::max())
-    return Error{"MeshPass::set_mesh: too many indices"};
+    return Error{where + "index count " + std::to_string(mesh.indices.size()) + " is not a multiple of 3"};
+  if (mesh.indices.size() > std::numeric_limits<std::uint32_t>::max()) return Error{where + "too many indices"};
   for (std::size_t i = 0; i < mesh.indices.size(); ++i)
     if (mesh.indices[i] >= nv)
-      return Error{"MeshPass::set_mesh: index " + std::to_string(i) + " = " + std::to_string(mesh.indices[i]) +
-                   " out of range (" + std::to_string(nv) + " vertices)"};
+      return Error{where + "index " + std::to_string(i) + " = " + std::to_string(mesh.indices[i]) + " out of range (" +
+                   std::to_string(nv) + " vertices)"};
   std::vector<MeshVertex> vertices(nv);
   for (std::size_t i = 0; i < nv; ++i) {
     const glm::vec3& p = mesh.positions[i];
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-      return Error{"MeshPass::set_mesh: vertex " + std::to_string(i) + " has a non-finite position"};
+      return Error{where + "vertex " + std::to_string(i) + " has a non-finite position"};
     vertices[i] = {{p.x, p.y, p.z}, {mesh.colors[i].r, mesh.colors[i].g, mesh.colors[i].b, 255}};
   }
   auto vb = vk::Buffer::create(context, {.size = nv * sizeof(MeshVertex),
@@ -73,18 +89,49 @@ Status MeshPass::set_mesh(vk::Context& context, const TriangleMesh& mesh) {
                                          .usage = VK_BUFFER_USAGE_INDEX_BUFFER_BIT,
                                          .name = "mesh indices"});
   if (!ib) return ib.error();
-  if (auto st = vb->upload(vertices.data(), vb->size()); !st) return st;
-  if (auto st = ib->upload(mesh.indices.data(), ib->size()); !st) return st;
-  vertices_ = std::move(*vb);
-  indices_ = std::move(*ib);
-  index_count_ = static_cast<std::uint32_t>(mesh.indices.size());
+  // Fresh buffers: no frame reads them yet, but the copies must land before the frame that
+  // first draws them, so a frame-paced caller stages them with that frame's other writes.
+  auto put = [&](vk::Buffer& b, const void* data) -> Status {
+    return via.uploads != nullptr ? via.uploads->write(b, 0, data, b.size()) : b.upload(data, b.size());
+  };
+  if (auto st = put(*vb, vertices.data()); !st) return st;
+  if (auto st = put(*ib, mesh.indices.data()); !st) return st;
+  Chunk chunk{std::make_shared<vk::Buffer>(std::move(*vb)), std::make_shared<vk::Buffer>(std::move(*ib)),
+              static_cast<std::uint32_t>(mesh.indices.size())};
+  auto it = chunks_.find(id);
+  if (it != chunks_.end()) {
+    retire(std::move(it->second), via);
+    it->second = std::move(chunk);
+  } else {
+    chunks_.emplace(id, std::move(chunk));
+  }
   return Ok{};
 }
 
-void MeshPass::clear_mesh() noexcept {
-  vertices_ = vk::Buffer{};
-  indices_ = vk::Buffer{};
-  index_count_ = 0;
+void MeshPass::remove_chunk(std::uint64_t id, const MeshUpdate& via) noexcept {
+  auto it = chunks_.find(id);
+  if (it == chunks_.end()) return;
+  retire(std::move(it->second), via);
+  chunks_.erase(it);
+}
+
+void MeshPass::clear_mesh(const MeshUpdate& via) noexcept {
+  for (auto& [id, chunk] : chunks_) retire(std::move(chunk), via);
+  chunks_.clear();
+}
+
+std::uint64_t MeshPass::triangle_count() const noexcept {
+  std::uint64_t n = 0;
+  for (const auto& [id, chunk] : chunks_) n += chunk.index_count / 3;
+  return n;
+}
+
+void MeshPass::retire(Chunk chunk, const MeshUpdate& via) noexcept {
+  if (via.ring == nullptr) return;  // the Buffers' destructors wait for the device
+  via.ring->defer([chunk = std::move(chunk)]() {
+    chunk.vertices->destroy_after_gpu_finished();
+    chunk.indices->destroy_after_gpu_finished();
+  });
 }
 
 void MeshPass::record(VkCommandBuffer cmd, vk::OffscreenTarget& target, const Camera& camera,
@@ -109,10 +156,12 @@ void MeshPass::record(VkCommandBuffer cmd, vk::OffscreenTarget& target, const Ca
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_.handle());
   pipeline_.push_constants(cmd, push);
   const VkDeviceSize offset = 0;
-  const VkBuffer vb = vertices_.handle();
-  vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &offset);
-  vkCmdBindIndexBuffer(cmd, indices_.handle(), 0, VK_INDEX_TYPE_UINT32);
-  vkCmdDrawIndexed(cmd, index_count_, 1, 0, 0, 0);
+  for (const auto& [id, chunk] : chunks_) {  // ascending id: equal depths keep a fixed order
+    const VkBuffer vb = chunk.vertices->handle();
+    vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &offset);
+    vkCmdBindIndexBuffer(cmd, chunk.indices->handle(), 0, VK_INDEX_TYPE_UINT32);
+    vkCmdDrawIndexed(cmd, chunk.index_count, 1, 0, 0, 0);
+  }
   target.end_rendering(cmd);
 }
 

@@ -8,6 +8,7 @@
 
 #include "gauss/render/reference_rasterizer.h"
 #include "gauss/render/vk_context.h"
+#include "gauss/render/vk_staged_uploads.h"
 #include "splat_layout.h"
 
 namespace gauss::render {
@@ -34,11 +35,13 @@ std::uint32_t edit_word(EditTintState state, std::uint32_t frame) {
 
 }  // namespace
 
-Expected<SlotBuffer> SlotBuffer::create(vk::Context& context, const SlotBufferCreateInfo& info) {
+Expected<SlotBuffer> SlotBuffer::create(vk::Context& context, const SlotBufferCreateInfo& info,
+                                        vk::StagedUploads& uploads) {
   if (info.capacity == 0) return Error{"SlotBuffer: capacity must be at least 1"};
   if (info.sh_degree < 0 || info.sh_degree > kMaxShDegree)
     return Error{"SlotBuffer: sh_degree " + std::to_string(info.sh_degree) + " outside 0..3"};
   SlotBuffer s;
+  s.uploads_ = &uploads;
   s.capacity_ = info.capacity;
   s.sh_degree_ = info.sh_degree;
   const auto coeffs = static_cast<std::uint32_t>(sh_rest_count(info.sh_degree));
@@ -107,36 +110,48 @@ Status SlotBuffer::write_slots(std::uint32_t first_slot, std::span<const Gaussia
   if (auto st = check_range(first_slot, gaussians.size(), "write_slots"); !st) return st;
   if (gaussians.empty()) return Ok{};
   const auto n = static_cast<std::uint32_t>(gaussians.size());
-  std::vector<gpu::GpuSplatCore> cores(n);
+  // Staging for every buffer first, so a failure leaves nothing half queued; then pack
+  // straight into it. A refused Gaussian stays all zero there (an empty slot).
+  auto reserve = [&](const vk::Buffer& buffer, std::uint32_t bytes_per_slot) -> Expected<std::span<std::byte>> {
+    if (bytes_per_slot == 0) return std::span<std::byte>{};
+    auto r = uploads_->reserve(buffer, VkDeviceSize{first_slot} * bytes_per_slot, VkDeviceSize{n} * bytes_per_slot);
+    if (!r) return Error{"SlotBuffer::write_slots: " + r.message()};
+    return r;
+  };
+  auto core = reserve(core_, sizeof(gpu::GpuSplatCore));
+  if (!core) return core.error();
+  auto sh = reserve(sh_, sh_stride_ * sizeof(float));
+  if (!sh) return sh.error();
+  auto sh_high = reserve(sh_high_, sh_high_stride_ * sizeof(float));
+  if (!sh_high) return sh_high.error();
+
+  auto* cores = reinterpret_cast<gpu::GpuSplatCore*>(core->data());
   std::vector<std::uint8_t> good(n, 0);
   for (std::uint32_t i = 0; i < n; ++i) {
     if (!gaussian_is_finite(gaussians[i], sh_degree_)) {
       ++rejected_nonfinite_;
-      continue;  // cores[i] stays zero: an empty slot
+      cores[i] = gpu::GpuSplatCore{};
+      continue;
     }
     good[i] = 1;
     cores[i] = pack_core(gaussians[i]);
   }
-  if (auto st = core_.upload(cores.data(), VkDeviceSize{n} * sizeof(gpu::GpuSplatCore),
-                             VkDeviceSize{first_slot} * sizeof(gpu::GpuSplatCore));
-      !st)
-    return st;
-  // One SH band buffer: `stride` floats per slot, coefficients from `first_coeff` on
-  // (zeros for refused Gaussians, like their core).
-  auto write_band = [&](vk::Buffer& buffer, std::uint32_t stride, std::uint32_t first_coeff) -> Status {
-    if (stride == 0) return Ok{};
-    std::vector<float> band(std::size_t{n} * stride, 0.0f);
-    for (std::uint32_t i = 0; i < n; ++i) {
-      if (!good[i]) continue;
+  // One SH band buffer: `stride` floats per slot, coefficients from `first_coeff` on.
+  auto pack_band = [&](std::span<std::byte> bytes, std::uint32_t stride, std::uint32_t first_coeff) {
+    auto* band = reinterpret_cast<float*>(bytes.data());
+    for (std::uint32_t i = 0; i < n && stride > 0; ++i) {
+      float* out = band + std::size_t{i} * stride;
+      if (!good[i]) {
+        std::fill(out, out + stride, 0.0f);
+        continue;
+      }
       for (std::uint32_t k = 0; k < stride / 3; ++k)
         for (std::uint32_t ch = 0; ch < 3; ++ch)
-          band[std::size_t{i} * stride + k * 3 + ch] = gaussians[i].sh_rest[first_coeff + k][static_cast<int>(ch)];
+          out[k * 3 + ch] = gaussians[i].sh_rest[first_coeff + k][static_cast<int>(ch)];
     }
-    return buffer.upload(band.data(), VkDeviceSize{n} * stride * sizeof(float),
-                         VkDeviceSize{first_slot} * stride * sizeof(float));
   };
-  if (auto st = write_band(sh_, sh_stride_, 0); !st) return st;
-  if (auto st = write_band(sh_high_, sh_high_stride_, gpu::SPLAT_SH_LOW_COEFFS); !st) return st;
+  pack_band(*sh, sh_stride_, 0);
+  pack_band(*sh_high, sh_high_stride_, gpu::SPLAT_SH_LOW_COEFFS);
   for (std::uint32_t i = 0; i < n; ++i) set_occupied(first_slot + i, good[i] != 0);
   return Ok{};
 }
@@ -144,13 +159,13 @@ Status SlotBuffer::write_slots(std::uint32_t first_slot, std::span<const Gaussia
 Status SlotBuffer::clear_slots(std::uint32_t first_slot, std::uint32_t count) {
   if (auto st = check_range(first_slot, count, "clear_slots"); !st) return st;
   if (count == 0) return Ok{};
-  std::vector<gpu::GpuSplatCore> empty(count);
-  if (auto st = core_.upload(empty.data(), VkDeviceSize{count} * sizeof(gpu::GpuSplatCore),
-                             VkDeviceSize{first_slot} * sizeof(gpu::GpuSplatCore));
-      !st)
-    return st;
-  std::vector<std::uint32_t> words(count, 0u);
-  if (auto st = edit_.upload(words.data(), VkDeviceSize{count} * 4, VkDeviceSize{first_slot} * 4); !st) return st;
+  auto core = uploads_->reserve(core_, VkDeviceSize{first_slot} * sizeof(gpu::GpuSplatCore),
+                                VkDeviceSize{count} * sizeof(gpu::GpuSplatCore));
+  if (!core) return Error{"SlotBuffer::clear_slots: " + core.message()};
+  std::memset(core->data(), 0, core->size());
+  auto words = uploads_->reserve(edit_, VkDeviceSize{first_slot} * 4, VkDeviceSize{count} * 4);
+  if (!words) return Error{"SlotBuffer::clear_slots: " + words.message()};
+  std::memset(words->data(), 0, words->size());
   for (std::uint32_t i = 0; i < count; ++i) {
     set_occupied(first_slot + i, false);
     if (tinted_[first_slot + i] != 0) {
@@ -165,7 +180,7 @@ Status SlotBuffer::set_edit_tint(std::uint32_t slot, EditTintState state, std::u
   if (auto st = check_range(slot, 1, "set_edit_tint"); !st) return st;
   if (static_cast<std::uint32_t>(state.kind) > 3u) return Error{"SlotBuffer::set_edit_tint: unknown tint kind"};
   const std::uint32_t word = state.kind == EditTintKind::None ? 0u : edit_word(state, frame);
-  if (auto st = edit_.upload(&word, 4, VkDeviceSize{slot} * 4); !st) return st;
+  if (auto st = uploads_->write(edit_, VkDeviceSize{slot} * 4, &word, 4); !st) return st;
   const bool tinted = state.kind != EditTintKind::None;
   if ((tinted_[slot] != 0) != tinted) {
     tinted_[slot] = tinted ? 1 : 0;

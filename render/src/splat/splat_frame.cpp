@@ -20,13 +20,19 @@ glm::vec4 row_of(const glm::dmat4& m, int r) { return glm::vec4(m[0][r], m[1][r]
 
 }  // namespace
 
-Status SplatRenderer::Impl::prepare_view(std::uint32_t v, const Camera& camera, const SplatRenderOptions& options) {
-  ViewResources& view = views[v];
-  if (!view.target.color().valid() || view.target.width() != camera.width || view.target.height() != camera.height) {
+Status SplatRenderer::Impl::prepare_view(FrameSlot& f, std::uint32_t v, const Camera& camera,
+                                         const SplatRenderOptions& options) {
+  ViewTarget& vt = targets[v];
+  if (!vt.target.color().valid() || vt.target.width() != camera.width || vt.target.height() != camera.height) {
+    // A new size replaces the image; frames in flight may still read the old one.
     auto t = vk::OffscreenTarget::create(*context, camera.width, camera.height,
                                          v == 0 ? "splat view 0" : "splat view 1");
     if (!t) return t.error();
-    view.target = std::move(*t);
+    if (vt.target.color().valid()) {
+      auto old = std::make_shared<vk::OffscreenTarget>(std::move(vt.target));
+      ring->defer([old]() mutable { old.reset(); });
+    }
+    vt.target = std::move(*t);
   }
   gpu::GpuView g{};
   const glm::dmat4& m = camera.world_to_camera;
@@ -42,12 +48,13 @@ Status SplatRenderer::Impl::prepare_view(std::uint32_t v, const Camera& camera, 
   g.clear_colour = glm::vec4(options.clear_colour, 1.0f);
   g.size = glm::uvec4(camera.width, camera.height, render::tile_count(camera.width), render::tile_count(camera.height));
   g.frame = glm::uvec4(0u, display_frame, highlight_count, 0u);  // the high-water mark travels as a push constant
-  return view.view_ubo.upload(&g, sizeof(g));
+  return f.views[v].view_ubo.upload(&g, sizeof(g));
 }
 
-Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, const Camera& camera,
+Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::uint32_t v, const Camera& camera,
                                         const SplatRenderOptions& options) {
-  ViewResources& view = views[v];
+  FrameViewResources& view = f.views[v];
+  ViewTarget& vt = targets[v];
   const bool with_mesh = mesh.has_mesh();
   const bool tint = highlight_count > 0 || slots.tinted_count() > 0;
   const std::uint32_t tiles_x = render::tile_count(camera.width), tiles_y = render::tile_count(camera.height);
@@ -64,14 +71,14 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, cons
 
   ts(0);
   // ---- Mesh pass and per-tile max mesh depth ----
-  vk::Image& colour = view.target.color();
-  vk::Image& depth = view.target.depth();
+  vk::Image& colour = vt.target.color();
+  vk::Image& depth = vt.target.depth();
   if (with_mesh) {
-    mesh.record(c, view.target, camera, options.clear_colour);
+    mesh.record(c, vt.target, camera, options.clear_colour);
   }
   colour.transition(c, VK_IMAGE_LAYOUT_GENERAL);
   depth.transition(c, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
-  view.had_mesh = with_mesh;
+  vt.had_mesh = with_mesh;
   if (with_mesh) {
     const auto& p = pipelines.tile_depth();
     if (auto st = p.bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
@@ -213,7 +220,7 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, cons
   // ---- Tile ranges ----
   if (auto st = pipelines.ranges().bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
                                             {gpu::SPLAT_BINDING_KEYS_IN, &keys[src]},
-                                            {gpu::SPLAT_BINDING_RANGES, &view.ranges},
+                                            {gpu::SPLAT_BINDING_RANGES, &vt.ranges},
                                             {gpu::SPLAT_BINDING_COUNTERS, &counters}});
       !st)
     return st;
@@ -228,7 +235,7 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, cons
   if (auto st = (*blend)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
                                    {gpu::SPLAT_BINDING_PROJECTED, &projected},
                                    {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
-                                   {gpu::SPLAT_BINDING_RANGES, &view.ranges},
+                                   {gpu::SPLAT_BINDING_RANGES, &vt.ranges},
                                    {gpu::SPLAT_BINDING_OUTPUT, &output},
                                    {gpu::SPLAT_BINDING_MESH_COLOUR, &colour},
                                    {gpu::SPLAT_BINDING_MESH_DEPTH, &depth}});
@@ -252,12 +259,12 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, std::uint32_t v, cons
   return Ok{};
 }
 
-Expected<SplatFrameStats> SplatRenderer::Impl::read_stats(std::uint32_t v) const {
-  const ViewResources& view = views[v];
+Expected<SplatFrameStats> SplatRenderer::Impl::read_stats(const FrameSlot& f, std::uint32_t v) const {
+  const FrameViewResources& view = f.views[v];
   std::uint32_t words[gpu::SPLAT_COUNTER_WORDS] = {};
   if (auto st = view.counters.download(words, sizeof(words)); !st) return st.error();
   SplatFrameStats s;
-  s.high_water = slots.high_water();
+  s.high_water = f.high_water;
   s.visible = words[gpu::SPLAT_COUNTER_VISIBLE];
   s.pairs = words[gpu::SPLAT_COUNTER_PAIRS];
   s.pairs_needed = words[gpu::SPLAT_COUNTER_PAIRS_NEEDED];

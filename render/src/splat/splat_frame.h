@@ -4,7 +4,10 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <map>
 #include <optional>
+#include <span>
+#include <vector>
 
 #include "gauss/engine/camera.h"
 #include "gauss/render/mesh_pass.h"
@@ -12,6 +15,8 @@
 #include "gauss/render/splat_renderer.h"
 #include "gauss/render/vk_buffer.h"
 #include "gauss/render/vk_commands.h"
+#include "gauss/render/vk_frame_ring.h"
+#include "gauss/render/vk_staged_uploads.h"
 #include "gauss/render/vk_image.h"
 #include "gauss/render/vk_timestamps.h"
 #include "splat_pipelines.h"
@@ -21,22 +26,38 @@ namespace gauss::render {
 // Timestamp slots of one view (the passes of SplatPassTimings, in order).
 inline constexpr std::uint32_t kViewTimestamps = 9;
 
-struct ViewResources {
+// What a view keeps across frames: the image it renders into (read by a presenter or a
+// readback after the frame) and GPU-only scratch. Frames in flight share these: the queue
+// runs frames in order and every frame starts behind a full barrier.
+struct ViewTarget {
+  vk::OffscreenTarget target;
+  vk::Buffer ranges;     // uvec2 per tile
+  bool had_mesh{false};
+};
+
+// What the CPU writes before or reads after a frame: one set per frame in flight.
+struct FrameViewResources {
   vk::Buffer view_ubo;   // GpuView, host visible
   vk::Buffer counters;   // SPLAT_COUNTER_WORDS, host visible (stats after the frame), indirect args
-  vk::Buffer ranges;     // uvec2 per tile
-  vk::OffscreenTarget target;
   vk::TimestampQueries timestamps;
-  bool had_mesh{false};
+};
+
+struct FrameSlot {
+  std::array<FrameViewResources, 2> views;
+  std::uint64_t serial{0};  // frame recorded here last (0 = none)
+  std::uint32_t view_count{0};
+  std::uint32_t high_water{0};
 };
 
 struct SplatRenderer::Impl {
   vk::Context* context{nullptr};
   SplatRendererCreateInfo info;
+  // Declared first, destroyed last: the uploads and slot writes refer to it.
+  std::unique_ptr<vk::FrameRing> ring;
+  std::unique_ptr<vk::StagedUploads> uploads;
   SlotBuffer slots;
   MeshPass mesh;
   splat::SplatPipelines pipelines;
-  vk::CommandBuffer cmd;
 
   // Shared by the views of a frame (used one view after the other, with barriers).
   vk::Buffer projected;   // GpuProjected per slot
@@ -50,14 +71,22 @@ struct SplatRenderer::Impl {
   vk::Buffer highlight;   // sorted object ids
   std::uint32_t highlight_count{0};
   std::uint32_t display_frame{0};
-  std::array<ViewResources, 2> views;
+  std::array<ViewTarget, 2> targets;
+  std::vector<FrameSlot> frame_slots;  // one per frame in flight
+  // Statistics of finished frames whose slot was reused before anyone asked for them
+  // (read when the slot is reused; the newest few kept).
+  std::map<std::uint64_t, std::array<SplatFrameStats, 2>> finished_stats;
 
-  // Records the passes of one view into `c`. Errors only for resources that fail to bind.
-  Status record_view(VkCommandBuffer c, std::uint32_t v, const Camera& camera, const SplatRenderOptions& options);
-  Status prepare_view(std::uint32_t v, const Camera& camera, const SplatRenderOptions& options);
-  Expected<SplatFrameStats> read_stats(std::uint32_t v) const;
-  Expected<std::array<SplatFrameStats, 2>> render_views(std::span<const Camera> cameras,
-                                                       const SplatRenderOptions& options);
+  MeshUpdate mesh_update() { return MeshUpdate{uploads.get(), ring.get()}; }
+  // Records the passes of view `v` into `c` with frame slot `f`'s constants and counters.
+  // Errors only for resources that fail to bind.
+  Status record_view(VkCommandBuffer c, FrameSlot& f, std::uint32_t v, const Camera& camera,
+                     const SplatRenderOptions& options);
+  Status prepare_view(FrameSlot& f, std::uint32_t v, const Camera& camera, const SplatRenderOptions& options);
+  Expected<SplatFrameStats> read_stats(const FrameSlot& f, std::uint32_t v) const;
+  Expected<std::uint64_t> render_frame(std::span<const Camera> cameras, const SplatRenderOptions& options,
+                                       const FrameHooks& hooks);
+  Expected<std::array<SplatFrameStats, 2>> frame_stats(std::uint64_t serial);
 };
 
 }  // namespace gauss::render

@@ -44,9 +44,19 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
     return Error{"SplatRenderer: max_pairs " + std::to_string(info.max_pairs) + " exceeds the storage binding range (" +
                  std::to_string(pair_limit) + " pairs)"};
 
+  if (info.frames_in_flight == 0 || info.frames_in_flight > vk::kMaxFramesInFlight)
+    return Error{"SplatRenderer: frames_in_flight " + std::to_string(info.frames_in_flight) + " outside 1.." +
+                 std::to_string(vk::kMaxFramesInFlight)};
+
   auto impl = std::make_unique<Impl>();
   impl->context = &context;
-  auto slots = SlotBuffer::create(context, {.capacity = info.capacity, .sh_degree = info.sh_degree});
+  auto ring = vk::FrameRing::create(context, info.frames_in_flight);
+  if (!ring) return Error{"SplatRenderer: " + ring.message()};
+  impl->ring = std::move(*ring);
+  auto uploads = vk::StagedUploads::create(context, *impl->ring);
+  if (!uploads) return Error{"SplatRenderer: " + uploads.message()};
+  impl->uploads = std::move(*uploads);
+  auto slots = SlotBuffer::create(context, {.capacity = info.capacity, .sh_degree = info.sh_degree}, *impl->uploads);
   if (!slots) return Error{"SplatRenderer: " + slots.message()};
   impl->slots = std::move(*slots);
   auto mesh = MeshPass::create(context);
@@ -55,9 +65,6 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
   auto pipes = splat::SplatPipelines::create(context);
   if (!pipes) return pipes.error();
   impl->pipelines = std::move(*pipes);
-  auto cmd = vk::CommandBuffer::create(context);
-  if (!cmd) return cmd.error();
-  impl->cmd = std::move(*cmd);
 
   const std::uint64_t sort_items = std::max<std::uint64_t>(info.capacity, info.max_pairs);
   const std::uint64_t max_tiles = std::uint64_t{render::tile_count(info.max_width)} * render::tile_count(info.max_height);
@@ -92,20 +99,23 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
   };
   for (const Req& r : reqs)
     if (auto st = make(*r.out, r.bytes, r.name, SSBO, Dev); !st) return st.error();
-  for (std::uint32_t v = 0; v < 2; ++v) {
-    ViewResources& view = impl->views[v];
-    if (auto st = make(view.view_ubo, sizeof(gpu::GpuView), "splat view constants", VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
-                       vk::MemoryUsage::HostVisible);
-        !st)
-      return st.error();
-    if (auto st = make(view.counters, gpu::SPLAT_COUNTER_WORDS * 4, "splat counters",
-                       SSBO | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, vk::MemoryUsage::HostVisible);
-        !st)
-      return st.error();
-    if (auto st = make(view.ranges, max_tiles * 8, "splat tile ranges", SSBO, Dev); !st) return st.error();
-    auto ts = vk::TimestampQueries::create(context, kViewTimestamps);
-    if (!ts) return ts.error();
-    view.timestamps = std::move(*ts);
+  for (std::uint32_t v = 0; v < 2; ++v)
+    if (auto st = make(impl->targets[v].ranges, max_tiles * 8, "splat tile ranges", SSBO, Dev); !st) return st.error();
+  impl->frame_slots.resize(info.frames_in_flight);
+  for (FrameSlot& f : impl->frame_slots) {
+    for (FrameViewResources& view : f.views) {
+      if (auto st = make(view.view_ubo, sizeof(gpu::GpuView), "splat view constants", VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
+                         vk::MemoryUsage::HostVisible);
+          !st)
+        return st.error();
+      if (auto st = make(view.counters, gpu::SPLAT_COUNTER_WORDS * 4, "splat counters",
+                         SSBO | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, vk::MemoryUsage::HostVisible);
+          !st)
+        return st.error();
+      auto ts = vk::TimestampQueries::create(context, kViewTimestamps);
+      if (!ts) return ts.error();
+      view.timestamps = std::move(*ts);
+    }
   }
   impl->info = info;
   return std::unique_ptr<SplatRenderer>(new SplatRenderer(std::move(impl)));
@@ -129,9 +139,16 @@ std::uint32_t SplatRenderer::occupied_count() const noexcept { return impl_->slo
 std::uint32_t SplatRenderer::high_water() const noexcept { return impl_->slots.high_water(); }
 std::uint64_t SplatRenderer::rejected_nonfinite() const noexcept { return impl_->slots.rejected_nonfinite(); }
 
-Status SplatRenderer::set_mesh(const TriangleMesh& mesh) { return impl_->mesh.set_mesh(*impl_->context, mesh); }
-void SplatRenderer::clear_mesh() noexcept { impl_->mesh.clear_mesh(); }
+Status SplatRenderer::set_mesh(const TriangleMesh& mesh) {
+  return impl_->mesh.set_mesh(*impl_->context, mesh, impl_->mesh_update());
+}
+Status SplatRenderer::set_mesh_chunk(std::uint64_t id, const TriangleMesh& mesh) {
+  return impl_->mesh.set_chunk(*impl_->context, id, mesh, impl_->mesh_update());
+}
+void SplatRenderer::remove_mesh_chunk(std::uint64_t id) noexcept { impl_->mesh.remove_chunk(id, impl_->mesh_update()); }
+void SplatRenderer::clear_mesh() noexcept { impl_->mesh.clear_mesh(impl_->mesh_update()); }
 bool SplatRenderer::has_mesh() const noexcept { return impl_->mesh.has_mesh(); }
+std::size_t SplatRenderer::mesh_chunk_count() const noexcept { return impl_->mesh.chunk_count(); }
 
 Status SplatRenderer::set_highlight(std::span<const ObjectId> objects) {
   if (objects.size() > kMaxHighlightObjects)
@@ -143,7 +160,8 @@ Status SplatRenderer::set_highlight(std::span<const ObjectId> objects) {
   std::sort(ids.begin(), ids.end());
   ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
   if (!ids.empty()) {
-    if (auto st = impl_->highlight.upload(ids.data(), ids.size() * sizeof(std::int32_t)); !st) return st;
+    if (auto st = impl_->uploads->write(impl_->highlight, 0, ids.data(), ids.size() * sizeof(std::int32_t)); !st)
+      return st;
   }
   impl_->highlight_count = static_cast<std::uint32_t>(ids.size());
   return Ok{};
@@ -155,8 +173,10 @@ Status SplatRenderer::set_edit_tint(SlotIndex slot, EditTintState state) {
 }
 std::uint32_t SplatRenderer::display_frame() const noexcept { return impl_->display_frame; }
 
-Expected<std::array<SplatFrameStats, 2>> SplatRenderer::Impl::render_views(std::span<const Camera> cameras,
-                                                                           const SplatRenderOptions& options) {
+Expected<std::uint64_t> SplatRenderer::Impl::render_frame(std::span<const Camera> cameras,
+                                                          const SplatRenderOptions& options, const FrameHooks& hooks) {
+  if (cameras.empty() || cameras.size() > 2)
+    return Error{"SplatRenderer: a frame has 1 or 2 views, not " + std::to_string(cameras.size())};
   for (const Camera& cam : cameras) {
     if (auto st = validate_camera(cam); !st) return Error{"SplatRenderer: " + st.message()};
     if (cam.width > info.max_width || cam.height > info.max_height)
@@ -166,41 +186,102 @@ Expected<std::array<SplatFrameStats, 2>> SplatRenderer::Impl::render_views(std::
   }
   if (!std::isfinite(options.mesh_margin) || options.mesh_margin < 0.0)
     return Error{"SplatRenderer: mesh_margin must be finite and >= 0"};
-  for (std::uint32_t v = 0; v < cameras.size(); ++v)
-    if (auto st = prepare_view(v, cameras[v], options); !st) return st.error();
 
-  if (auto st = cmd.begin(); !st) return st.error();
-  const VkCommandBuffer c = cmd.handle();
-  for (std::uint32_t v = 0; v < cameras.size(); ++v) {
-    views[v].timestamps.reset(c);
+  // Waits for the frame that last used this slot; its constants and counters are free.
+  auto frame = ring->begin();
+  if (!frame) return frame.error();
+  FrameSlot& f = frame_slots[frame->index];
+  if (f.serial != 0) {
+    // The slot's previous frame has finished: keep its statistics before they are reused.
+    std::array<SplatFrameStats, 2> prev{};
+    bool ok = true;
+    for (std::uint32_t v = 0; v < f.view_count && ok; ++v) {
+      auto st = read_stats(f, v);
+      if (st) prev[v] = *st;
+      ok = st.ok();
+    }
+    if (ok) finished_stats[f.serial] = prev;
+    while (finished_stats.size() > 2 * frame_slots.size() + 2) finished_stats.erase(finished_stats.begin());
+    f.serial = 0;
+  }
+  const auto views = static_cast<std::uint32_t>(cameras.size());
+  auto fail = [&](const Error& e) -> Error {
+    ring->abandon();
+    f.serial = 0;
+    return e;
+  };
+  for (std::uint32_t v = 0; v < views; ++v)
+    if (auto st = prepare_view(f, v, cameras[v], options); !st) return fail(st.error());
+
+  const VkCommandBuffer c = frame->cmd;
+  // Earlier frames on the queue may still read what this one overwrites (targets, scratch,
+  // slots): one full barrier orders this frame behind them.
+  vk::memory_barrier(c, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+  uploads->record(c);
+  for (std::uint32_t v = 0; v < views; ++v) {
+    f.views[v].timestamps.reset(c);
     const std::uint64_t tiles = std::uint64_t{render::tile_count(cameras[v].width)} * render::tile_count(cameras[v].height);
-    if (auto st = vk::record_fill(c, views[v].counters, 0, VK_WHOLE_SIZE, 0u); !st) return st.error();
-    if (auto st = vk::record_fill(c, views[v].ranges, 0, tiles * 8, 0u); !st) return st.error();
+    if (auto st = vk::record_fill(c, f.views[v].counters, 0, VK_WHOLE_SIZE, 0u); !st) return fail(st.error());
+    if (auto st = vk::record_fill(c, targets[v].ranges, 0, tiles * 8, 0u); !st) return fail(st.error());
   }
   vk::transfer_to_compute_barrier(c);
-  for (std::uint32_t v = 0; v < cameras.size(); ++v) {
-    if (auto st = record_view(c, v, cameras[v], options); !st) {
-      (void)cmd.end();
-      return st.error();
-    }
-  }
+  for (std::uint32_t v = 0; v < views; ++v)
+    if (auto st = record_view(c, f, v, cameras[v], options); !st) return fail(st.error());
+  if (hooks.record_after)
+    if (auto st = hooks.record_after(c); !st) return fail(st.error());
   vk::memory_barrier(c, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
                      VK_ACCESS_2_HOST_READ_BIT);
-  if (auto st = cmd.end(); !st) return st.error();
-  if (auto st = cmd.submit_and_wait(); !st) return st.error();
+  if (hooks.submit) {
+    if (auto st = ring->end(); !st) return fail(st.error());
+    if (auto st = hooks.submit(c, frame->fence); !st) return fail(st.error());
+    ring->submitted();
+  } else if (auto st = ring->submit(); !st) {
+    f.serial = 0;
+    return st.error();
+  }
+  uploads->submitted();
+  f.serial = frame->serial;
+  f.view_count = views;
+  f.high_water = slots.high_water();
   ++display_frame;
+  return frame->serial;
+}
 
+Expected<std::array<SplatFrameStats, 2>> SplatRenderer::Impl::frame_stats(std::uint64_t serial) {
+  if (auto kept = finished_stats.find(serial); kept != finished_stats.end()) return kept->second;
+  const FrameSlot* f = nullptr;
+  for (const FrameSlot& s : frame_slots)
+    if (s.serial == serial && serial != 0) f = &s;
+  if (f == nullptr)
+    return Error{"SplatRenderer::frame_stats: frame " + std::to_string(serial) +
+                 " is not among the frames in flight or just finished"};
+  if (auto st = ring->wait(serial); !st) return st.error();
   std::array<SplatFrameStats, 2> out{};
-  for (std::uint32_t v = 0; v < cameras.size(); ++v) {
-    auto s = read_stats(v);
+  for (std::uint32_t v = 0; v < f->view_count; ++v) {
+    auto s = read_stats(*f, v);
     if (!s) return s.error();
     out[v] = *s;
   }
   return out;
 }
 
+Expected<std::uint64_t> SplatRenderer::render_frame(std::span<const Camera> cameras, const SplatRenderOptions& options,
+                                                    const FrameHooks& hooks) {
+  return impl_->render_frame(cameras, options, hooks);
+}
+
+Expected<std::array<SplatFrameStats, 2>> SplatRenderer::frame_stats(std::uint64_t serial) {
+  return impl_->frame_stats(serial);
+}
+
+vk::FrameRing& SplatRenderer::frames() noexcept { return *impl_->ring; }
+vk::StagedUploads& SplatRenderer::uploads() noexcept { return *impl_->uploads; }
+
 Expected<SplatFrameStats> SplatRenderer::render(const Camera& camera, const SplatRenderOptions& options) {
-  auto r = impl_->render_views(std::span<const Camera>(&camera, 1), options);
+  auto serial = impl_->render_frame(std::span<const Camera>(&camera, 1), options, {});
+  if (!serial) return serial.error();
+  auto r = impl_->frame_stats(*serial);
   if (!r) return r.error();
   return (*r)[0];
 }
@@ -208,21 +289,25 @@ Expected<SplatFrameStats> SplatRenderer::render(const Camera& camera, const Spla
 Expected<std::array<SplatFrameStats, 2>> SplatRenderer::render_stereo(const Camera& left, const Camera& right,
                                                                      const SplatRenderOptions& options) {
   const Camera cams[2] = {left, right};
-  return impl_->render_views(cams, options);
+  auto serial = impl_->render_frame(cams, options, {});
+  if (!serial) return serial.error();
+  return impl_->frame_stats(*serial);
 }
 
-vk::OffscreenTarget& SplatRenderer::target(std::uint32_t view) { return impl_->views[std::min(view, 1u)].target; }
+vk::OffscreenTarget& SplatRenderer::target(std::uint32_t view) { return impl_->targets[std::min(view, 1u)].target; }
 
 Expected<ImageRGBA8> SplatRenderer::read_image(std::uint32_t view) {
   if (view > 1) return Error{"SplatRenderer::read_image: view " + std::to_string(view) + " (0 or 1)"};
-  vk::OffscreenTarget& t = impl_->views[view].target;
+  if (auto st = impl_->ring->wait_all(); !st) return st.error();
+  vk::OffscreenTarget& t = impl_->targets[view].target;
   if (!t.color().valid()) return Error{"SplatRenderer::read_image: view " + std::to_string(view) + " not rendered yet"};
   return t.read_color(*impl_->context);
 }
 
 Expected<std::vector<float>> SplatRenderer::read_mesh_depth(std::uint32_t view) {
   if (view > 1) return Error{"SplatRenderer::read_mesh_depth: view " + std::to_string(view) + " (0 or 1)"};
-  ViewResources& v = impl_->views[view];
+  if (auto st = impl_->ring->wait_all(); !st) return st.error();
+  ViewTarget& v = impl_->targets[view];
   if (!v.target.depth().valid())
     return Error{"SplatRenderer::read_mesh_depth: view " + std::to_string(view) + " not rendered yet"};
   const std::size_t n = std::size_t{v.target.width()} * v.target.height();

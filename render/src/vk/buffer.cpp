@@ -78,6 +78,15 @@ void Buffer::destroy() noexcept {
   if (context_ == nullptr) return;
   // Simple lifetime rule: the GPU may still read this buffer, so wait for the queue.
   (void)vkDeviceWaitIdle(context_->device());
+  release();
+}
+
+void Buffer::destroy_after_gpu_finished() noexcept {
+  if (context_ == nullptr) return;
+  release();
+}
+
+void Buffer::release() noexcept {
   if (buffer_) vkDestroyBuffer(context_->device(), buffer_, nullptr);
   if (memory_) vkFreeMemory(context_->device(), memory_, nullptr);  // also unmaps
   buffer_ = VK_NULL_HANDLE;

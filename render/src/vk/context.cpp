@@ -28,7 +28,9 @@ using detail::version_string;
 // volk keeps process-wide function pointers. They are loaded once from the first
 // instance: vkGetInstanceProcAddr hands out loader trampolines that dispatch on the
 // handle they are called with, so they serve every later instance and device too
-// (every instance enables the same extensions, see create_instance()).
+// (every instance enables the same extensions, see create_instance(); a windowed
+// context's extra WSI extensions are the exception, so the surface and swapchain code
+// fetches those functions from its own instance and device instead of using volk's).
 std::mutex g_volk_mutex;
 bool g_volk_loaded = false;
 
@@ -77,7 +79,8 @@ struct InstanceResult {
 };
 
 Expected<InstanceResult> create_instance(const std::string& app_name, bool validation, bool sync_validation,
-                                         const VkDebugUtilsMessengerCreateInfoEXT* messenger_info) {
+                                         const VkDebugUtilsMessengerCreateInfoEXT* messenger_info,
+                                         const std::vector<std::string>& extra_extensions = {}) {
   if (auto st = init_loader(); !st) return st.error();
   std::uint32_t loader_version = 0;
   if (vkEnumerateInstanceVersion == nullptr || vkEnumerateInstanceVersion(&loader_version) != VK_SUCCESS ||
@@ -90,6 +93,15 @@ Expected<InstanceResult> create_instance(const std::string& app_name, bool valid
   // instance gets the same function pointers (see load_instance_functions()).
   const bool debug_utils = has_instance_extension(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
   if (debug_utils) extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  for (const auto& ext : extra_extensions) {
+    if (!has_instance_extension(ext.c_str())) {
+      return Error{"the Vulkan loader lacks instance extension " + ext +
+                   " (needed to show a window; is the Vulkan driver built with window-system support?)"};
+    }
+    if (std::none_of(extensions.begin(), extensions.end(), [&](const char* e) { return ext == e; })) {
+      extensions.push_back(ext.c_str());
+    }
+  }
   if (validation) {
     if (!has_layer(kValidationLayer)) {
       return Error{std::string("validation was requested (GAUSS_VALIDATION=1 or enable_validation) but ") +
@@ -173,7 +185,7 @@ Expected<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info
   const bool validation = info.enable_validation || sync_validation || env_flag("GAUSS_VALIDATION");
 
   const VkDebugUtilsMessengerCreateInfoEXT messenger_info = detail::messenger_create_info(ctx->state_.get());
-  auto inst = create_instance(info.app_name, validation, sync_validation, &messenger_info);
+  auto inst = create_instance(info.app_name, validation, sync_validation, &messenger_info, info.instance_extensions);
   if (!inst) return inst.error();
   ctx->instance_ = inst->instance;
   if (validation) {
@@ -181,7 +193,24 @@ Expected<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info
   }
   ctx->state_->debug_utils = inst->debug_utils;
 
-  auto candidates = detail::enumerate(ctx->instance_);
+  // Windowed contexts: the surface exists before the device choice, which then needs
+  // present support on the queue family (and the extra device extensions).
+  detail::ExtraRequirements extra;
+  extra.device_extensions = info.device_extensions;
+  if (info.create_surface) {
+    auto surface = info.create_surface(ctx->instance_);
+    if (!surface) return Error{"creating the window surface failed: " + surface.error().message};
+    ctx->surface_ = *surface;
+    extra.surface = ctx->surface_;
+    extra.get_surface_support = reinterpret_cast<PFN_vkGetPhysicalDeviceSurfaceSupportKHR>(
+        vkGetInstanceProcAddr(ctx->instance_, "vkGetPhysicalDeviceSurfaceSupportKHR"));
+    if (extra.get_surface_support == nullptr) {
+      return Error{"vkGetPhysicalDeviceSurfaceSupportKHR is unavailable: enable VK_KHR_surface through "
+                   "ContextCreateInfo::instance_extensions"};
+    }
+  }
+
+  auto candidates = detail::enumerate(ctx->instance_, extra);
   if (!candidates) return candidates.error();
   std::string override_value = info.device_override;
   const char* source = "--device";
@@ -206,7 +235,7 @@ Expected<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info
   ctx->subgroup_size_ = subgroup.subgroupSize;
   ctx->subgroup_operations_ = (subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) ? subgroup.supportedOperations : 0;
   vkGetPhysicalDeviceMemoryProperties(ctx->physical_device_, &ctx->memory_properties_);
-  ctx->queue_family_ = detail::pick_queue_family(ctx->physical_device_, &ctx->timestamp_valid_bits_);
+  ctx->queue_family_ = detail::pick_queue_family(ctx->physical_device_, &ctx->timestamp_valid_bits_, &extra);
 
   // Enable the required features plus every supported one of a curated list.
   detail::FeatureChain supported;
@@ -242,14 +271,17 @@ Expected<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info
   qci.queueFamilyIndex = ctx->queue_family_;
   qci.queueCount = 1;
   qci.pQueuePriorities = &priority;
-  const char* device_extensions[] = {VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME};
+  std::vector<const char*> device_extensions = {VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME};
+  for (const auto& ext : info.device_extensions) {
+    if (ext != VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME) device_extensions.push_back(ext.c_str());
+  }
   VkDeviceCreateInfo dci{};
   dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
   dci.pNext = &enable.f2;
   dci.queueCreateInfoCount = 1;
   dci.pQueueCreateInfos = &qci;
-  dci.enabledExtensionCount = 1;
-  dci.ppEnabledExtensionNames = device_extensions;
+  dci.enabledExtensionCount = static_cast<std::uint32_t>(device_extensions.size());
+  dci.ppEnabledExtensionNames = device_extensions.data();
   GAUSS_VK_TRY(vkCreateDevice(ctx->physical_device_, &dci, nullptr, &ctx->device_));
   ctx->enabled_features_ = enable.f2.features;
   ctx->enabled_features11_ = enable.f11;
@@ -292,6 +324,11 @@ Context::~Context() {
     vkDestroyDevice(device_, nullptr);
   }
   if (instance_ != VK_NULL_HANDLE) {
+    if (surface_ != VK_NULL_HANDLE) {
+      auto destroy_surface =
+          reinterpret_cast<PFN_vkDestroySurfaceKHR>(vkGetInstanceProcAddr(instance_, "vkDestroySurfaceKHR"));
+      if (destroy_surface != nullptr) destroy_surface(instance_, surface_, nullptr);
+    }
     if (messenger_ != VK_NULL_HANDLE) vkDestroyDebugUtilsMessengerEXT(instance_, messenger_, nullptr);
     vkDestroyInstance(instance_, nullptr);
   }

@@ -29,12 +29,19 @@ bool has_device_extension(VkPhysicalDevice pd, const char* name) {
 }
 
 // Why a device cannot be used ("" when it can).
-std::string unsuitable_reason(VkPhysicalDevice pd, const VkPhysicalDeviceProperties& props) {
+std::string unsuitable_reason(VkPhysicalDevice pd, const VkPhysicalDeviceProperties& props,
+                              const ExtraRequirements& extra) {
   if (props.apiVersion < kRequiredApi) {
     return "Vulkan " + version_string(props.apiVersion) + " < 1.3";
   }
   if (pick_queue_family(pd, nullptr) == ~0u) return "no queue family with graphics + compute + timestamps";
+  if (extra.surface != VK_NULL_HANDLE && pick_queue_family(pd, nullptr, &extra) == ~0u) {
+    return "no queue family with graphics + compute + timestamps that can present to the window surface";
+  }
   if (!has_device_extension(pd, VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME)) return "no VK_KHR_push_descriptor";
+  for (const auto& ext : extra.device_extensions) {
+    if (!has_device_extension(pd, ext.c_str())) return "no " + ext;
+  }
   FeatureChain fc;
   vkGetPhysicalDeviceFeatures2(pd, &fc.f2);
   if (!fc.f13.dynamicRendering) return "no dynamicRendering";
@@ -69,8 +76,8 @@ std::string version_string(std::uint32_t v) {
          std::to_string(VK_API_VERSION_PATCH(v));
 }
 
-// Queue family with graphics + compute and timestamps, or ~0u.
-std::uint32_t pick_queue_family(VkPhysicalDevice pd, std::uint32_t* out_timestamp_bits) {
+std::uint32_t pick_queue_family(VkPhysicalDevice pd, std::uint32_t* out_timestamp_bits,
+                                const ExtraRequirements* extra) {
   std::uint32_t count = 0;
   vkGetPhysicalDeviceQueueFamilyProperties(pd, &count, nullptr);
   std::vector<VkQueueFamilyProperties> families(count);
@@ -78,6 +85,13 @@ std::uint32_t pick_queue_family(VkPhysicalDevice pd, std::uint32_t* out_timestam
   for (std::uint32_t i = 0; i < count; ++i) {
     const VkQueueFlags need = VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT;
     if ((families[i].queueFlags & need) == need && families[i].timestampValidBits > 0) {
+      if (extra != nullptr && extra->surface != VK_NULL_HANDLE) {
+        VkBool32 present = VK_FALSE;
+        if (extra->get_surface_support == nullptr ||
+            extra->get_surface_support(pd, i, extra->surface, &present) != VK_SUCCESS || present != VK_TRUE) {
+          continue;
+        }
+      }
       if (out_timestamp_bits) *out_timestamp_bits = families[i].timestampValidBits;
       return i;
     }
@@ -95,7 +109,7 @@ FeatureChain::FeatureChain() {
   f12.pNext = &f13;
 }
 
-Expected<std::vector<Candidate>> enumerate(VkInstance instance) {
+Expected<std::vector<Candidate>> enumerate(VkInstance instance, const ExtraRequirements& extra) {
   std::uint32_t count = 0;
   GAUSS_VK_TRY(vkEnumeratePhysicalDevices(instance, &count, nullptr));
   std::vector<VkPhysicalDevice> devices(count);
@@ -110,7 +124,7 @@ Expected<std::vector<Candidate>> enumerate(VkInstance instance) {
     c.info.name = props.deviceName;
     c.info.type = props.deviceType;
     c.info.api_version = props.apiVersion;
-    c.info.unsuitable_reason = unsuitable_reason(devices[i], props);
+    c.info.unsuitable_reason = unsuitable_reason(devices[i], props, extra);
     out.push_back(std::move(c));
   }
   return out;

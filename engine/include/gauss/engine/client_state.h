@@ -73,6 +73,7 @@ class ClientState {
   void frame_rendered(double now, std::uint64_t frame_index);
   // Cost of the last displayed frame (render + publication) for the adaptive allowance.
   void report_frame_cost(double seconds);
+  void set_publish_mode(PublishMode mode);
 
   // Control messages to send: acks, poses and queries queued since the last call.
   std::vector<wire::Message> take_outgoing();
@@ -88,10 +89,20 @@ class ClientState {
   const SurfaceStage& surface() const noexcept { return surface_; }
   const Publisher& publisher() const noexcept { return publisher_; }
   EventLog& events() noexcept { return events_; }
+  const EventLog& events() const noexcept { return events_; }
   const ClientStatsCounters& stats() const noexcept { return stats_; }
   bool welcomed() const noexcept { return welcomed_; }
   std::uint64_t last_batch_id() const noexcept { return last_batch_id_; }
   const std::map<std::int32_t, msg::ObjectInfo>& objects() const noexcept { return objects_; }
+  // The stream's codec parameters (SH degree, box) once a SceneInfo arrived.
+  const std::optional<CodecParams>& codec() const noexcept { return codec_; }
+  // Objects the current resolved query targets (sorted; empty without one): what the
+  // renderer highlights.
+  std::vector<ObjectId> query_targets() const {
+    return query_track_ ? query_track_->targets : std::vector<ObjectId>{};
+  }
+  // Gaussians the targets held on the host when it resolved the query (0 without one).
+  std::uint64_t query_target_gaussians() const { return query_track_ ? query_track_->target_gaussians : 0; }
   // Order-independent checksum of the published (id, record) pairs.
   std::uint64_t published_checksum() const;
   // Every invariant: slot table bijection, desired-state consistency, published total
@@ -137,6 +148,7 @@ class ClientState {
   struct QueryTrack {
     std::uint32_t query_id{0};
     std::vector<ObjectId> targets;  // sorted
+    std::uint64_t target_gaussians{0};  // on the host, at resolution
     std::optional<std::uint64_t> initial;
     std::optional<std::uint64_t> resident;  // target members published, as of the last scan
     bool highlight_shown{false};

@@ -164,5 +164,7 @@ class HostSession {
 
 // The coarse pose the selector uses for a wire HeadPose.
 ClientPose to_client_pose(const msg::HeadPose& pose);
+// The coarse head pose a client reports for a view camera (sequence and time unset).
+msg::HeadPose head_pose_from_camera(const Camera& camera);
 
 }  // namespace gauss

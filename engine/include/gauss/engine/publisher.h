@@ -87,6 +87,9 @@ class Publisher {
   // allowance can follow the display slack.
   void report_frame_cost(double seconds);
 
+  // Switches between immediate and progressive publication from the next frame on.
+  void set_mode(PublishMode mode) noexcept { config_.mode = mode; }
+
   std::uint32_t allowance() const noexcept { return allowance_; }
   double smoothed_slack() const noexcept { return slack_; }
   const PublisherConfig& config() const noexcept { return config_; }

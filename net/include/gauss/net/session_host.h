@@ -4,6 +4,7 @@
 // HostSession (engine/), this class only routes typed messages between the two.
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -23,6 +24,12 @@ struct SessionHostConfig {
   // pump() (its session diffs from what it was sent, so it catches up in one batch
   // when the link drains instead of queueing stale epochs).
   std::size_t max_pending_bytes{16u << 20};
+  // Called with each session right before it is erased: on its client's disconnect
+  // (inside pump()) and for every session still open in close_all(). `client_name` is
+  // the name from the client's Hello. Runs on the thread calling pump()/close_all();
+  // empty: nothing is called.
+  std::function<void(std::uint32_t client, const std::string& client_name, const HostSession& session)>
+      on_session_closed;
 };
 
 struct SessionHostStats {
@@ -43,6 +50,10 @@ class SessionHost {
   // a session per new connection and closes it on disconnect, then ticks every
   // session and sends what it produced. Call from the host loop, between epochs.
   void pump(const SceneStore& scene, double now);
+  // Ends every open session (on_session_closed runs for each) and disconnects its
+  // client. The host loop calls it before it exits; the destructor does not, since
+  // what the hook refers to may be gone by then.
+  void close_all();
 
   NetHost& net() noexcept { return *net_; }
   const NetHost& net() const noexcept { return *net_; }
@@ -55,11 +66,14 @@ class SessionHost {
   SessionHost(SessionHostConfig config, CodecParams params, std::unique_ptr<NetHost> net);
   void send_all(std::uint32_t client, const std::vector<wire::Message>& out);
   void log(const std::string& line);
+  // Runs on_session_closed for `it` and erases it.
+  void close(std::map<std::uint32_t, HostSession>::iterator it);
 
   SessionHostConfig config_;
   CodecParams params_;
   std::unique_ptr<NetHost> net_;
   std::map<std::uint32_t, HostSession> sessions_;
+  std::map<std::uint32_t, std::string> client_names_;  // from each session's Hello
   SessionHostStats stats_;
 };
 

@@ -12,9 +12,11 @@
 // uploaded: its slot is cleared instead and counted in rejected_nonfinite(); the other
 // Gaussians of the same write are stored normally.
 //
-// Synchronisation: writes go straight to the buffers (blocking copies when the memory
-// is not host visible). The owner (SplatRenderer) only renders synchronously, so no
-// frame is in flight while slots change.
+// Synchronisation: frames in flight may be reading the slots, so every write is packed
+// straight into the staging ring of the owner's StagedUploads and copied by the GPU at
+// the start of the next recorded frame (in write order). The CPU-side bookkeeping
+// (occupancy, high-water mark, tint count) changes at once and describes the slots as
+// the next frame will see them.
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -28,6 +30,7 @@
 
 namespace gauss::vk {
 class Context;
+class StagedUploads;
 }
 
 namespace gauss::render {
@@ -41,7 +44,9 @@ class SlotBuffer {
  public:
   // Errors: capacity 0, sh_degree outside 0..3, a buffer that would exceed the device's
   // maxStorageBufferRange (the message gives the largest capacity that fits), allocation.
-  static Expected<SlotBuffer> create(vk::Context& context, const SlotBufferCreateInfo& info);
+  // `uploads` carries every later write and must outlive the SlotBuffer.
+  static Expected<SlotBuffer> create(vk::Context& context, const SlotBufferCreateInfo& info,
+                                     vk::StagedUploads& uploads);
 
   SlotBuffer() = default;
   SlotBuffer(SlotBuffer&&) noexcept = default;
@@ -83,6 +88,7 @@ class SlotBuffer {
   Status check_range(std::uint32_t first_slot, std::uint64_t count, const char* what) const;
   void set_occupied(std::uint32_t slot, bool value);
 
+  vk::StagedUploads* uploads_{nullptr};
   std::uint32_t capacity_{0};
   int sh_degree_{0};
   std::uint32_t sh_stride_{0};

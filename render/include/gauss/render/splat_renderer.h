@@ -15,13 +15,21 @@
 // the farthest splats are dropped (the emitted pairs follow depth order), deterministically;
 // SplatFrameStats::pair_overflow and pairs_needed report it. Never garbage.
 //
-// Threading / sync: one thread; render() and render_stereo() submit and wait, so slot
-// writes between frames never race the GPU.
+// Frames in flight: render_frame() records and submits a frame without waiting for it
+// (frames_in_flight of them may run at once; the renderer's FrameRing paces them), and
+// frame_stats() reads a finished frame's counters and timestamps. render() and
+// render_stereo() are the blocking form (render_frame, then wait). Slot, tint, highlight
+// and mesh changes between frames never race the GPU: they go through the staging ring
+// and are copied at the start of the next frame, and replaced buffers are destroyed after
+// the frames that used them. One thread.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <vector>
+
+#include <volk.h>
 
 #include <glm/vec3.hpp>
 
@@ -35,7 +43,9 @@
 
 namespace gauss::vk {
 class Context;
+class FrameRing;
 class OffscreenTarget;
+class StagedUploads;
 }  // namespace gauss::vk
 
 namespace gauss::render {
@@ -54,6 +64,19 @@ struct SplatRendererCreateInfo {
   std::uint32_t max_height{720};
   // (tile, splat) pairs one view may hold; 0 = automatic (16 per slot, 1M .. 32M).
   std::uint32_t max_pairs{0};
+  // Frames that may be in flight at once (1 .. vk::kMaxFramesInFlight). A display loop
+  // uses 2 so that recording frame k+1 overlaps the GPU work of frame k.
+  std::uint32_t frames_in_flight{1};
+};
+
+// What a frame-paced caller adds to a frame of render_frame().
+struct FrameHooks {
+  // Recorded into the frame's command buffer after every view's passes (e.g. copy a view
+  // into a swapchain image, draw UI). An error abandons the frame.
+  std::function<Status(VkCommandBuffer)> record_after;
+  // Submits the ended command buffer, signalling `fence` (e.g. with swapchain
+  // semaphores). Empty: a plain queue submission.
+  std::function<Status(VkCommandBuffer cmd, VkFence fence)> submit;
 };
 
 struct SplatRenderOptions {
@@ -108,10 +131,13 @@ class SplatRenderer {
   std::uint32_t high_water() const noexcept;
   std::uint64_t rejected_nonfinite() const noexcept;
 
-  // ---- Mesh layer ----
-  Status set_mesh(const TriangleMesh& mesh);
+  // ---- Mesh layer (mesh_pass.h: chunks by id, drawn in id order) ----
+  Status set_mesh(const TriangleMesh& mesh);  // the only chunk
+  Status set_mesh_chunk(std::uint64_t id, const TriangleMesh& mesh);  // add / replace
+  void remove_mesh_chunk(std::uint64_t id) noexcept;
   void clear_mesh() noexcept;
   bool has_mesh() const noexcept;
+  std::size_t mesh_chunk_count() const noexcept;
 
   // ---- Tints (splat_math.h "Tints") ----
   // Errors: more than kMaxHighlightObjects ids. Duplicates are fine.
@@ -123,6 +149,18 @@ class SplatRenderer {
   std::uint32_t display_frame() const noexcept;
 
   // ---- Frames ----
+  // Records 1 or 2 views (view v into target(v)) and submits them without waiting;
+  // returns the frame's serial. Waits only for the frame that used the same frame slot
+  // frames_in_flight frames ago. Errors: as render(), a hook's error; the frame is then
+  // not submitted and the pending writes stay queued for the next one.
+  Expected<std::uint64_t> render_frame(std::span<const Camera> cameras, const SplatRenderOptions& options = {},
+                                       const FrameHooks& hooks = {});
+  // Statistics of a finished frame (blocks until it has finished). Errors: a serial never
+  // submitted, or one whose frame slot was reused since (read within frames_in_flight).
+  Expected<std::array<SplatFrameStats, 2>> frame_stats(std::uint64_t serial);
+  vk::FrameRing& frames() noexcept;
+  vk::StagedUploads& uploads() noexcept;
+
   // Renders one view into target(0). Errors: invalid camera (validate_camera), a size
   // above max_width x max_height, Vulkan failures.
   Expected<SplatFrameStats> render(const Camera& camera, const SplatRenderOptions& options = {});
@@ -131,7 +169,9 @@ class SplatRenderer {
   Expected<std::array<SplatFrameStats, 2>> render_stereo(const Camera& left, const Camera& right,
                                                          const SplatRenderOptions& options = {});
   // The image of view 0/1 of the last frame (RGBA8 colour, depth = mesh depth attachment).
+  // A hook may read it in the frame's command buffer; from the CPU, wait for the frame.
   vk::OffscreenTarget& target(std::uint32_t view = 0);
+  // Waits for every frame in flight first.
   Expected<ImageRGBA8> read_image(std::uint32_t view = 0);
   // Mesh view depth (metres, +infinity where no triangle) of view 0/1 of the last frame;
   // all +infinity when the frame had no mesh.

@@ -101,8 +101,15 @@ class Buffer {
   // Checks [offset, offset+size) lies inside the buffer; "buffer 'name': ..." otherwise.
   Status check_range(VkDeviceSize offset, VkDeviceSize size) const;
 
+  // Destroys the buffer now WITHOUT waiting for the device: the caller knows that no
+  // submitted work uses it any more (a FrameRing deferral ran after the fences of every
+  // frame that could have used it). The frame path retires buffers this way, since the
+  // destructor's device-wide wait would stall the frames in flight.
+  void destroy_after_gpu_finished() noexcept;
+
  private:
   void destroy() noexcept;
+  void release() noexcept;
 
   Context* context_{nullptr};
   VkBuffer buffer_{VK_NULL_HANDLE};

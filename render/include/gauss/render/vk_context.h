@@ -47,6 +47,22 @@ struct ContextCreateInfo {
   // Adds synchronization validation (missing barriers, hazards) to the validation
   // layer; slower. Also on with $GAUSS_VALIDATION=sync. Implies enable_validation.
   bool synchronization_validation{false};
+
+  // Windowed use (see Swapchain). All three stay empty for offscreen contexts, which
+  // then get exactly the instance, device choice and device described above.
+  // Instance extensions besides VK_EXT_debug_utils, e.g. glfwGetRequiredInstanceExtensions()
+  // (VK_KHR_surface + a platform surface). One the loader lacks is an error naming it.
+  std::vector<std::string> instance_extensions{};
+  // Device extensions besides VK_KHR_push_descriptor, e.g. VK_KHR_swapchain. A device
+  // without one is unsuitable (the reason names it).
+  std::vector<std::string> device_extensions{};
+  // Called once, right after the instance exists (e.g. glfwCreateWindowSurface). The
+  // device must then have a queue family with graphics + compute + timestamps that
+  // can also present to this surface (vkGetPhysicalDeviceSurfaceSupportKHR); such a
+  // device is chosen and that family becomes queue_family(). The Context owns the
+  // surface and destroys it after the device, before the instance. Its error fails
+  // create() with the callback's message.
+  std::function<Expected<VkSurfaceKHR>(VkInstance)> create_surface{};
 };
 
 // One physical device as seen by the instance, for listings and error messages.
@@ -91,6 +107,9 @@ class Context {
   VkDevice device() const noexcept { return device_; }
   VkQueue queue() const noexcept { return queue_; }
   std::uint32_t queue_family() const noexcept { return queue_family_; }
+  // The surface made by ContextCreateInfo::create_surface (VK_NULL_HANDLE without one);
+  // the queue can present to it. Every swapchain of it must be destroyed before the Context.
+  VkSurfaceKHR surface() const noexcept { return surface_; }
 
   const DeviceInfo& device_info() const noexcept { return device_info_; }
   const std::string& device_name() const noexcept { return device_info_.name; }
@@ -159,6 +178,7 @@ class Context {
 
   VkInstance instance_{VK_NULL_HANDLE};
   VkDebugUtilsMessengerEXT messenger_{VK_NULL_HANDLE};
+  VkSurfaceKHR surface_{VK_NULL_HANDLE};
   VkPhysicalDevice physical_device_{VK_NULL_HANDLE};
   VkDevice device_{VK_NULL_HANDLE};
   VkQueue queue_{VK_NULL_HANDLE};

@@ -1,0 +1,168 @@
+#pragma once
+// What every program in apps/ shares on the command line, so they all behave alike:
+//   - options through CLI11, `--help` everywhere, defaults shown in the help;
+//   - one error style: CLI11's message naming the option, then "Run with --help for more
+//     information.", exit status 2 (CLI11's own codes are >= 100; 2 is the Unix usage
+//     convention our scripts and tests rely on);
+//   - validators with readable messages (bounds, WxH sizes);
+//   - one status line on stderr for work that takes longer than about a second.
+// Header only: each program is one executable, nothing here is worth a library.
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <future>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <type_traits>
+#include <utility>
+
+#include <CLI/CLI.hpp>
+
+namespace gauss::apps {
+
+// Exit status of a command line CLI11 refused (unknown option, bad value, missing one).
+inline constexpr int kUsageError = 2;
+
+// Settings every program's CLI::App gets: defaults printed in --help, a wider option
+// column (our option names with their types do not fit CLI11's 30 characters).
+inline void configure(CLI::App& app) {
+  app.option_defaults()->always_capture_default();
+  app.get_formatter()->column_width(36);
+}
+
+// Parses argv into `app`. Returns the exit status when the program should stop now:
+// 0 after --help (printed on stdout), kUsageError after a refused command line (CLI11's
+// message on stderr); std::nullopt when the program should go on.
+inline std::optional<int> parse(CLI::App& app, int argc, char** argv) {
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : kUsageError;
+  }
+  return std::nullopt;
+}
+
+// Value checks with readable messages ("Value -1 is below 0", "Value 2 is not in 0..1").
+// CLI::Range prints doubles as "0.000000" and the type's maximum in full when only a lower
+// bound is wanted, and CLI11 2.1 converts "-3" to a huge unsigned: both are handled here.
+namespace detail {
+template <class T>
+std::string text_of(T v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+// Converts `in`; an empty string when it is a number of type T in [lo, hi], else why not.
+template <class T>
+std::string check_bounds(const std::string& in, T lo, T hi, const std::string& bounds) {
+  T v{};
+  if (!CLI::detail::lexical_cast(in, v)) return "Value " + in + " is not a number";
+  if constexpr (std::is_unsigned_v<T>)
+    if (in.find('-') != std::string::npos) return "Value " + in + " is not " + bounds;
+  return v < lo || v > hi ? "Value " + in + " is not " + bounds : std::string{};
+}
+}  // namespace detail
+
+// Accepts a value of type T that is at least `lo`.
+template <class T>
+CLI::Validator at_least(T lo) {
+  const std::string bounds = ">= " + detail::text_of(lo);
+  return CLI::Validator(
+      [lo, bounds](std::string& in) { return detail::check_bounds(in, lo, std::numeric_limits<T>::max(), bounds); },
+      ">=" + detail::text_of(lo));
+}
+
+// Accepts a value of type T in [lo, hi].
+template <class T>
+CLI::Validator in_range(T lo, T hi) {
+  const std::string bounds = "in " + detail::text_of(lo) + ".." + detail::text_of(hi);
+  return CLI::Validator([lo, hi, bounds](std::string& in) { return detail::check_bounds(in, lo, hi, bounds); },
+                        detail::text_of(lo) + ".." + detail::text_of(hi));
+}
+
+// "WxH" with both in [1, 16384] (an image size), or std::nullopt.
+inline std::optional<std::pair<std::uint32_t, std::uint32_t>> parse_size(const std::string& s) {
+  const auto x = s.find('x');
+  if (x == std::string::npos) return std::nullopt;
+  std::uint32_t w = 0, h = 0;
+  if (!CLI::detail::lexical_cast(s.substr(0, x), w) || !CLI::detail::lexical_cast(s.substr(x + 1), h)) return std::nullopt;
+  if (w < 1 || h < 1 || w > 16384 || h > 16384) return std::nullopt;
+  return std::pair{w, h};
+}
+
+// Validator for parse_size.
+inline CLI::Validator image_size() {
+  return CLI::Validator(
+      [](std::string& in) -> std::string {
+        return parse_size(in) ? std::string{} : "Value " + in + " is not WxH (each in 1..16384)";
+      },
+      "WxH");
+}
+
+// One status line on stderr for long work. On a terminal it rewrites itself in place
+// (\r, at most 10 times a second); otherwise (a log, a pipe, CI) it stays silent and
+// done() prints its text, if any, as one final line, so logs get one line, not hundreds.
+class StatusLine {
+ public:
+  StatusLine() : live_(isatty(fileno(stderr)) == 1) {}
+  ~StatusLine() {
+    if (live_ && shown_) done({});
+  }
+  StatusLine(const StatusLine&) = delete;
+  StatusLine& operator=(const StatusLine&) = delete;
+
+  bool live() const noexcept { return live_; }
+
+  // Shows `text` (terminal only; throttled unless `force`).
+  void update(const std::string& text, bool force = false) {
+    if (!live_) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (!force && shown_ && now - last_ < std::chrono::milliseconds(100)) return;
+    last_ = now;
+    shown_ = true;
+    std::fprintf(stderr, "\r%s\033[K", text.c_str());
+    std::fflush(stderr);
+  }
+
+  // Ends the line: on a terminal `text` replaces it (an empty text clears it); elsewhere
+  // a non-empty `text` is printed as one line.
+  void done(const std::string& text) {
+    if (live_) {
+      std::fprintf(stderr, "\r%s\033[K%s", text.c_str(), text.empty() ? "" : "\n");
+    } else if (!text.empty()) {
+      std::fprintf(stderr, "%s\n", text.c_str());
+    }
+    std::fflush(stderr);
+    shown_ = false;
+  }
+
+ private:
+  bool live_;
+  bool shown_{false};
+  std::chrono::steady_clock::time_point last_{};
+};
+
+// Runs `work` (one long call that reports no progress of its own) and, on a terminal,
+// shows "<label> 12.3 s" counting up meanwhile; the line is cleared when it returns.
+// Without a terminal `work` simply runs on the calling thread.
+template <class F>
+auto with_elapsed_status(const std::string& label, F&& work) {
+  StatusLine line;
+  if (!line.live()) return work();
+  auto result = std::async(std::launch::async, std::forward<F>(work));
+  const auto t0 = std::chrono::steady_clock::now();
+  while (result.wait_for(std::chrono::milliseconds(100)) != std::future_status::ready) {
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    char text[64];
+    std::snprintf(text, sizeof text, " %.1f s", s);
+    line.update(label + text);
+  }
+  line.done({});
+  return result.get();
+}
+
+}  // namespace gauss::apps

@@ -1,0 +1,314 @@
+// gauss-view --headless: a camera path in, frames and per-frame figures out.
+#include "headless.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+
+#include <nlohmann/json.hpp>
+
+#include "gauss/client/camera_path.h"
+#include "gauss/engine/camera_io.h"
+#include "gauss/engine/image_io.h"
+#include "gauss/render/splat_math.h"
+#include "gauss_cli.h"
+
+namespace gauss::view {
+
+namespace {
+
+using nlohmann::json;
+
+client::CameraIntrinsics default_intrinsics(const ViewOptions& o) {
+  client::CameraIntrinsics in;
+  in.width = o.width;
+  in.height = o.height;
+  in.fx = in.fy = 0.5 * o.width / std::tan(o.fov_deg * 3.14159265358979323846 / 360.0);
+  in.cx = 0.5 * o.width;
+  in.cy = 0.5 * o.height;
+  return in;
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const double idx = p * static_cast<double>(v.size() - 1);
+  const auto lo = static_cast<std::size_t>(std::floor(idx));
+  const auto hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + (v[hi] - v[lo]) * (idx - static_cast<double>(lo));
+}
+
+json epoch_json(const std::optional<Epoch>& e) { return e ? json(to_underlying(*e)) : json(nullptr); }
+
+json passes_json(const render::SplatPassTimings& t) {
+  return json{{"mesh", t.mesh_ms},          {"preprocess", t.preprocess_ms}, {"compact", t.compact_ms},
+              {"depth_sort", t.depth_sort_ms}, {"emit", t.emit_ms},         {"tile_sort", t.tile_sort_ms},
+              {"ranges", t.ranges_ms},      {"blend", t.blend_ms},         {"total", t.total_ms}};
+}
+
+// Frames whose CPU figures are known and whose GPU figures are not yet.
+class FrameLog {
+ public:
+  explicit FrameLog(std::ofstream& out) : out_(out) {}
+  void cpu(std::uint64_t frame, json line) { pending_[frame] = std::move(line); }
+  void gpu(const client::GpuFrameStats& g) {
+    auto it = pending_.find(g.frame_index);
+    if (it == pending_.end()) return;
+    json& line = it->second;
+    line["gpu_ms"] = g.total_ms;
+    json views = json::array();
+    for (std::uint32_t v = 0; v < g.views; ++v)
+      views.push_back(json{{"passes_ms", passes_json(g.view[v].gpu)},
+                           {"visible", g.view[v].visible},
+                           {"pairs", g.view[v].pairs},
+                           {"pair_overflow", g.view[v].pair_overflow}});
+    line["views"] = std::move(views);
+    gpu_ms_.push_back(g.total_ms);
+    flush_ready();
+  }
+  void flush_all() {
+    for (auto& [frame, line] : pending_) out_ << line.dump() << '\n';
+    pending_.clear();
+  }
+  std::vector<double> gpu_ms_;
+
+ private:
+  void flush_ready() {
+    // Lines go out in frame order, each once its GPU figures are in.
+    while (!pending_.empty() && pending_.begin()->second.contains("gpu_ms")) {
+      out_ << pending_.begin()->second.dump() << '\n';
+      pending_.erase(pending_.begin());
+    }
+  }
+  std::ofstream& out_;
+  std::map<std::uint64_t, json> pending_;
+};
+
+Status write_views(ViewSource& src, const std::filesystem::path& base, std::uint32_t views) {
+  for (std::uint32_t v = 0; v < views; ++v) {
+    auto img = src.renderer().read_image(v);
+    if (!img) return img.error();
+    std::filesystem::path p = base;
+    p += v == 0 ? ".png" : "_right.png";
+    if (auto st = write_png(p, *img); !st) return st;
+  }
+  return Ok{};
+}
+
+}  // namespace
+
+int run_headless(const ViewOptions& opts_in, vk::Context& context) {
+  ViewOptions opts = opts_in;
+  auto path = client::read_camera_path(opts.path);
+  if (!path) {
+    std::fprintf(stderr, "gauss-view: %s\n", path.message().c_str());
+    return 1;
+  }
+  const client::CameraIntrinsics in = path->intrinsics.value_or(default_intrinsics(opts));
+  opts.width = in.width;
+  opts.height = in.height;
+  auto source = make_view_source(context, opts);
+  if (!source) {
+    std::fprintf(stderr, "gauss-view: %s\n", source.message().c_str());
+    return 1;
+  }
+  ViewSource& src = **source;
+  client::ClientRuntime* rt = src.runtime();
+
+  std::error_code ec;
+  std::filesystem::create_directories(opts.out / "frames", ec);
+  if (ec) {
+    std::fprintf(stderr, "gauss-view: cannot create %s: %s\n", (opts.out / "frames").string().c_str(),
+                 ec.message().c_str());
+    return 1;
+  }
+  std::ofstream jsonl(opts.out / "frames.jsonl");
+  if (!jsonl) {
+    std::fprintf(stderr, "gauss-view: cannot write %s\n", (opts.out / "frames.jsonl").string().c_str());
+    return 1;
+  }
+  FrameLog log(jsonl);
+  std::fprintf(stderr, "gauss-view: %s, path %s (%.1f s at %.0f fps), %ux%u%s, out %s\n", src.describe().c_str(),
+               opts.path.string().c_str(), path->duration(), path->fps, in.width, in.height,
+               opts.stereo_ipd > 0.0 ? " stereo" : "", opts.out.string().c_str());
+
+  const std::uint64_t path_frames = static_cast<std::uint64_t>(std::floor(path->duration() * path->fps)) + 1;
+  const double settle_limit = path->settle_s > 0.0 ? path->settle_s : opts.settle_timeout_s;
+  std::size_t next_event = 0;
+  double query_rho = -1.0;  // < 0: no query active
+  std::vector<double> cpu_ms;
+  apps::StatusLine status;
+  const auto wall0 = std::chrono::steady_clock::now();
+  std::optional<std::chrono::steady_clock::time_point> settle_start;
+  bool settled = false;
+  Camera camera{};
+  std::uint64_t frame = 0, rendered = 0;
+  std::uint32_t views = opts.stereo_ipd > 0.0 ? 2 : 1;
+  for (; frame < opts.max_frames; ++frame) {
+    const double t = std::min(static_cast<double>(frame) / path->fps, path->duration());
+    camera = path->camera_at(t, in);
+    // Events due by this frame's time (each fires once).
+    while (frame < path_frames && next_event < path->events.size() && path->events[next_event].t <= t) {
+      const client::PathEvent& e = path->events[next_event++];
+      if (!rt) continue;  // a local scene has no stream to query
+      switch (e.kind) {
+        case client::PathEventKind::ClassQuery:
+        case client::PathEventKind::InstanceQuery: {
+          msg::Query q;
+          q.kind = e.kind == client::PathEventKind::ClassQuery ? msg::QueryKind::ClassText : msg::QueryKind::Instance;
+          q.text = e.text;
+          q.instance = e.instance;
+          q.rho = e.rho;
+          rt->send_query(q);
+          query_rho = e.rho;
+          break;
+        }
+        case client::PathEventKind::Clear:
+          rt->clear_query();
+          query_rho = -1.0;
+          break;
+        case client::PathEventKind::Mode:
+          rt->set_publish_mode(e.mode);
+          break;
+      }
+    }
+    Camera cams[2] = {camera, camera};
+    if (views == 2) {
+      cams[0] = render::stereo_eye_camera(camera, opts.stereo_ipd, render::Eye::Left);
+      cams[1] = render::stereo_eye_camera(camera, opts.stereo_ipd, render::Eye::Right);
+    }
+    auto fs = src.frame(std::span<const Camera>(cams, views));
+    if (!fs) {
+      std::fprintf(stderr, "gauss-view: frame %llu: %s\n", static_cast<unsigned long long>(frame), fs.message().c_str());
+      return 1;
+    }
+    ++rendered;
+    cpu_ms.push_back(fs->cpu_ms);
+    log.cpu(frame, json{{"frame", frame},
+                        {"t", t},
+                        {"wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count()},
+                        {"cpu_ms", fs->cpu_ms},
+                        {"publish_ms", fs->publish_ms},
+                        {"upload_ms", fs->upload_ms},
+                        {"render_ms", fs->render_ms},
+                        {"resident", fs->resident},
+                        {"desired", fs->desired},
+                        {"pending", fs->pending},
+                        {"published_epoch", epoch_json(fs->published_epoch)},
+                        {"surface_epoch", epoch_json(fs->surface_epoch)},
+                        {"edits_published", fs->publish.edits()},
+                        {"slot_writes", fs->publish.slot_writes()},
+                        {"upload_ranges", fs->ranges},
+                        {"allowance", fs->publish.allowance},
+                        {"chunks_changed", fs->uploaded.chunks_changed}});
+    for (const auto& g : src.take_gpu_stats()) log.gpu(g);
+    if (opts.every > 0 && frame < path_frames && frame % opts.every == 0) {
+      char name[32];
+      std::snprintf(name, sizeof name, "frame_%06llu", static_cast<unsigned long long>(frame));
+      if (auto st = write_views(src, opts.out / "frames" / name, views); !st) {
+        std::fprintf(stderr, "gauss-view: %s\n", st.message().c_str());
+        return 1;
+      }
+    }
+    char line[160];
+    std::snprintf(line, sizeof line, "gauss-view: frame %llu t %.2f s  resident %u  pending %u  cpu %.1f ms",
+                  static_cast<unsigned long long>(frame), t, fs->resident, fs->pending, fs->cpu_ms);
+    status.update(line);
+    if (frame + 1 >= path_frames) {
+      if (!settle_start) settle_start = std::chrono::steady_clock::now();
+      if (src.settled(opts.quiet_s)) {
+        settled = true;
+        break;
+      }
+      if (std::chrono::duration<double>(std::chrono::steady_clock::now() - *settle_start).count() > settle_limit) break;
+    }
+  }
+  status.done({});
+  if (auto st = src.wait_frames(); !st) {
+    std::fprintf(stderr, "gauss-view: %s\n", st.message().c_str());
+    return 1;
+  }
+  for (const auto& g : src.take_gpu_stats()) log.gpu(g);
+  log.flush_all();
+
+  // The final frame: the last camera, after the stream settled.
+  if (auto st = write_views(src, opts.out / "final", views); !st) {
+    std::fprintf(stderr, "gauss-view: %s\n", st.message().c_str());
+    return 1;
+  }
+  if (auto st = write_camera_json(opts.out / "final_camera.json", views == 2 ? render::stereo_eye_camera(camera, opts.stereo_ipd, render::Eye::Left) : camera); !st) {
+    std::fprintf(stderr, "gauss-view: %s\n", st.message().c_str());
+    return 1;
+  }
+
+  json summary{{"source", src.describe()},
+               {"frames", rendered},
+               {"path_frames", path_frames},
+               {"settled", settled},
+               {"wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count()},
+               {"cpu_ms", {{"p50", percentile(cpu_ms, 0.5)}, {"p95", percentile(cpu_ms, 0.95)}, {"p99", percentile(cpu_ms, 0.99)}}},
+               {"gpu_ms",
+                {{"p50", percentile(log.gpu_ms_, 0.5)},
+                 {"p95", percentile(log.gpu_ms_, 0.95)},
+                 {"p99", percentile(log.gpu_ms_, 0.99)}}},
+               {"resident", src.renderer().occupied_count()},
+               {"rejected_nonfinite", src.renderer().rejected_nonfinite()}};
+  if (rt) {
+    const auto per_object = rt->resident_per_object();
+    json objects = json::object();
+    for (const auto& [id, n] : per_object) objects[std::to_string(id)] = n;
+    struct Snap {
+      std::vector<ObjectId> targets;
+      std::uint64_t target_gaussians;
+      std::size_t desired;
+      std::optional<Epoch> published;
+      std::uint64_t checksum;
+      ClientStatsCounters stats;
+    };
+    const Snap s = rt->with_state([](const ClientState& st) {
+      return Snap{st.query_targets(), st.query_target_gaussians(), st.desired().desired_count(), st.desired().published_epoch(),
+                  st.published_checksum(), st.stats()};
+    });
+    std::uint64_t on_targets = 0;
+    json targets = json::array();
+    for (ObjectId o : s.targets) {
+      targets.push_back(to_underlying(o));
+      if (auto it = per_object.find(to_underlying(o)); it != per_object.end()) on_targets += it->second;
+    }
+    const auto conn = rt->connection();
+    summary["capacity"] = rt->capacity();
+    summary["desired"] = s.desired;
+    summary["published_epoch"] = epoch_json(s.published);
+    summary["published_checksum"] = s.checksum;
+    summary["resident_per_object"] = std::move(objects);
+    summary["query"] = json{{"active", !s.targets.empty()},
+                            {"targets", std::move(targets)},
+                            {"rho", query_rho >= 0.0 ? json(query_rho) : json(nullptr)},
+                            {"target_resident", on_targets},
+                            {"target_gaussians_on_host", s.target_gaussians},
+                            {"share", rt->capacity() > 0 ? double(on_targets) / rt->capacity() : 0.0}};
+    summary["stream"] = json{{"batches", s.stats.batches},
+                             {"edits_received", s.stats.edits_received},
+                             {"rejected_messages", s.stats.rejected_messages},
+                             {"resyncs", s.stats.resyncs}};
+    summary["connection"] = json{{"server", conn.server},
+                                 {"connects", conn.counters.connects},
+                                 {"disconnects", conn.counters.disconnects},
+                                 {"bytes_received", conn.counters.bytes_received},
+                                 {"bytes_sent", conn.counters.bytes_sent}};
+    std::ofstream events(opts.out / "events.jsonl");
+    rt->with_state([&](const ClientState& st) {
+      st.events().write_jsonl(events);
+      return 0;
+    });
+  }
+  std::ofstream(opts.out / "summary.json") << summary.dump(2) << '\n';
+  std::fprintf(stderr, "gauss-view: %llu frames, %s; wrote %s\n", static_cast<unsigned long long>(rendered),
+               settled ? "settled" : "NOT settled within the settle time", opts.out.string().c_str());
+  return settled ? 0 : 3;
+}
+
+}  // namespace gauss::view

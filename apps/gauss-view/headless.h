@@ -1,0 +1,23 @@
+#pragma once
+// gauss-view --headless: flies a camera path (client/camera_path.h) through a ViewSource
+// and writes what it saw:
+//   OUT/frames/frame_NNNNNN.png     every --every'th path frame (+ _right for stereo)
+//   OUT/frames.jsonl                one line per frame: CPU ms (publication, upload,
+//                                   render), GPU ms per pass, resident / desired / pending,
+//                                   published Gaussian and surface epochs, edits published
+//   OUT/final.png, final_camera.json  the last frame, after the stream settled
+//   OUT/summary.json                counts, the query's share of M, per-object residency,
+//                                   frame-time percentiles, connection counters
+//   OUT/events.jsonl                the client's stage events (stream only)
+// The path's clock is the frame counter (frame k is at t = k / fps), so a path gives the
+// same cameras on every machine; the stream arrives in real time. After the last
+// keyframe the final camera holds until the source is settled or the settle time ends.
+// Exit status: 0 settled, 3 not settled in time (everything is still written), 1 error.
+#include "options.h"
+#include "view_source.h"
+
+namespace gauss::view {
+
+int run_headless(const ViewOptions& opts, vk::Context& context);
+
+}  // namespace gauss::view

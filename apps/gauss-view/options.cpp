@@ -1,0 +1,82 @@
+// gauss-view's command line.
+#include "options.h"
+
+#include "gauss_cli.h"
+
+namespace gauss::view {
+
+std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
+  CLI::App app{
+      "gauss-view: the desktop client. Connects to a gauss-host (--host) and shows the stream it\n"
+      "receives, or views a scene file alone (--scene, the whole scene resident). Windowed by\n"
+      "default (ImGui panels: connection, stream, timing, objects and queries, view); --headless\n"
+      "flies a camera path file and writes PNG frames plus one JSON line per frame instead.",
+      "gauss-view"};
+  apps::configure(app);
+  std::string host, mode = o.mode == PublishMode::Immediate ? "immediate" : "progressive", size;
+  size = std::to_string(o.width) + "x" + std::to_string(o.height);
+  auto* host_opt = app.add_option("--host", host, "the gauss-host to connect to, HOST:PORT")
+                       ->check(CLI::Validator(
+                           [](std::string& in) -> std::string {
+                             auto e = net::parse_endpoint(in);
+                             return e ? std::string{} : e.message();
+                           },
+                           ""))
+                       ->type_name("HOST:PORT");
+  auto* scene_opt = app.add_option("--scene", o.scene, "view this scene file (3DGS PLY) without a host")
+                        ->check(CLI::ExistingFile);
+  host_opt->excludes(scene_opt);
+  app.add_option("--mesh", o.mesh, "with --scene: a surface mesh PLY drawn behind the splats")
+      ->check(CLI::ExistingFile)
+      ->needs(scene_opt);
+  app.add_option("--token", o.token, "access token the host requires");
+  app.add_option("--name", o.name, "client name the host logs (and names its dumps after)");
+  app.add_option("--budget", o.budget, "M: Gaussian slots of this client")->check(apps::in_range<std::uint32_t>(1, 400000));
+  app.add_option("--mode", mode, "publication mode")->check(CLI::IsMember({"progressive", "immediate"}));
+  bool no_highlight = false;
+  app.add_flag("--no-highlight", no_highlight, "do not tint the objects of the active query");
+  app.add_flag("--edit-tints", o.edit_tints, "tint Gaussians as they are added, changed or removed");
+  app.add_option("--frames-in-flight", o.frames_in_flight, "frames the GPU may work on at once")
+      ->check(apps::in_range<std::uint32_t>(1, 4));
+  app.add_option("--size", size, "view size (headless: unless the path file gives a camera); windowed: the window's size")->check(apps::image_size());
+  app.add_option("--fov", o.fov_deg, "horizontal field of view in degrees of the default camera")
+      ->check(apps::in_range(10.0, 150.0));
+  app.add_option("--stereo", o.stereo_ipd, "render both eyes this far apart (metres; 0: one view)")
+      ->check(apps::in_range(0.0, 1.0));
+  app.add_option("--device", o.device, "Vulkan device index or name substring");
+
+  app.add_flag("--headless", o.headless, "no window: fly --path, write frames to --out");
+  auto* path_opt = app.add_option("--path", o.path, "camera path JSON (see client/camera_path.h)")->check(CLI::ExistingFile);
+  app.add_option("--out", o.out, "headless: folder for frames, frames.jsonl and summary.json");
+  app.add_option("--every", o.every, "headless: write every Nth frame as PNG (0: only the final frame)");
+  app.add_option("--settle-timeout", o.settle_timeout_s, "headless: seconds to wait after the path for the stream to settle")
+      ->check(apps::in_range(0.0, 3600.0));
+  app.add_option("--quiet-time", o.quiet_s, "headless: settled = nothing pending and no edits for this many seconds")
+      ->check(apps::in_range(0.0, 600.0));
+  app.add_option("--max-frames", o.max_frames, "stop after this many frames")->check(apps::at_least<std::uint64_t>(1));
+  app.add_option("--screenshot", o.screenshot, "windowed: write the window (scene + panels) as PNG");
+  app.add_option("--screenshot-after", o.screenshot_after, "windowed: frames before the screenshot");
+  app.add_option("--exit-after", o.exit_after, "windowed: close after this many frames (0: never)");
+  app.add_flag("--no-ui", o.no_ui, "windowed: no panels, the scene alone");
+  app.add_option("--camera", o.camera, "windowed: start at this camera's pose (camera JSON)")->check(CLI::ExistingFile);
+
+  if (auto rc = apps::parse(app, argc, argv)) return rc;
+  if (host.empty() && o.scene.empty()) {
+    std::fprintf(stderr, "gauss-view: give --host HOST:PORT or --scene FILE\nRun with --help for more information.\n");
+    return apps::kUsageError;
+  }
+  if (o.headless && o.path.empty()) {
+    std::fprintf(stderr, "gauss-view: --headless needs --path FILE (a camera path)\nRun with --help for more information.\n");
+    return apps::kUsageError;
+  }
+  (void)path_opt;
+  if (!host.empty()) o.host = *net::parse_endpoint(host);
+  o.mode = mode == "immediate" ? PublishMode::Immediate : PublishMode::Progressive;
+  o.highlight = !no_highlight;
+  const auto wh = apps::parse_size(size);
+  o.width = wh->first;
+  o.height = wh->second;
+  return std::nullopt;
+}
+
+}  // namespace gauss::view

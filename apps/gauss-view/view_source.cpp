@@ -1,0 +1,147 @@
+// The two sources of gauss-view: a host's stream and a local scene file.
+#include "view_source.h"
+
+#include <chrono>
+
+#include "gauss/engine/ply_gaussian.h"
+#include "gauss/engine/ply_mesh.h"
+#include "gauss/render/vk_frame_ring.h"
+
+namespace gauss::view {
+
+namespace {
+
+class StreamSource final : public ViewSource {
+ public:
+  explicit StreamSource(std::unique_ptr<client::ClientRuntime> rt, std::string server)
+      : rt_(std::move(rt)), server_(std::move(server)) {}
+
+  Expected<client::DisplayFrameStats> frame(std::span<const Camera> views, const render::FrameHooks& hooks) override {
+    return rt_->frame(views, hooks);
+  }
+  std::vector<client::GpuFrameStats> take_gpu_stats() override { return rt_->take_gpu_stats(); }
+  Status wait_frames() override { return rt_->wait_frames(); }
+  render::SplatRenderer& renderer() override { return rt_->renderer(); }
+  client::ClientRuntime* runtime() noexcept override { return rt_.get(); }
+  std::string describe() const override { return "host " + server_; }
+
+  bool settled(double quiet_s) override {
+    struct Now {
+      bool welcomed;
+      std::uint64_t edits;
+      std::uint64_t batches;
+      std::size_t pending;
+      std::size_t desired;
+    };
+    const Now s = rt_->with_state([](const ClientState& st) {
+      return Now{st.welcomed(), st.stats().edits_received, st.stats().batches, st.desired().pending().size(),
+                 st.desired().desired_count()};
+    });
+    const double now = rt_->now();
+    if (s.edits != last_edits_ || s.batches != last_batches_ || !s.welcomed) {
+      last_edits_ = s.edits;
+      last_batches_ = s.batches;
+      last_change_ = now;
+      return false;
+    }
+    return s.pending == 0 && s.desired > 0 && now - last_change_ >= quiet_s;
+  }
+
+ private:
+  std::unique_ptr<client::ClientRuntime> rt_;
+  std::string server_;
+  std::uint64_t last_edits_{~std::uint64_t{0}};
+  std::uint64_t last_batches_{0};
+  double last_change_{0.0};
+};
+
+class LocalSource final : public ViewSource {
+ public:
+  LocalSource(std::unique_ptr<render::SplatRenderer> r, std::string what) : r_(std::move(r)), what_(std::move(what)) {}
+
+  Expected<client::DisplayFrameStats> frame(std::span<const Camera> views, const render::FrameHooks& hooks) override {
+    const auto t0 = std::chrono::steady_clock::now();
+    client::DisplayFrameStats out;
+    out.frame_index = frame_index_;
+    auto serial = r_->render_frame(views, {}, hooks);
+    if (!serial) return serial.error();
+    out.serial = *serial;
+    out.resident = r_->occupied_count();
+    out.desired = out.resident;
+    stats_.submitted(*serial, frame_index_++, static_cast<std::uint32_t>(views.size()));
+    stats_.collect(*r_);
+    out.render_ms = out.cpu_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+  }
+  std::vector<client::GpuFrameStats> take_gpu_stats() override { return stats_.take(*r_); }
+  Status wait_frames() override {
+    if (auto st = r_->frames().wait_all(); !st) return st;
+    stats_.collect(*r_);
+    return Ok{};
+  }
+  render::SplatRenderer& renderer() override { return *r_; }
+  bool settled(double) override { return true; }
+  std::string describe() const override { return what_; }
+
+ private:
+  std::unique_ptr<render::SplatRenderer> r_;
+  std::string what_;
+  client::GpuFrameStatsCollector stats_;
+  std::uint64_t frame_index_{0};
+};
+
+Expected<std::unique_ptr<ViewSource>> make_local(vk::Context& context, const ViewOptions& o, std::uint32_t max_w,
+                                                 std::uint32_t max_h) {
+  auto scene = read_gaussian_ply(o.scene);
+  if (!scene) return scene.error();
+  const auto& gs = scene->cloud.gaussians;
+  if (gs.empty()) return Error{o.scene.string() + ": the scene holds no Gaussians"};
+  if (gs.size() > render::kMaxSplatCapacity)
+    return Error{o.scene.string() + ": " + std::to_string(gs.size()) + " Gaussians, more than the renderer's " +
+                 std::to_string(render::kMaxSplatCapacity)};
+  auto r = render::SplatRenderer::create(context, {.capacity = static_cast<std::uint32_t>(gs.size()),
+                                                   .sh_degree = scene->cloud.sh_degree,
+                                                   .max_width = max_w,
+                                                   .max_height = max_h,
+                                                   .frames_in_flight = o.frames_in_flight});
+  if (!r) return r.error();
+  if (auto st = (*r)->write_slots(0, gs); !st) return st.error();
+  if (!o.mesh.empty()) {
+    auto mesh = read_mesh_ply(o.mesh);
+    if (!mesh) return mesh.error();
+    if (auto st = (*r)->set_mesh(mesh->mesh); !st) return Error{o.mesh.string() + ": " + st.message()};
+  }
+  std::string what = "scene " + o.scene.filename().string() + " (" + std::to_string(gs.size()) + " Gaussians, SH " +
+                     std::to_string(scene->cloud.sh_degree) + ")";
+  if ((*r)->rejected_nonfinite() > 0)
+    what += ", " + std::to_string((*r)->rejected_nonfinite()) + " non-finite Gaussians skipped";
+  return std::unique_ptr<ViewSource>(new LocalSource(std::move(*r), std::move(what)));
+}
+
+}  // namespace
+
+Expected<std::unique_ptr<ViewSource>> make_view_source(vk::Context& context, const ViewOptions& o) {
+  // Windowed views follow the window size: allow up to 2560x1600; headless views the path's size.
+  const std::uint32_t max_w = std::max<std::uint32_t>(o.width, o.headless ? 1 : 2560);
+  const std::uint32_t max_h = std::max<std::uint32_t>(o.height, o.headless ? 1 : 1600);
+  if (!o.host) return make_local(context, o, max_w, max_h);
+  client::ClientRuntimeConfig cfg;
+  cfg.state.capacity = o.budget;
+  cfg.state.access_token = o.token;
+  cfg.state.name = o.name;
+  cfg.state.publisher.mode = o.mode;
+  cfg.frames_in_flight = o.frames_in_flight;
+  cfg.max_width = max_w;
+  cfg.max_height = max_h;
+  cfg.highlight_query = o.highlight;
+  cfg.tint_edits = o.edit_tints;
+  auto rt = client::ClientRuntime::create(context, cfg);
+  if (!rt) return rt.error();
+  net::NetClientConfig net;
+  net.server = *o.host;
+  if (auto st = (*rt)->connect(net); !st) return st.error();
+  return std::unique_ptr<ViewSource>(new StreamSource(std::move(*rt), net::to_string(*o.host)));
+}
+
+}  // namespace gauss::view

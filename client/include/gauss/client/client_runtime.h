@@ -1,0 +1,163 @@
+#pragma once
+// ClientRuntime: the one client, assembled. Every program that receives the stream and
+// shows it (gauss-view windowed and headless, the headset program, gauss-eval, tests)
+// runs this and adds only its frame loop and its target:
+//
+//   transport ─ NetClient over ENet (its own thread), or deliver()/take_outgoing() for an
+//       │       in-process link (deterministic simulation, tests)
+//       ▼
+//   ClientState: desired / published state, Publisher under its allowance, epoch barrier
+//       ▼  (display thread, once per frame)
+//   GpuPublication: merged dirty slot ranges and committed surface chunks → staging ring
+//       ▼
+//   SplatRenderer: frames_in_flight frames; 1 view (desktop) or 2 (stereo eyes); hooks
+//       record the frame's target (a swapchain image, UI) into the same command buffer.
+//
+// The display thread never waits on the network: the network thread only decodes into
+// ClientState (under ClientState's short lock, no I/O held), and frame() takes that lock
+// only for the publication step. The display thread is the only writer of the slot
+// table and the committed surface, so it reads them without the lock afterwards.
+//
+// Renderer: created at start for SH degree 0; when the stream's SceneInfo announces
+// another degree the renderer is recreated for it and every resident slot and chunk is
+// uploaded again (a new scene, not a frame-path event).
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "gauss/client/gpu_frame_stats.h"
+#include "gauss/client/gpu_publication.h"
+#include "gauss/engine/client_state.h"
+#include "gauss/engine/result.h"
+#include "gauss/net/client.h"
+#include "gauss/net/client_state_sink.h"
+#include "gauss/render/splat_renderer.h"
+
+namespace gauss::vk {
+class Context;
+}
+
+namespace gauss::client {
+
+struct ClientRuntimeConfig {
+  ClientConfig state{};                 // M (capacity), publication, token, name
+  std::uint32_t frames_in_flight{2};
+  std::uint32_t max_width{1280};        // largest view the renderer takes
+  std::uint32_t max_height{720};
+  render::SplatRenderOptions render{};
+  bool highlight_query{true};           // tint the objects of the resolved query
+  bool tint_edits{false};               // edit visualisation: tint slots as they change
+  double pose_period_s{0.1};            // the coarse head pose goes to the host at ~10 Hz
+  // The client's clock in seconds (arrivals on the network thread and frames share it).
+  // Empty: steady time since the runtime was created. A simulation passes virtual time.
+  std::function<double()> clock;
+};
+
+// One display frame as the CPU saw it (GPU figures arrive later: GpuFrameStats).
+struct DisplayFrameStats {
+  std::uint64_t frame_index{0};
+  std::uint64_t serial{0};          // the renderer's frame serial
+  double now{0.0};
+  double cpu_ms{0.0};               // the whole frame on the display thread
+  double publish_ms{0.0};           // ClientState::frame: policy, slot table
+  double upload_ms{0.0};            // packing slots and chunks into the staging ring
+  double render_ms{0.0};            // recording + submission (includes waiting for frame k - N)
+  PublishReport publish;
+  PublicationResult uploaded;
+  std::uint32_t ranges{0};
+  std::optional<Epoch> published_epoch;
+  std::optional<Epoch> surface_epoch;
+  std::uint32_t resident{0};        // Gaussians in slots
+  std::uint64_t desired{0};         // Gaussians the host wants resident
+  std::uint32_t pending{0};         // edits received, not yet published
+};
+
+
+struct ConnectionInfo {
+  bool networked{false};            // false: in-process link
+  net::ClientStatus status{net::ClientStatus::Stopped};
+  net::ClientCounters counters{};
+  std::string server;
+};
+
+class ClientRuntime {
+ public:
+  // Errors: a ClientConfig the ClientState refuses (capacity), a renderer that cannot be
+  // created (capacity over the device's binding range, sizes), frames_in_flight.
+  static Expected<std::unique_ptr<ClientRuntime>> create(vk::Context& context, ClientRuntimeConfig config);
+  ~ClientRuntime();  // stops the network thread, waits for the frames in flight
+  ClientRuntime(const ClientRuntime&) = delete;
+  ClientRuntime& operator=(const ClientRuntime&) = delete;
+
+  // Starts the network service (it connects and reconnects in the background; the
+  // Hello carries this runtime's capacity, token and name). Errors: already connected,
+  // the service could not start.
+  Status connect(net::NetClientConfig net);
+  // In-process link: a host message for this client (Welcome and Refuse included), and
+  // the client->host messages queued since the last call.
+  void deliver(const wire::Message& message);
+  std::vector<wire::Message> take_outgoing();
+
+  // One display frame: publication, uploads, 1 or 2 views rendered into the renderer's
+  // targets (view v -> target(v)) plus what `hooks` add, at the clock's now(). Errors: a
+  // renderer or publication failure (named); the state stays consistent and the next
+  // frame retries.
+  Expected<DisplayFrameStats> frame(std::span<const Camera> views, const render::FrameHooks& hooks = {});
+  double now() const { return config_.clock(); }
+  // GPU statistics of the frames that finished since the last call, oldest first.
+  std::vector<GpuFrameStats> take_gpu_stats();
+  // Waits for every frame in flight (before readbacks or shutdown; not per frame).
+  Status wait_frames();
+
+  // --- intent ---
+  // Sends a query (queued until connected; resent after a reconnect). Returns its id.
+  std::uint32_t send_query(msg::Query query);
+  void clear_query();
+  void set_publish_mode(PublishMode mode);
+  PublishMode publish_mode() const noexcept { return mode_; }
+  void set_highlight(bool on) noexcept { config_.highlight_query = on; }
+  void set_tint_edits(bool on) noexcept { config_.tint_edits = on; }
+  render::SplatRenderOptions& render_options() noexcept { return config_.render; }
+
+  // --- inspection ---
+  // Runs f(const ClientState&) with the network thread kept out.
+  template <class F>
+  decltype(auto) with_state(F&& f) {
+    return sink_->with_state([&](ClientState& s) -> decltype(auto) { return f(static_cast<const ClientState&>(s)); });
+  }
+  // Resident Gaussians per object id (O(M): for panels and reports, not per frame).
+  std::map<std::int32_t, std::uint32_t> resident_per_object();
+  ConnectionInfo connection() const;
+  render::SplatRenderer& renderer() noexcept { return *renderer_; }
+  const GpuPublication& publication() const noexcept { return publication_; }
+  std::uint32_t capacity() const noexcept { return config_.state.capacity; }
+  std::uint64_t frames_rendered() const noexcept { return frame_index_; }
+  const ClientRuntimeConfig& config() const noexcept { return config_; }
+
+ private:
+  ClientRuntime(vk::Context& context, ClientRuntimeConfig config, std::unique_ptr<ClientState> state);
+  Status make_renderer(int sh_degree);
+
+  vk::Context* context_;
+  ClientRuntimeConfig config_;
+  std::unique_ptr<ClientState> state_;
+  std::unique_ptr<net::ClientStateSink> sink_;
+  std::unique_ptr<net::NetClient> net_;
+  std::string server_;
+  std::unique_ptr<render::SplatRenderer> renderer_;
+  GpuPublication publication_;
+  PublishMode mode_{PublishMode::Progressive};
+  std::vector<ObjectId> highlighted_;
+  double last_pose_time_{-1e300};
+  std::uint64_t frame_index_{0};
+  GpuFrameStatsCollector gpu_stats_;
+};
+
+}  // namespace gauss::client

@@ -1,0 +1,64 @@
+#pragma once
+// GpuPublication: carries what ClientState published in a display frame onto the GPU.
+//  - Slots: for each merged dirty range of the SlotTable, its occupied runs are written
+//    (write_slots) and its free runs cleared (clear_slots): both go through the
+//    renderer's staging ring and land at the start of the next recorded frame, so only
+//    the dirty ranges cross to the GPU and frames in flight never see a half write.
+//  - Surface: the SurfaceStage's committed chunks (already behind the epoch barrier) are
+//    compared with what the GPU mesh holds (chunk id -> epoch); changed chunks are set,
+//    vanished ones removed. Old chunk buffers are destroyed after the frames using them.
+//  - Tints: with edit visualisation on, each slot written this frame is tinted (added /
+//    replaced / removed) from this frame on; the renderer fades the tint with age.
+//
+// Bad data: a Gaussian with NaN/Inf is refused by the renderer (its slot cleared,
+// counted); a chunk the mesh pass refuses is skipped and counted; the rest goes on.
+#include <cstdint>
+#include <map>
+#include <span>
+#include <string>
+
+#include "gauss/engine/result.h"
+#include "gauss/engine/slot_table.h"
+#include "gauss/engine/surface_stage.h"
+#include "gauss/render/splat_renderer.h"
+
+namespace gauss::client {
+
+struct GpuPublicationStats {
+  std::uint64_t slots_written{0};   // slots uploaded (occupied)
+  std::uint64_t slots_cleared{0};
+  std::uint64_t write_calls{0};     // write_slots + clear_slots calls (upload runs)
+  std::uint64_t chunks_set{0};
+  std::uint64_t chunks_removed{0};
+  std::uint64_t chunks_refused{0};
+  std::string last_refusal;
+};
+
+struct PublicationResult {
+  std::uint32_t slots_written{0};
+  std::uint32_t slots_cleared{0};
+  std::uint32_t runs{0};
+  std::uint32_t chunks_changed{0};
+};
+
+class GpuPublication {
+ public:
+  // Uploads `ranges` (this frame's merged dirty ranges) of `slots`. Errors: a range past
+  // the renderer's capacity (nothing after it is written).
+  Expected<PublicationResult> publish_slots(const SlotTable& slots, std::span<const SlotRange> ranges,
+                                            render::SplatRenderer& renderer, bool tint_edits);
+  // Brings the renderer's mesh to the stage's committed surface (only when it changed).
+  std::uint32_t publish_surface(const SurfaceStage& surface, render::SplatRenderer& renderer);
+  // Everything again, into a new renderer (e.g. one made for another SH degree).
+  Status republish_all(const SlotTable& slots, const SurfaceStage& surface, render::SplatRenderer& renderer);
+
+  const GpuPublicationStats& stats() const noexcept { return stats_; }
+  std::size_t gpu_chunk_count() const noexcept { return gpu_chunks_.size(); }
+
+ private:
+  std::map<std::uint64_t, Epoch> gpu_chunks_;  // what the renderer's mesh holds
+  std::uint64_t surface_revision_{~std::uint64_t{0}};
+  GpuPublicationStats stats_;
+};
+
+}  // namespace gauss::client

@@ -1,0 +1,124 @@
+// End to end over loopback ENet, with the real programs: gauss-host serves a small
+// evolving synthetic room; gauss-view --headless flies a path and issues a class query
+// halfway. After the stream settled, the client's final image must equal, byte for byte,
+// the host's own render (gauss-render, the same renderer) of the very set it sent the
+// client (gauss-host --dump-sent: the decoded, quantised records and the surface), for
+// the client's final camera; and the query's targets must hold min(|G_obj|, floor(rho M))
+// of the client's M slots.
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "child_process.h"
+#include "gauss/engine/image_io.h"
+
+namespace {
+
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+
+constexpr const char* kPath = R"({
+  "camera": {"width": 320, "height": 240, "fx": 180, "fy": 180, "cx": 160, "cy": 120},
+  "fps": 10,
+  "keyframes": [
+    {"t": 0.0, "eye": [-2.2, 1.6, -1.9], "look_at": [0, 0.7, 0]},
+    {"t": 2.0, "eye": [2.2, 1.6, -1.9], "look_at": [0, 0.7, 0]},
+    {"t": 4.0, "eye": [2.2, 1.6, 1.9], "look_at": [0, 0.7, 0]}
+  ],
+  "events": [{"t": 2.0, "query": {"class": "chair", "rho": 0.5}}]
+})";
+
+constexpr std::uint32_t kBudget = 3000;
+constexpr double kRho = 0.5;
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(ViewHostLoopback, ClientImageEqualsHostRenderOfTheSentSetAndTheQueryGetsItsShare) {
+  const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "e2e_view_host_loopback";
+  fs::remove_all(out);
+  fs::create_directories(out);
+  std::ofstream(out / "path.json") << kPath;
+
+  // The host, on a free loopback port (retried if another process took it meanwhile).
+  gauss::test::ChildProcess host;
+  std::string endpoint;
+  for (int attempt = 0; attempt < 3 && endpoint.empty(); ++attempt) {
+    const std::uint16_t port = gauss::test::free_udp_port();
+    ASSERT_NE(port, 0);
+    const std::string ep = "127.0.0.1:" + std::to_string(port);
+    ASSERT_TRUE(host.start({GAUSS_HOST_EXE, "--bind", ep, "--gaussians", "10000", "--epochs", "6", "--epoch-period",
+                            "0.2", "--duration", "400", "--dump-sent", (out / "dump").string(), "--quiet"},
+                           out / "host.log"));
+    if (!host.wait(700ms)) endpoint = ep;  // still running: it bound the port
+  }
+  ASSERT_FALSE(endpoint.empty()) << read_text(out / "host.log");
+
+  gauss::test::ChildProcess view;
+  ASSERT_TRUE(view.start({GAUSS_VIEW_EXE, "--headless", "--host", endpoint, "--path", (out / "path.json").string(),
+                          "--out", (out / "view").string(), "--budget", std::to_string(kBudget), "--no-highlight",
+                          "--every", "10", "--settle-timeout", "120"},
+                         out / "view.log"));
+  const auto view_rc = view.wait(300s);
+  if (!view_rc) view.stop(SIGKILL);
+  ASSERT_TRUE(view_rc.has_value()) << "gauss-view did not finish in time:\n" << read_text(out / "view.log");
+  ASSERT_EQ(*view_rc, 0) << read_text(out / "view.log");
+
+  // The host writes the dump when it sees the client leave.
+  const fs::path dump = out / "dump" / "gauss-view.ply";
+  const fs::path dump_mesh = out / "dump" / "gauss-view.mesh.ply";
+  for (int i = 0; i < 200 && !fs::exists(dump_mesh); ++i) std::this_thread::sleep_for(50ms);
+  const auto host_rc = host.stop(SIGINT);
+  EXPECT_EQ(host_rc.value_or(-1), 0) << read_text(out / "host.log");
+  ASSERT_TRUE(fs::exists(dump)) << read_text(out / "host.log");
+  ASSERT_TRUE(fs::exists(dump_mesh)) << read_text(out / "host.log");
+
+  gauss::test::ChildProcess render;
+  ASSERT_TRUE(render.start({GAUSS_RENDER_EXE, "--scene", dump.string(), "--mesh", dump_mesh.string(), "--camera",
+                            (out / "view" / "final_camera.json").string(), "--out", (out / "host.png").string()},
+                           out / "render.log"));
+  const auto render_rc = render.wait(120s);
+  ASSERT_EQ(render_rc.value_or(-1), 0) << read_text(out / "render.log");
+
+  auto client_img = gauss::read_png_rgba8(out / "view" / "final.png");
+  auto host_img = gauss::read_png_rgba8(out / "host.png");
+  ASSERT_TRUE(client_img.ok()) << client_img.message();
+  ASSERT_TRUE(host_img.ok()) << host_img.message();
+  ASSERT_EQ(client_img->width, host_img->width);
+  ASSERT_EQ(client_img->height, host_img->height);
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i + 3 < client_img->pixels.size(); i += 4)
+    for (int c = 0; c < 4; ++c)
+      if (client_img->pixels[i + c] != host_img->pixels[i + c]) {
+        ++differ;
+        break;
+      }
+  EXPECT_EQ(differ, 0u) << "pixels differing between the client's frame and the host's render of the sent set";
+
+  // Not a blank image: the scene is in view.
+  std::size_t lit = 0;
+  for (std::size_t i = 0; i + 3 < client_img->pixels.size(); i += 4)
+    if (client_img->pixels[i] + client_img->pixels[i + 1] + client_img->pixels[i + 2] > 30) ++lit;
+  EXPECT_GT(lit, client_img->pixels.size() / 8);
+
+  const auto summary = nlohmann::json::parse(read_text(out / "view" / "summary.json"));
+  EXPECT_TRUE(summary["settled"].get<bool>());
+  EXPECT_EQ(summary["resident"].get<std::uint64_t>(), kBudget) << "the room holds more than M Gaussians";
+  const auto& q = summary["query"];
+  ASSERT_TRUE(q["active"].get<bool>()) << summary.dump(2);
+  const std::uint64_t objects = q["target_gaussians_on_host"].get<std::uint64_t>();
+  const auto expected = std::min<std::uint64_t>(objects, static_cast<std::uint64_t>(std::floor(kRho * kBudget)));
+  EXPECT_GT(expected, 0u);
+  EXPECT_EQ(q["target_resident"].get<std::uint64_t>(), expected) << summary.dump(2);
+}
+
+}  // namespace
