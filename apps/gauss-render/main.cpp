@@ -11,7 +11,11 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <fstream>
+#include <unordered_map>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "gauss/engine/camera_io.h"
 #include "gauss/engine/image_io.h"
@@ -225,6 +229,38 @@ int run_reference(const Args& a, const PlyGaussianScene& scene, const TriangleMe
   return 0;
 }
 
+// Reorders `cloud` to the gaussian_id order listed in the JSON array at `path`. Errors:
+// unreadable JSON, an id that is not in the scene or listed twice, a count that differs.
+Status apply_slot_order(const std::filesystem::path& path, GaussianCloud& cloud) {
+  std::ifstream in(path);
+  nlohmann::json ids;
+  try {
+    in >> ids;
+  } catch (const nlohmann::json::exception& e) {
+    return Error{path.string() + ": " + e.what()};
+  }
+  if (!ids.is_array()) return Error{path.string() + ": expected a JSON array of gaussian ids"};
+  if (ids.size() != cloud.gaussians.size())
+    return Error{path.string() + ": " + std::to_string(ids.size()) + " ids for a scene of " +
+                 std::to_string(cloud.gaussians.size()) + " Gaussians"};
+  std::unordered_map<std::uint64_t, std::size_t> where;
+  for (std::size_t i = 0; i < cloud.gaussians.size(); ++i) where[to_underlying(cloud.gaussians[i].id)] = i;
+  std::vector<Gaussian> ordered;
+  ordered.reserve(ids.size());
+  std::vector<std::uint8_t> used(cloud.gaussians.size(), 0);
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    if (!ids[k].is_number_unsigned()) return Error{path.string() + ": entry " + std::to_string(k) + " is not an id"};
+    auto it = where.find(ids[k].get<std::uint64_t>());
+    if (it == where.end() || used[it->second])
+      return Error{path.string() + ": id " + ids[k].dump() + " (entry " + std::to_string(k) + ") is " +
+                   (it == where.end() ? "not in the scene" : "listed twice")};
+    used[it->second] = 1;
+    ordered.push_back(cloud.gaussians[it->second]);
+  }
+  cloud.gaussians = std::move(ordered);
+  return Ok{};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -236,6 +272,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "gauss-render: %s\n", scene.message().c_str());
     return 1;
   }
+  if (!args.order.empty())
+    if (auto st = apply_slot_order(args.order, scene->cloud); !st) {
+      std::fprintf(stderr, "gauss-render: %s\n", st.message().c_str());
+      return 1;
+    }
   auto camera = read_camera_json(args.camera);
   if (!camera) {
     std::fprintf(stderr, "gauss-render: %s\n", camera.message().c_str());

@@ -40,6 +40,11 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
       ->type_name("K")
       ->excludes(reference);
   app.add_option("--threads", o.threads, "--reference: blend threads")->check(apps::in_range(1u, 64u))->type_name("N");
+  app.add_option("--order", o.order,
+                 "JSON array of the scene's gaussian_ids: load the Gaussians into slots in this order (equal\n"
+                 "depths blend in slot order, so this reproduces a client's image exactly; e.g. gauss-view's\n"
+                 "final_slot_ids.json)")
+      ->check(CLI::ExistingFile);
   app.add_option("--compare", o.compare, "print PSNR and max error of the written image against A.png (mono only)")
       ->check(CLI::ExistingFile)
       ->type_name("A.png")

@@ -10,6 +10,7 @@ namespace gauss::render_app {
 
 struct Options {
   std::filesystem::path scene, mesh, camera, out, compare;
+  std::filesystem::path order;  // JSON array of gaussian_ids: the slot order to render in
   bool reference{false};  // CPU reference rasterizer instead of the GPU renderer
   bool stereo{false};     // --stereo given
   double ipd{0.0};        // metres between the eyes

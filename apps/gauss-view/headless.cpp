@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <array>
 #include <map>
 
 #include <nlohmann/json.hpp>
@@ -15,6 +16,7 @@
 #include "gauss/engine/image_io.h"
 #include "gauss/render/splat_math.h"
 #include "gauss_cli.h"
+#include "headless_report.h"
 
 namespace gauss::view {
 
@@ -67,6 +69,10 @@ class FrameLog {
                            {"pair_overflow", g.view[v].pair_overflow}});
     line["views"] = std::move(views);
     gpu_ms_.push_back(g.total_ms);
+    const render::SplatPassTimings& t = g.view[0].gpu;
+    const double passes[] = {t.mesh_ms, t.preprocess_ms, t.compact_ms, t.depth_sort_ms, t.emit_ms,
+                             t.tile_sort_ms, t.ranges_ms, t.blend_ms};
+    for (std::size_t i = 0; i < std::size(passes); ++i) pass_ms_[i].push_back(passes[i]);
     flush_ready();
   }
   void flush_all() {
@@ -74,6 +80,7 @@ class FrameLog {
     pending_.clear();
   }
   std::vector<double> gpu_ms_;
+  std::array<std::vector<double>, 8> pass_ms_;  // view 0, in SplatPassTimings order
 
  private:
   void flush_ready() {
@@ -139,6 +146,7 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
   const double settle_limit = path->settle_s > 0.0 ? path->settle_s : opts.settle_timeout_s;
   std::size_t next_event = 0;
   double query_rho = -1.0;  // < 0: no query active
+  std::map<std::uint32_t, double> queries_sent;  // query id -> client time it was sent
   std::vector<double> cpu_ms;
   apps::StatusLine status;
   const auto wall0 = std::chrono::steady_clock::now();
@@ -162,7 +170,7 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
           q.text = e.text;
           q.instance = e.instance;
           q.rho = e.rho;
-          rt->send_query(q);
+          queries_sent[rt->send_query(q)] = rt->now();
           query_rho = e.rho;
           break;
         }
@@ -263,13 +271,17 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
     struct Snap {
       std::vector<ObjectId> targets;
       std::uint64_t target_gaussians;
+      std::uint64_t target_members;
       std::size_t desired;
       std::optional<Epoch> published;
       std::uint64_t checksum;
       ClientStatsCounters stats;
     };
     const Snap s = rt->with_state([](const ClientState& st) {
-      return Snap{st.query_targets(), st.query_target_gaussians(), st.desired().desired_count(), st.desired().published_epoch(),
+      std::uint64_t members = 0;
+      for (ObjectId o : st.query_targets())
+        if (auto it = st.objects().find(to_underlying(o)); it != st.objects().end()) members += it->second.member_count;
+      return Snap{st.query_targets(), st.query_target_gaussians(), members, st.desired().desired_count(), st.desired().published_epoch(),
                   st.published_checksum(), st.stats()};
     });
     std::uint64_t on_targets = 0;
@@ -289,6 +301,7 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
                             {"rho", query_rho >= 0.0 ? json(query_rho) : json(nullptr)},
                             {"target_resident", on_targets},
                             {"target_gaussians_on_host", s.target_gaussians},
+                            {"target_members", s.target_members},
                             {"share", rt->capacity() > 0 ? double(on_targets) / rt->capacity() : 0.0}};
     summary["stream"] = json{{"batches", s.stats.batches},
                              {"edits_received", s.stats.edits_received},
@@ -299,13 +312,44 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
                                  {"disconnects", conn.counters.disconnects},
                                  {"bytes_received", conn.counters.bytes_received},
                                  {"bytes_sent", conn.counters.bytes_sent}};
-    std::ofstream events(opts.out / "events.jsonl");
+    // The published set in slot order: equal depths blend in slot order, so a render of
+    // the same set must load it in this order to be byte-identical (gauss-render --order).
+    json slot_ids = json::array();
     rt->with_state([&](const ClientState& st) {
-      st.events().write_jsonl(events);
+      for (std::uint32_t k = 0; k < st.slots().capacity(); ++k) {
+        GaussianId id{0};
+        if (st.slots().occupant(SlotIndex{k}, id)) slot_ids.push_back(to_underlying(id));
+      }
       return 0;
     });
+    std::ofstream(opts.out / "final_slot_ids.json") << slot_ids.dump() << '\n';
+    std::ofstream events(opts.out / "events.jsonl");
+    json latency = json::object();
+    rt->with_state([&](const ClientState& st) {
+      st.events().write_jsonl(events);
+      // Seconds from sending each query to its stages on this client.
+      for (const auto& [id, sent] : queries_sent) {
+        json stages = json::object();
+        for (QueryStage stage : {QueryStage::Highlight, QueryStage::FirstAdditional, QueryStage::Converged})
+          if (const StageEvent* ev = st.events().find_query(0, id, stage)) stages[to_string(stage)] = ev->t - sent;
+        latency[std::to_string(id)] = std::move(stages);
+      }
+      return 0;
+    });
+    summary["query_latency_s"] = std::move(latency);
+  }
+  {
+    const char* names[] = {"mesh", "preprocess", "compact", "depth_sort", "emit", "tile_sort", "ranges", "blend"};
+    json passes = json::object();
+    for (std::size_t i = 0; i < std::size(names); ++i) passes[names[i]] = percentile(log.pass_ms_[i], 0.5);
+    summary["gpu_pass_ms_p50"] = std::move(passes);
   }
   std::ofstream(opts.out / "summary.json") << summary.dump(2) << '\n';
+  if (opts.every > 0)
+    if (auto st = write_contact_sheet(opts.out / "frames", opts.out / "contact_sheet.png"); !st)
+      std::fprintf(stderr, "gauss-view: %s\n", st.message().c_str());
+  if (auto st = write_report(opts.out / "report.md", summary); !st)
+    std::fprintf(stderr, "gauss-view: %s\n", st.message().c_str());
   std::fprintf(stderr, "gauss-view: %llu frames, %s; wrote %s\n", static_cast<unsigned long long>(rendered),
                settled ? "settled" : "NOT settled within the settle time", opts.out.string().c_str());
   return settled ? 0 : 3;

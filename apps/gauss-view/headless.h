@@ -6,9 +6,11 @@
 //                                   render), GPU ms per pass, resident / desired / pending,
 //                                   published Gaussian and surface epochs, edits published
 //   OUT/final.png, final_camera.json  the last frame, after the stream settled
+//   OUT/final_slot_ids.json         the published Gaussian ids in slot order (stream only)
 //   OUT/summary.json                counts, the query's share of M, per-object residency,
 //                                   frame-time percentiles, connection counters
 //   OUT/events.jsonl                the client's stage events (stream only)
+//   OUT/contact_sheet.png, report.md  the frames tiled, and the summary for a person
 // The path's clock is the frame counter (frame k is at t = k / fps), so a path gives the
 // same cameras on every machine; the stream arrives in real time. After the last
 // keyframe the final camera holds until the source is settled or the settle time ends.

@@ -1,0 +1,104 @@
+// Contact sheet and Markdown report of a headless run.
+#include "headless_report.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <vector>
+
+#include "gauss/engine/image_io.h"
+
+namespace gauss::view {
+
+namespace fs = std::filesystem;
+
+Status write_contact_sheet(const fs::path& frames_dir, const fs::path& out, std::uint32_t columns, std::uint32_t shrink,
+                           std::uint32_t max_tiles) {
+  std::vector<fs::path> files;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(frames_dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (e.path().extension() == ".png" && name.find("_right") == std::string::npos) files.push_back(e.path());
+  }
+  if (ec) return Error{"contact sheet: cannot list " + frames_dir.string() + ": " + ec.message()};
+  if (files.empty()) return Error{"contact sheet: no frames in " + frames_dir.string()};
+  std::sort(files.begin(), files.end());
+  if (files.size() > max_tiles) {
+    std::vector<fs::path> picked;
+    for (std::uint32_t i = 0; i < max_tiles; ++i) picked.push_back(files[i * (files.size() - 1) / (max_tiles - 1)]);
+    files = std::move(picked);
+  }
+  ImageRGBA8 sheet;
+  std::uint32_t tile_w = 0, tile_h = 0;
+  const auto n = static_cast<std::uint32_t>(files.size());
+  const std::uint32_t cols = std::min(columns, n), rows = (n + cols - 1) / cols;
+  for (std::uint32_t k = 0; k < n; ++k) {
+    auto img = read_png_rgba8(files[k]);
+    if (!img) return img.error();
+    if (k == 0) {
+      tile_w = std::max(1u, img->width / shrink);
+      tile_h = std::max(1u, img->height / shrink);
+      sheet.width = cols * tile_w;
+      sheet.height = rows * tile_h;
+      sheet.pixels.assign(std::size_t{sheet.width} * sheet.height * 4, 40);
+    }
+    const std::uint32_t ox = (k % cols) * tile_w, oy = (k / cols) * tile_h;
+    for (std::uint32_t y = 0; y < tile_h; ++y)
+      for (std::uint32_t x = 0; x < tile_w; ++x) {
+        const std::uint32_t sx = std::min(img->width - 1, x * shrink), sy = std::min(img->height - 1, y * shrink);
+        const std::uint8_t* src = &img->pixels[(std::size_t{sy} * img->width + sx) * 4];
+        std::uint8_t* dst = &sheet.pixels[(std::size_t{oy + y} * sheet.width + ox + x) * 4];
+        std::copy(src, src + 4, dst);
+      }
+  }
+  return write_png(out, sheet);
+}
+
+Status write_report(const fs::path& out, const nlohmann::json& s) {
+  std::ofstream md(out);
+  if (!md) return Error{"cannot write " + out.string()};
+  auto num = [](const nlohmann::json& j, int digits) {
+    if (!j.is_number()) return std::string("n/a");
+    char b[64];
+    std::snprintf(b, sizeof b, "%.*f", digits, j.get<double>());
+    return std::string(b);
+  };
+  md << "# gauss-view headless run\n\n";
+  md << "- source: " << s.value("source", "") << "\n";
+  md << "- frames: " << s.value("frames", 0) << " (" << s.value("path_frames", 0) << " on the path), "
+     << (s.value("settled", false) ? "settled" : "NOT settled") << " after " << num(s["wall_s"], 1) << " s\n";
+  md << "- resident Gaussians: " << s.value("resident", 0);
+  if (s.contains("capacity")) md << " of M = " << s["capacity"].get<std::uint64_t>();
+  md << "\n";
+  if (s.contains("query")) {
+    const auto& q = s["query"];
+    md << "\n## Query\n\n";
+    if (q.value("active", false)) {
+      md << "- targets: " << q["targets"].dump() << ", rho " << num(q["rho"], 2) << "\n";
+      md << "- resident on the targets: " << q.value("target_resident", 0) << " (share of M "
+         << num(q["share"], 3) << "); the targets hold " << q.value("target_members", 0)
+         << " Gaussians on the host\n";
+    } else {
+      md << "- no query active at the end\n";
+    }
+    if (s.contains("query_latency_s"))
+      for (const auto& [id, stages] : s["query_latency_s"].items()) {
+        md << "- query " << id << ":";
+        for (const auto& [stage, t] : stages.items()) md << " " << stage << " " << num(t, 2) << " s;";
+        md << "\n";
+      }
+  }
+  md << "\n## Frame time (ms)\n\n| | p50 | p95 | p99 |\n|---|---|---|---|\n";
+  for (const char* k : {"cpu_ms", "gpu_ms"})
+    if (s.contains(k))
+      md << "| " << k << " | " << num(s[k]["p50"], 1) << " | " << num(s[k]["p95"], 1) << " | "
+         << num(s[k]["p99"], 1) << " |\n";
+  if (s.contains("gpu_pass_ms_p50")) {
+    md << "\nGPU ms per pass (view 0, median over frames):";
+    for (const auto& [pass, v] : s["gpu_pass_ms_p50"].items()) md << " " << pass << " " << num(v, 1) << ";";
+    md << "\n";
+  }
+  return Ok{};
+}
+
+}  // namespace gauss::view
