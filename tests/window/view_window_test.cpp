@@ -46,8 +46,8 @@ constexpr int kTimeoutS = 300;
 // First-use panel layout of a window narrower than 1000 px (apps/gauss-view/panels_view.cpp):
 // a 270 px column at x = 8 on each side, so x in [290, 350) shows only the scene.
 constexpr std::uint32_t kFreeX0 = 290, kFreeX1 = 350;
-// The connection panel: (8, 8), 270 x 125.
-constexpr std::uint32_t kPanelX0 = 8, kPanelY0 = 8, kPanelX1 = 278, kPanelY1 = 133;
+// The connection panel: (8, 8), 270 x 145.
+constexpr std::uint32_t kPanelX0 = 8, kPanelY0 = 8, kPanelX1 = 278, kPanelY1 = 153;
 
 int failures = 0;
 void check(bool ok, const std::string& what) {
@@ -183,6 +183,9 @@ Shot view_run(const std::string& name, const std::string& gauss_view, std::vecto
 
 // Starts gauss-host on a free port (it prints the port on stdout); returns its pid and port.
 std::pair<pid_t, int> start_host(const std::string& gauss_host, const fs::path& log) {
+  // A log left by an earlier run would be read before the child truncates it.
+  std::error_code ec;
+  fs::remove(log, ec);
   const pid_t pid = fork();
   if (pid < 0) return {-1, 0};
   if (pid == 0) {
@@ -278,7 +281,7 @@ int main(int argc, char** argv) {
   }
 
   if (argc >= 4) {
-    const auto [host_pid, port] = start_host(argv[3], out / "host.log");
+    const auto [host_pid, port] = start_host(argv[3], out / "gauss-host.log");
     check(host_pid > 0 && port > 0, "gauss-host started and printed its port (" + std::to_string(port) + ")");
     if (host_pid > 0 && port > 0) {
       Shot streamed = view_run("host", gauss_view, {"--host", "127.0.0.1:" + std::to_string(port)}, out, 200);
@@ -286,7 +289,7 @@ int main(int argc, char** argv) {
         const double cov = coverage(streamed.image, kFreeX0, 0, kFreeX1, kH);
         check(cov > 0.05, "host: the streamed scene shows between the panels (" + std::to_string(cov * 100.0) + " %)");
       }
-      const std::string log = read_text(out / "host.log");
+      const std::string log = read_text(out / "gauss-host.log");
       std::printf("%s", log.c_str());
     }
     if (host_pid > 0) {

@@ -1,0 +1,108 @@
+#pragma once
+// Panels: gauss-view's ImGui windows over one ViewSource, drawn once per display frame
+// between Window::begin_ui() and Window::record_present():
+//   connection  host, state (connecting / connected / disconnected / refused / stopped),
+//               bytes/s in and out, reconnects                      (panels_stream.cpp)
+//   stream      M, resident / desired / pending, published Gaussian and surface epochs,
+//               edits published this frame, allowance, publication mode
+//   objects     the object table (resident per object refreshed kSlowRefreshS), instance
+//               and class queries with rho, clear, the share of M the query got
+//   timing      scrolling graphs of CPU and GPU milliseconds per pass (panels_view.cpp)
+//   view        saved viewpoints, highlight, edit tints, stereo preview + IPD, speed
+// A local scene (no stream) shows "local scene (no stream)" where a panel needs one.
+//
+// Intents (queries, mode, highlight, tints) go straight to the ClientRuntime; what the
+// frame loop needs (stereo, IPD) is read back through settings().
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "fly_camera.h"
+#include "gauss/client/client_runtime.h"
+#include "options.h"
+#include "plot_history.h"
+#include "view_source.h"
+
+namespace gauss::view {
+
+// What the view panel controls for the frame loop.
+struct ViewSettings {
+  bool stereo{false};   // side-by-side preview: two eyes, each half the window
+  double ipd{0.063};    // metres
+  bool highlight{true};
+  bool tint_edits{false};
+};
+
+struct SavedViewpoint {
+  std::string name;
+  FlyPose pose;
+};
+
+class Panels {
+ public:
+  // resident_per_object() is O(M) and the object table is copied under the state lock:
+  // both are refreshed at most this often (seconds).
+  static constexpr double kSlowRefreshS = 0.25;
+  // Byte rates are averaged over at least this long (seconds).
+  static constexpr double kRateWindowS = 0.5;
+
+  Panels(const ViewOptions& opts, ViewSource& source);
+
+  // This frame's CPU figures (`interval_ms`: since the previous frame) and the GPU
+  // figures of frames that finished since the last call.
+  void add_frame(const client::DisplayFrameStats& stats, double interval_ms);
+  void add_gpu(const client::GpuFrameStats& gpu);
+  // Draws every panel for a `width` x `height` window (first-use placement); `now_s` is
+  // a steady clock in seconds. May move `camera` (viewpoints, speed).
+  void draw(FlyCamera& camera, std::uint32_t width, std::uint32_t height, double now_s);
+
+  const ViewSettings& settings() const noexcept { return settings_; }
+
+ private:
+  struct ObjectRow {
+    std::int32_t id{0};
+    std::string label;
+    std::uint32_t members{0};
+    std::uint32_t resident{0};
+  };
+  struct Rates {
+    double at_s{-1.0};
+    std::uint64_t in{0}, out{0};
+    double in_per_s{0.0}, out_per_s{0.0};
+  };
+
+  void place(float x, float y, float w, float h, bool collapsed) const;
+  void draw_connection(double now_s);
+  void draw_stream();
+  void draw_objects(double now_s);
+  void draw_timing();
+  void draw_view(FlyCamera& camera);
+  void refresh_objects(double now_s);
+
+  ViewSource* source_;
+  client::ClientRuntime* rt_;  // nullptr: local scene
+  ViewSettings settings_;
+  bool small_window_{false};   // first-use layout: start the secondary panels collapsed
+
+  std::optional<client::DisplayFrameStats> last_;
+  PlotHistory frame_ms_, cpu_ms_;
+  PlotHistory gpu_mesh_, gpu_preprocess_, gpu_sorts_, gpu_emit_, gpu_blend_, gpu_total_;
+  std::uint32_t gpu_visible_{0};
+
+  Rates rates_;
+  double objects_at_s_{-1.0};
+  std::vector<ObjectRow> objects_;
+  std::vector<std::string> classes_;  // distinct labels, sorted
+  int class_index_{0};
+  float rho_{0.5f};
+  std::vector<ObjectId> targets_;
+  std::uint64_t target_resident_{0};
+  std::string last_query_;
+
+  std::vector<SavedViewpoint> viewpoints_;
+  int next_viewpoint_{1};
+};
+
+}  // namespace gauss::view

@@ -1,0 +1,289 @@
+// gauss-view windowed: the window, its Vulkan context and the frame loop (camera, panels,
+// 1 or 2 views, present). The presentation layer is window.h, the panels panels.h.
+#include "windowed.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <vector>
+
+#include "fly_camera.h"
+#include "gauss/engine/camera_io.h"
+#include "gauss/engine/ply_gaussian.h"
+#include "gauss/render/vk_context.h"
+#include "gauss/render/vk_frame_ring.h"
+#include "gauss/render/vk_image.h"
+#include "panels.h"
+#include "view_source.h"
+#include "window.h"
+
+namespace gauss::view {
+namespace {
+
+// The renderer's largest view (make_view_source allows 2560x1600 for a window); a larger
+// framebuffer gets a view scaled down to fit, which the present blit scales up again.
+constexpr std::uint32_t kMaxViewW = 2560, kMaxViewH = 1600;
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// The view size for a framebuffer: the same aspect, within the renderer's maximum.
+VkExtent2D view_extent(VkExtent2D fb) {
+  const double scale = std::min({1.0, static_cast<double>(kMaxViewW) / fb.width, static_cast<double>(kMaxViewH) / fb.height});
+  return {std::max(1u, static_cast<std::uint32_t>(fb.width * scale)),
+          std::max(1u, static_cast<std::uint32_t>(fb.height * scale))};
+}
+
+// The 2nd..98th percentile box of a scene file's Gaussian centres (floaters ignored).
+// The local source does not expose its Gaussians, so the file is read once more.
+Expected<std::pair<glm::dvec3, glm::dvec3>> scene_box(const std::filesystem::path& path) {
+  auto scene = read_gaussian_ply(path);
+  if (!scene) return scene.error();
+  const auto& gs = scene->cloud.gaussians;
+  if (gs.empty()) return Error{path.string() + ": no Gaussians"};
+  glm::dvec3 lo{0.0}, hi{0.0};
+  std::vector<float> axis(gs.size());
+  for (int a = 0; a < 3; ++a) {
+    for (std::size_t i = 0; i < gs.size(); ++i) axis[i] = gs[i].position[a];
+    const std::size_t i_lo = gs.size() * 2 / 100, i_hi = gs.size() - 1 - i_lo;
+    std::nth_element(axis.begin(), axis.begin() + static_cast<std::ptrdiff_t>(i_lo), axis.end());
+    lo[a] = axis[i_lo];
+    std::nth_element(axis.begin(), axis.begin() + static_cast<std::ptrdiff_t>(i_hi), axis.end());
+    hi[a] = axis[i_hi];
+  }
+  return std::make_pair(lo, hi);
+}
+
+class FrameLoop {
+ public:
+  FrameLoop(const ViewOptions& opts, Window& window, ViewSource& source)
+      : opts_(opts), window_(window), source_(source), panels_(opts, source),
+        slot_serial_(opts.frames_in_flight, 0), renderer_(&source.renderer()) {}
+
+  // Runs until the window closes or --exit-after frames. Returns the exit status.
+  int run();
+
+ private:
+  Status start_pose();
+  void frame_stream_box();
+  // Waits until frame slot `slot`'s previous frame finished (its acquire semaphore and the
+  // UI's buffers are free again; vk_swapchain.h step 1).
+  Status wait_slot(std::uint32_t& out_slot);
+  Status record_present(VkCommandBuffer cmd, std::uint32_t views);
+
+  const ViewOptions& opts_;
+  Window& window_;
+  ViewSource& source_;
+  Panels panels_;
+  FlyCamera camera_;
+  bool auto_frame_{false};  // a stream: frame the scene's box once it is known, until the user moves
+  std::vector<std::uint64_t> slot_serial_;  // renderer serial that last used each slot
+  render::SplatRenderer* renderer_;
+};
+
+Status FrameLoop::start_pose() {
+  if (!opts_.camera.empty()) {
+    auto c = read_camera_json(opts_.camera);
+    if (!c) return c.error();
+    camera_.set_from_camera(*c);
+  } else if (source_.runtime() == nullptr) {
+    auto box = scene_box(opts_.scene);
+    if (!box) return box.error();
+    camera_.frame_box(box->first, box->second);
+  } else {
+    auto_frame_ = true;
+  }
+  return Ok{};
+}
+
+void FrameLoop::frame_stream_box() {
+  const auto box = source_.runtime()->with_state([](const ClientState& s) -> std::optional<CodecBox> {
+    if (!s.codec()) return std::nullopt;
+    return s.codec()->box;
+  });
+  if (!box) return;
+  camera_.frame_box(glm::dvec3(box->min), glm::dvec3(box->max));
+  auto_frame_ = false;
+}
+
+Status FrameLoop::wait_slot(std::uint32_t& out_slot) {
+  render::SplatRenderer* r = &source_.renderer();
+  if (r != renderer_) {
+    // The runtime replaced its renderer (another SH degree): the old ring's serials mean
+    // nothing to the new one, so wait for everything once.
+    if (auto st = source_.wait_frames(); !st) return st;
+    std::fill(slot_serial_.begin(), slot_serial_.end(), 0);
+    renderer_ = r;
+  }
+  // The renderer's ring gives this frame slot serial % N; the swapchain and the UI use
+  // the same slot.
+  out_slot = static_cast<std::uint32_t>(r->frames().recording_serial() % slot_serial_.size());
+  if (slot_serial_[out_slot] != 0) return r->frames().wait(slot_serial_[out_slot]);
+  return Ok{};
+}
+
+Status FrameLoop::record_present(VkCommandBuffer cmd, std::uint32_t views) {
+  // The blend pass leaves each view's colour image in TRANSFER_DST_OPTIMAL after a
+  // buffer->image copy: make that copy visible to the present's transfer read.
+  SourceImage src[Window::kMaxSources];
+  render::SplatRenderer& r = source_.renderer();
+  for (std::uint32_t v = 0; v < views; ++v) {
+    vk::Image& img = r.target(v).color();
+    img.transition(cmd, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                   VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+    src[v].image = img.handle();
+    src[v].layout = img.layout();
+    src[v].extent = img.extent();
+    src[v].format = img.format();
+    src[v].written_stage = VK_PIPELINE_STAGE_2_TRANSFER_BIT;
+    src[v].written_access = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  }
+  return window_.record_present(cmd, std::span<const SourceImage>(src, views));
+}
+
+int FrameLoop::run() {
+  if (auto st = start_pose(); !st) {
+    std::fprintf(stderr, "gauss-view: %s\n", st.message().c_str());
+    return 1;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  double last_t = 0.0;
+  std::uint64_t presented = 0;
+  bool screenshot_requested = false, screenshot_written = false;
+  while (!window_.should_close()) {
+    window_.poll_events();
+    if (window_.should_close()) break;
+    if (window_.minimised()) {
+      window_.wait_events(0.1);
+      continue;
+    }
+    const double t = seconds_since(t0);
+    const double dt = presented == 0 ? 0.0 : t - last_t;
+    if (camera_.update(window_.input(), dt)) auto_frame_ = false;
+    if (auto_frame_) frame_stream_box();
+
+    std::uint32_t slot = 0;
+    if (auto st = wait_slot(slot); !st) {
+      std::fprintf(stderr, "gauss-view: %s\n", st.message().c_str());
+      return 1;
+    }
+    auto acquired = window_.acquire(slot);
+    if (!acquired) {
+      std::fprintf(stderr, "gauss-view: %s\n", acquired.message().c_str());
+      return 1;
+    }
+    if (!*acquired) {
+      window_.wait_events(0.01);  // nothing to draw into yet (a resize in progress)
+      continue;
+    }
+    const VkExtent2D fb = window_.framebuffer_extent();
+    if (!opts_.no_ui) {
+      window_.begin_ui();
+      panels_.draw(camera_, fb.width, fb.height, t);
+    }
+    if (!opts_.screenshot.empty() && !screenshot_requested && presented >= opts_.screenshot_after) {
+      window_.request_screenshot(opts_.screenshot);
+      screenshot_requested = true;
+    }
+
+    // One view, or two eyes side by side (each half the window, the mono view's focal
+    // length so that the preview keeps the pixel scale).
+    const ViewSettings& vs = panels_.settings();
+    const std::uint32_t views = vs.stereo ? 2 : 1;
+    const VkExtent2D ve = view_extent({std::max(views, fb.width / views), fb.height});
+    const double focal = focal_from_hfov(opts_.fov_deg, view_extent(fb).width);
+    const Camera centre = camera_.camera(ve.width, ve.height, focal);
+    Camera cams[2] = {centre, centre};
+    if (views == 2) {
+      cams[0] = render::stereo_eye_camera(centre, vs.ipd, render::Eye::Left);
+      cams[1] = render::stereo_eye_camera(centre, vs.ipd, render::Eye::Right);
+    }
+    render::FrameHooks hooks;
+    hooks.record_after = [&](VkCommandBuffer cmd) { return record_present(cmd, views); };
+    hooks.submit = [&](VkCommandBuffer cmd, VkFence fence) { return window_.submit_and_present(cmd, fence); };
+    auto fs = source_.frame(std::span<const Camera>(cams, views), hooks);
+    if (!fs) {
+      std::fprintf(stderr, "gauss-view: frame %llu: %s\n", static_cast<unsigned long long>(presented),
+                   fs.message().c_str());
+      return 1;
+    }
+    slot_serial_[slot] = fs->serial;
+    ++presented;
+    if (screenshot_requested && !screenshot_written) {
+      screenshot_written = true;
+      std::fprintf(stderr, "gauss-view: wrote %s (frame %llu)\n", opts_.screenshot.string().c_str(),
+                   static_cast<unsigned long long>(presented));
+    }
+    panels_.add_frame(*fs, dt * 1000.0);
+    for (const auto& g : source_.take_gpu_stats()) panels_.add_gpu(g);
+    last_t = t;
+    if (opts_.exit_after > 0 && presented >= opts_.exit_after) break;
+  }
+  if (auto st = source_.wait_frames(); !st) {
+    std::fprintf(stderr, "gauss-view: %s\n", st.message().c_str());
+    return 1;
+  }
+  std::fprintf(stderr, "gauss-view: %llu frames\n", static_cast<unsigned long long>(presented));
+  if (!opts_.screenshot.empty() && !screenshot_written) {
+    std::fprintf(stderr, "gauss-view: no screenshot written: the window closed after %llu frames (--screenshot-after %u)\n",
+                 static_cast<unsigned long long>(presented), opts_.screenshot_after);
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+int run_windowed(const ViewOptions& opts) {
+  WindowCreateInfo wci;
+  wci.title = "gauss-view: " + (opts.host ? net::to_string(*opts.host) : opts.scene.filename().string());
+  wci.width = static_cast<int>(opts.width);
+  wci.height = static_cast<int>(opts.height);
+  wci.frames_in_flight = opts.frames_in_flight;
+  auto window = Window::create(wci);
+  if (!window) {
+    std::fprintf(stderr, "gauss-view: %s\n", window.message().c_str());
+    return 1;
+  }
+  vk::ContextCreateInfo ci;
+  ci.app_name = "gauss-view";
+  ci.device_override = opts.device;
+  (*window)->configure_context(ci);
+  auto context = vk::Context::create(ci);
+  if (!context) {
+    std::fprintf(stderr, "gauss-view: %s\n", context.message().c_str());
+    return 1;
+  }
+  int rc = 0;
+  if (auto st = (*window)->attach(**context); !st) {
+    std::fprintf(stderr, "gauss-view: %s\n", st.message().c_str());
+    rc = 1;
+  } else {
+    auto source = make_view_source(**context, opts);
+    if (!source) {
+      std::fprintf(stderr, "gauss-view: %s\n", source.message().c_str());
+      rc = 1;
+    } else {
+      std::fprintf(stderr, "gauss-view: %s, window %ux%u\n", (*source)->describe().c_str(), opts.width, opts.height);
+      rc = FrameLoop(opts, **window, **source).run();
+      // Teardown (window.h): frames finished, then the window's swapchain and UI, the
+      // source's renderer, the context, and GLFW last.
+      (void)(*source)->wait_frames();
+      (*window)->detach();
+      source->reset();
+    }
+  }
+  (*window)->detach();
+  const std::uint64_t validation_errors = (*context)->validation_error_count();
+  context->reset();
+  window->reset();
+  if (validation_errors > 0) {
+    std::fprintf(stderr, "gauss-view: %llu Vulkan validation errors\n", static_cast<unsigned long long>(validation_errors));
+    return rc == 0 ? 1 : rc;
+  }
+  return rc;
+}
+
+}  // namespace gauss::view
