@@ -28,6 +28,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -59,6 +60,11 @@ struct Options {
   bool teleport{true};
   bool steady{true};
   double pose_smoothing_s{-1.0};  // < 0: HostSessionConfig's default
+  // --frame-cost: a frame cost model measured on a device (gauss-bench client's
+  // calibration); the teleport then also runs with it, beside the default constants.
+  std::optional<FrameCostModel> calibrated;
+  FrameCostModel cost{};          // the model of the current run
+  std::string cost_label{"model"};
 };
 
 double seconds_since(Clock::time_point t0) { return 1e-3 * ms_since(t0); }
@@ -157,6 +163,7 @@ SimConfig base_config(const Options& o, PublishMode mode, bool evolving) {
   cfg.scene.converge_epochs = evolving ? 4 : 1;
   cfg.scene.prune_fraction = evolving ? 0.02f : 0.0f;
   cfg.epoch_period_s = 0.1;
+  cfg.cost = o.cost;
   cfg.check_every_frame = false;  // O(M) per frame; the tests check, the bench measures
   cfg.check_coalescing = false;
   if (o.pose_smoothing_s >= 0.0) cfg.host.pose_smoothing_s = o.pose_smoothing_s;
@@ -172,7 +179,8 @@ SimConfig base_config(const Options& o, PublishMode mode, bool evolving) {
   c.client.publisher.escape_quota = 5000;
   c.client.range_merge_gap = 4;
   // The frame cost model's price of a copy command, in slot writes (2 us / 0.15 us).
-  c.client.publisher.range_cost = static_cast<float>(cfg.cost.per_range_s / cfg.cost.per_write_s);
+  c.client.publisher.range_cost =
+      cfg.cost.per_write_s > 0.0 ? static_cast<float>(cfg.cost.per_range_s / cfg.cost.per_write_s) : 0.0f;
   c.display_hz = o.display_hz;
   c.down.bandwidth_bps = c.up.bandwidth_bps = o.bandwidth_bps;
   c.down.latency_s = c.up.latency_s = o.latency_s;
@@ -185,7 +193,9 @@ struct FrameLog {
 };
 
 json bench_teleport(const Options& o, PublishMode mode) {
-  const char* name = mode == PublishMode::Immediate ? "immediate" : "progressive";
+  const std::string label = std::string(mode == PublishMode::Immediate ? "immediate" : "progressive") +
+                            (o.cost_label == "model" ? "" : "/" + o.cost_label);
+  const char* name = label.c_str();
   const auto wall0 = Clock::now();
   auto sim = Simulation::create(base_config(o, mode, false));
   if (!sim) {
@@ -343,6 +353,18 @@ int bench_stream(const Options& o) {
     std::printf("   %-12s %9s %12s %10s %10s %9s %9s %11s %9s %10s %8s\n", "mode", "conv s", "desired", "writes/fr", "ranges/fr",
                 "max wr/fr", "max fr ms", "teleport MB", "churn/s", "flicker/s", "wall s");
     out["teleport"] = json::array({bench_teleport(o, PublishMode::Immediate), bench_teleport(o, PublishMode::Progressive)});
+    if (o.calibrated) {
+      Options c = o;
+      c.cost = *o.calibrated;
+      c.cost_label = "cal";
+      std::printf("   with the calibrated frame cost (/cal): %.2f ms + %.4f us/write + %.2f us/range\n",
+                  c.cost.base_s * 1e3, c.cost.per_write_s * 1e6, c.cost.per_range_s * 1e6);
+      out["teleport_calibrated"] = json{{"base_ms", c.cost.base_s * 1e3},
+                                        {"per_write_us", c.cost.per_write_s * 1e6},
+                                        {"per_range_us", c.cost.per_range_s * 1e6},
+                                        {"runs", json::array({bench_teleport(c, PublishMode::Immediate),
+                                                              bench_teleport(c, PublishMode::Progressive)})}};
+    }
   }
   if (o.steady) out["steady_state"] = bench_steady(o);
   out["definitions"] = {
@@ -377,6 +399,17 @@ BenchRun bench_stream_setup(CLI::App& cmd) {
       ->type_name("L");
   cmd.add_option("--hz", o->display_hz, "display rate")->check(in_range(1.0, 1000.0))->type_name("H");
   cmd.add_option("--json", o->json_out, "write the results as JSON")->type_name("FILE");
+  cmd.add_option_function<std::string>(
+         "--frame-cost",
+         [o](const std::string& v) {
+           double base_ms = 0, write_us = 0, range_us = 0;
+           if (std::sscanf(v.c_str(), "%lf,%lf,%lf", &base_ms, &write_us, &range_us) != 3 || !(base_ms > 0) ||
+               !(write_us >= 0) || !(range_us >= 0))
+             throw CLI::ValidationError("--frame-cost", "expected BASE_MS,WRITE_US,RANGE_US (base > 0, others >= 0)");
+           o->calibrated = FrameCostModel{base_ms * 1e-3, write_us * 1e-6, range_us * 1e-6};
+         },
+         "also run the teleport with this frame cost (gauss-bench client's calibration), beside the default")
+      ->type_name("MS,US,US");
   cmd.add_flag_callback("--no-teleport", [o] { o->teleport = false; }, "skip the far-teleport part (2+3)");
   cmd.add_flag_callback("--no-steady", [o] { o->steady = false; }, "skip the steady-state part (4)");
   cmd.add_option("--pose-smoothing", o->pose_smoothing_s,

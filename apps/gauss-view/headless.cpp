@@ -156,6 +156,17 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
   std::uint64_t frame = 0, rendered = 0;
   std::uint32_t views = opts.stereo_ipd > 0.0 ? 2 : 1;
   for (; frame < opts.max_frames; ++frame) {
+    bool connected = false;  // welcomed by the host at this frame (a local scene: never)
+    if (rt) {
+      // A refusal is final (the network service stopped): no stream will ever settle.
+      const client::ConnectionInfo conn = rt->connection();
+      connected = conn.status == net::ClientStatus::Connected;
+      if (conn.status == net::ClientStatus::Refused) {
+        status.done({});
+        std::fprintf(stderr, "gauss-view: %s\n", conn.counters.last_rejection.c_str());
+        return 1;
+      }
+    }
     const double t = std::min(static_cast<double>(frame) / path->fps, path->duration());
     camera = path->camera_at(t, in);
     // Events due by this frame's time (each fires once).
@@ -198,6 +209,7 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
     log.cpu(frame, json{{"frame", frame},
                         {"t", t},
                         {"wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count()},
+                        {"connected", connected},
                         {"cpu_ms", fs->cpu_ms},
                         {"publish_ms", fs->publish_ms},
                         {"upload_ms", fs->upload_ms},

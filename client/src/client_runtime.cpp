@@ -188,6 +188,10 @@ void ClientRuntime::set_publish_mode(PublishMode mode) {
   sink_->with_state([&](ClientState& s) { s.set_publish_mode(mode); });
 }
 
+void ClientRuntime::set_display_period(double seconds) {
+  sink_->with_state([&](ClientState& s) { s.set_display_period(seconds); });
+}
+
 std::map<std::int32_t, std::uint32_t> ClientRuntime::resident_per_object() {
   std::map<std::int32_t, std::uint32_t> out;
   const SlotTable& slots = state_->slots();

@@ -50,6 +50,12 @@ Expected<PublicationResult> GpuPublication::publish_slots(const SlotTable& slots
 std::uint32_t GpuPublication::publish_surface(const SurfaceStage& surface, render::SplatRenderer& renderer) {
   if (surface.revision() == surface_revision_) return 0;
   surface_revision_ = surface.revision();
+  if (surface.generation() != surface_generation_) {
+    // The host restarted: its epochs are not comparable with those held, so every chunk
+    // is compared afresh (a never-matching epoch forces the upload).
+    surface_generation_ = surface.generation();
+    for (auto& [id, epoch] : gpu_chunks_) epoch = Epoch{~std::uint64_t{0}};
+  }
   std::uint32_t changed = 0;
   const auto& committed = surface.committed();
   // Removed: held on the GPU, no longer committed.

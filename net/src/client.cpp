@@ -1,9 +1,11 @@
 // NetClient: connect / Hello / receive loop on its own thread, with reconnects.
 #include "gauss/net/client.h"
 
+#include <algorithm>
 #include <condition_variable>
 #include <cstdio>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -41,6 +43,7 @@ struct NetClient::Impl {
   ClientSink* sink{nullptr};
   detail::EnetRef enet;
   ENetAddress server{};
+  std::string endpoint;  // the server as HOST:PORT, for the log
   detail::Frame hello;  // encoded once in start(), sent on every connection
   std::thread thread;
   std::atomic<bool> stop{false};
@@ -51,6 +54,10 @@ struct NetClient::Impl {
   ClientStatus status{ClientStatus::Connecting};
   std::vector<Outgoing> outbox;
   ClientCounters counters;
+  // Network thread only: the last Welcome's host session and when the last welcomed
+  // connection was lost (for the reconnect log line).
+  std::optional<std::uint64_t> last_session;
+  Clock::time_point last_lost{};
 
   ~Impl() {
     if (thread.joinable()) {
@@ -120,7 +127,7 @@ struct NetClient::Impl {
   }
 
   // Handles one received frame; returns false when the connection must end (refused).
-  bool receive(const ENetPacket* packet, bool& welcomed) {
+  bool receive(const ENetPacket* packet, bool& welcomed, std::optional<msg::Welcome>& welcome_out) {
     {
       std::lock_guard lock(mu);
       counters.bytes_received += packet->dataLength;
@@ -137,7 +144,12 @@ struct NetClient::Impl {
       return true;
     }
     if (auto* refuse = std::get_if<msg::Refuse>(&m)) {
-      log("refused by host: " + refuse->detail);
+      const std::string why = "refused by " + endpoint + ": " + refuse->detail;
+      log(why + "; not retrying");
+      {
+        std::lock_guard lock(mu);
+        counters.last_rejection = why;
+      }
       sink->on_refused(*refuse);
       set_status(ClientStatus::Refused);
       return false;
@@ -148,6 +160,8 @@ struct NetClient::Impl {
         return true;
       }
       welcomed = true;
+      welcome_out = *welcome;
+      log_welcome(*welcome);
       {
         std::lock_guard lock(mu);
         ++counters.welcomes;
@@ -168,12 +182,32 @@ struct NetClient::Impl {
     return true;
   }
 
-  // One connection attempt and its whole life. Returns when it ends.
-  void session(ENetHost* host) {
+  void log_welcome(const msg::Welcome& w) {
+    char id[80];
+    std::snprintf(id, sizeof id, "host session %016llx, client %u, %u slots",
+                  static_cast<unsigned long long>(w.session_id), w.client_id, w.slot_capacity);
+    std::string line = "connected to " + endpoint + " (" + id + ")";
+    if (last_session) {
+      char after[48];
+      std::snprintf(after, sizeof after, " after %.1f s",
+                    std::chrono::duration<double>(Clock::now() - last_lost).count());
+      line = "reconnected to " + endpoint + after + " (" + id +
+             (*last_session == w.session_id ? ", same host session" : ", the host restarted") + "); resynchronising";
+    }
+    last_session = w.session_id;
+    log(line);
+  }
+
+  // How one attempt ended.
+  enum class Outcome { Unreachable, ClosedBeforeWelcome, Lost, Refused, Stopped };
+
+  // One connection attempt and its whole life. Returns when it ends; `welcome` gets the
+  // connection's Welcome when there was one.
+  Outcome session(ENetHost* host, std::optional<msg::Welcome>& welcome) {
     ENetPeer* peer = enet_host_connect(host, &server, msg::kChannelCount, 0);
     if (peer == nullptr) {
-      log("cannot start a connection");
-      return;
+      log("cannot start a connection to " + endpoint + " (ENet has no free peer)");
+      return Outcome::Unreachable;
     }
     enet_peer_timeout(peer, 0, static_cast<enet_uint32>(cfg.peer_timeout_min.count()),
                       static_cast<enet_uint32>(cfg.peer_timeout_max.count()));
@@ -185,7 +219,7 @@ struct NetClient::Impl {
     }
     if (!connected) {
       enet_peer_reset(peer);
-      return;
+      return stop.load() ? Outcome::Stopped : Outcome::Unreachable;
     }
     {
       std::lock_guard lock(mu);
@@ -200,7 +234,7 @@ struct NetClient::Impl {
       int r = enet_host_service(host, &ev, 2);
       while (r > 0 && alive) {
         if (ev.type == ENET_EVENT_TYPE_RECEIVE) {
-          if (!receive(ev.packet, welcomed)) refused = true;
+          if (!receive(ev.packet, welcomed, welcome)) refused = true;
           enet_packet_destroy(ev.packet);
         } else if (ev.type == ENET_EVENT_TYPE_DISCONNECT) {
           alive = false;
@@ -227,20 +261,57 @@ struct NetClient::Impl {
       ++counters.disconnects;
     }
     if (welcomed || refused) sink->on_disconnected(refused ? "refused" : "connection closed");
+    if (refused) return Outcome::Refused;
+    if (alive) return Outcome::Stopped;  // we ended it: stop() or abandon()
+    return welcomed ? Outcome::Lost : Outcome::ClosedBeforeWelcome;
   }
 
+  static std::string seconds(std::chrono::milliseconds ms) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.2g s", static_cast<double>(ms.count()) / 1000.0);
+    return buf;
+  }
+
+  // Attempts until stopped or refused. Logs once per change of state: an unreachable
+  // host is reported by its first failed attempt, not by every retry.
   void run(ENetHost* host) {
+    std::chrono::milliseconds delay = cfg.reconnect_delay;
+    bool reported_unreachable = false;
     while (!stop.load()) {
-      session(host);
+      std::optional<msg::Welcome> welcome;
+      const Outcome outcome = session(host, welcome);
       drop_outbox();
-      {
-        std::lock_guard lock(mu);
-        if (status == ClientStatus::Refused) break;
+      if (welcome) {
+        delay = cfg.reconnect_delay;  // a Welcome resets the backoff
+        reported_unreachable = false;
+      }
+      if (outcome == Outcome::Refused || outcome == Outcome::Stopped) break;
+      if (outcome == Outcome::Lost) {
+        log("lost the connection to " + endpoint + "; " +
+            (cfg.reconnect ? "reconnecting, showing the last state meanwhile" : "not reconnecting"));
+        last_lost = Clock::now();
+      } else {
+        {
+          std::lock_guard lock(mu);
+          ++counters.failed_attempts;
+        }
+        if (!reported_unreachable) {
+          reported_unreachable = true;
+          if (outcome == Outcome::Unreachable)
+            log("cannot reach " + endpoint + " (no answer within " + seconds(cfg.connect_timeout) + ")" +
+                (cfg.reconnect ? "; retrying every ~" + seconds(cfg.connect_timeout + cfg.reconnect_delay_max) +
+                                     " until it answers"
+                               : "; giving up"));
+          else
+            log("the connection to " + endpoint + " closed before the host's Welcome" +
+                (cfg.reconnect ? "; retrying" : "; giving up"));
+        }
       }
       if (!cfg.reconnect || stop.load()) break;
       set_status(ClientStatus::Connecting);
-      const auto until = Clock::now() + cfg.reconnect_delay;
+      const auto until = Clock::now() + delay;
       while (!stop.load() && Clock::now() < until) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      if (!welcome) delay = std::min(delay * 2, std::max(cfg.reconnect_delay, cfg.reconnect_delay_max));
     }
     enet_host_destroy(host);
     std::lock_guard lock(mu);
@@ -267,6 +338,7 @@ Expected<std::unique_ptr<NetClient>> NetClient::start(NetClientConfig config, Cl
   auto addr = detail::resolve(impl->cfg.server);
   if (!addr) return addr.error();
   impl->server = addr.value();
+  impl->endpoint = to_string(impl->cfg.server);
   auto host = detail::create_host(nullptr, 1, 2 * msg::kMaxMessageBytes);
   if (!host) return host.error();
   Impl* raw = impl.get();

@@ -89,6 +89,16 @@ Status ClientState::on_message(const wire::Message& m, double now) {
                     std::to_string(config_.capacity) + " asked for");
     welcomed_ = true;
     last_batch_id_ = 0;  // batch ids are per connection
+    if (host_session_ && *host_session_ != w->session_id) {
+      // The host restarted: epochs are per host session, and the new one counts from its
+      // start. Without this its resync (an older epoch number) would be refused and the
+      // client would keep the old session's state while the host believes otherwise.
+      desired_.restart_epochs();
+      surface_.restart_epochs();
+      unpublished_.clear();         // the old session's batches
+      acked_published_.reset();     // its epochs, too
+    }
+    host_session_ = w->session_id;
     // The host starts from an empty view of this client: resend pose and query.
     if (last_pose_) {
       msg::HeadPose p = *last_pose_;
@@ -235,6 +245,11 @@ void ClientState::report_frame_cost(double seconds) {
 void ClientState::set_publish_mode(PublishMode mode) {
   std::lock_guard<std::mutex> lock(*mutex_);
   publisher_.set_mode(mode);
+}
+
+void ClientState::set_display_period(double seconds) {
+  std::lock_guard<std::mutex> lock(*mutex_);
+  publisher_.set_display_period(seconds);
 }
 
 std::vector<wire::Message> ClientState::take_outgoing() {

@@ -394,6 +394,13 @@ Expected<ApplyReport> DesiredState::apply_resync(const EditBatch& snapshot, doub
   return rep;
 }
 
+void DesiredState::restart_epochs() {
+  // Pending entries keep their old epochs (the histogram stays consistent with them)
+  // until the resync rebases every pending entry onto its own epoch.
+  received_.reset();
+  published_floor_.reset();
+}
+
 void DesiredState::mark_published(std::uint32_t index, SlotIndex slot) {
   DesiredEntry& e = entries_[index];
   const PendingKind kind = e.pending_kind();

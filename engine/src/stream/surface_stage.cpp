@@ -42,6 +42,13 @@ Status SurfaceStage::offer(StagedChunk chunk) {
 
 std::uint32_t SurfaceStage::drop_not_resent(Epoch e) {
   std::uint32_t n = 0;
+  // Chunks of an earlier host session that this session's resync did not resend.
+  for (const auto& [id, chunk] : committed_) {
+    if (latest_.count(id)) continue;
+    latest_.emplace(id, e);
+    pending_.insert_or_assign(id, StagedChunk{id, e, {}});
+    ++n;
+  }
   for (auto& [id, latest] : latest_) {
     if (to_underlying(latest) >= to_underlying(e)) continue;  // resent by this resync (or newer)
     auto pending = pending_.find(id);
@@ -53,6 +60,15 @@ std::uint32_t SurfaceStage::drop_not_resent(Epoch e) {
   }
   stats_.dropped_on_resync += n;
   return n;
+}
+
+void SurfaceStage::restart_epochs() {
+  ++generation_;
+  ++revision_;  // the committed chunks' epochs changed
+  pending_.clear();
+  latest_.clear();
+  for (auto& [id, chunk] : committed_) chunk.epoch = Epoch{0};
+  committed_epoch_.reset();
 }
 
 std::uint32_t SurfaceStage::commit(std::optional<Epoch> published_gaussian_epoch) {

@@ -285,6 +285,7 @@ Expected<SplatFrameStats> SplatRenderer::Impl::read_stats(const FrameSlot& f, st
   s.gpu.ranges_ms = ms(6, 7);
   s.gpu.blend_ms = ms(7, 8);
   s.gpu.total_ms = ms(0, 8);
+  if (v == 0) s.gpu.upload_ms = ms(kUploadBeginTimestamp, kUploadEndTimestamp);
   return s;
 }
 

@@ -23,8 +23,11 @@
 
 namespace gauss::render {
 
-// Timestamp slots of one view (the passes of SplatPassTimings, in order).
-inline constexpr std::uint32_t kViewTimestamps = 9;
+// Timestamp slots of one view (the passes of SplatPassTimings, in order), plus two around
+// the frame's staged uploads (view 0's pool only).
+inline constexpr std::uint32_t kViewTimestamps = 11;
+inline constexpr std::uint32_t kUploadBeginTimestamp = 9;
+inline constexpr std::uint32_t kUploadEndTimestamp = 10;
 
 // What a view keeps across frames: the image it renders into (read by a presenter or a
 // readback after the frame) and GPU-only scratch. Frames in flight share these: the queue

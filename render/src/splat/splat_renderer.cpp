@@ -218,9 +218,16 @@ Expected<std::uint64_t> SplatRenderer::Impl::render_frame(std::span<const Camera
   // slots): one full barrier orders this frame behind them.
   vk::memory_barrier(c, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+  for (std::uint32_t v = 0; v < views; ++v) f.views[v].timestamps.reset(c);
+  // The staged copies are timed in view 0's pool; view 1's upload slots are written too
+  // (read-back requires every slot), bracketing nothing.
+  f.views[0].timestamps.write(c, kUploadBeginTimestamp);
   uploads->record(c);
   for (std::uint32_t v = 0; v < views; ++v) {
-    f.views[v].timestamps.reset(c);
+    if (v > 0) f.views[v].timestamps.write(c, kUploadBeginTimestamp);
+    f.views[v].timestamps.write(c, kUploadEndTimestamp);
+  }
+  for (std::uint32_t v = 0; v < views; ++v) {
     const std::uint64_t tiles = std::uint64_t{render::tile_count(cameras[v].width)} * render::tile_count(cameras[v].height);
     if (auto st = vk::record_fill(c, f.views[v].counters, 0, VK_WHOLE_SIZE, 0u); !st) return fail(st.error());
     if (auto st = vk::record_fill(c, targets[v].ranges, 0, tiles * 8, 0u); !st) return fail(st.error());

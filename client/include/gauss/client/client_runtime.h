@@ -121,6 +121,8 @@ class ClientRuntime {
   std::uint32_t send_query(msg::Query query);
   void clear_query();
   void set_publish_mode(PublishMode mode);
+  // The display period progressive publication keeps frames within (the display's rate).
+  void set_display_period(double seconds);
   PublishMode publish_mode() const noexcept { return mode_; }
   void set_highlight(bool on) noexcept { config_.highlight_query = on; }
   void set_tint_edits(bool on) noexcept { config_.tint_edits = on; }

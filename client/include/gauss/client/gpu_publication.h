@@ -58,6 +58,7 @@ class GpuPublication {
  private:
   std::map<std::uint64_t, Epoch> gpu_chunks_;  // what the renderer's mesh holds
   std::uint64_t surface_revision_{~std::uint64_t{0}};
+  std::uint64_t surface_generation_{0};  // SurfaceStage::generation() the epochs above belong to
   GpuPublicationStats stats_;
 };
 

@@ -74,13 +74,16 @@ class ClientState {
   // Cost of the last displayed frame (render + publication) for the adaptive allowance.
   void report_frame_cost(double seconds);
   void set_publish_mode(PublishMode mode);
+  void set_display_period(double seconds);
 
   // Control messages to send: acks, poses and queries queued since the last call.
   std::vector<wire::Message> take_outgoing();
   void send_pose(msg::HeadPose pose);              // sequence assigned here
   std::uint32_t send_query(msg::Query query);      // query_id assigned here, returned
   // The connection dropped: keep everything (the next Welcome's resync reconciles);
-  // resend the current query and pose after the next Welcome.
+  // resend the current query and pose after the next Welcome. A Welcome from another
+  // host session (the host restarted) also restarts the epoch order: the new session's
+  // epochs count from its own start (DesiredState / SurfaceStage::restart_epochs).
   void on_disconnect();
 
   // --- inspection (owning thread) ---
@@ -127,6 +130,7 @@ class ClientState {
   ClientStatsCounters stats_;
 
   bool welcomed_{false};
+  std::optional<std::uint64_t> host_session_;  // of the last Welcome: another one = the host restarted
   std::optional<CodecParams> codec_;
   std::uint64_t last_batch_id_{0};
   std::map<std::int32_t, msg::ObjectInfo> objects_;

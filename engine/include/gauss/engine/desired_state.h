@@ -230,6 +230,12 @@ class DesiredState {
   // only). Ids desired now but absent from it are removed; ids present with the same
   // record stay published untouched (no flicker on reconnect). Same rejection rules.
   Expected<ApplyReport> apply_resync(const EditBatch& snapshot, double now);
+  // The host restarted (a Welcome of another host session): epochs count again from the
+  // new session's start, so the received epoch and the published floor are forgotten
+  // (published_epoch() is nullopt until the new session's resync arrives; the resync is
+  // then accepted whatever its epoch). The desired set, the published set and what is
+  // pending stay: the resync reconciles them id by id.
+  void restart_epochs();
 
   // Publication side: called by the Publisher after it wrote the entry's slot, with
   // that slot when the entry is (still) published afterwards.

@@ -89,6 +89,11 @@ class Publisher {
 
   // Switches between immediate and progressive publication from the next frame on.
   void set_mode(PublishMode mode) noexcept { config_.mode = mode; }
+  // The display period the slack is measured against (a display that changed rate, or
+  // one measured at run time). Ignored unless finite and > 0.
+  void set_display_period(double seconds) noexcept {
+    if (seconds > 0.0 && seconds < 1e9) config_.display_period_s = seconds;
+  }
 
   std::uint32_t allowance() const noexcept { return allowance_; }
   double smoothed_slack() const noexcept { return slack_; }

@@ -43,6 +43,12 @@ class SurfaceStage {
   // connection was down: its removal is staged at `e`, behind the barrier like any
   // patch. Returns the number of removals staged.
   std::uint32_t drop_not_resent(Epoch e);
+  // The host restarted (a Welcome of another host session): its epochs count from the
+  // start again, so the held epochs mean nothing to it. The committed chunks stay on show
+  // without an epoch (committed_epoch() is nullopt until the next commit); pending patches
+  // are dropped. The new session's resync resends every chunk its scene holds (accepted
+  // whatever their epochs) and drop_not_resent() removes the chunks it did not resend.
+  void restart_epochs();
   // Commits every pending patch whose epoch <= the Gaussian published epoch; returns
   // the number committed. nullopt (nothing published yet) commits nothing.
   std::uint32_t commit(std::optional<Epoch> published_gaussian_epoch);
@@ -53,14 +59,20 @@ class SurfaceStage {
   std::size_t pending_count() const noexcept { return pending_.size(); }
   // Bumped on every commit that changed the committed surface (the renderer re-uploads).
   std::uint64_t revision() const noexcept { return revision_; }
+  // Bumped by restart_epochs(): epochs of different generations are not comparable, so a
+  // consumer that keys what it holds by chunk epoch re-checks every chunk.
+  std::uint64_t generation() const noexcept { return generation_; }
   const SurfaceStats& stats() const noexcept { return stats_; }
 
  private:
   std::map<std::uint64_t, StagedChunk> pending_;
   std::map<std::uint64_t, StagedChunk> committed_;
-  std::map<std::uint64_t, Epoch> latest_;  // newest epoch accepted per chunk, removed ones too
+  // Newest epoch accepted per chunk of this host session, removed ones too. A committed
+  // chunk missing here was received from an earlier host session.
+  std::map<std::uint64_t, Epoch> latest_;
   std::optional<Epoch> committed_epoch_;
   std::uint64_t revision_{0};
+  std::uint64_t generation_{0};
   SurfaceStats stats_;
 };
 

@@ -5,8 +5,12 @@
 // state, queues); nothing here ever touches the GPU.
 //
 // When the connection drops (host restart, network loss, peer timeout), the service
-// reconnects with the same Hello after `reconnect_delay` unless it was refused; each
-// new Welcome starts a resynchronisation (see msg::Welcome).
+// reconnects with the same Hello unless it was refused; each new Welcome starts a
+// resynchronisation (see msg::Welcome). Attempts that do not reach a Welcome back off
+// exponentially (reconnect_delay doubling to reconnect_delay_max between attempts; a
+// Welcome resets it), so a host that is down for minutes costs one attempt every few
+// seconds. The log gets one line per change of state (connected, lost, unreachable,
+// refused), never one per attempt. The display loop never waits on any of this.
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -27,8 +31,15 @@ struct NetClientConfig {
   std::string access_token;
   std::string name{"client"};
   bool reconnect{true};              // reconnect after a drop (never after a Refuse)
+  // Wait before the next attempt: reconnect_delay after a welcomed connection drops (a
+  // host restart is usually back within a second), then doubled after every attempt that
+  // got no Welcome, up to reconnect_delay_max (4 s: a host that stays down costs one
+  // attempt per ~7 s with connect_timeout, and one that comes back is found within that).
   std::chrono::milliseconds reconnect_delay{250};
-  std::chrono::milliseconds connect_timeout{3000};  // per attempt
+  std::chrono::milliseconds reconnect_delay_max{4000};
+  // One attempt's wait for the transport connection. ENet resends its connect request
+  // at ~0.5, 1.5, 3.5 s, so 3 s covers three tries (a host coming up mid-attempt is met).
+  std::chrono::milliseconds connect_timeout{3000};
   // ENet peer timeout bounds: a vanished host is noticed after at most the max.
   std::chrono::milliseconds peer_timeout_min{2000};
   std::chrono::milliseconds peer_timeout_max{8000};
@@ -49,6 +60,9 @@ class ClientSink {
   virtual std::vector<wire::Message> take_outgoing() { return {}; }
 };
 
+// Connecting: before the first Welcome, and again while reconnecting after a drop (then
+// counters().disconnects > 0: the client is disconnected and shows its last state).
+// Connected: welcomed. Refused: final, no more attempts. Stopped: the service ended.
 enum class ClientStatus : std::uint8_t { Connecting, Connected, Refused, Stopped };
 
 struct ClientCounters {
@@ -62,7 +76,8 @@ struct ClientCounters {
   std::uint64_t bytes_sent{0};
   std::uint64_t bytes_received{0};
   std::uint64_t send_dropped{0};       // send() while not connected
-  std::string last_rejection;
+  std::uint64_t failed_attempts{0};    // attempts that ended without a Welcome (nor a Refuse)
+  std::string last_rejection;          // also the host's reason after a Refuse
 };
 
 class NetClient {

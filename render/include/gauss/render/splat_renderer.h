@@ -97,7 +97,8 @@ struct SplatPassTimings {
   double tile_sort_ms{0.0};
   double ranges_ms{0.0};
   double blend_ms{0.0};       // blend + copy into the target
-  double total_ms{0.0};
+  double total_ms{0.0};       // mesh .. blend (the view's passes)
+  double upload_ms{0.0};      // the frame's staged copies (slots, tints, chunks); view 0 only
 };
 
 struct SplatFrameStats {
