@@ -136,6 +136,26 @@ Camera room_camera(const LoopbackHost& h, std::uint32_t w, std::uint32_t hgt, bo
   return c;
 }
 
+// A client runtime connected (connecting, in the background) to the loopback host.
+Expected<std::unique_ptr<client::ClientRuntime>> connected_client(vk::Context& ctx, const LoopbackHost& host,
+                                                                  std::uint32_t budget, std::string name,
+                                                                  PublishMode mode, std::uint32_t frames_in_flight,
+                                                                  std::uint32_t w, std::uint32_t h) {
+  client::ClientRuntimeConfig cfg;
+  cfg.state.capacity = budget;
+  cfg.state.name = std::move(name);
+  cfg.state.publisher.mode = mode;
+  cfg.frames_in_flight = frames_in_flight;
+  cfg.max_width = w;
+  cfg.max_height = h;
+  auto rt = client::ClientRuntime::create(ctx, cfg);
+  if (!rt) return rt.error();
+  net::NetClientConfig nc;
+  nc.server = host.endpoint();
+  if (auto st = (*rt)->connect(nc); !st) return st.error();
+  return rt;
+}
+
 struct Settle {
   bool converged{false};
   std::vector<double> frame_ms;  // display-frame intervals until converged
@@ -197,18 +217,8 @@ std::vector<double> idle_frames(client::ClientRuntime& rt, const Camera& cam, st
 json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, PublishMode mode, std::uint32_t w,
                     std::uint32_t h) {
   const char* name = mode == PublishMode::Immediate ? "immediate" : "progressive";
-  client::ClientRuntimeConfig cfg;
-  cfg.state.capacity = o.budget;
-  cfg.state.name = std::string("bench-") + name;
-  cfg.state.publisher.mode = mode;
-  cfg.frames_in_flight = o.frames_in_flight;
-  cfg.max_width = w;
-  cfg.max_height = h;
-  auto rt = client::ClientRuntime::create(ctx, cfg);
+  auto rt = connected_client(ctx, host, o.budget, std::string("bench-") + name, mode, o.frames_in_flight, w, h);
   if (!rt) return json{{"error", rt.message()}};
-  net::NetClientConfig nc;
-  nc.server = host.endpoint();
-  if (auto st = (*rt)->connect(nc); !st) return json{{"error", st.message()}};
   const Camera a = room_camera(host, w, h, false), b = room_camera(host, w, h, true);
   const Settle first = run_until_settled(**rt, a, o.timeout_s);
   if (!first.converged) return json{{"error", "did not converge at A"}};
@@ -268,18 +278,8 @@ json bench_calibration(vk::Context& ctx, const Options& o, LoopbackHost& host, s
   // of ms from run to run, far more than uploads cost, so the upload is measured on its
   // own: CPU time packing into the staging ring + GPU time of the frame's copies
   // (timestamps around them), fitted as a K + b R + c; the base is the median idle frame.
-  client::ClientRuntimeConfig cfg;
-  cfg.state.capacity = o.budget;
-  cfg.state.name = "bench-calibration";
-  cfg.state.publisher.mode = PublishMode::Immediate;
-  cfg.frames_in_flight = 1;
-  cfg.max_width = w;
-  cfg.max_height = h;
-  auto rt = client::ClientRuntime::create(ctx, cfg);
+  auto rt = connected_client(ctx, host, o.budget, "bench-calibration", PublishMode::Immediate, 1, w, h);
   if (!rt) return json{{"error", rt.message()}};
-  net::NetClientConfig nc;
-  nc.server = host.endpoint();
-  if (auto st = (*rt)->connect(nc); !st) return json{{"error", st.message()}};
   const Camera a = room_camera(host, w, h, false);
   if (!run_until_settled(**rt, a, o.timeout_s).converged) return json{{"error", "did not converge"}};
   std::vector<Gaussian> records = (*rt)->with_state([](const ClientState& s) { return s.slots().records(); });

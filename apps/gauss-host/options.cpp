@@ -1,5 +1,6 @@
 #include "options.h"
 
+#include "endpoint_option.h"
 #include "gauss_cli.h"
 
 namespace gauss::host_app {
@@ -29,12 +30,7 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
   std::string bind = net::to_string(o.bind);
   std::string scene = "synthetic:" + std::to_string(o.variant);
   app.add_option("--bind", bind, "address to listen on, HOST:PORT, HOST or :PORT (port 0: any free port)")
-      ->check(CLI::Validator(
-          [](std::string& in) -> std::string {
-            auto e = net::parse_endpoint(in);
-            return e ? std::string{} : e.message();
-          },
-          ""))
+      ->check(apps::endpoint())
       ->type_name("HOST:PORT");
   app.add_option("--token", o.token, "access token clients must present (default: none required)");
   app.add_option("--scene", scene, "scene to stream: synthetic:VARIANT, VARIANT in 0..3")

@@ -1,6 +1,7 @@
 // gauss-view's command line.
 #include "options.h"
 
+#include "endpoint_option.h"
 #include "gauss_cli.h"
 
 namespace gauss::view {
@@ -16,12 +17,7 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
   std::string host, mode = o.mode == PublishMode::Immediate ? "immediate" : "progressive", size;
   size = std::to_string(o.width) + "x" + std::to_string(o.height);
   auto* host_opt = app.add_option("--host", host, "the gauss-host to connect to, HOST:PORT")
-                       ->check(CLI::Validator(
-                           [](std::string& in) -> std::string {
-                             auto e = net::parse_endpoint(in);
-                             return e ? std::string{} : e.message();
-                           },
-                           ""))
+                       ->check(apps::endpoint())
                        ->type_name("HOST:PORT");
   auto* scene_opt = app.add_option("--scene", o.scene, "view this scene file (3DGS PLY) without a host")
                         ->check(CLI::ExistingFile);

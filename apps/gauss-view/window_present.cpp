@@ -8,28 +8,19 @@
 
 #include "gauss/engine/image_io.h"
 #include "gauss/render/vk_check.h"
+#include "gauss/render/vk_commands.h"
 #include "imgui_layer.h"
 #include "window.h"
 
 namespace gauss::view {
 namespace {
 
+// Colour-image barriers (window images have one aspect, one mip, one layer).
 VkImageMemoryBarrier2 image_barrier(VkImage image, VkImageLayout old_layout, VkImageLayout new_layout,
                                     VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
                                     VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access) {
-  VkImageMemoryBarrier2 b{};
-  b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
-  b.srcStageMask = src_stage;
-  b.srcAccessMask = src_access;
-  b.dstStageMask = dst_stage;
-  b.dstAccessMask = dst_access;
-  b.oldLayout = old_layout;
-  b.newLayout = new_layout;
-  b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image;
-  b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-  return b;
+  return vk::image_barrier(image, VK_IMAGE_ASPECT_COLOR_BIT, old_layout, new_layout, src_stage, src_access, dst_stage,
+                           dst_access);
 }
 
 void barriers(VkCommandBuffer cmd, const VkImageMemoryBarrier2* images, std::uint32_t image_count,

@@ -15,11 +15,13 @@
 #include <nlohmann/json.hpp>
 
 #include "child_process.h"
+#include "e2e_support.h"
 #include "gauss/engine/image_io.h"
 
 namespace {
 
 using namespace std::chrono_literals;
+using gauss::test::read_text;
 namespace fs = std::filesystem;
 
 constexpr const char* kPath = R"({
@@ -36,12 +38,6 @@ constexpr const char* kPath = R"({
 constexpr std::uint32_t kBudget = 3000;
 constexpr double kRho = 0.5;
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 TEST(ViewHostLoopback, ClientImageEqualsHostRenderOfTheSentSetAndTheQueryGetsItsShare) {
   const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "e2e_view_host_loopback";
@@ -76,44 +72,7 @@ TEST(ViewHostLoopback, ClientImageEqualsHostRenderOfTheSentSetAndTheQueryGetsIts
   ASSERT_TRUE(view_rc.has_value()) << "gauss-view did not finish in time:\n" << read_text(out / "view.log");
   ASSERT_EQ(*view_rc, 0) << read_text(out / "view.log");
 
-  // The host writes the dump when it sees the client leave.
-  const fs::path dump = out / "dump" / "gauss-view.ply";
-  const fs::path dump_mesh = out / "dump" / "gauss-view.mesh.ply";
-  for (int i = 0; i < 200 && !fs::exists(dump_mesh); ++i) std::this_thread::sleep_for(50ms);
-  const auto host_rc = host.stop(SIGINT);
-  EXPECT_EQ(host_rc.value_or(-1), 0) << read_text(out / "host.log");
-  ASSERT_TRUE(fs::exists(dump)) << read_text(out / "host.log");
-  ASSERT_TRUE(fs::exists(dump_mesh)) << read_text(out / "host.log");
-
-  gauss::test::ChildProcess render;
-  // In the client's slot order: equal depths (common after quantisation) blend in slot order.
-  ASSERT_TRUE(render.start({GAUSS_RENDER_EXE, "--scene", dump.string(), "--mesh", dump_mesh.string(), "--camera",
-                            (out / "view" / "final_camera.json").string(), "--order",
-                            (out / "view" / "final_slot_ids.json").string(), "--out", (out / "host.png").string()},
-                           out / "render.log"));
-  const auto render_rc = render.wait(120s);
-  ASSERT_EQ(render_rc.value_or(-1), 0) << read_text(out / "render.log");
-
-  auto client_img = gauss::read_png_rgba8(out / "view" / "final.png");
-  auto host_img = gauss::read_png_rgba8(out / "host.png");
-  ASSERT_TRUE(client_img.ok()) << client_img.message();
-  ASSERT_TRUE(host_img.ok()) << host_img.message();
-  ASSERT_EQ(client_img->width, host_img->width);
-  ASSERT_EQ(client_img->height, host_img->height);
-  std::size_t differ = 0;
-  for (std::size_t i = 0; i + 3 < client_img->pixels.size(); i += 4)
-    for (int c = 0; c < 4; ++c)
-      if (client_img->pixels[i + c] != host_img->pixels[i + c]) {
-        ++differ;
-        break;
-      }
-  EXPECT_EQ(differ, 0u) << "pixels differing between the client's frame and the host's render of the sent set";
-
-  // Not a blank image: the scene is in view.
-  std::size_t lit = 0;
-  for (std::size_t i = 0; i + 3 < client_img->pixels.size(); i += 4)
-    if (client_img->pixels[i] + client_img->pixels[i + 1] + client_img->pixels[i + 2] > 30) ++lit;
-  EXPECT_GT(lit, client_img->pixels.size() / 8);
+  ASSERT_NO_FATAL_FAILURE(gauss::test::expect_client_frame_equals_host_render(host, out, out / "dump", "host.log"));
 
   const auto summary = nlohmann::json::parse(read_text(out / "view" / "summary.json"));
   EXPECT_TRUE(summary["settled"].get<bool>());

@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "gauss/render/vk_check.h"
+#include "gauss/render/vk_commands.h"
 #include "gauss/render/vk_context.h"
 #include "vk/image_formats.h"
 #include "vk/memory.h"
@@ -137,18 +138,8 @@ void Image::transition(VkCommandBuffer cmd, VkImageLayout new_layout) {
 
 void Image::transition(VkCommandBuffer cmd, VkImageLayout new_layout, VkPipelineStageFlags2 src_stage,
                        VkAccessFlags2 src_access, VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access) {
-  VkImageMemoryBarrier2 b{};
-  b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
-  b.srcStageMask = src_stage;
-  b.srcAccessMask = src_access;
-  b.dstStageMask = dst_stage;
-  b.dstAccessMask = dst_access;
-  b.oldLayout = layout_;
-  b.newLayout = new_layout;
-  b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image_;
-  b.subresourceRange = {aspect_, 0, 1, 0, 1};
+  const VkImageMemoryBarrier2 b =
+      image_barrier(image_, aspect_, layout_, new_layout, src_stage, src_access, dst_stage, dst_access);
   VkDependencyInfo di{};
   di.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
   di.imageMemoryBarrierCount = 1;

@@ -47,6 +47,11 @@ class CommandBuffer {
   bool pending_{false};
 };
 
+// A synchronization2 barrier of mip 0 / layer 0 of `image` (no queue transfer).
+VkImageMemoryBarrier2 image_barrier(VkImage image, VkImageAspectFlags aspect, VkImageLayout old_layout,
+                                    VkImageLayout new_layout, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
+                                    VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access);
+
 // Global memory barrier (synchronization2).
 void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
                     VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access);
