@@ -159,6 +159,9 @@ Expected<std::unique_ptr<client::ClientRuntime>> connected_client(vk::Context& c
 struct Settle {
   bool converged{false};
   std::vector<double> frame_ms;  // display-frame intervals until converged
+  // Display-thread CPU per frame until converged: ClientState::frame (publication policy)
+  // and packing into the staging ring.
+  std::vector<double> publish_ms, upload_ms;
   std::uint64_t frames{0};
   double seconds{0.0};
 };
@@ -181,6 +184,8 @@ Settle run_until_settled(client::ClientRuntime& rt, const Camera& cam, double ti
       std::fprintf(stderr, "client bench: %s\n", f.message().c_str());
       break;
     }
+    s.publish_ms.push_back(f->publish_ms);
+    s.upload_ms.push_back(f->upload_ms);
     const std::uint64_t edits = rt.with_state([](const ClientState& st) { return st.stats().edits_received; });
     const double t = 1e-3 * ms_since(t0);
     const bool idle = f->pending == 0 && f->publish.slot_writes() == 0 && f->desired > 0;
@@ -232,10 +237,11 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
   const std::vector<double> idle_b = idle_frames(**rt, b, o.idle_frames);
   const std::uint32_t resident = (*rt)->with_state([](const ClientState& s) { return s.slots().size(); });
   const auto ss = (*rt)->publication().stats();
-  std::printf("   %-12s %8.2f %8zu %9.1f %9.1f %9.1f   %9.1f %9.1f %9.1f  %8u\n", name, tele.seconds,
-              tele.frame_ms.size(), percentile(tele.frame_ms, 0.5), percentile(tele.frame_ms, 0.95),
+  std::printf("   %-12s %8.2f %8zu %9.1f %9.1f %9.1f   %9.1f %9.1f %9.1f  %8u  %6.1f/%6.1f  %6.1f/%6.1f\n", name,
+              tele.seconds, tele.frame_ms.size(), percentile(tele.frame_ms, 0.5), percentile(tele.frame_ms, 0.95),
               percentile(tele.frame_ms, 0.99), percentile(idle_b, 0.5), percentile(idle_b, 0.95),
-              percentile(idle_b, 0.99), resident);
+              percentile(idle_b, 0.99), resident, percentile(tele.publish_ms, 0.5), percentile(tele.publish_ms, 0.99),
+              percentile(tele.upload_ms, 0.5), percentile(tele.upload_ms, 0.99));
   return json{{"mode", name},
               {"display_period_ms", period_s * 1e3},
               {"convergence_s", tele.seconds},
@@ -243,6 +249,8 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
               {"frame_ms_streaming", pct(tele.frame_ms)},
               {"frame_ms_idle_before", pct(idle)},
               {"frame_ms_idle_after", pct(idle_b)},
+              {"publish_cpu_ms_streaming", pct(tele.publish_ms)},
+              {"upload_cpu_ms_streaming", pct(tele.upload_ms)},
               {"p99_over_idle_p99", percentile(tele.frame_ms, 0.99) / std::max(1e-9, percentile(idle_b, 0.99))},
               {"resident", resident},
               {"slots_uploaded_total", ss.slots_written + ss.slots_cleared},
@@ -424,8 +432,10 @@ int bench_client_main(const Options& o) {
   }
   if (o.teleport) {
     std::printf("\n1. far teleport over loopback (display period: 1.25 x the idle frame interval at A)\n");
-    std::printf("   %-12s %8s %8s %9s %9s %9s   %9s %9s %9s  %8s\n", "mode", "conv s", "frames", "p50 ms", "p95 ms",
-                "p99 ms", "idle p50", "idle p95", "idle p99", "resident");
+    std::printf("   %-12s %8s %8s %9s %9s %9s   %9s %9s %9s  %8s  %13s  %13s\n", "mode", "conv s", "frames", "p50 ms",
+                "p95 ms", "p99 ms", "idle p50", "idle p95", "idle p99", "resident", "publish p50/99", "upload p50/99");
+    std::printf("   (the host runs in this process, on the same cores: its select + diff + encode after the\n"
+                "    teleport competes with the client's frames, which a headset's would not)\n");
     doc["teleport"] = json::array({bench_teleport(**ctx, o, *host, PublishMode::Immediate, w, h),
                                    bench_teleport(**ctx, o, *host, PublishMode::Progressive, w, h)});
   }
