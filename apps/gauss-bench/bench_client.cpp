@@ -36,10 +36,12 @@
 #include "gauss/render/vk_frame_ring.h"
 #include "gauss/render/vk_staged_uploads.h"
 #include "gauss_cli.h"
+#include "percentile.h"
 
 namespace {
 
 using namespace gauss;
+using gauss::apps::percentile;
 using namespace gauss::bench;
 using nlohmann::json;
 
@@ -56,14 +58,6 @@ struct Options {
   bool throughput{true};
 };
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const double idx = p * static_cast<double>(v.size() - 1);
-  const auto lo = static_cast<std::size_t>(idx);
-  const auto hi = std::min(lo + 1, v.size() - 1);
-  return v[lo] + (v[hi] - v[lo]) * (idx - static_cast<double>(lo));
-}
 
 json pct(const std::vector<double>& v) {
   return json{{"p50", percentile(v, 0.5)}, {"p95", percentile(v, 0.95)}, {"p99", percentile(v, 0.99)}, {"n", v.size()}};
@@ -374,7 +368,7 @@ json bench_throughput(vk::Context& ctx) {
     for (int rep = 0; rep < 5; ++rep) {
       auto t0 = Clock::now();
       for (std::uint32_t i = 0; i < runs; ++i)
-        (void)(*up)->write(*dst, i * per, src.data() + i * per, per);
+        if (auto st = (*up)->write(*dst, i * per, src.data() + i * per, per); !st) return json{{"error", st.message()}};
       auto f = (*ring)->begin();
       if (!f) return json{{"error", f.message()}};
       (*up)->record(f->cmd);

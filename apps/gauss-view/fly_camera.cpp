@@ -18,10 +18,6 @@ glm::dvec3 forward_of(const FlyPose& p) {
 
 }  // namespace
 
-double focal_from_hfov(double hfov_deg, std::uint32_t width) {
-  return 0.5 * width / std::tan(hfov_deg * 3.14159265358979323846 / 360.0);
-}
-
 bool FlyCamera::update(const InputState& in, double dt_s) {
   const double dt = std::clamp(dt_s, 0.0, 0.1);
   bool changed = false;

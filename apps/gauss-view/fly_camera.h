@@ -11,6 +11,7 @@
 #include <glm/vec3.hpp>
 
 #include "gauss/engine/camera.h"
+#include "options.h"
 #include "window.h"
 
 namespace gauss::view {
@@ -58,8 +59,5 @@ class FlyCamera {
   FlyPose pose_{};
   double speed_{1.5};
 };
-
-// Horizontal field of view `hfov_deg` over `width` pixels as a focal length in pixels.
-double focal_from_hfov(double hfov_deg, std::uint32_t width);
 
 }  // namespace gauss::view

@@ -1,10 +1,16 @@
 // gauss-view's command line.
 #include "options.h"
 
+#include <cmath>
+
 #include "endpoint_option.h"
 #include "gauss_cli.h"
 
 namespace gauss::view {
+
+double focal_from_hfov(double hfov_deg, std::uint32_t width) {
+  return 0.5 * width / std::tan(hfov_deg * 3.14159265358979323846 / 360.0);
+}
 
 std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
   CLI::App app{

@@ -44,6 +44,10 @@ struct ViewOptions {
   std::filesystem::path camera;        // start pose from this camera JSON (its intrinsics are not used)
 };
 
+// Focal length in pixels of a pinhole `width` pixels wide with horizontal field of view
+// `hfov_deg` (the default camera of --fov).
+double focal_from_hfov(double hfov_deg, std::uint32_t width);
+
 // Parses argv. Returns the exit status when the program should stop (0 after --help,
 // 2 after a bad command line), else std::nullopt.
 std::optional<int> parse_options(int argc, char** argv, ViewOptions& out);

@@ -1,7 +1,9 @@
 // The two sources of gauss-view: a host's stream and a local scene file.
 #include "view_source.h"
 
+#include <algorithm>
 #include <chrono>
+#include <vector>
 
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/ply_mesh.h"
@@ -55,9 +57,25 @@ class StreamSource final : public ViewSource {
   double last_change_{0.0};
 };
 
+// The 2nd..98th percentile box of the Gaussian centres (floaters ignored).
+std::pair<glm::dvec3, glm::dvec3> central_box(const std::vector<Gaussian>& gs) {
+  glm::dvec3 lo{0.0}, hi{0.0};
+  std::vector<float> axis(gs.size());
+  for (int a = 0; a < 3; ++a) {
+    for (std::size_t i = 0; i < gs.size(); ++i) axis[i] = gs[i].position[a];
+    const std::size_t i_lo = gs.size() * 2 / 100, i_hi = gs.size() - 1 - i_lo;
+    std::nth_element(axis.begin(), axis.begin() + static_cast<std::ptrdiff_t>(i_lo), axis.end());
+    lo[a] = axis[i_lo];
+    std::nth_element(axis.begin(), axis.begin() + static_cast<std::ptrdiff_t>(i_hi), axis.end());
+    hi[a] = axis[i_hi];
+  }
+  return {lo, hi};
+}
+
 class LocalSource final : public ViewSource {
  public:
-  LocalSource(std::unique_ptr<render::SplatRenderer> r, std::string what) : r_(std::move(r)), what_(std::move(what)) {}
+  LocalSource(std::unique_ptr<render::SplatRenderer> r, std::string what, std::pair<glm::dvec3, glm::dvec3> box)
+      : r_(std::move(r)), what_(std::move(what)), box_(box) {}
 
   Expected<client::DisplayFrameStats> frame(std::span<const Camera> views, const render::FrameHooks& hooks) override {
     const auto t0 = std::chrono::steady_clock::now();
@@ -83,10 +101,12 @@ class LocalSource final : public ViewSource {
   render::SplatRenderer& renderer() override { return *r_; }
   bool settled(double) override { return true; }
   std::string describe() const override { return what_; }
+  std::optional<std::pair<glm::dvec3, glm::dvec3>> bounds() const override { return box_; }
 
  private:
   std::unique_ptr<render::SplatRenderer> r_;
   std::string what_;
+  std::pair<glm::dvec3, glm::dvec3> box_;
   client::GpuFrameStatsCollector stats_;
   std::uint64_t frame_index_{0};
 };
@@ -116,7 +136,7 @@ Expected<std::unique_ptr<ViewSource>> make_local(vk::Context& context, const Vie
                      std::to_string(scene->cloud.sh_degree) + ")";
   if ((*r)->rejected_nonfinite() > 0)
     what += ", " + std::to_string((*r)->rejected_nonfinite()) + " non-finite Gaussians skipped";
-  return std::unique_ptr<ViewSource>(new LocalSource(std::move(*r), std::move(what)));
+  return std::unique_ptr<ViewSource>(new LocalSource(std::move(*r), std::move(what), central_box(gs)));
 }
 
 }  // namespace

@@ -4,9 +4,13 @@
 // the same SplatRenderer and frames in flight; the frame loops (windowed, headless) do not
 // care which.
 #include <memory>
+#include <optional>
+#include <utility>
 #include <span>
 #include <string>
 #include <vector>
+
+#include <glm/vec3.hpp>
 
 #include "gauss/client/client_runtime.h"
 #include "gauss/engine/result.h"
@@ -32,6 +36,10 @@ class ViewSource {
   // Nothing is left to do: for a stream, connected, nothing pending, something resident,
   // and no edit arrived for `quiet_s` seconds; a local scene is always settled.
   virtual bool settled(double quiet_s) = 0;
+  // A box around the content to frame the first view with: for a local scene the 2nd..98th
+  // percentile box of the Gaussian centres (floaters ignored); nullopt for a stream (its
+  // SceneInfo's box arrives later).
+  virtual std::optional<std::pair<glm::dvec3, glm::dvec3>> bounds() const { return std::nullopt; }
   // "host 127.0.0.1:7000" or "scene room.ply (10000 Gaussians)".
   virtual std::string describe() const = 0;
 };

@@ -36,6 +36,7 @@
 #include <volk.h>
 
 #include "gauss/engine/result.h"
+#include "gauss/render/vk_buffer.h"
 #include "gauss/render/vk_context.h"
 #include "gauss/render/vk_swapchain.h"
 
@@ -177,15 +178,10 @@ class Window {
   friend struct WindowCallbacks;
   // A host-visible buffer the swapchain image is copied into for one screenshot.
   struct Readback {
-    vk::Context* context{nullptr};
-    VkBuffer buffer{VK_NULL_HANDLE};
-    VkDeviceMemory memory{VK_NULL_HANDLE};
-    VkDeviceSize size{0};
-    bool coherent{false};
+    vk::Buffer buffer;  // host visible
     VkExtent2D extent{0, 0};
     VkFormat format{VK_FORMAT_UNDEFINED};
     std::filesystem::path path;
-    ~Readback();
   };
   Window() = default;
   Status recreate_swapchain();

@@ -50,11 +50,6 @@ Viewport fit(VkExtent2D src, VkExtent2D dst) {
 
 }  // namespace
 
-Window::Readback::~Readback() {
-  if (buffer) vkDestroyBuffer(context->device(), buffer, nullptr);
-  if (memory) vkFreeMemory(context->device(), memory, nullptr);
-}
-
 void Window::request_screenshot(const std::filesystem::path& path) { screenshot_path_ = path; }
 
 Status Window::record_present(VkCommandBuffer cmd, const SourceImage& src) {
@@ -188,32 +183,16 @@ Status Window::record_present(VkCommandBuffer cmd, std::span<const SourceImage> 
 
 Status Window::record_screenshot_copy(VkCommandBuffer cmd, VkImage image) {
   auto rb = std::make_unique<Readback>();
-  rb->context = context_;
   rb->extent = swapchain_->extent();
   rb->format = swapchain_->format();
   rb->path = *screenshot_path_;
   screenshot_path_.reset();
-  rb->size = VkDeviceSize{rb->extent.width} * rb->extent.height * 4;
-  const VkDevice dev = context_->device();
-  VkBufferCreateInfo bci{};
-  bci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
-  bci.size = rb->size;
-  bci.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-  bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-  GAUSS_VK_TRY(vkCreateBuffer(dev, &bci, nullptr, &rb->buffer));
-  VkMemoryRequirements req{};
-  vkGetBufferMemoryRequirements(dev, rb->buffer, &req);
-  const std::uint32_t type = context_->find_memory_type(
-      req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT,
-      VK_MEMORY_PROPERTY_HOST_COHERENT_BIT | VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
-  if (type == vk::kNoMemoryType) return Error{"Window screenshot: no host-visible memory type"};
-  rb->coherent = (context_->memory_properties().memoryTypes[type].propertyFlags & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT) != 0;
-  VkMemoryAllocateInfo mai{};
-  mai.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-  mai.allocationSize = req.size;
-  mai.memoryTypeIndex = type;
-  GAUSS_VK_TRY(vkAllocateMemory(dev, &mai, nullptr, &rb->memory));
-  GAUSS_VK_TRY(vkBindBufferMemory(dev, rb->buffer, rb->memory, 0));
+  auto buffer = vk::Buffer::create(*context_, {.size = VkDeviceSize{rb->extent.width} * rb->extent.height * 4,
+                                               .usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                               .memory = vk::MemoryUsage::HostVisible,
+                                               .name = "window screenshot"});
+  if (!buffer) return Error{"Window screenshot: " + buffer.message()};
+  rb->buffer = std::move(*buffer);
 
   const VkImageMemoryBarrier2 to_src =
       image_barrier(image, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
@@ -223,7 +202,7 @@ Status Window::record_screenshot_copy(VkCommandBuffer cmd, VkImage image) {
   VkBufferImageCopy region{};
   region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
   region.imageExtent = {rb->extent.width, rb->extent.height, 1};
-  vkCmdCopyImageToBuffer(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, rb->buffer, 1, &region);
+  vkCmdCopyImageToBuffer(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, rb->buffer.handle(), 1, &region);
   const VkImageMemoryBarrier2 to_present =
       image_barrier(image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR,
                     VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE);
@@ -235,7 +214,7 @@ Status Window::record_screenshot_copy(VkCommandBuffer cmd, VkImage image) {
   to_host.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
   to_host.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
   to_host.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  to_host.buffer = rb->buffer;
+  to_host.buffer = rb->buffer.handle();
   to_host.size = VK_WHOLE_SIZE;
   barriers(cmd, &to_present, 1, &to_host);
   readback_ = std::move(rb);
@@ -262,18 +241,8 @@ Status Window::finish_screenshot(VkFence fence) {
   } else {
     GAUSS_VK_TRY(vkQueueWaitIdle(context_->queue()));
   }
-  void* mapped = nullptr;
-  GAUSS_VK_TRY(vkMapMemory(dev, rb->memory, 0, VK_WHOLE_SIZE, 0, &mapped));
-  if (!rb->coherent) {
-    VkMappedMemoryRange range{};
-    range.sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE;
-    range.memory = rb->memory;
-    range.size = VK_WHOLE_SIZE;
-    GAUSS_VK_TRY(vkInvalidateMappedMemoryRanges(dev, 1, &range));
-  }
-  ImageRGBA8 img{rb->extent.width, rb->extent.height, std::vector<std::uint8_t>(rb->size)};
-  std::memcpy(img.pixels.data(), mapped, rb->size);
-  vkUnmapMemory(dev, rb->memory);
+  ImageRGBA8 img{rb->extent.width, rb->extent.height, std::vector<std::uint8_t>(rb->buffer.size())};
+  if (auto st = rb->buffer.download(img.pixels.data(), img.pixels.size()); !st) return st;
   const bool bgra = is_bgra(rb->format);
   for (std::size_t p = 0; p < img.pixels.size(); p += 4) {
     if (bgra) std::swap(img.pixels[p + 0], img.pixels[p + 2]);

@@ -10,7 +10,6 @@
 
 #include "fly_camera.h"
 #include "gauss/engine/camera_io.h"
-#include "gauss/engine/ply_gaussian.h"
 #include "gauss/render/vk_context.h"
 #include "gauss/render/vk_frame_ring.h"
 #include "gauss/render/vk_image.h"
@@ -34,26 +33,6 @@ VkExtent2D view_extent(VkExtent2D fb) {
   const double scale = std::min({1.0, static_cast<double>(kMaxViewW) / fb.width, static_cast<double>(kMaxViewH) / fb.height});
   return {std::max(1u, static_cast<std::uint32_t>(fb.width * scale)),
           std::max(1u, static_cast<std::uint32_t>(fb.height * scale))};
-}
-
-// The 2nd..98th percentile box of a scene file's Gaussian centres (floaters ignored).
-// The local source does not expose its Gaussians, so the file is read once more.
-Expected<std::pair<glm::dvec3, glm::dvec3>> scene_box(const std::filesystem::path& path) {
-  auto scene = read_gaussian_ply(path);
-  if (!scene) return scene.error();
-  const auto& gs = scene->cloud.gaussians;
-  if (gs.empty()) return Error{path.string() + ": no Gaussians"};
-  glm::dvec3 lo{0.0}, hi{0.0};
-  std::vector<float> axis(gs.size());
-  for (int a = 0; a < 3; ++a) {
-    for (std::size_t i = 0; i < gs.size(); ++i) axis[i] = gs[i].position[a];
-    const std::size_t i_lo = gs.size() * 2 / 100, i_hi = gs.size() - 1 - i_lo;
-    std::nth_element(axis.begin(), axis.begin() + static_cast<std::ptrdiff_t>(i_lo), axis.end());
-    lo[a] = axis[i_lo];
-    std::nth_element(axis.begin(), axis.begin() + static_cast<std::ptrdiff_t>(i_hi), axis.end());
-    hi[a] = axis[i_hi];
-  }
-  return std::make_pair(lo, hi);
 }
 
 class FrameLoop {
@@ -89,8 +68,8 @@ Status FrameLoop::start_pose() {
     if (!c) return c.error();
     camera_.set_from_camera(*c);
   } else if (source_.runtime() == nullptr) {
-    auto box = scene_box(opts_.scene);
-    if (!box) return box.error();
+    const auto box = source_.bounds();
+    if (!box) return Error{"gauss-view: the scene has no bounds to frame"};
     camera_.frame_box(box->first, box->second);
   } else {
     auto_frame_ = true;

@@ -26,16 +26,15 @@ Expected<PublicationResult> GpuPublication::publish_slots(const SlotTable& slots
       if (occ) {
         if (auto st = renderer.write_slots(s, std::span<const Gaussian>(records.data() + s, e - s)); !st) return st.error();
         out.slots_written += e - s;
+        // A written slot is "added" (it was free or held another Gaussian: an update and a
+        // replacement both read as a change in place).
+        if (tint_edits)
+          if (auto st = renderer.set_edit_tints(s, e - s, {render::EditTintKind::Added, 0}); !st) return st.error();
       } else {
+        // Cleared at once (clearing also resets the tint): an empty slot is skipped before
+        // its tint is read, so a removal has nothing to fade.
         if (auto st = renderer.clear_slots(s, e - s); !st) return st.error();
         out.slots_cleared += e - s;
-      }
-      if (tint_edits) {
-        // A written slot is "added" (it was free or held another Gaussian: the renderer
-        // cannot tell an update from a replacement here, both read as a change in place).
-        const auto kind = occ ? render::EditTintKind::Added : render::EditTintKind::Removed;
-        for (std::uint32_t k = s; k < e; ++k)
-          if (auto st = renderer.set_edit_tint(SlotIndex{k}, {kind, 0}); !st) return st.error();
       }
       ++out.runs;
       s = e;
@@ -97,8 +96,18 @@ Status GpuPublication::republish_all(const SlotTable& slots, const SurfaceStage&
                                      render::SplatRenderer& renderer) {
   gpu_chunks_.clear();
   surface_revision_ = ~std::uint64_t{0};
-  const SlotRange all{0, slots.capacity()};
-  auto r = publish_slots(slots, std::span<const SlotRange>(&all, 1), renderer, false);
+  // A new renderer starts with every slot empty: only the occupied runs go up.
+  std::vector<SlotRange> occupied;
+  for (std::uint32_t k = 0; k < slots.capacity(); ++k) {
+    GaussianId id{0};
+    if (!slots.occupant(SlotIndex{k}, id)) continue;
+    if (!occupied.empty() && occupied.back().first + occupied.back().count == k) {
+      ++occupied.back().count;
+    } else {
+      occupied.push_back({k, 1});
+    }
+  }
+  auto r = publish_slots(slots, occupied, renderer, false);
   if (!r) return r.error();
   publish_surface(surface, renderer);
   return Ok{};

@@ -176,14 +176,18 @@ Status SlotBuffer::clear_slots(std::uint32_t first_slot, std::uint32_t count) {
   return Ok{};
 }
 
-Status SlotBuffer::set_edit_tint(std::uint32_t slot, EditTintState state, std::uint32_t frame) {
-  if (auto st = check_range(slot, 1, "set_edit_tint"); !st) return st;
-  if (static_cast<std::uint32_t>(state.kind) > 3u) return Error{"SlotBuffer::set_edit_tint: unknown tint kind"};
+Status SlotBuffer::set_edit_tints(std::uint32_t first, std::uint32_t count, EditTintState state, std::uint32_t frame) {
+  if (auto st = check_range(first, count, "set_edit_tints"); !st) return st;
+  if (static_cast<std::uint32_t>(state.kind) > 3u) return Error{"SlotBuffer::set_edit_tints: unknown tint kind"};
+  if (count == 0) return Ok{};
   const std::uint32_t word = state.kind == EditTintKind::None ? 0u : edit_word(state, frame);
-  if (auto st = uploads_->write(edit_, VkDeviceSize{slot} * 4, &word, 4); !st) return st;
-  const bool tinted = state.kind != EditTintKind::None;
-  if ((tinted_[slot] != 0) != tinted) {
-    tinted_[slot] = tinted ? 1 : 0;
+  auto words = uploads_->reserve(edit_, VkDeviceSize{first} * 4, VkDeviceSize{count} * 4);
+  if (!words) return Error{"SlotBuffer::set_edit_tints: " + words.message()};
+  std::fill_n(reinterpret_cast<std::uint32_t*>(words->data()), count, word);
+  const std::uint8_t tinted = state.kind != EditTintKind::None ? 1 : 0;
+  for (std::uint32_t slot = first; slot < first + count; ++slot) {
+    if (tinted_[slot] == tinted) continue;
+    tinted_[slot] = tinted;
     if (tinted) ++tinted_count_;
     else --tinted_count_;
   }

@@ -169,7 +169,10 @@ Status SplatRenderer::set_highlight(std::span<const ObjectId> objects) {
 void SplatRenderer::clear_highlight() noexcept { impl_->highlight_count = 0; }
 
 Status SplatRenderer::set_edit_tint(SlotIndex slot, EditTintState state) {
-  return impl_->slots.set_edit_tint(to_underlying(slot), state, impl_->display_frame);
+  return set_edit_tints(to_underlying(slot), 1, state);
+}
+Status SplatRenderer::set_edit_tints(std::uint32_t first, std::uint32_t count, EditTintState state) {
+  return impl_->slots.set_edit_tints(first, count, state, impl_->display_frame);
 }
 std::uint32_t SplatRenderer::display_frame() const noexcept { return impl_->display_frame; }
 

@@ -141,7 +141,11 @@ Status FrameRing::wait_all() {
 void FrameRing::defer(std::function<void()> destroy) {
   // The frame being recorded (else the last one submitted) is the last that could use
   // the object.
-  deferred_.push_back(Deferred{recording_ ? next_serial_ : next_serial_ - 1, std::move(destroy)});
+  defer_until(recording_ ? next_serial_ : next_serial_ - 1, std::move(destroy));
+}
+
+void FrameRing::defer_until(std::uint64_t serial, std::function<void()> destroy) {
+  deferred_.push_back(Deferred{serial, std::move(destroy)});
 }
 
 }  // namespace gauss::vk

@@ -26,10 +26,6 @@ Expected<std::unique_ptr<StagedUploads>> StagedUploads::create(Context& context,
   return s;
 }
 
-StagedUploads::~StagedUploads() {
-  // Buffers wait for the device in their destructors; nothing to do by hand.
-}
-
 Status StagedUploads::grow(VkDeviceSize at_least) {
   const VkDeviceSize size = std::max<VkDeviceSize>(align_up(at_least), buffer_.valid() ? buffer_.size() * 2 : 0);
   auto b = Buffer::create(*context_, {.size = size,
@@ -41,12 +37,7 @@ Status StagedUploads::grow(VkDeviceSize at_least) {
     // Queued copies (recorded into the next frame) and frames in flight still read the old
     // block: it goes once the next frame to be recorded has finished.
     auto old = std::make_shared<Buffer>(std::move(buffer_));
-    const std::uint64_t after = ring_->recording_serial();
-    struct Retire {
-      std::shared_ptr<Buffer> buffer;
-      void operator()() const { buffer->destroy_after_gpu_finished(); }
-    };
-    retired_.push_back({after, Retire{std::move(old)}});
+    ring_->defer_until(ring_->recording_serial(), [old] { old->destroy_after_gpu_finished(); });
   }
   buffer_ = std::move(*b);
   head_ = tail_ = 0;
@@ -68,10 +59,6 @@ void StagedUploads::reclaim() {
   }
   releases_.erase(releases_.begin(), releases_.begin() + static_cast<std::ptrdiff_t>(k));
   if (used_ == 0) head_ = tail_ = 0;
-  while (!retired_.empty() && retired_.front().after_serial <= done) {
-    retired_.front().destroy();
-    retired_.erase(retired_.begin());
-  }
 }
 
 Expected<VkDeviceSize> StagedUploads::allocate(VkDeviceSize size) {

@@ -7,8 +7,9 @@
 //  - Surface: the SurfaceStage's committed chunks (already behind the epoch barrier) are
 //    compared with what the GPU mesh holds (chunk id -> epoch); changed chunks are set,
 //    vanished ones removed. Old chunk buffers are destroyed after the frames using them.
-//  - Tints: with edit visualisation on, each slot written this frame is tinted (added /
-//    replaced / removed) from this frame on; the renderer fades the tint with age.
+//  - Tints: with edit visualisation on, each slot written this frame is tinted "added"
+//    from this frame on; the renderer fades the tint with age. Removed Gaussians leave
+//    their slot at once (no removal fade: that would need the record kept until it fades).
 //
 // Bad data: a Gaussian with NaN/Inf is refused by the renderer (its slot cleared,
 // counted); a chunk the mesh pass refuses is skipped and counted; the rest goes on.
@@ -49,7 +50,7 @@ class GpuPublication {
                                             render::SplatRenderer& renderer, bool tint_edits);
   // Brings the renderer's mesh to the stage's committed surface (only when it changed).
   std::uint32_t publish_surface(const SurfaceStage& surface, render::SplatRenderer& renderer);
-  // Everything again, into a new renderer (e.g. one made for another SH degree).
+  // Everything again, into a new (empty) renderer, e.g. one made for another SH degree.
   Status republish_all(const SlotTable& slots, const SurfaceStage& surface, render::SplatRenderer& renderer);
 
   const GpuPublicationStats& stats() const noexcept { return stats_; }

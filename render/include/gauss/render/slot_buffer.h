@@ -73,9 +73,13 @@ class SlotBuffer {
   Status clear_slots(std::uint32_t first_slot, std::uint32_t count);
   Status clear_slot(SlotIndex slot) { return clear_slots(to_underlying(slot), 1); }
 
-  // Edit-visualisation state of one slot, as of display frame `frame` (the age counts
-  // from there). Errors: slot out of range.
-  Status set_edit_tint(std::uint32_t slot, EditTintState state, std::uint32_t frame);
+  // Edit-visualisation state of slots [first, first + count), as of display frame `frame`
+  // (the age counts from there): one staged write for the run. Errors: slots out of
+  // range, an unknown tint kind (nothing changed).
+  Status set_edit_tints(std::uint32_t first, std::uint32_t count, EditTintState state, std::uint32_t frame);
+  Status set_edit_tint(std::uint32_t slot, EditTintState state, std::uint32_t frame) {
+    return set_edit_tints(slot, 1, state, frame);
+  }
   // Number of slots whose tint kind is not None (the renderer specialises tints away at 0).
   std::uint32_t tinted_count() const noexcept { return tinted_count_; }
 

@@ -147,6 +147,8 @@ class SplatRenderer {
   // Edit visualisation of one slot; state.age is its age at the NEXT rendered frame
   // (every render / render_stereo call advances the display frame by one).
   Status set_edit_tint(SlotIndex slot, EditTintState state);
+  // The same state for slots [first, first + count) (one staged write).
+  Status set_edit_tints(std::uint32_t first, std::uint32_t count, EditTintState state);
   std::uint32_t display_frame() const noexcept;
 
   // ---- Frames ----

@@ -84,6 +84,10 @@ class FrameRing {
   // finished (at the latest in the destructor); with nothing in flight, at the next
   // begin() / wait().
   void defer(std::function<void()> destroy);
+  // Runs `destroy` once frame `serial` (so every frame before it) has finished, e.g. the
+  // next frame to be recorded when that frame will still read the object. Deferrals run
+  // in the order they were made, none before its frame.
+  void defer_until(std::uint64_t serial, std::function<void()> destroy);
   std::size_t deferred_count() const noexcept { return deferred_.size(); }
 
  private:

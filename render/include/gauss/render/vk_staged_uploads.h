@@ -18,7 +18,6 @@
 // Errors: a destination range outside its buffer (nothing queued), a staging block that
 // cannot be allocated (the write is not queued; what was queued before stays).
 #include <cstdint>
-#include <functional>
 #include <map>
 #include <memory>
 #include <span>
@@ -48,7 +47,7 @@ class StagedUploads {
   // `ring` supplies serials and deferred destruction; both must outlive this object.
   static Expected<std::unique_ptr<StagedUploads>> create(Context& context, FrameRing& ring,
                                                           VkDeviceSize initial_bytes = 4u << 20);
-  ~StagedUploads();
+  ~StagedUploads() = default;
   StagedUploads(const StagedUploads&) = delete;
   StagedUploads& operator=(const StagedUploads&) = delete;
 
@@ -88,11 +87,6 @@ class StagedUploads {
     VkDeviceSize bytes;
   };
   std::vector<Release> releases_;
-  struct Retired {        // an outgrown ring block, destroyed after frame `after_serial`
-    std::uint64_t after_serial;
-    std::function<void()> destroy;
-  };
-  std::vector<Retired> retired_;
   VkDeviceSize pending_bytes_{0};  // staged since the last record()
 
   struct Group {  // copies from the ring into one destination, no two overlapping
