@@ -16,31 +16,24 @@
 #include "gauss/engine/image_io.h"
 #include "gauss/render/splat_math.h"
 #include "gauss_cli.h"
+#include "percentile.h"
 #include "headless_report.h"
 
 namespace gauss::view {
 
 namespace {
 
+using apps::percentile;
 using nlohmann::json;
 
 client::CameraIntrinsics default_intrinsics(const ViewOptions& o) {
   client::CameraIntrinsics in;
   in.width = o.width;
   in.height = o.height;
-  in.fx = in.fy = 0.5 * o.width / std::tan(o.fov_deg * 3.14159265358979323846 / 360.0);
+  in.fx = in.fy = focal_from_hfov(o.fov_deg, o.width);
   in.cx = 0.5 * o.width;
   in.cy = 0.5 * o.height;
   return in;
-}
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const double idx = p * static_cast<double>(v.size() - 1);
-  const auto lo = static_cast<std::size_t>(std::floor(idx));
-  const auto hi = std::min(lo + 1, v.size() - 1);
-  return v[lo] + (v[hi] - v[lo]) * (idx - static_cast<double>(lo));
 }
 
 json epoch_json(const std::optional<Epoch>& e) { return e ? json(to_underlying(*e)) : json(nullptr); }
@@ -93,6 +86,36 @@ class FrameLog {
   std::ofstream& out_;
   std::map<std::uint64_t, json> pending_;
 };
+
+// The active query as the client holds it now: its targets, how many of their Gaussians
+// are resident (from `per_object`, ClientRuntime::resident_per_object), their members on
+// the host (the latest object table) and the share of M.
+json query_state(client::ClientRuntime& rt, double rho, const std::map<std::int32_t, std::uint32_t>& per_object) {
+  struct Q {
+    std::vector<ObjectId> targets;
+    std::uint64_t on_host_at_resolution;
+    std::uint64_t members;
+  };
+  const Q q = rt.with_state([](const ClientState& st) {
+    std::uint64_t members = 0;
+    for (ObjectId o : st.query_targets())
+      if (auto it = st.objects().find(to_underlying(o)); it != st.objects().end()) members += it->second.member_count;
+    return Q{st.query_targets(), st.query_target_gaussians(), members};
+  });
+  std::uint64_t on_targets = 0;
+  json targets = json::array();
+  for (ObjectId o : q.targets) {
+    targets.push_back(to_underlying(o));
+    if (auto it = per_object.find(to_underlying(o)); it != per_object.end()) on_targets += it->second;
+  }
+  return json{{"active", !q.targets.empty()},
+              {"targets", std::move(targets)},
+              {"rho", rho >= 0.0 ? json(rho) : json(nullptr)},
+              {"target_resident", on_targets},
+              {"target_gaussians_on_host", q.on_host_at_resolution},
+              {"target_members", q.members},
+              {"share", rt.capacity() > 0 ? double(on_targets) / rt.capacity() : 0.0}};
+}
 
 Status write_views(ViewSource& src, const std::filesystem::path& base, std::uint32_t views) {
   for (std::uint32_t v = 0; v < views; ++v) {
@@ -147,6 +170,7 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
   std::size_t next_event = 0;
   double query_rho = -1.0;  // < 0: no query active
   std::map<std::uint32_t, double> queries_sent;  // query id -> client time it was sent
+  json queries_at_clear = json::array();
   std::vector<double> cpu_ms;
   apps::StatusLine status;
   const auto wall0 = std::chrono::steady_clock::now();
@@ -186,6 +210,8 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
           break;
         }
         case client::PathEventKind::Clear:
+          // What the query held just before it is cleared (the report's "while active").
+          if (query_rho >= 0.0) queries_at_clear.push_back(query_state(*rt, query_rho, rt->resident_per_object()));
           rt->clear_query();
           query_rho = -1.0;
           break;
@@ -281,40 +307,22 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
     json objects = json::object();
     for (const auto& [id, n] : per_object) objects[std::to_string(id)] = n;
     struct Snap {
-      std::vector<ObjectId> targets;
-      std::uint64_t target_gaussians;
-      std::uint64_t target_members;
       std::size_t desired;
       std::optional<Epoch> published;
       std::uint64_t checksum;
       ClientStatsCounters stats;
     };
     const Snap s = rt->with_state([](const ClientState& st) {
-      std::uint64_t members = 0;
-      for (ObjectId o : st.query_targets())
-        if (auto it = st.objects().find(to_underlying(o)); it != st.objects().end()) members += it->second.member_count;
-      return Snap{st.query_targets(), st.query_target_gaussians(), members, st.desired().desired_count(), st.desired().published_epoch(),
-                  st.published_checksum(), st.stats()};
+      return Snap{st.desired().desired_count(), st.desired().published_epoch(), st.published_checksum(), st.stats()};
     });
-    std::uint64_t on_targets = 0;
-    json targets = json::array();
-    for (ObjectId o : s.targets) {
-      targets.push_back(to_underlying(o));
-      if (auto it = per_object.find(to_underlying(o)); it != per_object.end()) on_targets += it->second;
-    }
     const auto conn = rt->connection();
     summary["capacity"] = rt->capacity();
     summary["desired"] = s.desired;
     summary["published_epoch"] = epoch_json(s.published);
     summary["published_checksum"] = s.checksum;
     summary["resident_per_object"] = std::move(objects);
-    summary["query"] = json{{"active", !s.targets.empty()},
-                            {"targets", std::move(targets)},
-                            {"rho", query_rho >= 0.0 ? json(query_rho) : json(nullptr)},
-                            {"target_resident", on_targets},
-                            {"target_gaussians_on_host", s.target_gaussians},
-                            {"target_members", s.target_members},
-                            {"share", rt->capacity() > 0 ? double(on_targets) / rt->capacity() : 0.0}};
+    summary["query"] = query_state(*rt, query_rho, per_object);
+    summary["queries_at_clear"] = std::move(queries_at_clear);
     summary["stream"] = json{{"batches", s.stats.batches},
                              {"edits_received", s.stats.edits_received},
                              {"rejected_messages", s.stats.rejected_messages},

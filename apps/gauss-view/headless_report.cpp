@@ -73,11 +73,22 @@ Status write_report(const fs::path& out, const nlohmann::json& s) {
   if (s.contains("query")) {
     const auto& q = s["query"];
     md << "\n## Query\n\n";
-    if (q.value("active", false)) {
-      md << "- targets: " << q["targets"].dump() << ", rho " << num(q["rho"], 2) << "\n";
-      md << "- resident on the targets: " << q.value("target_resident", 0) << " (share of M "
-         << num(q["share"], 3) << "); the targets hold " << q.value("target_members", 0)
+    const double capacity = s.value("capacity", 0.0);
+    auto held = [&](const nlohmann::json& state) {
+      const double rho = state["rho"].is_number() ? state["rho"].get<double>() : 0.0;
+      md << "targets " << state["targets"].dump() << " (rho " << num(state["rho"], 2) << ", reserve floor(rho M) = "
+         << static_cast<std::uint64_t>(rho * capacity) << "): " << state.value("target_resident", 0)
+         << " resident, share of M " << num(state["share"], 3) << "; they hold " << state.value("target_members", 0)
          << " Gaussians on the host\n";
+    };
+    if (s.contains("queries_at_clear"))
+      for (const auto& state : s["queries_at_clear"]) {
+        md << "- just before a clear: ";
+        held(state);
+      }
+    if (q.value("active", false)) {
+      md << "- at the end: ";
+      held(q);
     } else {
       md << "- no query active at the end\n";
     }
