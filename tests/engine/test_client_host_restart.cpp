@@ -9,39 +9,15 @@
 #include "gauss/engine/client_state.h"
 #include "gauss/engine/host_session.h"
 #include "gauss/engine/synthetic_scene.h"
+#include "host_world.h"
 
 using namespace gauss;
 
 namespace {
 
-SurfaceChunk triangle_chunk(std::uint32_t id, float x) {
-  SurfaceChunk c;
-  c.chunk_id = id;
-  c.mesh.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x, 1, 0}};
-  c.mesh.colors = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  c.mesh.indices = {0, 1, 2};
-  return c;
-}
-
 // A host's scene: `epochs` synthetic epochs, then one surface epoch with `chunks`.
-struct World {
-  World(int epochs, std::vector<SurfaceChunk> chunks) {
-    SyntheticSceneConfig c;
-    c.target_gaussians = 2000;
-    c.epochs = epochs;
-    auto s = SyntheticScene::create(c);
-    EXPECT_TRUE(s.ok()) << s.message();
-    while (!s->finished()) EXPECT_TRUE(s->produce(store).ok());
-    EXPECT_TRUE(store.begin_next_epoch().ok());
-    for (auto& ch : chunks) EXPECT_TRUE(store.set_surface_chunk(std::move(ch)).ok());
-    EXPECT_TRUE(store.commit_epoch().ok());
-    params.box.min = s->room_min() - glm::vec3(0.5f);
-    params.box.max = s->room_max() + glm::vec3(0.5f);
-    params.sh_degree = 1;
-  }
-  SceneStore store;
-  CodecParams params;
-};
+using World = gauss::test::HostWorld;
+using gauss::test::triangle_chunk;
 
 // Connects `client` to `host` and delivers until nothing is pending.
 void connect_and_settle(HostSession& host, ClientState& client, World& w, double t) {

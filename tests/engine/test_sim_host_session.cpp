@@ -5,26 +5,14 @@
 #include "gauss/engine/client_state.h"
 #include "gauss/engine/host_session.h"
 #include "gauss/engine/synthetic_scene.h"
+#include "host_world.h"
 
 using namespace gauss;
 
 namespace {
 
-struct World {
-  World() {
-    SyntheticSceneConfig c;
-    c.target_gaussians = 2000;
-    c.epochs = 2;
-    auto s = SyntheticScene::create(c);
-    EXPECT_TRUE(s.ok()) << s.message();
-    while (!s->finished()) EXPECT_TRUE(s->produce(store).ok());
-    params.box.min = s->room_min() - glm::vec3(0.5f);
-    params.box.max = s->room_max() + glm::vec3(0.5f);
-    params.sh_degree = 1;
-  }
-  SceneStore store;
-  CodecParams params;
-};
+using World = gauss::test::HostWorld;
+using gauss::test::triangle_chunk;
 
 msg::Hello hello(std::uint32_t cap, std::string token = {}) {
   msg::Hello h;
@@ -201,15 +189,6 @@ TEST(ClientState, FollowsAHostSessionToAnExactCopy) {
 }
 
 namespace {
-
-SurfaceChunk triangle_chunk(std::uint32_t id, float x) {
-  SurfaceChunk c;
-  c.chunk_id = id;
-  c.mesh.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x, 1, 0}};
-  c.mesh.colors = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  c.mesh.indices = {0, 1, 2};
-  return c;
-}
 
 // Delivers everything the host sends, then displays frames until nothing is pending.
 void deliver_and_settle(HostSession& host, ClientState& client, World& w, double t) {
