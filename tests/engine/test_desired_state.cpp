@@ -332,3 +332,42 @@ TEST(DesiredState, IdIndexMatchesAReferenceMap) {
   }
   EXPECT_EQ(idx.find(123456789012345ull), nullptr);
 }
+
+TEST(DesiredState, PendingArrivalsListNewAndChangedEntriesOnce) {
+  DesiredState d(4);
+  ASSERT_TRUE(d.apply(batch(1, {ins(1, 0.0f), ins(2, 1.0f)}), 0.0).ok());
+  std::vector<std::uint32_t> got;
+  bool overflowed = true;
+  d.take_pending_arrivals(got, overflowed);
+  EXPECT_FALSE(overflowed);
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(d.entry(got[0]).id, GaussianId{1});
+  EXPECT_EQ(d.entry(got[1]).id, GaussianId{2});
+  d.take_pending_arrivals(got, overflowed);
+  EXPECT_TRUE(got.empty()) << "taken arrivals are not listed again";
+  // A pending entry that changes is listed as changed; cancelling lists nothing.
+  ASSERT_TRUE(d.apply(batch(2, {upd(1, 5.0f), rem(2)}), 1.0).ok());
+  d.take_pending_arrivals(got, overflowed);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_NE(got[0] & DesiredState::kArrivalChanged, 0u);
+  EXPECT_EQ(d.entry(got[0] & ~DesiredState::kArrivalChanged).id, GaussianId{1});
+}
+
+TEST(DesiredState, PendingArrivalsOverflowInsteadOfGrowingWithoutBound) {
+  DesiredState d(2);
+  // Insert and cancel the same ids over and over: the list would grow with every batch.
+  std::uint64_t epoch = 1;
+  for (int round = 0; round < 2000; ++round) {
+    ASSERT_TRUE(d.apply(batch(epoch++, {ins(10 + round, 0.0f)}), 0.0).ok());
+    ASSERT_TRUE(d.apply(batch(epoch++, {rem(10 + round)}), 0.0).ok());
+  }
+  std::vector<std::uint32_t> got;
+  bool overflowed = false;
+  d.take_pending_arrivals(got, overflowed);
+  EXPECT_TRUE(overflowed);
+  EXPECT_TRUE(got.empty());
+  ASSERT_TRUE(d.apply(batch(epoch++, {ins(1, 0.0f)}), 0.0).ok());
+  d.take_pending_arrivals(got, overflowed);
+  EXPECT_FALSE(overflowed) << "the overflow is reported once";
+  EXPECT_EQ(got.size(), 1u);
+}

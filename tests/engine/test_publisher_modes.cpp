@@ -172,7 +172,10 @@ TEST(Publisher, InvisibleRemovesGiveUpTheirSlotsInSlotOrder) {
     EXPECT_LE(ranges.size(), 2u) << "frame " << frame;
     EXPECT_TRUE(f.slots.check().ok());
   }
-  while (f.desired.pending_count() > 0) ASSERT_TRUE(p.publish(f.desired, f.slots, view, 1.0).ok());
+  while (f.desired.pending_count() > 0) {
+    auto r = p.publish(f.desired, f.slots, view, 1.0);
+    ASSERT_TRUE(r.ok()) << r.message();
+  }
   EXPECT_EQ(f.slots.size(), kCap);
   for (std::uint64_t i = 0; i < kCap; ++i) {
     EXPECT_EQ(f.slots.slot_of(GaussianId{i + 1}), kNoSlot);
@@ -216,4 +219,49 @@ TEST(Publisher, AllowanceChargesUploadRanges) {
   // neighbours follow), so adjacent writes get most, not all, of the allowance.
   EXPECT_GE(adjacent, 60u);
   EXPECT_LE(scattered, 11u);
+}
+
+// A far teleport with the table full: every published Gaussian leaves and as many new
+// ones arrive. With a backlog re-scored only a few entries per frame, the publisher still
+// keeps the allowance and the capacity every frame, converges exactly, and publishes the
+// new view's Gaussians first (they arrive after the teleport and are scored on arrival).
+TEST(Publisher, TeleportBacklogKeepsTheBudgetAndServesTheNewViewFirst) {
+  constexpr std::uint32_t kCap = 2000;
+  Fixture f(kCap);
+  std::vector<Edit> first;
+  for (std::uint64_t i = 0; i < kCap; ++i) first.push_back(ins(i + 1, {static_cast<float>(i % 40) * 0.1f, 0, -5}));
+  ASSERT_TRUE(f.desired.apply({Epoch{1}, first}, 0.0).ok());
+  Publisher imm(PublisherConfig{.mode = PublishMode::Immediate});
+  ASSERT_TRUE(imm.publish(f.desired, f.slots, {}, 0.0).ok());
+  PublisherConfig cfg{.mode = PublishMode::Progressive, .allowance_min = 100, .allowance_max = 100, .allowance_initial = 100};
+  cfg.rescore_per_frame = 16;
+  cfg.age_escape_s = 1e9;
+  Publisher p(cfg);
+  const ViewState view{{0, 0, 0}, {0, 0, 1}};
+  ASSERT_TRUE(p.publish(f.desired, f.slots, view, 0.0).ok());  // ranks the (empty) backlog
+  std::vector<Edit> swap;
+  for (std::uint64_t i = 0; i < kCap; ++i) swap.push_back(Edit{EditKind::Remove, GaussianId{i + 1}, GaussianId{0}, {}});
+  // Half of the newcomers in view (ahead), half behind; interleaved so order alone cannot help.
+  for (std::uint64_t i = 0; i < kCap; ++i)
+    swap.push_back(ins(kCap + i + 1, {static_cast<float>(i % 40) * 0.1f, 0, (i % 2) ? -3.0f : 3.0f}));
+  ASSERT_TRUE(f.desired.apply({Epoch{2}, swap}, 1.0).ok());
+  std::size_t frames = 0, ahead_first = 0, behind_first = 0;
+  double now = 1.0;
+  while (f.desired.pending_count() > 0) {
+    auto r = p.publish(f.desired, f.slots, view, now);
+    ASSERT_TRUE(r.ok()) << r.message();
+    ASSERT_LE(r->slot_writes(), 100u);
+    ASSERT_LE(f.slots.size(), kCap);
+    if (frames < 5)
+      for (std::uint64_t i = 0; i < kCap; ++i)
+        if (f.slots.contains(GaussianId{kCap + i + 1})) ++((i % 2) ? behind_first : ahead_first);
+    now += 0.01;
+    ASSERT_LT(++frames, 200u);
+  }
+  EXPECT_EQ(behind_first, 0u) << "the new view's Gaussians go first";
+  EXPECT_GT(ahead_first, 0u);
+  EXPECT_EQ(f.slots.size(), kCap);
+  for (std::uint64_t i = 0; i < kCap; ++i) ASSERT_TRUE(f.slots.contains(GaussianId{kCap + i + 1}));
+  EXPECT_TRUE(f.slots.check().ok());
+  EXPECT_TRUE(f.desired.check().ok());
 }

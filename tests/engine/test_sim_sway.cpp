@@ -70,7 +70,8 @@ SwayResult sway(Simulation& sim, double seconds, double scale = 1.0) {
   const glm::vec3 p0(b.min.x + 0.8f * (b.max.x - b.min.x), 1.6f, 0.5f * (b.min.z + b.max.z));
   const double yaw0 = 3.14159265 / 2;
   sim.set_pose(0, p0, yaw(yaw0));
-  EXPECT_TRUE(sim.run_until(1.0).ok());
+  Status warm = sim.run_until(1.0);
+  EXPECT_TRUE(warm.ok()) << warm.message();
   sim.stop_scene();
   Status conv = sim.run_until_converged(20.0);
   EXPECT_TRUE(conv.ok()) << conv.message();

@@ -186,6 +186,21 @@ void DesiredState::refresh_pending(std::uint32_t index, Epoch old_epoch, bool wa
     e.pending_pos = static_cast<std::uint32_t>(pending_.size());
     pending_.push_back(index);
   }
+  if (!now_pending || arrivals_overflowed_) return;
+  // Bounded: a consumer that stops taking arrivals costs a few entries per slot at most.
+  if (arrivals_.size() >= 2 * static_cast<std::size_t>(capacity_) + 1024) {
+    arrivals_overflowed_ = true;
+    arrivals_.clear();
+    return;
+  }
+  arrivals_.push_back(was_pending ? (index | kArrivalChanged) : index);
+}
+
+void DesiredState::take_pending_arrivals(std::vector<std::uint32_t>& out, bool& overflowed) {
+  out.clear();
+  out.swap(arrivals_);
+  overflowed = arrivals_overflowed_;
+  arrivals_overflowed_ = false;
 }
 
 std::string DesiredState::apply_one(Op op, GaussianId id, const Gaussian* value, Epoch epoch, double now,

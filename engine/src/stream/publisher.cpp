@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include <glm/geometric.hpp>
 
@@ -96,37 +97,244 @@ Status Publisher::publish_entry(DesiredState& desired, SlotTable& slots, std::ui
   return Ok{};
 }
 
+namespace {
+
+// Priorities are finite and >= 0, so their float bits order like the values; inverted,
+// ascending keys are descending priorities.
+std::uint64_t selection_key(float priority, SlotIndex slot) {
+  std::uint32_t bits = 0;
+  static_assert(sizeof(bits) == sizeof(priority));
+  std::memcpy(&bits, &priority, sizeof(bits));
+  return (static_cast<std::uint64_t>(~bits) << 32) | to_underlying(slot);
+}
+
+}  // namespace
+
+Publisher::Ranked Publisher::rank(const DesiredState& desired, const SlotTable& slots, std::uint32_t index,
+                                  double now) const {
+  const DesiredEntry& e = desired.entry(index);
+  Ranked r;
+  r.index = index;
+  r.kind = e.pending_kind();
+  r.id = e.id;
+  r.key = selection_key(priority(e, view_, now), e.slot);
+  if (r.kind == PendingKind::Remove) {
+    // Removes as room for inserts: outside the view cone all alike (bucket 0: none of
+    // them is seen), inside it by relevance in 1/16 steps; then by slot.
+    const auto bucket = in_view_cone(e.published_position, view_)
+                            ? 1 + static_cast<std::uint64_t>(std::min(15.0f, view_relevance(e, view_) * 16.0f))
+                            : std::uint64_t{0};
+    const SlotIndex slot = e.slot != kNoSlot ? e.slot : slots.slot_of(e.id);
+    r.spare_key = (bucket << 32) | to_underlying(slot);
+  } else {
+    r.spare_key = r.key;
+  }
+  return r;
+}
+
+bool Publisher::still_pending(const DesiredState& desired, std::uint32_t index, GaussianId id) const {
+  const DesiredEntry& e = desired.entry(index);
+  return e.id == id && e.pending_kind() != PendingKind::None;
+}
+
+// Everything pending goes to the backlog (the head refills from it on first use), and
+// into the age queue in pending_since order.
+void Publisher::rebuild_ranking(const DesiredState& desired, const SlotTable& slots, double now) {
+  head_.clear();
+  head_pos_ = 0;
+  backlog_.clear();
+  spare_removes_.clear();
+  spare_inserts_.clear();
+  by_age_.clear();
+  rescore_cursor_ = 0;
+  std::vector<Aged> aged;
+  aged.reserve(desired.pending().size());
+  backlog_.reserve(desired.pending().size());
+  for (std::uint32_t i : desired.pending()) {
+    backlog_.push_back(rank(desired, slots, i, now));
+    aged.push_back({desired.entry(i).pending_since, i, desired.entry(i).id});
+  }
+  std::sort(aged.begin(), aged.end(), [](const Aged& a, const Aged& b) {
+    return a.since != b.since ? a.since < b.since : a.index < b.index;
+  });
+  by_age_.assign(aged.begin(), aged.end());
+  ranked_ = true;
+}
+
+void Publisher::update_ranking(DesiredState& desired, const SlotTable& slots, double now) {
+  bool overflowed = false;
+  desired.take_pending_arrivals(arrivals_, overflowed);
+  if (!ranked_ || overflowed) {
+    rebuild_ranking(desired, slots, now);
+    return;
+  }
+  // A changed entry is ranked again beside its old item (the old one is skipped or
+  // dropped once the entry is published); only a new one joins the age queue.
+  for (const std::uint32_t a : arrivals_) {
+    const std::uint32_t i = a & ~DesiredState::kArrivalChanged;
+    const DesiredEntry& e = desired.entry(i);
+    if (e.pending_kind() == PendingKind::None) continue;
+    backlog_.push_back(rank(desired, slots, i, now));
+    if (!(a & DesiredState::kArrivalChanged)) by_age_.push_back({e.pending_since, i, e.id});
+  }
+  // The head, what gets published next, follows the view: re-scored when the view moved.
+  const bool moved = glm::distance(view_.eye, head_view_.eye) > 0.01f || glm::dot(view_.forward, head_view_.forward) < 0.99996f;
+  if (moved) rescore_head(desired, slots, now);
+  // A slice of the backlog is re-scored (and cleared of what stopped being pending).
+  const std::size_t slice = std::min<std::size_t>(config_.rescore_per_frame, backlog_.size());
+  for (std::size_t n = 0; n < slice && !backlog_.empty(); ++n) {
+    if (rescore_cursor_ >= backlog_.size()) rescore_cursor_ = 0;
+    Ranked& r = backlog_[rescore_cursor_];
+    if (!still_pending(desired, r.index, r.id)) {
+      r = backlog_.back();
+      backlog_.pop_back();
+      continue;
+    }
+    r = rank(desired, slots, r.index, now);
+    ++rescore_cursor_;
+  }
+  // The age queue holds dead items only until they reach its front; keep it near the
+  // pending count so a long stream of short-lived edits cannot grow it without bound.
+  if (by_age_.size() > 2 * desired.pending_count() + 4096)
+    std::erase_if(by_age_, [&](const Aged& a) { return !still_pending(desired, a.index, a.id); });
+}
+
+void Publisher::rescore_head(const DesiredState& desired, const SlotTable& slots, double now) {
+  std::size_t live = head_pos_;
+  for (std::size_t k = head_pos_; k < head_.size(); ++k)
+    if (still_pending(desired, head_[k].index, head_[k].id)) head_[live++] = rank(desired, slots, head_[k].index, now);
+  head_.resize(live);
+  std::sort(head_.begin() + static_cast<std::ptrdiff_t>(head_pos_), head_.end(), before);
+  head_view_ = view_;
+}
+
+// Moves the best of the backlog (by its possibly stale keys) into the head, sorted.
+bool Publisher::refill_head(const DesiredState& desired) {
+  head_.erase(head_.begin(), head_.begin() + static_cast<std::ptrdiff_t>(head_pos_));
+  head_pos_ = 0;
+  const std::size_t want = std::max<std::size_t>(1024, static_cast<std::size_t>(allowance_) * std::max(1u, config_.head_allowances));
+  auto later = [](const Ranked& a, const Ranked& b) { return before(b, a); };
+  while (head_.size() < want && !backlog_.empty()) {
+    const std::size_t take = std::min(want - head_.size(), backlog_.size());
+    // The `take` best at the back of the backlog, then moved over.
+    if (take < backlog_.size())
+      std::nth_element(backlog_.begin(), backlog_.end() - static_cast<std::ptrdiff_t>(take), backlog_.end(), later);
+    for (std::size_t k = backlog_.size() - take; k < backlog_.size(); ++k)
+      if (still_pending(desired, backlog_[k].index, backlog_[k].id)) head_.push_back(backlog_[k]);
+    backlog_.resize(backlog_.size() - take);
+  }
+  rescore_cursor_ = 0;
+  std::sort(head_.begin(), head_.end(), before);
+  return !head_.empty();
+}
+
+// Lists spare removes (room for inserts) or spare inserts (partners for removes): the
+// `need` best, at least a head's worth, the best at the back. Spare removes move out of
+// the backlog (the unused ones go back at the next refill), so ones used up as room never
+// come round again; spare inserts, needed only when chosen removes outnumber chosen
+// inserts, are copies of the best pending inserts, checked as they are listed.
+void Publisher::refill_spares(const DesiredState& desired, PendingKind kind, std::size_t need) {
+  const std::size_t keep = std::max<std::size_t>(need, static_cast<std::size_t>(allowance_) * std::max(1u, config_.head_allowances));
+  auto better = [](const Ranked& a, const Ranked& b) {
+    return a.spare_key != b.spare_key ? a.spare_key < b.spare_key : a.index < b.index;
+  };
+  std::vector<Ranked>& out = kind == PendingKind::Remove ? spare_removes_ : spare_inserts_;
+  auto gather = [&](const std::vector<Ranked>& from, std::size_t begin) {
+    for (std::size_t k = begin; k < from.size(); ++k)
+      if (from[k].kind == kind && still_pending(desired, from[k].index, from[k].id) &&
+          desired.entry(from[k].index).pending_kind() == kind)
+        out.push_back(from[k]);
+  };
+  if (kind == PendingKind::Remove) {
+    backlog_.insert(backlog_.end(), out.begin(), out.end());
+    out.clear();
+    const auto first = std::partition(backlog_.begin(), backlog_.end(), [](const Ranked& r) { return r.kind != PendingKind::Remove; });
+    const std::size_t removes = static_cast<std::size_t>(backlog_.end() - first);
+    const std::size_t take = std::min(keep, removes);
+    if (take < removes)
+      std::nth_element(first, backlog_.end() - static_cast<std::ptrdiff_t>(take), backlog_.end(),
+                       [&](const Ranked& a, const Ranked& b) { return better(b, a); });
+    out.assign(backlog_.end() - static_cast<std::ptrdiff_t>(take), backlog_.end());
+    backlog_.resize(backlog_.size() - take);
+    rescore_cursor_ = 0;
+    std::erase_if(out, [&](const Ranked& r) {
+      return !still_pending(desired, r.index, r.id) || desired.entry(r.index).pending_kind() != kind;
+    });
+    // The backlog had none left: what is pending is in the head (copies; the head skips
+    // them once published).
+    if (out.empty()) gather(head_, head_pos_);
+  } else {
+    out.clear();
+    gather(head_, head_pos_);
+    gather(backlog_, 0);
+  }
+  if (out.size() > keep) {
+    std::nth_element(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(keep), out.end(), better);
+    out.resize(keep);
+  }
+  std::sort(out.begin(), out.end(), [&](const Ranked& a, const Ranked& b) { return better(b, a); });
+}
+
+// The next spare of `kind` still pending as that kind, or kNotPending when none is left.
+std::uint32_t Publisher::next_spare(const DesiredState& desired, PendingKind kind, std::size_t need) {
+  std::vector<Ranked>& list = kind == PendingKind::Remove ? spare_removes_ : spare_inserts_;
+  for (int pass = 0; pass < 2; ++pass) {
+    while (!list.empty()) {
+      const Ranked r = list.back();
+      list.pop_back();
+      if (still_pending(desired, r.index, r.id) && desired.entry(r.index).pending_kind() == kind) return r.index;
+    }
+    if (pass == 0) refill_spares(desired, kind, need);
+  }
+  return DesiredEntry::kNotPending;
+}
+
 Expected<PublishReport> Publisher::publish(DesiredState& desired, SlotTable& slots, const ViewState& view, double now) {
   PublishReport rep;
-  const std::vector<std::uint32_t>& pending = desired.pending();
-  scratch_.assign(pending.begin(), pending.end());
   view_ = view;
   if (config_.mode == PublishMode::Immediate) {
     // Everything is chosen: no unchosen candidate is ever ranked, so no priorities.
+    ranked_ = false;  // rebuilt if progressive publication resumes
+    bool overflowed = false;
+    desired.take_pending_arrivals(arrivals_, overflowed);
+    spare_removes_.clear();
+    spare_inserts_.clear();
     budget_ = 0.0;
-    Status s = apply_chosen(desired, slots, 0, scratch_.size(), rep);
+    chosen_.assign(desired.pending().begin(), desired.pending().end());
+    Status s = apply_chosen(desired, slots, chosen_, rep);
     if (!s) return s.error();
     rep.pending_after = static_cast<std::uint32_t>(desired.pending_count());
     return rep;
   }
   rep.allowance = allowance_;
-  prio_.resize(desired.entry_slots());
-  for (std::uint32_t i : scratch_) prio_[i] = priority(desired.entry(i), view, now);
+  update_ranking(desired, slots, now);
+  if (chosen_stamp_.size() < desired.entry_slots()) chosen_stamp_.resize(desired.entry_slots(), 0);
+  auto next_round = [&] {
+    if (++round_ == 0) {  // wrapped: old stamps could collide
+      std::fill(chosen_stamp_.begin(), chosen_stamp_.end(), 0);
+      round_ = 1;
+    }
+  };
   // Age escape first: the oldest edits past the limit, up to the quota, on top of the allowance.
-  auto old_end = std::partition(scratch_.begin(), scratch_.end(), [&](std::uint32_t i) {
-    return now - desired.entry(i).pending_since >= config_.age_escape_s;
-  });
-  std::size_t escaped = static_cast<std::size_t>(old_end - scratch_.begin());
-  if (escaped > config_.escape_quota) {
-    std::nth_element(scratch_.begin(), scratch_.begin() + config_.escape_quota, old_end, [&](std::uint32_t a, std::uint32_t b) {
-      return desired.entry(a).pending_since < desired.entry(b).pending_since;
-    });
-    escaped = config_.escape_quota;
+  next_round();
+  chosen_.clear();
+  while (!by_age_.empty() && chosen_.size() < config_.escape_quota) {
+    const Aged a = by_age_.front();
+    const DesiredEntry& e = desired.entry(a.index);
+    // Published since, or pending again (queued again then), or listed twice.
+    if (!still_pending(desired, a.index, a.id) || e.pending_since != a.since || chosen_stamp_[a.index] == round_) {
+      by_age_.pop_front();
+      continue;
+    }
+    if (now - a.since < config_.age_escape_s) break;
+    by_age_.pop_front();
+    chosen_stamp_[a.index] = round_;
+    chosen_.push_back(a.index);
   }
   escaped_ranges_ = 0;
   budget_ = 0.0;  // the escape is on top of the allowance
-  if (escaped > 0) {
-    Status s = apply_chosen(desired, slots, 0, escaped, rep);
+  if (!chosen_.empty()) {
+    Status s = apply_chosen(desired, slots, chosen_, rep);
     if (!s) return s.error();
     rep.escaped = rep.slot_writes();
     escaped_ranges_ = rep.new_ranges;
@@ -136,35 +344,39 @@ Expected<PublishReport> Publisher::publish(DesiredState& desired, SlotTable& slo
   // apply_chosen stops at the allowance, even inside a round: a round sized on a guess
   // of how scattered its writes are cannot overrun the frame.
   budget_ = static_cast<double>(allowance_);
-  // Then the highest priorities, up to the allowance. Paired edits (an insert into a
-  // leaving Gaussian's slot) cost one write for two edits, and writes next to each
-  // other share a range, so a round can leave allowance over; the next round takes the
-  // next-best of what is still pending. A round is sized by the share of writes that
-  // opened a range (this frame's so far; for the first round the last busy frame's,
-  // pessimistic 1 before any) so it cannot overrun much.
-  std::size_t pos = escaped;
+  // Then the best ranked, up to the allowance. Paired edits (an insert into a leaving
+  // Gaussian's slot) cost one write for two edits, and writes next to each other share
+  // a range, so a round can leave allowance over; the next round takes the next-best of
+  // what is still pending. A round is sized by the share of writes that opened a range
+  // (this frame's so far; for the first round the last busy frame's, pessimistic 1
+  // before any) so it cannot overrun much.
   while (charged() < static_cast<double>(allowance_)) {
-    auto live_end = std::partition(scratch_.begin() + static_cast<std::ptrdiff_t>(pos), scratch_.end(),
-                                   [&](std::uint32_t i) { return desired.entry(i).pending_kind() != PendingKind::None; });
-    const std::size_t live = static_cast<std::size_t>(live_end - scratch_.begin()) - pos;
-    if (live == 0) break;
-    scratch_.resize(pos + live);
     const std::uint32_t writes = rep.slot_writes() - rep.escaped;
     const double fraction = writes ? static_cast<double>(rep.new_ranges - escaped_ranges) / writes : range_fraction_;
     const double per_write = 1.0 + static_cast<double>(config_.range_cost) * fraction;
     const auto room = static_cast<std::size_t>(std::max(1.0, (static_cast<double>(allowance_) - charged()) / per_write));
-    const std::size_t take = std::min<std::size_t>(live, room);
-    if (take < live)
-      std::nth_element(scratch_.begin() + static_cast<std::ptrdiff_t>(pos), scratch_.begin() + static_cast<std::ptrdiff_t>(pos + take),
-                       scratch_.end(), [&](std::uint32_t a, std::uint32_t b) {
-                         if (prio_[a] != prio_[b]) return prio_[a] > prio_[b];
-                         // Equal priority: lower slot first (inserts have none: entry order).
-                         const auto sa = to_underlying(desired.entry(a).slot), sb = to_underlying(desired.entry(b).slot);
-                         return sa != sb ? sa < sb : a < b;
-                       });
-    Status s = apply_chosen(desired, slots, pos, pos + take, rep);
+    next_round();
+    chosen_.clear();
+    while (chosen_.size() < room) {
+      if (head_pos_ == head_.size() && !refill_head(desired)) break;
+      const Ranked& r = head_[head_pos_++];
+      if (!still_pending(desired, r.index, r.id) || chosen_stamp_[r.index] == round_) continue;
+      chosen_stamp_[r.index] = round_;
+      chosen_.push_back(r.index);
+    }
+    if (chosen_.empty()) break;
+    Status s = apply_chosen(desired, slots, chosen_, rep);
     if (!s) return s.error();
-    pos += take;
+  }
+  // What the allowance cut off this frame stays at the front of the head.
+  {
+    std::vector<Ranked> left;
+    for (std::uint32_t i : chosen_)
+      if (still_pending(desired, i, desired.entry(i).id)) left.push_back(rank(desired, slots, i, now));
+    if (!left.empty()) {
+      std::sort(left.begin(), left.end(), before);
+      head_.insert(head_.begin() + static_cast<std::ptrdiff_t>(head_pos_), left.begin(), left.end());
+    }
   }
   rep.pending_after = static_cast<std::uint32_t>(desired.pending_count());
   saturated_ = charged() >= static_cast<double>(allowance_);
@@ -172,19 +384,19 @@ Expected<PublishReport> Publisher::publish(DesiredState& desired, SlotTable& slo
   return rep;
 }
 
-// Publishes scratch_[begin, end). Chosen inserts pair with chosen removes first (one
-// slot write each); an insert finding the table full takes the slot of an unchosen
-// remove (least visible first, so what vanishes early is what the viewer is least
-// likely to see; among equally visible ones in slot order, so that a frame's inserts
-// land in consecutive slots and upload as a few long ranges, not thousands of copy
-// commands); a chosen remove left over takes an unchosen insert (most relevant first)
-// rather than leaving a hole a later frame refills. Unchosen candidates come from
-// scratch_[end, size); only as many as can be used are ordered.
-Status Publisher::apply_chosen(DesiredState& desired, SlotTable& slots, std::size_t begin, std::size_t end,
+// Publishes `chosen`. Chosen inserts pair with chosen removes first (one slot write
+// each); an insert finding the table full takes the slot of an unchosen remove (least
+// visible first, so what vanishes early is what the viewer is least likely to see;
+// among equally visible ones in slot order, so that a frame's inserts land in
+// consecutive slots and upload as a few long ranges, not thousands of copy commands);
+// a chosen remove left over takes an unchosen insert (most relevant first) rather than
+// leaving a hole a later frame refills. In immediate mode everything is chosen, so no
+// unchosen spare exists: spares come from the progressive ranking only.
+Status Publisher::apply_chosen(DesiredState& desired, SlotTable& slots, const std::vector<std::uint32_t>& chosen,
                                PublishReport& rep) {
+  const bool spares = config_.mode == PublishMode::Progressive;
   std::vector<std::uint32_t> inserts, removes;
-  for (std::size_t k = begin; k < end; ++k) {
-    const std::uint32_t i = scratch_[k];
+  for (const std::uint32_t i : chosen) {
     switch (desired.entry(i).pending_kind()) {
       case PendingKind::Insert: inserts.push_back(i); break;
       case PendingKind::Remove: removes.push_back(i); break;
@@ -207,45 +419,6 @@ Status Publisher::apply_chosen(DesiredState& desired, SlotTable& slots, std::siz
     count_range(slots, *s, rep);
     return Ok{};
   };
-  // Unchosen removes, the `need` to use first at the back: outside the view cone all
-  // alike (bucket 0: none of them is seen), inside it by relevance in 1/16 steps; then
-  // by slot.
-  auto spare_removes_for = [&](std::size_t need) {
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed;
-    for (std::size_t k = end; k < scratch_.size(); ++k) {
-      const DesiredEntry& e = desired.entry(scratch_[k]);
-      if (e.pending_kind() != PendingKind::Remove) continue;
-      const auto bucket = in_view_cone(e.published_position, view_)
-                              ? 1 + static_cast<std::uint64_t>(std::min(15.0f, view_relevance(e, view_) * 16.0f))
-                              : std::uint64_t{0};
-      const SlotIndex slot = e.slot != kNoSlot ? e.slot : slots.slot_of(e.id);
-      keyed.emplace_back((bucket << 32) | to_underlying(slot), scratch_[k]);
-    }
-    if (keyed.size() > need) {
-      std::nth_element(keyed.begin(), keyed.begin() + static_cast<std::ptrdiff_t>(need), keyed.end());
-      keyed.resize(need);
-    }
-    std::sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-    std::vector<std::uint32_t> out;
-    out.reserve(keyed.size());
-    for (const auto& k : keyed) out.push_back(k.second);
-    return out;
-  };
-  // Unchosen inserts, the `need` most relevant, the most relevant at the back.
-  auto spare_inserts_for = [&](std::size_t need) {
-    std::vector<std::uint32_t> out;
-    for (std::size_t k = end; k < scratch_.size(); ++k)
-      if (desired.entry(scratch_[k]).pending_kind() == PendingKind::Insert) out.push_back(scratch_[k]);
-    auto higher = [&](std::uint32_t a, std::uint32_t b) { return prio_[a] > prio_[b]; };
-    if (out.size() > need) {
-      std::nth_element(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(need), out.end(), higher);
-      out.resize(need);
-    }
-    std::sort(out.begin(), out.end(), [&](std::uint32_t a, std::uint32_t b) { return higher(b, a); });
-    return out;
-  };
-  std::vector<std::uint32_t> spare_removes;
-  bool spare_removes_listed = false;
   for (std::size_t n = 0; n < inserts.size(); ++n) {
     const std::uint32_t ins = inserts[n];
     if (!removes.empty()) {
@@ -257,14 +430,9 @@ Status Publisher::apply_chosen(DesiredState& desired, SlotTable& slots, std::siz
       continue;
     }
     if (slots.free_count() == 0) {
-      if (!spare_removes_listed) {
-        spare_removes = spare_removes_for(inserts.size() - n);
-        spare_removes_listed = true;
-      }
-      if (spare_removes.empty()) return Error{"publisher: slot table full and no pending remove to make room"};
-      const std::uint32_t r = spare_removes.back();
-      spare_removes.pop_back();
       if (over_budget(rep)) return Ok{};
+      const std::uint32_t r = spares ? next_spare(desired, PendingKind::Remove, inserts.size() - n) : DesiredEntry::kNotPending;
+      if (r == DesiredEntry::kNotPending) return Error{"publisher: slot table full and no pending remove to make room"};
       Status s = pair(r, ins);
       if (!s) return s;
       continue;
@@ -273,19 +441,11 @@ Status Publisher::apply_chosen(DesiredState& desired, SlotTable& slots, std::siz
     Status s = publish_entry(desired, slots, ins, rep);
     if (!s) return s;
   }
-  std::vector<std::uint32_t> spare_inserts;
-  if (!removes.empty()) spare_inserts = spare_inserts_for(removes.size());
-  for (std::uint32_t r : removes) {
-    if (!spare_inserts.empty()) {
-      const std::uint32_t ins = spare_inserts.back();
-      spare_inserts.pop_back();
-      if (over_budget(rep)) return Ok{};
-      Status s = pair(r, ins);
-      if (!s) return s;
-      continue;
-    }
+  for (std::size_t n = 0; n < removes.size(); ++n) {
+    const std::uint32_t r = removes[n];
     if (over_budget(rep)) return Ok{};
-    Status s = publish_entry(desired, slots, r, rep);
+    const std::uint32_t ins = spares ? next_spare(desired, PendingKind::Insert, removes.size() - n) : DesiredEntry::kNotPending;
+    Status s = ins != DesiredEntry::kNotPending ? pair(r, ins) : publish_entry(desired, slots, r, rep);
     if (!s) return s;
   }
   return Ok{};

@@ -250,6 +250,13 @@ class DesiredState {
   // Size of the entry pool: every entry index is below this (for per-entry scratch).
   std::size_t entry_slots() const noexcept { return entries_.size(); }
   const DesiredEntry* find(GaussianId id) const;
+  // Entries that became pending, or whose pending edit changed, since the last call, in
+  // the order that happened, moved into `out`. A changed one carries kArrivalChanged; the
+  // others' pending_since ascends. `overflowed` says more than twice capacity() arrived
+  // between calls and the list was dropped: the caller must rescan pending(). Lets the
+  // Publisher keep its ranking current without scanning every pending entry per frame.
+  static constexpr std::uint32_t kArrivalChanged = 0x80000000u;
+  void take_pending_arrivals(std::vector<std::uint32_t>& out, bool& overflowed);
 
   // Highest epoch whose batch has arrived (nullopt before the first).
   std::optional<Epoch> received_epoch() const noexcept { return received_; }
@@ -287,6 +294,8 @@ class DesiredState {
   std::vector<DesiredEntry, detail::TableAllocator<DesiredEntry>> entries_;
   std::vector<std::uint32_t> free_entries_;
   std::vector<std::uint32_t> pending_;
+  std::vector<std::uint32_t> arrivals_;  // became pending since take_pending_arrivals()
+  bool arrivals_overflowed_{false};
   // Pending entries per epoch, ascending by epoch: the oldest pending epoch bounds the
   // barrier. Few distinct epochs are pending at once and nearly every edit counts into
   // the newest, so a flat vector searched from the back beats a map (two tree walks per

@@ -8,7 +8,18 @@
 //                an age escape serves edits older than a limit even at low priority.
 // The published total never exceeds the SlotTable's capacity: an insert that finds no
 // free slot takes over the slot of a pending remove (one slot write, like Replace).
+//
+// Cost per frame is bounded by the allowance, not by what is pending (a far teleport
+// leaves ~2M edits pending for many frames). Progressive publication keeps a ranking:
+// a small sorted head it serves from, an unsorted backlog it refills the head from by
+// selection, and a queue in arrival (= age) order for the age escape. Edits that become
+// pending are scored once on arrival (DesiredState::take_pending_arrivals); the backlog
+// is re-scored a slice per frame, the head every frame, so the ranking follows the view
+// and the age term with a lag of a few frames instead of a full re-rank per frame.
+// Every ranked item is checked against its entry when used: one that stopped being
+// pending, or whose entry now holds another id, is dropped.
 #include <cstdint>
+#include <deque>
 #include <vector>
 
 #include <glm/vec3.hpp>
@@ -56,6 +67,10 @@ struct PublisherConfig {
   float age_reference_s{1.0f};     // age at which the age term saturates
   float view_distance_reference{4.0f};  // metres: relevance halves at this distance
   float view_cos_half_fov{0.5f};   // cos of the half field of view counted as "in view"
+  // Ranking upkeep: backlog entries re-scored per frame (the ranking's lag behind the view
+  // is backlog / this, in frames), and the head's size in allowances.
+  std::uint32_t rescore_per_frame{16384};
+  std::uint32_t head_allowances{2};
 };
 
 struct ViewState {
@@ -110,7 +125,33 @@ class Publisher {
   // Allowance units used this frame (writes and ranges beyond the age escape).
   double charged_work(const PublishReport& rep) const;
   bool over_budget(const PublishReport& rep) const;
-  Status apply_chosen(DesiredState& desired, SlotTable& slots, std::size_t begin, std::size_t end, PublishReport& rep);
+  // A ranked pending entry. `key` orders the selection: descending priority, then slot
+  // (so equal priorities vacate runs of slots), then entry index. `spare_key` orders
+  // removes as room for inserts: least visible first, then by slot.
+  struct Ranked {
+    std::uint64_t key{0};
+    std::uint64_t spare_key{0};
+    std::uint32_t index{0};
+    PendingKind kind{PendingKind::None};
+    GaussianId id{0};
+  };
+  static bool before(const Ranked& a, const Ranked& b) { return a.key != b.key ? a.key < b.key : a.index < b.index; }
+  struct Aged {
+    double since{0.0};
+    std::uint32_t index{0};
+    GaussianId id{0};
+  };
+  Ranked rank(const DesiredState& desired, const SlotTable& slots, std::uint32_t index, double now) const;
+  bool still_pending(const DesiredState& desired, std::uint32_t index, GaussianId id) const;
+  void rebuild_ranking(const DesiredState& desired, const SlotTable& slots, double now);
+  void update_ranking(DesiredState& desired, const SlotTable& slots, double now);
+  void rescore_head(const DesiredState& desired, const SlotTable& slots, double now);
+  bool refill_head(const DesiredState& desired);
+  void refill_spares(const DesiredState& desired, PendingKind kind, std::size_t need);
+  // Publishes `chosen` (entry indices), pairing inserts with removes as described in
+  // publisher.cpp; stops at the frame's budget.
+  Status apply_chosen(DesiredState& desired, SlotTable& slots, const std::vector<std::uint32_t>& chosen, PublishReport& rep);
+  std::uint32_t next_spare(const DesiredState& desired, PendingKind kind, std::size_t need);
 
   PublisherConfig config_;
   std::uint32_t allowance_;
@@ -119,9 +160,19 @@ class Publisher {
   double range_fraction_{1.0};  // new ranges per slot write in the last busy frame
   double budget_{0.0};          // allowance units apply_chosen may use this frame (0 = no limit)
   std::uint32_t escaped_ranges_{0};  // ranges opened by this frame's age escape
-  std::vector<std::uint32_t> scratch_;  // pending entry indices, in selection order
-  std::vector<float> prio_;             // priority per entry index, this frame
   ViewState view_;                      // this frame's view
+  // The ranking (progressive mode only; rebuilt after immediate frames).
+  bool ranked_{false};
+  std::vector<Ranked> head_;       // ascending key from head_pos_
+  std::size_t head_pos_{0};
+  ViewState head_view_;            // the view the head was scored for
+  std::vector<Ranked> backlog_;    // unsorted
+  std::size_t rescore_cursor_{0};
+  std::vector<Ranked> spare_removes_, spare_inserts_;  // the next one to use at the back
+  std::deque<Aged> by_age_;        // ascending `since`
+  std::vector<std::uint32_t> arrivals_, chosen_;
+  std::vector<std::uint32_t> chosen_stamp_;  // per entry index: the round that chose it
+  std::uint32_t round_{0};
 };
 
 }  // namespace gauss
