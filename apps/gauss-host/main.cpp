@@ -1,17 +1,20 @@
 // gauss-host: streams an evolving scene to VR/desktop clients over ENet.
 //
-//   gauss-host [--bind HOST:PORT] [--token T] [--scene synthetic:VARIANT]
-//              [--gaussians N] [--epochs N] [--epoch-period S] [--seed N]
-//              [--max-clients N] [--duration S] [--surface-voxel M] [--events FILE]
-//              [--dump-sent DIR] [--quiet]          (options.cpp; --help lists them)
+//   gauss-host [--bind HOST:PORT] [--token T] [--scene synthetic:V | FILE | FOLDER]
+//              [--labels F] [--objects F] [--rgbd DIR | --mesh M.ply] [--epoch-period S]
+//              [--max-budget N] [--rho R] [--min-opacity A] [--max-scale S] [--min-support N]
+//              [--gaussians N] [--epochs N] [--seed N] [--max-clients N] [--duration S]
+//              [--surface-voxel M] [--events FILE] [--dump-sent DIR] [--quiet]
+//              (options.cpp; --help lists them)
 //
 // Binds 127.0.0.1 by default: other machines reach the host only with an explicit
-// --bind. New epochs of the synthetic scene are produced every --epoch-period seconds
-// until the trajectory ends; the host then keeps serving the final scene (clients
-// may still connect, move and query) until --duration passes or SIGINT/SIGTERM.
-// Once a second it prints clients, epoch and wire throughput; --events writes every
-// session's stage events as JSON lines; --dump-sent writes what each client was sent
-// when its session ends (dump_sent.h).
+// --bind. The scene (scene_feed.h) produces epochs every --epoch-period seconds: the
+// synthetic trajectory until it ends, a snapshot folder whenever a new snapshot appears
+// (followed live); the host keeps serving the latest epoch (clients may still connect,
+// move and query) until --duration passes or SIGINT/SIGTERM. Once a second it prints the
+// epoch, clients, edits/s and bytes/s; on exit, a summary. --events writes every session's
+// stage events as JSON lines; --dump-sent writes what each client was sent when its
+// session ends (dump_sent.h).
 //
 // Exit status: 0 stopped by --duration or a signal; 1 the scene or the transport failed
 // (the message says which); 2 bad arguments.
@@ -22,16 +25,16 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <optional>
 #include <string>
 #include <system_error>
 #include <thread>
 
 #include "dump_sent.h"
-#include "gauss/engine/synthetic_scene.h"
-#include "gauss/engine/tsdf.h"
 #include "gauss/net/session_host.h"
 #include "options.h"
+#include "scene_feed.h"
 
 namespace {
 
@@ -44,45 +47,42 @@ int main(int argc, char** argv) {
   gauss::host_app::Options o;
   if (auto rc = gauss::host_app::parse_options(argc, argv, o)) return *rc;
 
-  gauss::SyntheticSceneConfig sc;
-  sc.variant = o.variant;
-  sc.seed = o.seed;
-  sc.target_gaussians = o.gaussians;
-  sc.epochs = o.epochs;
-  auto scene = gauss::SyntheticScene::create(sc);
-  if (!scene) {
-    std::fprintf(stderr, "gauss-host: %s\n", scene.message().c_str());
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  gauss::SceneStore store;
+  auto feed = gauss::host_app::SceneFeed::open(o, store, g_stop);
+  if (!feed) {
+    std::fprintf(stderr, "gauss-host: %s\n", feed.message().c_str());
     return 1;
   }
-  gauss::SceneStore store;
-  // The surface: each epoch's camera frames (the scene's exact ground-truth depth) are
-  // fused into a TSDF, and the changed chunks enter the store in the following epoch.
-  std::optional<gauss::TsdfVolume> surface;
-  if (o.surface_voxel > 0.0) {
-    gauss::TsdfConfig tc;
-    tc.voxel_size = static_cast<float>(o.surface_voxel);
-    auto v = gauss::TsdfVolume::create(tc);
-    if (!v) {
-      std::fprintf(stderr, "gauss-host: %s\n", v.message().c_str());
-      return 1;
-    }
-    surface.emplace(std::move(*v));
-  }
-  // The codec box must cover every Gaussian the scene will ever hold: the room plus a
-  // margin for the noisy first observations.
-  gauss::CodecParams params;
-  params.sh_degree = 1;
-  params.box.min = scene->room_min() - glm::vec3(0.5f);
-  params.box.max = scene->room_max() + glm::vec3(0.5f);
+  const gauss::CodecParams params = (*feed)->codec_params();
 
   gauss::net::SessionHostConfig hc;
   hc.net.bind = o.bind;
   hc.net.access_token = o.token;
   hc.net.max_clients = o.max_clients;
   hc.session.access_token = o.token;
-  if (!o.dump_sent_dir.empty()) {
+  if (o.max_budget > 0) hc.session.max_capacity = o.max_budget;
+  hc.session.default_rho = o.rho;
+  if (o.min_opacity > 0.0f || o.max_scale > 0.0f || o.min_support > 0) {
+    gauss::EligibilityConfig ec;
+    ec.min_opacity = o.min_opacity;
+    ec.max_scale = o.max_scale > 0.0f ? o.max_scale : std::numeric_limits<float>::max();
+    ec.min_support = o.min_support;
+    hc.session.eligibility = ec;
+  }
+  // Edits sent by sessions that have ended, for the status line and the summary.
+  std::uint64_t closed_edits = 0, closed_batches = 0;
+  if (o.dump_sent_dir.empty()) {
+    hc.on_session_closed = [&](std::uint32_t, const std::string&, const gauss::HostSession& session) {
+      closed_edits += session.stats().edits_sent;
+      closed_batches += session.stats().batches_sent;
+    };
+  } else {
     // Synchronous in the host loop: a sent set is at most a few 100k Gaussians.
     hc.on_session_closed = [&](std::uint32_t client, const std::string& name, const gauss::HostSession& session) {
+      closed_edits += session.stats().edits_sent;
+      closed_batches += session.stats().batches_sent;
       if (!session.accepted()) return;  // refused at the Hello: it was sent nothing
       const std::string stem = gauss::host_app::dump_file_stem(name, client);
       auto r = gauss::host_app::dump_sent(o.dump_sent_dir, stem, session, store, params);
@@ -118,44 +118,34 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "gauss-host: --dump-sent: cannot create %s: %s (dumps will fail)\n",
                    o.dump_sent_dir.c_str(), ec.message().c_str());
   }
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  std::printf("gauss-host: serving synthetic:%d (%zu Gaussians, %d epochs) on %s:%u, session %016llx%s\n", o.variant,
-              o.gaussians, o.epochs, o.bind.host.c_str(), (*host)->net().port(),
-              static_cast<unsigned long long>((*host)->net().session_id()), o.token.empty() ? "" : ", token required");
+  std::printf("gauss-host: serving %s: %zu Gaussians, SH degree %d, on %s:%u, session %016llx%s\n",
+              (*feed)->describe().c_str(), store.size(), store.sh_degree(), o.bind.host.c_str(), (*host)->net().port(), static_cast<unsigned long long>((*host)->net().session_id()),
+              o.token.empty() ? "" : ", token required");
   std::fflush(stdout);
 
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
-  double next_epoch = 0.0, next_report = 1.0;
-  std::uint64_t last_bytes = 0;
+  auto edits_sent = [&] {
+    std::uint64_t n = closed_edits;
+    for (std::uint32_t id : (*host)->clients()) n += (*host)->session(id)->stats().edits_sent;
+    return n;
+  };
+  double next_report = 1.0;
+  std::uint64_t last_bytes = 0, last_edits = 0;
+  std::size_t epochs_served = 1;
+  int exit_code = 0;
   while (!g_stop.load()) {
     const double now = seconds();
     if (o.duration_s > 0.0 && now >= o.duration_s) break;
-    if (!scene->finished() && now >= next_epoch) {
-      if (auto s = scene->produce(store); !s) {
-        std::fprintf(stderr, "gauss-host: epoch failed: %s\n", s.message().c_str());
-        return 1;
-      }
-      if (surface) {
-        for (const gauss::Camera& cam : scene->cameras_of_epoch(scene->produced() - 1))
-          if (auto s = surface->integrate(gauss::synthetic_rgbd_frame(*scene, cam, store.epoch())); !s) {
-            std::fprintf(stderr, "gauss-host: surface frame skipped: %s\n", s.message().c_str());
-          }
-        const auto edits = surface->extract_changed();
-        if (!edits.empty()) {
-          gauss::Status s = store.begin_next_epoch();
-          if (s) s = gauss::apply_surface_edits(store, edits);
-          if (s) s = store.commit_epoch();
-          if (!s) {
-            std::fprintf(stderr, "gauss-host: surface epoch failed: %s\n", s.message().c_str());
-            return 1;
-          }
-        }
-      }
-      next_epoch = now + o.epoch_period_s;
+    auto stepped = (*feed)->step(store, now);
+    if (!stepped) {
+      std::fprintf(stderr, "gauss-host: %s\n", stepped.message().c_str());
+      exit_code = 1;
+      break;
     }
+    if (*stepped) ++epochs_served;
+    for (const std::string& line : (*feed)->take_messages()) std::printf("gauss-host: %s\n", line.c_str());
     (*host)->pump(store, now);
     if (events.is_open()) {
       for (std::uint32_t id : (*host)->clients()) {
@@ -166,19 +156,30 @@ int main(int argc, char** argv) {
     }
     if (!o.quiet && now >= next_report) {
       const auto c = (*host)->net().counters();
-      std::printf("t=%6.1fs epoch %llu clients %zu  sent %.2f MB/s  rejected %llu  refused %llu\n", now,
-                  static_cast<unsigned long long>(gauss::to_underlying(store.epoch())), (*host)->clients().size(),
-                  double(c.bytes_sent - last_bytes) / 1e6,
+      const std::uint64_t edits = edits_sent();
+      std::printf("t=%6.1fs epoch %llu%s clients %zu  edits/s %llu  sent %.2f MB/s  rejected %llu  refused %llu\n", now,
+                  static_cast<unsigned long long>(gauss::to_underlying(store.epoch())),
+                  (*feed)->live() ? "" : " (final)", (*host)->clients().size(),
+                  static_cast<unsigned long long>(edits - last_edits), double(c.bytes_sent - last_bytes) / 1e6,
                   static_cast<unsigned long long>(c.rejected()),
                   static_cast<unsigned long long>(c.refused_token + c.refused_version + c.refused_capacity +
                                                   c.refused_full + c.refused_malformed));
       std::fflush(stdout);
       last_bytes = c.bytes_sent;
+      last_edits = edits;
       next_report += 1.0;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
+  const std::uint64_t edits_total = edits_sent();
   (*host)->close_all();  // --dump-sent: the still-connected clients' dumps
-  std::printf("gauss-host: stopping\n");
-  return 0;
+  const auto c = (*host)->net().counters();
+  const auto& hs = (*host)->stats();
+  std::printf("gauss-host: stopping after %.1f s: %zu epochs served (last %llu), %llu sessions, %llu edits in %llu "
+              "batches, %.2f MB sent, %llu messages rejected\n",
+              seconds(), epochs_served, static_cast<unsigned long long>(gauss::to_underlying(store.epoch())),
+              static_cast<unsigned long long>(hs.sessions_opened), static_cast<unsigned long long>(edits_total),
+              static_cast<unsigned long long>(closed_batches), double(c.bytes_sent) / 1e6,
+              static_cast<unsigned long long>(c.rejected()));
+  return exit_code;
 }

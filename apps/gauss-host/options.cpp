@@ -1,5 +1,8 @@
 #include "options.h"
 
+#include <filesystem>
+#include <system_error>
+
 #include "endpoint_option.h"
 #include "gauss_cli.h"
 
@@ -7,24 +10,36 @@ namespace gauss::host_app {
 
 namespace {
 
+const std::string kSyntheticPrefix = "synthetic:";
+
 // "synthetic:0" .. "synthetic:3" -> the variant, else std::nullopt.
-std::optional<int> parse_scene(const std::string& s) {
-  const std::string prefix = "synthetic:";
+std::optional<int> parse_synthetic(const std::string& s) {
   int v = -1;
-  if (s.rfind(prefix, 0) != 0 || !CLI::detail::lexical_cast(s.substr(prefix.size()), v) || v < 0 || v > 3)
+  if (s.rfind(kSyntheticPrefix, 0) != 0 || !CLI::detail::lexical_cast(s.substr(kSyntheticPrefix.size()), v) || v < 0 ||
+      v > 3)
     return std::nullopt;
   return v;
+}
+
+// A --scene value: synthetic:0..3, or an existing file or folder.
+std::string check_scene(const std::string& in) {
+  if (in.rfind(kSyntheticPrefix, 0) == 0)
+    return parse_synthetic(in) ? std::string{} : "Value " + in + " is not synthetic:0..3";
+  std::error_code ec;
+  if (!std::filesystem::exists(in, ec)) return "Scene " + in + " does not exist (nor is it synthetic:0..3)";
+  return {};
 }
 
 }  // namespace
 
 std::optional<int> parse_options(int argc, char** argv, Options& o) {
   CLI::App app{
-      "gauss-host: streams an evolving synthetic scene to VR/desktop clients over ENet.\n"
+      "gauss-host: streams an evolving scene to VR/desktop clients over ENet.\n"
       "Binds 127.0.0.1 by default: other machines reach the host only with an explicit --bind.\n"
-      "New epochs are produced every --epoch-period seconds until the trajectory ends; the host\n"
-      "then keeps serving the final scene until --duration passes or SIGINT/SIGTERM. Once a\n"
-      "second it prints clients, epoch and wire throughput.",
+      "New epochs come every --epoch-period seconds: the synthetic trajectory until it ends, a\n"
+      "snapshot folder whenever a new snapshot appears (followed live). The host keeps serving the\n"
+      "latest epoch until --duration passes or SIGINT/SIGTERM. Once a second it prints the epoch,\n"
+      "clients, edits/s and bytes/s; a summary on exit.",
       "gauss-host"};
   apps::configure(app);
   std::string bind = net::to_string(o.bind);
@@ -33,20 +48,43 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
       ->check(apps::endpoint())
       ->type_name("HOST:PORT");
   app.add_option("--token", o.token, "access token clients must present (default: none required)");
-  app.add_option("--scene", scene, "scene to stream: synthetic:VARIANT, VARIANT in 0..3")
-      ->check(CLI::Validator(
-          [](std::string& in) -> std::string {
-            return parse_scene(in) ? std::string{} : "Value " + in + " is not synthetic:0..3";
-          },
-          ""))
-      ->type_name("synthetic:V");
+  app.add_option("--scene", scene,
+                 "scene to stream: synthetic:VARIANT (0..3), a scene file (3DGS PLY, compressed PLY, .splat, "
+                 "SPZ, SOG) or a folder of snapshots followed live")
+      ->check(CLI::Validator([](std::string& in) { return check_scene(in); }, ""))
+      ->type_name("SOURCE");
+  app.add_option("--labels", o.labels, "per-Gaussian object ids (one integer per line, 0 = none)")
+      ->check(CLI::ExistingFile)
+      ->type_name("FILE");
+  app.add_option("--objects", o.objects, "objects JSON: the class label of each object id")
+      ->check(CLI::ExistingFile)
+      ->type_name("FILE");
+  app.add_option("--rgbd", o.rgbd, "fuse this RGB-D capture (3DMatch/SUN3D, TUM or Replica layout) into the surface")
+      ->check(CLI::ExistingDirectory)
+      ->type_name("DIR");
+  app.add_option("--mesh", o.mesh, "a fixed surface mesh (PLY) instead of the meshes beside the snapshots")
+      ->check(CLI::ExistingFile)
+      ->type_name("FILE");
+  app.add_option("--max-budget", o.max_budget, "largest budget M a client is granted (0: the engine's maximum)");
+  app.add_option("--rho", o.rho, "a query's share of the budget when the client leaves it to the host")
+      ->check(apps::in_range(0.0, 1.0));
+  app.add_option("--min-opacity", o.min_opacity, "eligibility: Gaussians less opaque are never sent (0: off)")
+      ->check(apps::in_range(0.0f, 1.0f));
+  app.add_option("--max-scale", o.max_scale, "eligibility: Gaussians larger (metres) are never sent (0: off)")
+      ->check(apps::at_least(0.0f));
+  app.add_option("--min-support", o.min_support, "eligibility: Gaussians seen fewer times are never sent (0: off)");
   app.add_option("--gaussians", o.gaussians, "Gaussians in the synthetic scene")->check(apps::at_least<std::size_t>(1));
   app.add_option("--epochs", o.epochs, "epochs of the synthetic trajectory")->check(apps::at_least(1));
-  app.add_option("--epoch-period", o.epoch_period_s, "seconds between epochs")->check(apps::at_least(0.0));
+  app.add_option("--epoch-period", o.epoch_period_s, "replay rate: seconds between epochs (synthetic, folder)")->check(apps::at_least(0.0));
+  app.add_option("--settle", o.settle_s,
+                 "a snapshot that fails to load but was written less than this many seconds ago is waited for "
+                 "(a trainer may still be writing it), not skipped")
+      ->check(apps::at_least(0.0));
   app.add_option("--seed", o.seed, "seed of the synthetic scene");
   app.add_option("--max-clients", o.max_clients, "clients served at once")->check(apps::at_least<std::size_t>(1));
   app.add_option("--duration", o.duration_s, "seconds to run (0: until SIGINT/SIGTERM)")->check(apps::at_least(0.0));
-  app.add_option("--surface-voxel", o.surface_voxel, "TSDF voxel size in metres for the surface (0: no surface)")
+  app.add_option("--surface-voxel", o.surface_voxel,
+                 "TSDF voxel size in metres for the fused surface (synthetic, --rgbd; 0: no synthetic surface)")
       ->check(apps::at_least(0.0));
   app.add_option("--events", o.events_path, "write every session's stage events to FILE as JSON lines")
       ->type_name("FILE");
@@ -64,7 +102,10 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
       "  files: the session that ends last wins. A failed dump is reported; the host goes on.");
   if (auto rc = apps::parse(app, argc, argv)) return rc;
   o.bind = net::parse_endpoint(bind).value();
-  o.variant = *parse_scene(scene);
+  if (auto v = parse_synthetic(scene))
+    o.variant = *v;
+  else
+    o.scene_path = scene;
   return std::nullopt;
 }
 

@@ -14,9 +14,20 @@ struct Options {
   net::Endpoint bind{};        // 127.0.0.1 and the default port unless --bind
   std::string token;           // required access token; empty = none
   int variant{0};              // --scene synthetic:VARIANT
+  std::optional<std::filesystem::path> scene_path;  // --scene FILE|FOLDER (else synthetic)
+  std::optional<std::filesystem::path> labels;      // per-Gaussian object ids
+  std::optional<std::filesystem::path> objects;     // objects JSON (class labels)
+  std::optional<std::filesystem::path> rgbd;        // RGB-D capture fused into the surface
+  std::optional<std::filesystem::path> mesh;        // fixed surface mesh PLY
+  std::uint32_t max_budget{0};  // largest budget M granted to a client; 0 = the engine's maximum
+  double rho{0.9};              // a query's share when the client asks for the host's default
+  float min_opacity{0.0f};      // eligibility: all 0 = every Gaussian may be selected
+  float max_scale{0.0f};        // metres; 0 = off
+  std::uint32_t min_support{0};
   std::size_t gaussians{100000};
   int epochs{12};
-  double epoch_period_s{0.1};
+  double epoch_period_s{0.1};  // replay rate: seconds between epochs
+  double settle_s{2.0};        // a snapshot failing to load this recently written is waited for
   std::uint64_t seed{1};
   std::size_t max_clients{8};
   double duration_s{0.0};      // 0: until SIGINT/SIGTERM

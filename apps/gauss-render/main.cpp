@@ -19,7 +19,7 @@
 
 #include "gauss/engine/camera_io.h"
 #include "gauss/engine/image_io.h"
-#include "gauss/engine/ply_gaussian.h"
+#include "gauss/engine/splat_file.h"
 #include "gauss/engine/ply_mesh.h"
 #include "gauss/render/image_metrics.h"
 #include "gauss/render/mesh_pass.h"
@@ -80,7 +80,7 @@ Expected<std::unique_ptr<vk::Context>> make_context(const Args& a) {
   return ctx;
 }
 
-int run_gpu(const Args& a, const PlyGaussianScene& scene, const TriangleMesh* mesh, const Camera& cam) {
+int run_gpu(const Args& a, const SplatScene& scene, const TriangleMesh* mesh, const Camera& cam) {
   auto ctx = make_context(a);
   if (!ctx) {
     std::fprintf(stderr, "gauss-render: %s\n", ctx.message().c_str());
@@ -174,7 +174,7 @@ Expected<MeshImages> rasterize_mesh(vk::Context& ctx, const TriangleMesh& mesh, 
   return MeshImages{std::move(*colour), std::move(*depth)};
 }
 
-int run_reference(const Args& a, const PlyGaussianScene& scene, const TriangleMesh* mesh, const Camera& cam) {
+int run_reference(const Args& a, const SplatScene& scene, const TriangleMesh* mesh, const Camera& cam) {
   const auto& gs = scene.cloud.gaussians;
   std::unique_ptr<vk::Context> ctx;
   if (mesh) {
@@ -267,7 +267,7 @@ int main(int argc, char** argv) {
   Args args;
   if (auto rc = render_app::parse_options(argc, argv, args)) return *rc;
   auto scene = apps::with_elapsed_status("gauss-render: reading " + args.scene.string(),
-                                        [&] { return read_gaussian_ply(args.scene); });
+                                        [&] { return read_splat_file(args.scene); });
   if (!scene) {
     std::fprintf(stderr, "gauss-render: %s\n", scene.message().c_str());
     return 1;

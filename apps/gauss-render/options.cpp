@@ -15,7 +15,10 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
       "or a render error (the message says which); 2 bad arguments.",
       "gauss-render"};
   apps::configure(app);
-  app.add_option("--scene", o.scene, "3DGS scene (PLY)")->required()->check(CLI::ExistingFile)->type_name("S.ply");
+  app.add_option("--scene", o.scene, "scene file: 3DGS PLY, compressed PLY, .splat, SPZ or SOG (zip or folder)")
+      ->required()
+      ->check(CLI::ExistingPath)
+      ->type_name("SCENE");
   app.add_option("--mesh", o.mesh, "surface mesh drawn under the splats (PLY)")
       ->check(CLI::ExistingFile)
       ->type_name("M.ply");

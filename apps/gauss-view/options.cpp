@@ -25,8 +25,9 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
   auto* host_opt = app.add_option("--host", host, "the gauss-host to connect to, HOST:PORT")
                        ->check(apps::endpoint())
                        ->type_name("HOST:PORT");
-  auto* scene_opt = app.add_option("--scene", o.scene, "view this scene file (3DGS PLY) without a host")
-                        ->check(CLI::ExistingFile);
+  auto* scene_opt =
+      app.add_option("--scene", o.scene, "view this scene file (3DGS PLY, compressed PLY, .splat, SPZ or SOG) alone")
+          ->check(CLI::ExistingPath);
   host_opt->excludes(scene_opt);
   app.add_option("--mesh", o.mesh, "with --scene: a surface mesh PLY drawn behind the splats")
       ->check(CLI::ExistingFile)

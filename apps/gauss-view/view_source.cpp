@@ -5,7 +5,7 @@
 #include <chrono>
 #include <vector>
 
-#include "gauss/engine/ply_gaussian.h"
+#include "gauss/engine/splat_file.h"
 #include "gauss/engine/ply_mesh.h"
 #include "gauss/render/vk_frame_ring.h"
 
@@ -113,7 +113,7 @@ class LocalSource final : public ViewSource {
 
 Expected<std::unique_ptr<ViewSource>> make_local(vk::Context& context, const ViewOptions& o, std::uint32_t max_w,
                                                  std::uint32_t max_h) {
-  auto scene = read_gaussian_ply(o.scene);
+  auto scene = read_splat_file(o.scene);
   if (!scene) return scene.error();
   const auto& gs = scene->cloud.gaussians;
   if (gs.empty()) return Error{o.scene.string() + ": the scene holds no Gaussians"};

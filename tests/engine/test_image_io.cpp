@@ -1,4 +1,5 @@
-// PNG I/O (stb): RGBA8 round trip, 16-bit depth reading, and the failure messages.
+// PNG / JPEG I/O (stb; 16-bit PNG writing with zlib): RGBA8 round trip, 16-bit depth round
+// trip, JPEG colour, and the failure messages.
 #include <fstream>
 #include <string>
 
@@ -74,6 +75,49 @@ TEST(ImageIo, ReadFailuresNameTheFile) {
   auto t = read_png_rgba8(cut);
   ASSERT_FALSE(t.ok());
   EXPECT_NE(t.message().find("image_io_truncated.png"), std::string::npos) << t.message();
+}
+
+TEST(ImageIo, SixteenBitRoundTripKeepsEverySample) {
+  ImageU16 img;
+  img.width = 13;  // odd width: row stride must be right
+  img.height = 7;
+  for (std::uint32_t k = 0; k < img.width * img.height; ++k) img.pixels.push_back(std::uint16_t(k * 719 + (k << 11)));
+  img.pixels[0] = 0;
+  img.pixels[1] = 65535;
+  const auto path = test::output_dir() / "image_io_u16.png";
+  ASSERT_TRUE(write_png_u16(path, img).ok());
+  auto back = read_png_u16(path);
+  ASSERT_TRUE(back.ok()) << back.message();
+  EXPECT_EQ(back->width, 13u);
+  EXPECT_EQ(back->height, 7u);
+  EXPECT_EQ(back->pixels, img.pixels);
+  img.pixels.pop_back();
+  auto st = write_png_u16(path, img);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("sample count 90 does not match 13x7"), std::string::npos) << st.message();
+}
+
+TEST(ImageIo, JpegIsReadByContentNotAsPng) {
+  ImageRGBA8 img;
+  img.width = 24;
+  img.height = 16;
+  for (std::uint32_t k = 0; k < img.width * img.height; ++k) img.pixels.insert(img.pixels.end(), {40, 160, 220, 255});
+  const auto path = test::output_dir() / "image_io_colour.png";  // a JPEG under a PNG name
+  ASSERT_TRUE(write_jpeg(path, img, 95).ok());
+  auto back = read_image_rgba8(path);
+  ASSERT_TRUE(back.ok()) << back.message();
+  ASSERT_EQ(back->width, 24u);
+  for (std::size_t k = 0; k < back->pixels.size(); ++k) EXPECT_NEAR(back->pixels[k], img.pixels[k], 3) << k;
+  auto as_png = read_png_rgba8(path);
+  ASSERT_FALSE(as_png.ok());
+  EXPECT_NE(as_png.message().find("cannot read PNG: the file is a JPEG"), std::string::npos) << as_png.message();
+  const auto junk = test::output_dir() / "image_io_junk.jpg";
+  std::ofstream(junk, std::ios::binary) << "neither";
+  auto j = read_image_rgba8(junk);
+  ASSERT_FALSE(j.ok());
+  EXPECT_NE(j.message().find("image_io_junk.jpg: cannot read image: neither a PNG nor a JPEG"), std::string::npos)
+      << j.message();
+  EXPECT_FALSE(write_jpeg(path, img, 0).ok());
 }
 
 TEST(ImageIoData, SixteenBitDepthFrame) {

@@ -3,6 +3,7 @@
 // good epoch kept, identity tracking for id-less snapshots, given ids, labels, objects JSON,
 // meshes, one PLY as one epoch, the synthetic source.
 #include <algorithm>
+#include <chrono>
 #include <fstream>
 #include <map>
 #include <string>
@@ -88,7 +89,9 @@ TEST(SourceSnapshots, TrainerLayoutReplaysByIterationNumberWithIdentityTracking)
   fs::create_directories(root / "point_cloud/not_an_iteration");
 
   Collect log;
-  auto src = open_snapshot_folder(root, {}, log.log());
+  SnapshotOptions settled;
+  settled.settle_s = 0.0;  // files just written count as finished (see HalfWrittenSnapshot...)
+  auto src = open_snapshot_folder(root, settled, log.log());
   ASSERT_TRUE(src.ok()) << src.message();
   SceneStore store;
   std::vector<std::size_t> sizes;
@@ -129,7 +132,9 @@ TEST(SourceSnapshots, BadSnapshotsAreLoggedAndSkippedKeepingTheLastGoodEpoch) {
   write(root / "snap_1_mesh.ply", {});  // a mesh by its name, never replayed as a snapshot
 
   Collect log;
-  auto src = open_snapshot_folder(root, {}, log.log());
+  SnapshotOptions settled;
+  settled.settle_s = 0.0;  // files just written count as finished (see HalfWrittenSnapshot...)
+  auto src = open_snapshot_folder(root, settled, log.log());
   ASSERT_TRUE(src.ok()) << src.message();
   SceneStore store;
   std::vector<std::size_t> sizes;
@@ -156,7 +161,9 @@ TEST(SourceSnapshots, BadSnapshotsAreLoggedAndSkippedKeepingTheLastGoodEpoch) {
 TEST(SourceSnapshots, CorruptLastSnapshotKeepsTheStoreUntouched) {
   const fs::path root = fresh_dir("keep");
   write(root / "0001.ply", grid_cloud(100));
-  auto src = open_snapshot_folder(root, {}, [](const std::string&) {});
+  SnapshotOptions settled;
+  settled.settle_s = 0.0;
+  auto src = open_snapshot_folder(root, settled, [](const std::string&) {});
   ASSERT_TRUE(src.ok());
   SceneStore store;
   ASSERT_TRUE((*src)->next_epoch(store).ok());
@@ -172,6 +179,49 @@ TEST(SourceSnapshots, CorruptLastSnapshotKeepsTheStoreUntouched) {
   ASSERT_EQ(store.size(), before.size());
   for (std::size_t i = 0; i < before.size(); ++i) EXPECT_EQ(store.gaussians()[i].position, before[i].position);
   EXPECT_EQ((*src)->messages().size(), 2u);
+}
+
+// A trainer writes its next snapshot while the host lists the folder: a file that fails
+// to load but was written within settle_s is waited for (the store keeps its epoch, one
+// message), and read once complete; one still bad after settling is skipped.
+TEST(SourceSnapshots, HalfWrittenSnapshotIsRetriedNotSkipped) {
+  const fs::path root = fresh_dir("half");
+  write(root / "snap_1.ply", grid_cloud(100));
+  Collect log;
+  SnapshotOptions o;
+  o.settle_s = 3600.0;  // everything written by this test is "recent"
+  auto src = open_snapshot_folder(root, o, log.log());
+  ASSERT_TRUE(src.ok()) << src.message();
+  SceneStore store;
+  ASSERT_TRUE(*(*src)->next_epoch(store));
+  auto full = encode_gaussian_ply(grid_cloud(120));
+  ASSERT_TRUE(full.ok());
+  const std::string bytes(full->begin(), full->end());
+  write_text(root / "snap_2.ply", bytes.substr(0, bytes.size() / 2));
+  for (int call = 0; call < 3; ++call) {
+    auto r = (*src)->next_epoch(store);
+    ASSERT_TRUE(r.ok()) << r.message();
+    EXPECT_FALSE(*r) << "a half-written snapshot is not an epoch";
+  }
+  EXPECT_EQ(store.epoch(), Epoch{1});
+  EXPECT_EQ(store.size(), 100u);
+  ASSERT_EQ(log.lines.size(), 1u) << "reported once while waiting";
+  EXPECT_NE(log.lines[0].find("waiting for"), std::string::npos) << log.lines[0];
+  write_text(root / "snap_2.ply", bytes);  // the trainer finished
+  auto r = (*src)->next_epoch(store);
+  ASSERT_TRUE(r.ok()) << r.message();
+  EXPECT_TRUE(*r);
+  EXPECT_EQ(store.size(), 120u);
+  // Really corrupt: still bad once it is older than settle_s, so it is skipped.
+  write_text(root / "snap_3.ply", bytes.substr(0, 100));
+  write(root / "snap_4.ply", grid_cloud(90));
+  ASSERT_FALSE(*(*src)->next_epoch(store)) << "snap_3 is recent: waited for, snap_4 not reached";
+  fs::last_write_time(root / "snap_3.ply", fs::file_time_type::clock::now() - std::chrono::hours(2));
+  r = (*src)->next_epoch(store);
+  ASSERT_TRUE(r.ok()) << r.message();
+  EXPECT_TRUE(*r);
+  EXPECT_EQ(store.size(), 90u);
+  EXPECT_NE(log.lines.back().find("skipped snapshot"), std::string::npos) << log.lines.back();
 }
 
 TEST(SourceSnapshots, MissingIterationFileIsSkipped) {
@@ -253,7 +303,7 @@ TEST(SourceSnapshots, LabelsLengthMismatchIsAClearError) {
   write_text(root / "labels.txt", "1\n2\n3\n");
   SnapshotOptions o;
   o.labels = root / "labels.txt";
-  auto src = open_single_ply(root / "scene.ply", o, [](const std::string&) {});
+  auto src = open_scene_file(root / "scene.ply", o, [](const std::string&) {});
   ASSERT_TRUE(src.ok()) << src.message();
   SceneStore store;
   auto r = (*src)->next_epoch(store);
@@ -263,7 +313,7 @@ TEST(SourceSnapshots, LabelsLengthMismatchIsAClearError) {
   EXPECT_EQ(store.epoch(), Epoch{0});
   // A matching file works; one PLY is one epoch.
   write_text(root / "labels.txt", "0\n1\n1\n2\n2\n2\n-1\n0\n3\n3\n");
-  auto src2 = open_single_ply(root / "scene.ply", o, [](const std::string&) {});
+  auto src2 = open_scene_file(root / "scene.ply", o, [](const std::string&) {});
   ASSERT_TRUE(src2.ok());
   ASSERT_TRUE(*(*src2)->next_epoch(store));
   EXPECT_FALSE(*(*src2)->next_epoch(store));
@@ -274,7 +324,7 @@ TEST(SourceSnapshots, LabelsLengthMismatchIsAClearError) {
 
 TEST(SourceSnapshots, OpenErrors) {
   EXPECT_FALSE(open_snapshot_folder(test::output_dir() / "no_such_folder").ok());
-  EXPECT_FALSE(open_single_ply(test::output_dir() / "no_such.ply").ok());
+  EXPECT_FALSE(open_scene_file(test::output_dir() / "no_such.ply").ok());
   const fs::path root = fresh_dir("badjson");
   write_text(root / "objects.json", "{\"objects\": [");
   auto r = open_snapshot_folder(root);
@@ -297,7 +347,7 @@ TEST(SourceSnapshots, FruitDropsWithLabelsFile) {
   GAUSS_REQUIRE_DATA(labels, "semantic/fruit_drops_labels.txt");
   SnapshotOptions o;
   o.labels = labels;
-  auto src = open_single_ply(ply, o);
+  auto src = open_scene_file(ply, o);
   ASSERT_TRUE(src.ok()) << src.message();
   SceneStore store;
   auto r = (*src)->next_epoch(store);

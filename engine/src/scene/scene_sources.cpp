@@ -1,9 +1,10 @@
-// Scene sources: synthetic rooms, PLY snapshot folders (flat or trainer layout), one PLY.
+// Scene sources: synthetic rooms, snapshot folders (flat or trainer layout), one scene file.
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <chrono>
 #include <system_error>
 #include <tuple>
 
@@ -11,6 +12,7 @@
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/ply_mesh.h"
 #include "gauss/engine/scene_source.h"
+#include "gauss/engine/splat_file.h"
 
 namespace gauss {
 
@@ -58,7 +60,7 @@ class SyntheticSource final : public SceneSource {
 struct Entry {
   std::int64_t order{0};
   std::string name;  // for ordering ties and messages
-  fs::path ply;
+  fs::path ply;  // the snapshot's scene file, in any splat format
   std::optional<fs::path> mesh;
   std::optional<fs::path> labels;
   bool operator<(const Entry& o) const { return std::tie(order, name) < std::tie(o.order, o.name); }
@@ -77,6 +79,21 @@ std::optional<std::int64_t> last_number(const std::string& s) {
 
 bool ends_with(const std::string& s, const std::string& tail) {
   return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+}
+
+// Scene files a flat snapshot folder lists (detection is by content once listed).
+bool is_scene_file_name(const fs::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext == ".ply" || ext == ".splat" || ext == ".spz" || ext == ".sog";
+}
+
+// Seconds since `p` was last written, or nullopt when it cannot be told.
+std::optional<double> seconds_since_write(const fs::path& p) {
+  std::error_code ec;
+  const auto t = fs::last_write_time(p, ec);
+  if (ec) return std::nullopt;
+  return std::chrono::duration<double>(fs::file_time_type::clock::now() - t).count();
 }
 
 std::optional<fs::path> if_file(const fs::path& p) {
@@ -101,12 +118,21 @@ class SnapshotSource final : public SceneSource {
     std::optional<Error> last_failure;
     for (const Entry& e : entries) {
       if (consumed_ && !(*consumed_ < e)) continue;
-      consumed_ = e;
       auto r = load_and_apply(e, store);
       if (r) {
+        consumed_ = e;
         ++produced_;
         return true;
       }
+      // A folder's file written within the settle time may be one a trainer is still
+      // writing: it is tried again on the next call instead of being skipped as corrupt.
+      const std::optional<double> age = single_ ? std::nullopt : seconds_since_write(e.ply);
+      if (age && *age < options_.settle_s) {
+        if (waiting_for_ != e.ply) report("waiting for " + e.ply.string() + " (" + r.message() + "; still being written?)");
+        waiting_for_ = e.ply;
+        return false;
+      }
+      consumed_ = e;
       report("skipped snapshot " + e.ply.string() + ": " + r.message() + " (the store keeps epoch " +
              std::to_string(to_underlying(store.epoch())) + ")");
       last_failure = r.error();
@@ -117,8 +143,8 @@ class SnapshotSource final : public SceneSource {
   }
   double epoch_period_s() const override { return 1.0 / options_.rate_hz; }
   std::string describe() const override {
-    return (single_ ? "PLY " : "PLY snapshot folder ") + root_.string() + " at " + std::to_string(options_.rate_hz) +
-           " epochs/s";
+    if (single_) return "scene file " + root_.string() + (format_.empty() ? "" : " (" + format_ + ")");
+    return "snapshot folder " + root_.string() + " at " + std::to_string(options_.rate_hz) + " epochs/s";
   }
 
  private:
@@ -157,7 +183,7 @@ class SnapshotSource final : public SceneSource {
     } else {
       for (const auto& f : fs::directory_iterator(root_, ec)) {
         const std::string name = f.path().filename().string();
-        if (!f.is_regular_file(ec) || f.path().extension() != ".ply" || name == "mesh.ply" ||
+        if (!f.is_regular_file(ec) || !is_scene_file_name(f.path()) || name == "mesh.ply" ||
             ends_with(name, "_mesh.ply"))
           continue;
         Entry e;
@@ -176,8 +202,9 @@ class SnapshotSource final : public SceneSource {
   }
 
   Status load_and_apply(const Entry& e, SceneStore& store) {
-    auto scene = read_gaussian_ply(e.ply);
+    auto scene = read_splat_file(e.ply);
     if (!scene) return scene.error();
+    format_ = std::string(to_string(scene->report.format));
     GaussianCloud cloud = std::move(scene->cloud);
     const std::optional<fs::path> labels_path = options_.labels ? options_.labels : e.labels;
     if (labels_path) {
@@ -191,8 +218,9 @@ class SnapshotSource final : public SceneSource {
         report(e.ply.string() + ": object_id property overridden by labels " + labels_path->string());
     }
     // Surface: the snapshot's own mesh, else the folder's mesh.ply; applied when it changes.
-    std::optional<fs::path> mesh_path = e.mesh;
-    if (!mesh_path && !single_) mesh_path = if_file(root_ / "mesh.ply");
+    std::optional<fs::path> mesh_path = options_.snapshot_meshes ? e.mesh : std::nullopt;
+    if (!mesh_path && !single_ && options_.snapshot_meshes) mesh_path = if_file(root_ / "mesh.ply");
+    if (options_.mesh) mesh_path = options_.mesh;
     std::optional<TriangleMesh> mesh;
     if (mesh_path && *mesh_path != last_mesh_) {
       auto m = read_mesh_ply(*mesh_path);
@@ -217,6 +245,8 @@ class SnapshotSource final : public SceneSource {
   std::optional<Entry> consumed_;  // the last entry tried (good or bad)
   std::size_t produced_{0};
   fs::path last_mesh_;
+  fs::path waiting_for_;  // the snapshot last reported as still being written
+  std::string format_;    // of the last snapshot read
   SnapshotApplyReport last_report_;
 };
 
@@ -247,11 +277,13 @@ Expected<std::unique_ptr<SceneSource>> open_snapshot_folder(const fs::path& fold
       std::make_unique<SnapshotSource>(folder, false, options, std::move(objects).value(), std::move(log)));
 }
 
-Expected<std::unique_ptr<SceneSource>> open_single_ply(const fs::path& ply, const SnapshotOptions& options,
+Expected<std::unique_ptr<SceneSource>> open_scene_file(const fs::path& ply, const SnapshotOptions& options,
                                                        SourceLog log) {
   if (auto s = check_rate(options.rate_hz); !s) return s.error();
   std::error_code ec;
-  if (!fs::is_regular_file(ply, ec)) return Error{"PLY " + ply.string() + " is not a regular file"};
+  // A SOG scene may be a folder of its files.
+  if (!fs::is_regular_file(ply, ec) && !fs::is_regular_file(ply / "meta.json", ec))
+    return Error{"scene file " + ply.string() + " is not a regular file (nor a SOG folder with meta.json)"};
   std::vector<ObjectLabel> objects;
   if (options.objects_json) {
     auto o = read_objects_json(*options.objects_json);

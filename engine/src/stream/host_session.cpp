@@ -1,7 +1,6 @@
 #include "gauss/engine/host_session.h"
 
 #include <algorithm>
-#include <cmath>
 #include <utility>
 
 #include <glm/common.hpp>
@@ -157,7 +156,8 @@ std::vector<wire::Message> HostSession::on_message(const wire::Message& m, const
       return out;
     }
     query_ = sq;
-    rho_ = std::clamp(static_cast<double>(q->rho), 0.0, 1.0);
+    rho_ = q->rho == msg::kHostDefaultRho ? std::clamp(config_.default_rho, 0.0, 1.0)
+                                          : std::clamp(static_cast<double>(q->rho), 0.0, 1.0);
     query_changed_ = true;
     query_id_ = q->query_id;
     reply.status = msg::QueryStatus::Resolved;
@@ -258,7 +258,13 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
     centre_time_ = now;
   }
   const msg::HeadPose pose = centre_ ? *centre_ : pose_.value_or(msg::HeadPose{});
-  auto sel = selector_.select(scene, to_client_pose(pose), req);
+  if (config_.eligibility && (!eligible_ || eligible_->epoch != scene.epoch())) {
+    auto e = filter_eligible(scene, *config_.eligibility);
+    if (!e) return Error{"host session " + std::to_string(client_id_) + ": eligibility: " + e.message()};
+    eligible_ = std::move(*e);
+  }
+  auto sel = eligible_ ? selector_.select(scene, to_client_pose(pose), req, *eligible_)
+                       : selector_.select(scene, to_client_pose(pose), req);
   if (!sel) return Error{"host session " + std::to_string(client_id_) + ": selection failed: " + sel.message()};
   if (needs_resync_) differ_.reset();
   auto batch = differ_.diff(*sel, scene);

@@ -8,6 +8,8 @@
 
 #include <glm/gtc/quaternion.hpp>
 
+#include "rgbd_replica.h"
+
 namespace gauss {
 namespace fs = std::filesystem;
 namespace {
@@ -88,75 +90,162 @@ Expected<glm::dmat4> read_pose_4x4(const fs::path& path) {
   return m;
 }
 
+const char* rgbd_layout_name(RgbdLayout layout) {
+  switch (layout) {
+    case RgbdLayout::ThreeDMatch: return "3DMatch";
+    case RgbdLayout::Tum: return "TUM";
+    case RgbdLayout::Replica: return "Replica";
+  }
+  return "?";
+}
+
+Status RgbdFolderSource::list_tum(const fs::path& folder, RgbdFolderSource& src) {
+  src.layout_ = RgbdLayout::Tum;
+  src.depth_scale_ = 5000.0;
+  if (fs::exists(folder / "camera-intrinsics.txt")) {
+    if (auto st = read_intrinsics(folder / "camera-intrinsics.txt", src.fx_, src.fy_, src.cx_, src.cy_); !st)
+      return st.error();
+  } else {
+    src.fx_ = src.fy_ = 525.0;
+    src.cx_ = 319.5;
+    src.cy_ = 239.5;
+  }
+  if (!fs::exists(folder / "groundtruth.txt")) return Error{folder.string() + ": TUM layout without groundtruth.txt"};
+  const auto depth = read_tum_index(folder / "depth.txt");
+  const auto rgb = read_tum_index(folder / "rgb.txt");
+  const auto gt = read_tum_index(folder / "groundtruth.txt");
+  for (const auto& [t, rel] : depth) {
+    const long ci = nearest(rgb, t, 0.02), pi = nearest(gt, t, 0.02);
+    if (ci < 0 || pi < 0) continue;
+    std::istringstream s(gt[std::size_t(pi)].second);
+    double tx, ty, tz, qx, qy, qz, qw;
+    if (!(s >> tx >> ty >> tz >> qx >> qy >> qz >> qw)) continue;
+    FrameFiles f;
+    f.name = (folder / rel).string();
+    f.depth = folder / rel;
+    f.colour = folder / rgb[std::size_t(ci)].second;
+    const glm::dquat q(qw, qx, qy, qz);
+    f.pose = glm::mat4_cast(glm::normalize(q));
+    f.pose[3] = glm::dvec4(tx, ty, tz, 1.0);
+    src.frames_.push_back(std::move(f));
+  }
+  return Ok{};
+}
+
+Status RgbdFolderSource::list_replica(const fs::path& folder, RgbdFolderSource& src) {
+  src.layout_ = RgbdLayout::Replica;
+  fs::path params = folder / "cam_params.json";
+  if (!fs::exists(params) && fs::exists(folder.parent_path() / "cam_params.json"))
+    params = folder.parent_path() / "cam_params.json";
+  if (!fs::exists(params))
+    return Error{folder.string() +
+                 ": Replica layout (traj.txt, results/) without cam_params.json here or in the parent folder"};
+  auto cam = replica::read_cam_params(params);
+  if (!cam) return cam.error();
+  src.fx_ = cam->fx;
+  src.fy_ = cam->fy;
+  src.cx_ = cam->cx;
+  src.cy_ = cam->cy;
+  src.depth_scale_ = cam->depth_scale;
+  src.width_ = cam->width;
+  src.height_ = cam->height;
+  const fs::path traj_path = folder / "traj.txt";
+  auto traj = replica::read_trajectory(traj_path);
+  if (!traj) return traj.error();
+
+  // results/depthNNNNNN.png, by frame number N (not by name: the digits may vary in count).
+  std::vector<std::pair<unsigned long, fs::path>> depths;
+  for (const auto& e : fs::directory_iterator(folder / "results")) {
+    const std::string n = e.path().filename().string();
+    if (n.size() <= 9 || n.rfind("depth", 0) != 0 || n.substr(n.size() - 4) != ".png") continue;
+    const std::string digits = n.substr(5, n.size() - 9);
+    if (digits.size() > 9 || digits.find_first_not_of("0123456789") != std::string::npos) continue;
+    depths.emplace_back(std::stoul(digits), e.path());
+  }
+  std::sort(depths.begin(), depths.end());
+  for (const auto& [number, depth] : depths) {
+    const std::string digits = depth.filename().string().substr(5, depth.filename().string().size() - 9);
+    FrameFiles f;
+    f.name = (folder / "results" / ("frame" + digits)).string();  // the messages then name the file
+    f.depth = depth;
+    f.colour = folder / "results" / ("frame" + digits + ".jpg");
+    if (!fs::exists(f.colour) && fs::exists(folder / "results" / ("frame" + digits + ".png")))
+      f.colour = folder / "results" / ("frame" + digits + ".png");
+    if (number >= traj->size()) {
+      f.pose_error = "no pose: " + traj_path.string() + " has " + std::to_string(traj->size()) +
+                     " poses and frame " + std::to_string(number) + " needs line " + std::to_string(number + 1);
+    } else {
+      const auto& row = (*traj)[number];
+      f.pose = row.camera_to_world;
+      f.pose_error = row.error;
+    }
+    src.frames_.push_back(std::move(f));
+  }
+  return Ok{};
+}
+
+Status RgbdFolderSource::list_3dmatch(const fs::path& folder, RgbdFolderSource& src) {
+  src.layout_ = RgbdLayout::ThreeDMatch;
+  src.depth_scale_ = 1000.0;
+  if (auto st = read_intrinsics(folder / "camera-intrinsics.txt", src.fx_, src.fy_, src.cx_, src.cy_); !st)
+    return Error{folder.string() + ": neither a TUM folder (rgb.txt, depth.txt), a Replica folder (traj.txt, results/) "
+                                   "nor a 3DMatch folder: " + st.message()};
+  std::vector<fs::path> dirs{folder};
+  for (const auto& e : fs::directory_iterator(folder))
+    if (e.is_directory() && e.path().filename().string().rfind("seq-", 0) == 0) dirs.push_back(e.path());
+  std::sort(dirs.begin() + 1, dirs.end());
+  for (const auto& d : dirs) {
+    std::vector<fs::path> depths;
+    for (const auto& e : fs::directory_iterator(d)) {
+      const std::string n = e.path().filename().string();
+      if (n.rfind("frame-", 0) == 0 && n.size() > 10 && n.substr(n.size() - 10) == ".depth.png")
+        depths.push_back(e.path());
+    }
+    std::sort(depths.begin(), depths.end());
+    for (const auto& p : depths) {
+      const std::string stem = p.string().substr(0, p.string().size() - 10);
+      FrameFiles f;
+      f.name = stem;
+      f.depth = p;
+      f.colour = stem + ".color.png";
+      f.pose_file = stem + ".pose.txt";
+      src.frames_.push_back(std::move(f));
+    }
+  }
+  return Ok{};
+}
+
 Expected<RgbdFolderSource> RgbdFolderSource::open(const fs::path& folder) {
   if (!fs::is_directory(folder)) return Error{folder.string() + ": not a folder"};
   RgbdFolderSource src;
-  if (fs::exists(folder / "depth.txt") && fs::exists(folder / "rgb.txt")) {
-    src.layout_ = RgbdLayout::Tum;
-    src.depth_scale_ = 5000.0;
-    if (fs::exists(folder / "camera-intrinsics.txt")) {
-      if (auto st = read_intrinsics(folder / "camera-intrinsics.txt", src.fx_, src.fy_, src.cx_, src.cy_); !st)
-        return st.error();
-    } else {
-      src.fx_ = src.fy_ = 525.0;
-      src.cx_ = 319.5;
-      src.cy_ = 239.5;
-    }
-    if (!fs::exists(folder / "groundtruth.txt")) return Error{folder.string() + ": TUM layout without groundtruth.txt"};
-    const auto depth = read_tum_index(folder / "depth.txt");
-    const auto rgb = read_tum_index(folder / "rgb.txt");
-    const auto gt = read_tum_index(folder / "groundtruth.txt");
-    for (const auto& [t, rel] : depth) {
-      const long ci = nearest(rgb, t, 0.02), pi = nearest(gt, t, 0.02);
-      if (ci < 0 || pi < 0) continue;
-      std::istringstream s(gt[std::size_t(pi)].second);
-      double tx, ty, tz, qx, qy, qz, qw;
-      if (!(s >> tx >> ty >> tz >> qx >> qy >> qz >> qw)) continue;
-      FrameFiles f;
-      f.name = (folder / rel).string();
-      f.depth = folder / rel;
-      f.colour = folder / rgb[std::size_t(ci)].second;
-      const glm::dquat q(qw, qx, qy, qz);
-      f.pose = glm::mat4_cast(glm::normalize(q));
-      f.pose[3] = glm::dvec4(tx, ty, tz, 1.0);
-      src.frames_.push_back(std::move(f));
-    }
-  } else {
-    src.layout_ = RgbdLayout::ThreeDMatch;
-    src.depth_scale_ = 1000.0;
-    if (auto st = read_intrinsics(folder / "camera-intrinsics.txt", src.fx_, src.fy_, src.cx_, src.cy_); !st)
-      return Error{folder.string() + ": neither a TUM folder (rgb.txt, depth.txt) nor a 3DMatch folder: " + st.message()};
-    std::vector<fs::path> dirs{folder};
-    for (const auto& e : fs::directory_iterator(folder))
-      if (e.is_directory() && e.path().filename().string().rfind("seq-", 0) == 0) dirs.push_back(e.path());
-    std::sort(dirs.begin() + 1, dirs.end());
-    for (const auto& d : dirs) {
-      std::vector<fs::path> depths;
-      for (const auto& e : fs::directory_iterator(d)) {
-        const std::string n = e.path().filename().string();
-        if (n.rfind("frame-", 0) == 0 && n.size() > 10 && n.substr(n.size() - 10) == ".depth.png") depths.push_back(e.path());
-      }
-      std::sort(depths.begin(), depths.end());
-      for (const auto& p : depths) {
-        const std::string stem = p.string().substr(0, p.string().size() - 10);
-        FrameFiles f;
-        f.name = stem;
-        f.depth = p;
-        f.colour = stem + ".color.png";
-        f.pose_file = stem + ".pose.txt";
-        src.frames_.push_back(std::move(f));
-      }
-    }
+  Status listed = Ok{};
+  try {  // directory listings report by exception (a folder unreadable midway); converted here
+    if (fs::exists(folder / "depth.txt") && fs::exists(folder / "rgb.txt"))
+      listed = list_tum(folder, src);
+    else if (fs::exists(folder / "traj.txt") && fs::is_directory(folder / "results"))
+      listed = list_replica(folder, src);
+    else
+      listed = list_3dmatch(folder, src);
+  } catch (const fs::filesystem_error& e) {
+    return Error{folder.string() + ": cannot list: " + e.what()};
   }
-  if (src.frames_.empty()) return Error{folder.string() + ": no RGB-D frames found"};
+  if (!listed) return listed.error();
+  if (src.frames_.empty())
+    return Error{folder.string() + ": no RGB-D frames found (" + rgbd_layout_name(src.layout_) + " layout)"};
   return src;
 }
 
 Expected<RgbdFrame> RgbdFolderSource::load(std::size_t i, Epoch epoch) const {
   if (i >= frames_.size()) return Error{"RGB-D frame index " + std::to_string(i) + " out of range"};
   const FrameFiles& ff = frames_[i];
+  const auto fail = [&](const std::string& what) { return Error{"RGB-D frame '" + ff.name + "': " + what}; };
+  if (!ff.pose_error.empty()) return fail(ff.pose_error);
   auto depth = read_png_u16(ff.depth);
-  if (!depth) return Error{"RGB-D frame '" + ff.name + "': " + depth.message()};
+  if (!depth) return fail(depth.message());
+  if (width_ != 0 && (depth->width != width_ || depth->height != height_))
+    return fail(ff.depth.string() + ": depth image is " + std::to_string(depth->width) + "x" +
+                std::to_string(depth->height) + " but cam_params.json says " + std::to_string(width_) + "x" +
+                std::to_string(height_));
   RgbdFrame f;
   f.name = ff.name;
   f.width = depth->width;
@@ -164,13 +253,17 @@ Expected<RgbdFrame> RgbdFolderSource::load(std::size_t i, Epoch epoch) const {
   f.depth.resize(depth->pixels.size());
   for (std::size_t k = 0; k < f.depth.size(); ++k) f.depth[k] = float(double(depth->pixels[k]) / depth_scale_);
   if (fs::exists(ff.colour)) {
-    auto colour = read_png_rgba8(ff.colour);
-    if (!colour) return Error{"RGB-D frame '" + ff.name + "': " + colour.message()};
+    auto colour = read_image_rgba8(ff.colour);
+    if (!colour) return fail(colour.message());
+    if (colour->width != f.width || colour->height != f.height)
+      return fail(ff.colour.string() + ": colour image is " + std::to_string(colour->width) + "x" +
+                  std::to_string(colour->height) + " but its depth image is " + std::to_string(f.width) + "x" +
+                  std::to_string(f.height));
     f.colour = std::move(*colour);
   }
   if (!ff.pose_file.empty()) {
     auto pose = read_pose_4x4(ff.pose_file);
-    if (!pose) return Error{"RGB-D frame '" + ff.name + "': " + pose.message()};
+    if (!pose) return fail(pose.message());
     f.camera_to_world = *pose;
   } else {
     f.camera_to_world = ff.pose;

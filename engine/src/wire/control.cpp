@@ -26,7 +26,8 @@ Status check(const msg::HeadPose& m) {
 Status check(const msg::Query& m) {
   const auto kind = static_cast<std::uint8_t>(m.kind);
   if (kind > msg::kLastQueryKind) return field_error("Query", "kind", "unknown value " + std::to_string(kind));
-  if (!(m.rho >= 0.0f && m.rho <= 1.0f)) return field_error("Query", "rho", "outside [0, 1]");
+  if (!(m.rho == msg::kHostDefaultRho || (m.rho >= 0.0f && m.rho <= 1.0f)))
+    return field_error("Query", "rho", "neither in [0, 1] nor -1 (the host's default)");
   if (m.text.size() > msg::kMaxQueryTextBytes)
     return field_error("Query", "text", "longer than " + std::to_string(msg::kMaxQueryTextBytes) + " bytes");
   switch (m.kind) {

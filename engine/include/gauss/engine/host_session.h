@@ -22,6 +22,7 @@
 
 #include "gauss/engine/codec.h"
 #include "gauss/engine/differ.h"
+#include "gauss/engine/eligibility.h"
 #include "gauss/engine/messages.h"
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/selector.h"
@@ -63,6 +64,12 @@ struct HostSessionConfig {
   double pose_smoothing_s{1.0};
   double pose_jump_m{0.15};
   double pose_jump_rad{0.15};
+  // The share of the budget a query reserves for its target when the client leaves it to
+  // the host (msg::kHostDefaultRho). In [0, 1].
+  double default_rho{0.9};
+  // Which Gaussians may be selected at all (opacity, scale, support, surface distance);
+  // empty = every Gaussian. Filtered once per scene epoch.
+  std::optional<EligibilityConfig> eligibility;
 };
 
 struct HostSessionStats {
@@ -137,6 +144,7 @@ class HostSession {
   CodecParams params_;
   HostSessionConfig config_;
   Selector selector_;
+  std::optional<EligibleSet> eligible_;  // config_.eligibility's verdict at eligible_->epoch
   Differ differ_;
   EventLog events_;
   HostSessionStats stats_;

@@ -244,12 +244,16 @@ enum class QueryKind : std::uint8_t {
 };
 inline constexpr std::uint8_t kLastQueryKind = 2;
 
+// A Query's rho asking for the host's default share (gauss-host --rho).
+inline constexpr float kHostDefaultRho = -1.0f;
+
 struct Query {
   std::uint32_t query_id{0};   // client-chosen, increasing; the reply echoes it
   QueryKind kind{QueryKind::Clear};
   std::string text;            // ClassText only (non-empty, <= kMaxQueryTextBytes); empty otherwise
   ObjectId instance{kNoObject};// Instance only (>= 0); kNoObject otherwise
-  float rho{0.0f};             // share of the budget reserved for the target, [0, 1]; 0 for Clear
+  float rho{0.0f};             // share of the budget reserved for the target, [0, 1]; 0 for Clear;
+                               // kHostDefaultRho: the host's default
   bool operator==(const Query&) const = default;
 };
 

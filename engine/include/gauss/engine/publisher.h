@@ -69,8 +69,8 @@ struct PublisherConfig {
   float view_cos_half_fov{0.5f};   // cos of the half field of view counted as "in view"
   // Ranking upkeep: backlog entries re-scored per frame (the ranking's lag behind the view
   // is backlog / this, in frames), and the head's size in allowances.
-  std::uint32_t rescore_per_frame{16384};
-  std::uint32_t head_allowances{2};
+  std::uint32_t rescore_per_frame{4096};
+  std::uint32_t head_allowances{4};
 };
 
 struct ViewState {

@@ -1,14 +1,17 @@
 #pragma once
 // Scene sources: where the host's epochs come from.
 //  (a) synthetic evolving rooms (the embedded default, SyntheticScene),
-//  (b) a folder of PLY snapshots replayed as epochs, flat (<any>N.ply, ordered by the last
-//      number in the name) or as 3DGS trainers write it (point_cloud/iteration_N/point_cloud.ply,
-//      ordered by N), with optional meshes, labels and an objects JSON,
-//  (c) one PLY as one epoch.
+//  (b) a folder of snapshots replayed as epochs, flat (<any>N.ply|.splat|.spz|.sog, ordered
+//      by the last number in the name) or as 3DGS trainers write it
+//      (point_cloud/iteration_N/point_cloud.ply, ordered by N), with optional meshes, labels
+//      and an objects JSON,
+//  (c) one scene file as one epoch.
+// Scene files are read in any format splat_file.h knows, detected by content.
 // Each next_epoch() commits at most one epoch to the store. A snapshot that cannot be used
 // (missing, corrupt, NaN, labels of the wrong length) is logged and skipped: the store keeps
-// its last good epoch and the source moves on to the next snapshot. Snapshots without
-// gaussian_id get ids from identity tracking against the store's current epoch.
+// its last good epoch and the source moves on to the next snapshot; one written less than
+// `settle_s` ago is waited for instead (a trainer may still be writing it). Snapshots
+// without gaussian_id get ids from identity tracking against the store's current epoch.
 #include <cstddef>
 #include <filesystem>
 #include <functional>
@@ -69,6 +72,13 @@ struct SnapshotOptions {
   // folder) when present. Labels override a PLY object_id property.
   std::optional<std::filesystem::path> labels;
   bool label_zero_is_unlabelled{true};  // label 0 -> no object (negative labels always are)
+  // A folder's snapshot that fails to load but was written less than this many seconds ago
+  // is retried on the next call rather than skipped: a half-written file is not corrupt yet.
+  double settle_s{2.0};
+  // The surface: `mesh` (a mesh PLY) for every snapshot instead of the meshes found beside
+  // them; `snapshot_meshes` false ignores those too (a host fusing its own surface).
+  std::optional<std::filesystem::path> mesh;
+  bool snapshot_meshes{true};
   IdentityTrackerConfig identity;       // for snapshots without gaussian_id
 };
 
@@ -79,9 +89,9 @@ struct SnapshotOptions {
 Expected<std::unique_ptr<SceneSource>> open_snapshot_folder(const std::filesystem::path& folder,
                                                             const SnapshotOptions& options = {},
                                                             SourceLog log = {});
-// (c) One PLY as one epoch (then exhausted). Mesh and labels as given in options, or
-// <stem>_mesh.ply / <stem>_labels.txt beside it.
-Expected<std::unique_ptr<SceneSource>> open_single_ply(const std::filesystem::path& ply,
+// (c) One scene file (any splat format, or a SOG folder) as one epoch (then exhausted). Mesh
+// and labels as given in options, or <stem>_mesh.ply / <stem>_labels.txt beside it.
+Expected<std::unique_ptr<SceneSource>> open_scene_file(const std::filesystem::path& ply,
                                                        const SnapshotOptions& options = {}, SourceLog log = {});
 
 // What a snapshot did to the store.

@@ -1,0 +1,197 @@
+#include "scene_feed.h"
+
+#include <chrono>
+#include <cstdio>
+#include <system_error>
+#include <thread>
+
+#include "gauss/engine/ply_mesh.h"
+#include "gauss/engine/rgbd_source.h"
+#include "gauss_cli.h"
+
+namespace gauss::host_app {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// A followed folder's later snapshots may reach beyond the first one's bounds: the codec
+// box gets this share of the extent as margin on every side (positions beyond it clamp,
+// and the codec counts them).
+constexpr float kLiveBoxMargin = 0.25f;
+
+Expected<TsdfVolume> make_volume(double voxel_m) {
+  TsdfConfig tc;
+  tc.voxel_size = static_cast<float>(voxel_m);
+  return TsdfVolume::create(tc);
+}
+
+}  // namespace
+
+Expected<std::unique_ptr<SceneFeed>> SceneFeed::open(const Options& o, SceneStore& store,
+                                                     const std::atomic<bool>& stop) {
+  std::unique_ptr<SceneFeed> feed(new SceneFeed());
+  feed->period_s_ = o.epoch_period_s;
+  if (!o.scene_path) {
+    if (o.labels || o.objects || o.rgbd || o.mesh)
+      return Error{"--labels, --objects, --rgbd and --mesh apply to scene files and folders, not to synthetic:" +
+                   std::to_string(o.variant) + " (it has its own objects and surface)"};
+    SyntheticSceneConfig sc;
+    sc.variant = o.variant;
+    sc.seed = o.seed;
+    sc.target_gaussians = o.gaussians;
+    sc.epochs = o.epochs;
+    auto scene = SyntheticScene::create(sc);
+    if (!scene) return scene.error();
+    feed->synthetic_.emplace(std::move(*scene));
+    if (o.surface_voxel > 0.0) {
+      auto v = make_volume(o.surface_voxel);
+      if (!v) return v.error();
+      feed->surface_.emplace(std::move(*v));
+    }
+    // The codec box must cover every Gaussian the scene will ever hold: the room plus a
+    // margin for the noisy first observations.
+    feed->params_.sh_degree = 1;
+    feed->params_.box.min = feed->synthetic_->room_min() - glm::vec3(0.5f);
+    feed->params_.box.max = feed->synthetic_->room_max() + glm::vec3(0.5f);
+    if (auto r = feed->step(store, 0.0); !r) return r.error();
+    return feed;
+  }
+
+  if (o.rgbd && o.mesh) return Error{"--rgbd and --mesh both give the surface: choose one"};
+  SnapshotOptions so;
+  so.rate_hz = o.epoch_period_s > 0.0 ? 1.0 / o.epoch_period_s : 1e6;
+  so.settle_s = o.settle_s;
+  so.labels = o.labels;
+  so.objects_json = o.objects;
+  so.mesh = o.mesh;
+  so.snapshot_meshes = !o.rgbd;
+  if (o.mesh) {
+    auto m = read_mesh_ply(*o.mesh);  // said now, not as a line per snapshot
+    if (!m) return Error{"--mesh: " + m.message()};
+  }
+  SourceLog quiet_log = [](const std::string&) {};  // lines are printed by the host loop
+  std::error_code ec;
+  const fs::path& path = *o.scene_path;
+  const bool sog_folder = fs::is_regular_file(path / "meta.json", ec);
+  feed->folder_ = fs::is_directory(path, ec) && !sog_folder;
+  auto source = feed->folder_ ? open_snapshot_folder(path, so, quiet_log) : open_scene_file(path, so, quiet_log);
+  if (!source) return source.error();
+  feed->source_ = std::move(*source);
+
+  // The first epoch: a folder a trainer has not written into yet is waited for.
+  bool said_waiting = false;
+  for (;;) {
+    auto r = feed->source_->next_epoch(store);
+    if (!r) return r.error();
+    if (*r) break;
+    if (!feed->folder_) return Error{"scene " + path.string() + " gave no epoch"};
+    if (stop.load()) return Error{"stopped while waiting for the first snapshot in " + path.string()};
+    if (!said_waiting) {
+      std::printf("gauss-host: waiting for the first snapshot in %s\n", path.string().c_str());
+      std::fflush(stdout);
+      said_waiting = true;
+    }
+    for (const std::string& line : feed->take_messages()) std::printf("gauss-host: %s\n", line.c_str());
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  feed->params_ = fit_codec_params(store.gaussians(), store.sh_degree());
+  if (feed->folder_) {
+    const glm::vec3 extent = feed->params_.box.max - feed->params_.box.min;
+    feed->params_.box.min -= kLiveBoxMargin * extent;
+    feed->params_.box.max += kLiveBoxMargin * extent;
+  }
+  if (o.rgbd)
+    if (auto s = feed->fuse_rgbd(o, store); !s) return s.error();
+  if (o.mesh) feed->surface_note_ = "surface " + o.mesh->string();
+  return feed;
+}
+
+// Fuses every frame of the capture once, then commits the surface in its own epoch.
+Status SceneFeed::fuse_rgbd(const Options& o, SceneStore& store) {
+  auto capture = RgbdFolderSource::open(*o.rgbd);
+  if (!capture) return Error{"--rgbd: " + capture.message()};
+  auto volume = make_volume(o.surface_voxel > 0.0 ? o.surface_voxel : 0.02);
+  if (!volume) return volume.error();
+  apps::StatusLine status;
+  std::size_t fused = 0, skipped = 0;
+  for (std::size_t i = 0; i < capture->frame_count(); ++i) {
+    status.update("gauss-host: fusing " + o.rgbd->string() + " frame " + std::to_string(i + 1) + "/" +
+                  std::to_string(capture->frame_count()));
+    auto frame = capture->load(i, store.epoch());
+    Status s = frame ? volume->integrate(*frame) : Status{frame.error()};
+    if (!s) {
+      ++skipped;
+      std::fprintf(stderr, "gauss-host: --rgbd frame %s skipped: %s\n", capture->frame_name(i).c_str(),
+                   s.message().c_str());
+      continue;
+    }
+    ++fused;
+  }
+  status.done({});
+  if (fused == 0) return Error{"--rgbd: no frame of " + o.rgbd->string() + " could be fused"};
+  const auto edits = volume->extract_changed();
+  Status s = store.begin_next_epoch();
+  if (s) s = apply_surface_edits(store, edits);
+  if (s) s = store.commit_epoch();
+  if (!s) return Error{"--rgbd: committing the surface: " + s.message()};
+  surface_note_ = "surface fused from " + std::to_string(fused) + " " + rgbd_layout_name(capture->layout()) +
+                  " frames (" + std::to_string(edits.size()) + " chunks" +
+                  (skipped ? ", " + std::to_string(skipped) + " frames skipped" : std::string{}) + ")";
+  return Ok{};
+}
+
+// The synthetic scene's epoch frames (exact depth) fused; the changed chunks enter the
+// store in the following epoch.
+Status SceneFeed::synthetic_surface(SceneStore& store) {
+  if (!surface_) return Ok{};
+  for (const Camera& cam : synthetic_->cameras_of_epoch(synthetic_->produced() - 1))
+    if (auto s = surface_->integrate(synthetic_rgbd_frame(*synthetic_, cam, store.epoch())); !s)
+      std::fprintf(stderr, "gauss-host: surface frame skipped: %s\n", s.message().c_str());
+  const auto edits = surface_->extract_changed();
+  if (edits.empty()) return Ok{};
+  Status s = store.begin_next_epoch();
+  if (s) s = apply_surface_edits(store, edits);
+  if (s) s = store.commit_epoch();
+  if (!s) return Error{"surface epoch failed: " + s.message()};
+  return Ok{};
+}
+
+Expected<bool> SceneFeed::step(SceneStore& store, double now) {
+  if (now < next_epoch_ || exhausted_) return false;
+  next_epoch_ = now + period_s_;
+  if (synthetic_) {
+    if (synthetic_->finished()) {
+      exhausted_ = true;
+      return false;
+    }
+    if (auto s = synthetic_->produce(store); !s) return Error{"epoch failed: " + s.message()};
+    if (auto s = synthetic_surface(store); !s) return s.error();
+    return true;
+  }
+  auto r = source_->next_epoch(store);
+  if (!r) return r.error();
+  if (!*r && !folder_) exhausted_ = true;  // a file is one epoch; a folder may grow
+  return *r;
+}
+
+std::string SceneFeed::describe() const {
+  std::string d = synthetic_ ? "synthetic:" + std::to_string(synthetic_->config().variant) + " (" +
+                                   std::to_string(synthetic_->config().target_gaussians) + " Gaussians, " +
+                                   std::to_string(synthetic_->config().epochs) + " epochs)"
+                             : source_->describe();
+  if (!surface_note_.empty()) d += ", " + surface_note_;
+  return d;
+}
+
+bool SceneFeed::live() const { return !exhausted_; }
+
+std::vector<std::string> SceneFeed::take_messages() {
+  if (!source_) return {};
+  const auto& all = source_->messages();
+  std::vector<std::string> out(all.begin() + static_cast<std::ptrdiff_t>(messages_taken_), all.end());
+  messages_taken_ = all.size();
+  return out;
+}
+
+}  // namespace gauss::host_app
