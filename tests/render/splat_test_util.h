@@ -1,6 +1,7 @@
 #pragma once
 // Helpers of the splat renderer tests (tests/render/test_splat_*.cpp): cameras, small
 // deterministic procedural scenes, and the GPU-vs-reference comparison.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <span>
@@ -81,6 +82,29 @@ inline std::vector<Gaussian> procedural_scene(std::size_t n, int degree, std::ui
     g.object = ObjectId{static_cast<std::int32_t>(rng.next() * 8)};
   }
   return out;
+}
+
+// A camera for a real scene: looking along +z at the scene's median point from
+// `distance_scale` median absolute deviations away.
+inline Camera scene_camera(const std::vector<Gaussian>& gs, std::uint32_t w, std::uint32_t h, double distance_scale) {
+  std::vector<float> xs, ys, zs;
+  for (const auto& g : gs) {
+    xs.push_back(g.position.x);
+    ys.push_back(g.position.y);
+    zs.push_back(g.position.z);
+  }
+  auto median = [](std::vector<float> v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return double(v[v.size() / 2]);
+  };
+  auto spread = [&](std::vector<float> v) {
+    const double m = median(v);
+    for (auto& x : v) x = std::abs(x - static_cast<float>(m));
+    return median(v);
+  };
+  const glm::dvec3 c(median(xs), median(ys), median(zs));
+  const double s = std::max({spread(xs), spread(ys), spread(zs)});
+  return look_at_camera(w, h, c + glm::dvec3(0.0, 0.0, -distance_scale * s), c);
 }
 
 // GPU image vs the reference image: PSNR >= min_psnr and max error <= max_err, plus a

@@ -181,29 +181,7 @@ TEST_F(SplatComposite, HighlightAndEditTintsMatchReference) {
   EXPECT_TRUE(close_to_reference(ref_faded->rgba8, image(*r), "splat_tints_faded"));
 }
 
-// Real scenes from the shared data (skipped when absent). Camera: looking along +z at the
-// scene's median point from `distance_scale` median absolute deviations away.
-Camera scene_camera(const std::vector<Gaussian>& gs, std::uint32_t w, std::uint32_t h, double distance_scale) {
-  std::vector<float> xs, ys, zs;
-  for (const auto& g : gs) {
-    xs.push_back(g.position.x);
-    ys.push_back(g.position.y);
-    zs.push_back(g.position.z);
-  }
-  auto median = [](std::vector<float> v) {
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-    return double(v[v.size() / 2]);
-  };
-  auto spread = [&](std::vector<float> v) {
-    const double m = median(v);
-    for (auto& x : v) x = std::abs(x - static_cast<float>(m));
-    return median(v);
-  };
-  const glm::dvec3 c(median(xs), median(ys), median(zs));
-  const double s = std::max({spread(xs), spread(ys), spread(zs)});
-  return look_at_camera(w, h, c + glm::dvec3(0.0, 0.0, -distance_scale * s), c);
-}
-
+// Real scenes from the shared data (skipped when absent), seen by scene_camera().
 TEST_F(SplatComposite, RealSceneGuitarMatchesReference) {
   GAUSS_REQUIRE_DATA(path, "splats/guitar.ply");
   auto scene = read_gaussian_ply(path);
