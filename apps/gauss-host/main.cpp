@@ -118,8 +118,8 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "gauss-host: --dump-sent: cannot create %s: %s (dumps will fail)\n",
                    o.dump_sent_dir.c_str(), ec.message().c_str());
   }
-  std::printf("gauss-host: serving %s: %zu Gaussians, SH degree %d, on %s:%u, session %016llx%s\n",
-              (*feed)->describe().c_str(), store.size(), store.sh_degree(), o.bind.host.c_str(), (*host)->net().port(), static_cast<unsigned long long>((*host)->net().session_id()),
+  std::printf("gauss-host: serving %s: %zu Gaussians, SH degree %d, %zu objects, on %s:%u, session %016llx%s\n",
+              (*feed)->describe().c_str(), store.size(), store.sh_degree(), store.objects().size(), o.bind.host.c_str(), (*host)->net().port(), static_cast<unsigned long long>((*host)->net().session_id()),
               o.token.empty() ? "" : ", token required");
   std::fflush(stdout);
 

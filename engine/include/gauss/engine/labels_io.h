@@ -2,6 +2,10 @@
 // Per-Gaussian label files: one decimal integer per line, in the scene's vertex order
 // (e.g. fruit_drops_labels.txt: 0 = unlabelled, 1..8 = segments). What a label means is the
 // caller's business; this only reads them.
+// Also accepted (recognised by its leading '{'): a segments.ai point-cloud segmentation export
+// (the JSON SuperSplat's segmentation workflow produces): each point's label is the category id
+// of its annotation (0 = none), matching the object table read_objects_json takes from the same
+// file, so one export gives both (--labels F --objects F). Instances of a category share its id.
 //
 // Accepted: optional surrounding spaces/tabs, "\n" or "\r\n" line ends, a missing final newline.
 // Rejected, naming the input and the 1-based line: an empty line, anything that is not a whole
