@@ -283,6 +283,34 @@ TEST(SyntheticScene, GroundTruthDepthIsExact) {
     }
 }
 
+// The ground truth's per-pixel object ids: every labelled pixel back-projects into the
+// analytic bounds of the object it names, and the trajectory sees most objects.
+TEST(SyntheticScene, GroundTruthNamesTheObjectHit) {
+  auto scene = make(small(2));
+  std::unordered_map<std::int32_t, const SyntheticObjectInfo*> by_id;
+  for (const SyntheticObjectInfo& o : scene.objects()) by_id[to_underlying(o.id)] = &o;
+  std::set<std::int32_t> seen;
+  for (std::size_t k = 0; k < scene.trajectory().size(); k += 3) {
+    const Camera& cam = scene.trajectory()[k];
+    const GroundTruthImage gt = scene.render_ground_truth(cam);
+    ASSERT_EQ(gt.object.size(), gt.depth.size());
+    for (std::uint32_t y = 0; y < cam.height; y += 2)
+      for (std::uint32_t x = 0; x < cam.width; x += 2) {
+        const std::size_t px = std::size_t(y) * cam.width + x;
+        if (gt.object[px] == kNoObject) continue;
+        ASSERT_GT(gt.depth[px], 0.0f);
+        const auto it = by_id.find(to_underlying(gt.object[px]));
+        ASSERT_NE(it, by_id.end()) << "pixel " << x << "," << y << " names an unknown object";
+        const glm::vec3 p = world_point(cam, x, y, gt.depth[px]);
+        const glm::vec3 lo = it->second->extent_min - glm::vec3(0.01f), hi = it->second->extent_max + glm::vec3(0.01f);
+        ASSERT_TRUE(glm::all(glm::greaterThanEqual(p, lo)) && glm::all(glm::lessThanEqual(p, hi)))
+            << it->second->label << " at pixel " << x << "," << y;
+        seen.insert(to_underlying(gt.object[px]));
+      }
+  }
+  EXPECT_GE(seen.size() * 2, scene.objects().size()) << "the trajectory sees most objects";
+}
+
 TEST(SyntheticScene, TrajectoryAndMesh) {
   auto cfg = small(1);
   auto scene = make(cfg);

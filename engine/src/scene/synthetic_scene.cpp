@@ -460,6 +460,7 @@ GroundTruthImage SyntheticScene::render_ground_truth(const Camera& camera) const
   out.colour.height = h;
   out.colour.pixels.assign(std::size_t(w) * h * 4, 0);
   out.depth.assign(std::size_t(w) * h, 0.0f);
+  out.object.assign(std::size_t(w) * h, kNoObject);
   const glm::dmat3 rot(camera.world_to_camera);
   const glm::dvec3 trans(camera.world_to_camera[3]);
   const glm::dmat3 cam_to_world = glm::transpose(rot);
@@ -472,10 +473,11 @@ GroundTruthImage SyntheticScene::render_ground_truth(const Camera& camera) const
       scene::Hit hit;
       if (!scene::intersect(impl_->room, eye, dir, 1e-4f, float(camera.far_plane), hit)) continue;
       const glm::vec3 p = eye + hit.t * dir;
-      const glm::vec3 c = scene::surface_colour(impl_->room.primitives[static_cast<std::size_t>(hit.primitive)], p,
-                                                hit.normal);
+      const scene::Primitive& prim = impl_->room.primitives[static_cast<std::size_t>(hit.primitive)];
+      const glm::vec3 c = scene::surface_colour(prim, p, hit.normal);
       const std::size_t px = std::size_t(y) * w + x;
       out.depth[px] = hit.t;
+      out.object[px] = prim.object;
       for (int k = 0; k < 3; ++k) out.colour.pixels[px * 4 + k] = static_cast<std::uint8_t>(c[k] * 255.0f + 0.5f);
       out.colour.pixels[px * 4 + 3] = 255;
     }

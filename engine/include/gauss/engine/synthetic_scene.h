@@ -51,6 +51,10 @@ struct SyntheticSceneConfig {
 struct GroundTruthImage {
   ImageRGBA8 colour;          // width x height, alpha 255 where a surface was hit
   std::vector<float> depth;   // metres along the camera z axis (like an RGB-D sensor); 0 = no hit
+  // The semantic object whose surface the pixel's ray hit (the same ids as the scene's
+  // objects); kNoObject where nothing was hit or the hit belongs to no object (the room
+  // shell). Object masks for region metrics come from this.
+  std::vector<ObjectId> object;
 };
 
 // A semantic object of the synthetic room (the analytic truth behind SceneStore objects).

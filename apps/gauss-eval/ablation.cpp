@@ -1,0 +1,104 @@
+// The budget ablation: PC-HS fidelity against the client's budget M (and the view size),
+// with the client's frame time beside it.
+//
+// For each size in --ablation-sizes (default: --size) and each M in --ablation: a fresh
+// connection at M; at each fidelity camera the client settles, then renders kIdleFrames
+// more frames at the view (their GPU pass times are the frame time at that M: the cost of
+// drawing the resident set, without publication). PC-HS / GT-HS per camera as in the
+// fidelity chain; the means over the cameras are the ablation point.
+#include <chrono>
+#include <cmath>
+
+#include "measurements.h"
+
+namespace gauss::eval_app {
+
+namespace {
+
+constexpr int kIdleFrames = 8;
+
+Camera resized(const Camera& c, std::uint32_t w, std::uint32_t h) {
+  Camera out = c;
+  const double sx = double(w) / c.width, sy = double(h) / c.height;
+  out.fx *= sx;
+  out.cx *= sx;
+  out.fy *= sy;
+  out.cy *= sy;
+  out.width = w;
+  out.height = h;
+  return out;
+}
+
+// The mean of `key` over the cameras' scores at `field`; null when a camera has none (no
+// pixel, or identical images: a mean with +inf says nothing).
+Json mean_of(const Json& cameras, const char* field, const char* key) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (const Json& c : cameras) {
+    const Json& v = c[field].contains(key) ? c[field][key] : Json();
+    if (!v.is_number()) return nullptr;
+    sum += v.get<double>();
+    ++n;
+  }
+  return n ? Json(sum / double(n)) : Json(nullptr);
+}
+
+}  // namespace
+
+Expected<Json> measure_ablation(Room& room, std::vector<double>& frame_ms_p50, std::vector<double>& frame_ms_p95) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const Options& o = room.options;
+  const EvalScene& scene = room.scene;
+  Json points = Json::array();
+  for (const auto& [w, h] : o.ablation_sizes) {
+    auto full = make_full_renderer(room.context, scene, w, h);
+    if (!full) return full.error();
+    Options sized = o;
+    sized.width = w;
+    sized.height = h;
+    Room at_size{room.context, sized, scene, **full, room.panels, room.timing, room.progress};
+    for (std::uint32_t m : o.ablation_budgets) {
+      auto stream = open_stream(at_size, m, o.progressive ? PublishMode::Progressive : PublishMode::Immediate);
+      if (!stream) return stream.error();
+      Json cameras = Json::array();
+      std::vector<double> gpu_ms;
+      for (std::size_t k = 0; k < scene.cameras.size(); ++k) {
+        room.progress("ablation " + std::to_string(w) + "x" + std::to_string(h) + " M " + std::to_string(m) +
+                      " camera " + std::to_string(k + 1) + "/" + std::to_string(scene.cameras.size()));
+        const Camera cam = resized(scene.cameras[k], w, h);
+        auto cap = capture(at_size, *stream, cam);
+        if (!cap) return cap.error();
+        EvalSession& session = *stream->session;
+        const std::uint64_t first_idle = session.client().frames_rendered();
+        for (int i = 0; i < kIdleFrames; ++i)
+          if (auto f = session.step(cam); !f) return f.error();
+        if (auto st = session.client().wait_frames(); !st) return st.error();
+        for (const client::GpuFrameStats& g : session.client().take_gpu_stats())
+          if (g.frame_index >= first_idle) gpu_ms.push_back(g.total_ms);
+        const GroundTruthImage gt = scene.synthetic->render_ground_truth(cam);
+        auto pc = render_covered(**full, cam);
+        if (!pc) return pc.error();
+        cameras.push_back(Json{{"camera", k},
+                               {"settle", settle_json(cap->settle)},
+                               {"resident", cap->resident},
+                               {"pc_hs", scores(pc->image, cap->hs, mask_and(pc->cover, cap->sent.cover))},
+                               {"gt_hs", scores(gt.colour, cap->hs, valid_depth_mask(gt))},
+                               {"hs_vs_sent_differing", cap->hs_vs_sent_differing}});
+      }
+      frame_ms_p50.push_back(percentile_of(gpu_ms, 0.5));
+      frame_ms_p95.push_back(percentile_of(gpu_ms, 0.95));
+      points.push_back(Json{{"budget", m},
+                            {"width", w},
+                            {"height", h},
+                            {"psnr_pc_hs", mean_of(cameras, "pc_hs", "psnr_db")},
+                            {"ssim_pc_hs", mean_of(cameras, "pc_hs", "ssim")},
+                            {"flip_pc_hs", mean_of(cameras, "pc_hs", "flip")},
+                            {"psnr_gt_hs", mean_of(cameras, "gt_hs", "psnr_db")},
+                            {"cameras", std::move(cameras)}});
+    }
+  }
+  room.timing.phases["ablation_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return points;
+}
+
+}  // namespace gauss::eval_app

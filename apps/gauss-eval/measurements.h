@@ -1,0 +1,89 @@
+#pragma once
+// The measurements of one room, each returning its part of report.json (deterministic:
+// virtual times, counts and metrics only) and writing its PNGs through the PanelWriter.
+// Wall-clock figures go to Room::timing (report.json's "timing", left out by --no-timing).
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "eval_scene.h"
+#include "eval_session.h"
+#include "measure.h"
+#include "options.h"
+#include "panels.h"
+
+namespace gauss::eval_app {
+
+// Progress for the status line ("fidelity camera 2/3").
+using Progress = std::function<void(const std::string&)>;
+
+// Wall-clock figures of the room's runs.
+struct Timing {
+  std::vector<double> frame_cpu_ms;  // the client's display thread, per frame
+  std::vector<double> frame_gpu_ms;  // the client's GPU passes, per frame (all views)
+  std::map<std::string, std::vector<double>> pass_gpu_ms;  // per pass, per frame (all views)
+  Json phases = Json::object();      // seconds per phase
+
+  // Adds the client's finished frames' GPU figures.
+  void add_gpu(const std::vector<client::GpuFrameStats>& frames);
+};
+
+// What every measurement of a room works with.
+struct Room {
+  vk::Context& context;
+  const Options& options;
+  const EvalScene& scene;
+  render::SplatRenderer& full;  // the host's render of the full float scene (PC)
+  const PanelWriter& panels;
+  Timing& timing;
+  Progress progress;
+};
+
+// A fresh connection (host session + client) at budget M and its sent-set renderer.
+struct Stream {
+  std::unique_ptr<EvalSession> session;
+  std::unique_ptr<render::SplatRenderer> sent;
+};
+Expected<Stream> open_stream(Room& room, std::uint32_t budget, PublishMode mode);
+// The session settings the options give, at budget M and publication mode.
+EvalSessionConfig session_config(const Options& options, std::uint32_t budget, PublishMode mode);
+
+// Settles and captures (capture_client) and adds the frame times to room.timing.
+Expected<ClientCapture> capture(Room& room, Stream& stream, const Camera& camera,
+                                const std::function<void(const client::DisplayFrameStats&)>& on_frame = {});
+
+// The fidelity chain at each of the room's cameras: GT -> PC -> HS, and HS against the
+// host's render of the set it sent, at M = --budget. Panels <room>_cam<k>.png:
+// GT | PC | HS | FLIP(PC, HS).
+Expected<Json> measure_fidelity(Room& room);
+
+// The semantic reallocation table for the class query and the instance query, each on
+// its own connection at its own M (--semantic-budget): resident Gaussians on the target
+// with and without the query at a near and a far view, share against
+// min(|G_obj|, floor(rho M)) / M, object-region metrics. Panels <room>_<kind>_<view>.png:
+// GT | HS without | FLIP(GT, without) | HS with | FLIP(GT, with) (FLIP over the object).
+Expected<Json> measure_semantic(Room& room);
+
+// Teleport far and return, per publication mode (progressive, immediate), each on its own
+// connection at M = --budget: time until published == desired, SSIM convergence to the
+// settled frame, post-convergence flicker and churn under head sway. See temporal.cpp.
+Expected<Json> measure_temporal(Room& room);
+
+// Stage latencies of model edits: the room produced live (half its epochs before the
+// client connects, then one per --epoch-period) at M = --budget; per epoch, virtual
+// seconds from available (committed to the host's scene) to sent, received, published and
+// the first frame rendered with it. See latency.cpp.
+Expected<Json> measure_model_latency(Room& room);
+// A query's stage latencies from the event logs, virtual seconds after `sent_at` (when the
+// client issued it): resolved (host), highlight, first additional target content,
+// converged (client); and the initial / desired target residency.
+Json query_latency(EvalSession& session, std::uint32_t query_id, double sent_at);
+
+// The budget ablation over --ablation (M) and --ablation-sizes: per point the means over
+// the fidelity cameras of PC-HS (and GT-HS) metrics at M, each on a fresh connection. The
+// client's GPU frame time p50 / p95 of idle frames at each point (wall clock) is appended
+// to `frame_ms_p50` / `frame_ms_p95`, in the order of the returned points.
+Expected<Json> measure_ablation(Room& room, std::vector<double>& frame_ms_p50, std::vector<double>& frame_ms_p95);
+
+}  // namespace gauss::eval_app

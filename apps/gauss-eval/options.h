@@ -1,0 +1,61 @@
+#pragma once
+// gauss-eval's command line (CLI11): the options, their defaults and their checks.
+// The defaults are the small configuration CI runs (a few seconds per room on lavapipe);
+// the README of docs/results/ names the larger runs.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace gauss::eval_app {
+
+struct Options {
+  std::vector<int> variants{0, 1, 2, 3};  // synthetic room variants evaluated, in this order
+  std::size_t gaussians{20000};           // appearance Gaussians of each fully observed room
+  int epochs{12};                         // epochs produced before the evaluation (the room then stays)
+  std::uint64_t seed{1};                  // the synthetic scenes' seed
+  std::uint32_t budget{5000};             // M: the client's slots
+  std::uint32_t width{160}, height{120};  // view size of every camera
+  std::uint32_t cameras{3};               // fidelity cameras per room, from the room's own trajectory
+  double rho{0.9};                        // reservation fraction a query asks for
+  // M of each semantic query's connection; 0 = the object's size |G_obj|, so the reserve
+  // floor(rho M) is below it and the share is about rho (the regime of the paper's table).
+  std::uint32_t semantic_budget{0};
+  std::string class_query{"chair"};       // class query of the semantic table
+  std::string instance_label{"robot_arm"};  // instance query: the first object with this label
+  bool progressive{true};                 // publication mode of the fidelity and semantic runs
+  std::uint32_t allowance{2000};          // progressive: slot edits per frame (fixed: deterministic)
+  double display_hz{72.0};                // virtual display rate
+  double latency_ms{5.0};                 // one-way link latency (both directions)
+  double bandwidth_mbps{100.0};           // link bandwidth (both directions)
+  double settle_timeout_s{20.0};          // virtual seconds a view may take to converge
+  double quiet_s{0.5};                    // virtual seconds in sync before a view counts as converged
+  std::string surface{"none"};            // none | analytic: the surface chunk the host streams
+  bool semantic{true};                    // the semantic reallocation table
+  bool temporal{true};                    // teleport far and return, per publication mode
+  double flicker_window_s{2.0};           // virtual seconds of head sway after convergence
+  bool latency{true};                     // stage latencies of model edits (a live room)
+  double epoch_period_s{0.1};             // the live room's epoch period
+  std::vector<std::uint32_t> ablation_budgets;  // budget ablation (empty: none)
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> ablation_sizes;  // its view sizes (empty: --size)
+  std::string plot_script;                // scripts/plot_eval.py of the source tree (empty: no plots)
+  std::string name{"synthetic"};          // report name: docs/results/<name>/
+  std::filesystem::path out;              // output folder (empty: docs/results/<name>)
+  bool timing{true};                      // wall-clock figures under "timing"
+  bool images{true};                      // PNGs and the images in report.md
+  std::string device;                     // Vulkan device index or name substring
+};
+
+// Parses argv. Returns the exit status when the program should stop (0 after --help,
+// 2 after a bad command line, CLI11's message printed), else std::nullopt.
+std::optional<int> parse_options(int argc, char** argv, Options& out);
+
+// The command that reproduces the deterministic part of a run (every option spelled out,
+// --out and --device left out: they do not change report.json).
+std::string canonical_command(const Options& o);
+
+// A double in its shortest form that reads back exactly ("0.9", "72", "1e-05").
+std::string shortest(double v);
+
+}  // namespace gauss::eval_app

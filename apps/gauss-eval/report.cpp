@@ -1,0 +1,317 @@
+#include "report.h"
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace gauss::eval_app {
+
+namespace {
+
+// A metric cell: the number with `digits` decimals, "∞" for identical images, "n/a" for
+// anything else (no pixel in the mask, an error).
+std::string cell(const Json& j, int digits) {
+  if (j.is_number()) {
+    char b[64];
+    std::snprintf(b, sizeof b, "%.*f", digits, j.get<double>());
+    return b;
+  }
+  if (j.is_string() && j.get<std::string>() == "inf") return "∞";
+  return "n/a";
+}
+
+std::string metric(const Json& scores, const char* key, int digits) {
+  return scores.is_object() && scores.contains(key) ? cell(scores[key], digits) : "n/a";
+}
+
+std::string integer(const Json& j) { return j.is_number() ? std::to_string(j.get<std::int64_t>()) : "n/a"; }
+
+std::string percent(const Json& j) {
+  if (!j.is_number()) return "n/a";
+  char b[32];
+  std::snprintf(b, sizeof b, "%.1f %%", 100.0 * j.get<double>());
+  return b;
+}
+
+void fidelity_section(std::ostream& md, const Json& report, bool images) {
+  md << "## Fidelity: GT → PC → HS\n\n"
+     << "GT: the analytic room ray-cast (exact colour and depth). PC: the host's render of the full float "
+        "scene with the client's renderer. HS: the client's frame once it converged at the camera "
+        "(at M = " << integer(report["config"]["budget"]) << ", quantised, published " 
+     << report["config"]["mode"].get<std::string>() << "ly). *HS ≠ sent*: pixels where HS differs from the "
+        "host's own render of the very set it sent, loaded in the client's slot order (must be 0). "
+        "Conv.: virtual seconds from the move to the camera until the client's published set equals "
+        "the host's sent set for good.\n\n";
+  md << "| scene | cam | GT-PC PSNR | PC-HS PSNR | PC-HS SSIM | PC-HS FLIP | GT-HS PSNR | GT-HS SSIM | GT-HS FLIP "
+        "| cover PC / HS / both | resident | HS ≠ sent | conv. s |\n"
+     << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const Json& s : report["scenes"]) {
+    if (!s.contains("fidelity")) continue;
+    for (const Json& c : s["fidelity"]["cameras"]) {
+      md << "| " << s["name"].get<std::string>() << " | " << c["camera"].get<int>() << " | "
+         << metric(c["gt_pc"], "psnr_db", 2) << " | " << metric(c["pc_hs"], "psnr_db", 2) << " | "
+         << metric(c["pc_hs"], "ssim", 3) << " | " << metric(c["pc_hs"], "flip", 3) << " | "
+         << metric(c["gt_hs"], "psnr_db", 2) << " | " << metric(c["gt_hs"], "ssim", 3) << " | "
+         << metric(c["gt_hs"], "flip", 3) << " | " << percent(c["coverage"]["pc"]) << " / "
+         << percent(c["coverage"]["hs"]) << " / " << percent(c["coverage"]["both"]) << " | "
+         << integer(c["resident"]) << " | " << integer(c["hs_vs_sent"]["differing_pixels"]) << " | "
+         << cell(c["settle"]["converged_s"], 2) << " |\n";
+    }
+  }
+  md << "\n";
+  if (!images) return;
+  md << "Each panel: GT | PC | HS | FLIP(PC, HS) (magma: black = no error).\n\n";
+  for (const Json& s : report["scenes"]) {
+    if (!s.contains("fidelity")) continue;
+    for (const Json& c : s["fidelity"]["cameras"]) {
+      const std::string f = s["name"].get<std::string>() + "_cam" + std::to_string(c["camera"].get<int>()) + ".png";
+      md << "![" << f << "](" << f << ")\n";
+    }
+  }
+  md << "\n";
+}
+
+void semantic_section(std::ostream& md, const Json& report, bool images) {
+  md << "## Semantic reallocation of a fixed budget\n\n"
+     << "A query reserves M_obj = min(|G_obj|, ⌊ρM⌋) of the M slots for the target's appearance Gaussians "
+        "(carriers excluded) and gives the rest to the background; N_obj counts the client's resident "
+        "Gaussians on the target after convergence. *Expected* is M_obj / M. Object PSNR is GT-HS over "
+        "the target's pixels (the ground truth's object ids), without → with the query; GT-PC over the "
+        "same pixels is the ceiling.\n\n";
+  md << "| scene | object (query) | model | M | ρ | \\|G_obj\\| | N_obj near, without | N_obj near, with (share) | "
+        "N_obj far, with | expected share | object px near / far | near PSNR without → with (PC) | far PSNR "
+        "without → with (PC) |\n"
+     << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const Json& s : report["scenes"]) {
+    if (!s.contains("semantic")) continue;
+    for (const Json& r : s["semantic"]) {
+      md << "| " << s["name"].get<std::string>() << " | " << r["query"].get<std::string>() << " ("
+         << r["kind"].get<std::string>() << ") | ";
+      if (r.contains("error")) {
+        md << r["error"].get<std::string>() << " | | | | | | | | | | |\n";
+        continue;
+      }
+      const Json& near = r["views"]["near"];
+      const Json& far = r["views"]["far"];
+      md << integer(r["model_gaussians"]) << " | " << integer(r["budget"]) << " | " << cell(r["rho"], 2) << " | "
+         << integer(r["object_gaussians"]) << " | " << integer(near["without_query"]["resident_on_object"]) << " | "
+         << integer(near["with_query"]["resident_on_object"]) << " (" << percent(near["with_query"]["share"])
+         << ") | " << integer(far["with_query"]["resident_on_object"]) << " | " << percent(r["expected_share"])
+         << (r["share_matches"].get<bool>() ? "" : " **MISMATCH**") << " | " << integer(near["object_pixels"])
+         << " / " << integer(far["object_pixels"]) << " | "
+         << metric(near["without_query"]["gt_hs_object"], "psnr_db", 2) << " → "
+         << metric(near["with_query"]["gt_hs_object"], "psnr_db", 2) << " ("
+         << metric(near["gt_pc_object"], "psnr_db", 2) << ") | "
+         << metric(far["without_query"]["gt_hs_object"], "psnr_db", 2) << " → "
+         << metric(far["with_query"]["gt_hs_object"], "psnr_db", 2) << " ("
+         << metric(far["gt_pc_object"], "psnr_db", 2) << ") |\n";
+    }
+  }
+  md << "\n";
+  if (!images) return;
+  md << "Each panel: GT | HS without the query | FLIP(GT, without) | HS with the query | FLIP(GT, with); the "
+        "FLIP maps cover the target's pixels only.\n\n";
+  for (const Json& s : report["scenes"]) {
+    if (!s.contains("semantic")) continue;
+    for (const Json& r : s["semantic"]) {
+      if (r.contains("error")) continue;
+      for (const char* v : {"near", "far"}) {
+        const std::string f = s["name"].get<std::string>() + "_" + r["kind"].get<std::string>() + "_" + v + ".png";
+        md << "![" << f << "](" << f << ")\n";
+      }
+    }
+  }
+  md << "\n";
+}
+
+// The timing entry of scene `name` (null without --timing).
+const Json& scene_timing(const Json& report, const std::string& name) {
+  static const Json kNull;
+  if (!report.contains("timing")) return kNull;
+  for (const Json& s : report["timing"]["scenes"])
+    if (s["name"] == name) return s;
+  return kNull;
+}
+
+void temporal_section(std::ostream& md, const Json& report) {
+  bool any = false;
+  for (const Json& s : report["scenes"]) any = any || s.contains("temporal");
+  if (!any) return;
+  md << "## Teleport, return, flicker (per publication mode)\n\n"
+     << "From camera 0 (A) the client teleports to B (A mirrored through the room centre, looking the other "
+        "way), settles, and returns to A. *Published = desired*: virtual seconds from the return until the "
+        "client's published set equals the host's sent set for good; *SSIM conv.*: until every later frame has "
+        "SSIM ≥ 0.99 to the settled frame. Flicker: mean (max) absolute change per pixel and channel, 8-bit "
+        "levels, between consecutive frames of A while the head sways; churn: slot writes / set membership "
+        "changes / host messages in that window. Frame times (wall clock, while the return streams in) only "
+        "with timing.\n\n";
+  md << "| scene | mode | teleport: conv. s | return: published = desired s | return: SSIM conv. s | min SSIM | "
+        "slot writes | flicker mean (max) | churn writes / changes / msgs | return frame CPU ms p50 / p95 / p99 |\n"
+     << "|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const Json& s : report["scenes"]) {
+    if (!s.contains("temporal")) continue;
+    const Json& st = scene_timing(report, s["name"].get<std::string>());
+    for (const Json& t : s["temporal"]) {
+      const std::string mode = t["mode"].get<std::string>();
+      const Json& f = t["flicker"];
+      md << "| " << s["name"].get<std::string>() << " | " << mode << " | " << cell(t["teleport"]["converged_s"], 2)
+         << " | " << cell(t["published_equals_desired_s"], 2) << " | " << cell(t["ssim_convergence_s"], 2) << " | "
+         << cell(t["min_ssim_to_settled"], 3) << " | " << integer(t["return"]["slot_writes"]) << " | "
+         << cell(f["mean_abs_change"], 3) << " (" << cell(f["max_abs_change"], 3) << ") | "
+         << integer(f["slot_writes"]) << " / " << integer(f["membership_changes"]) << " / "
+         << integer(f["host_messages"]) << " | ";
+      if (st.is_object() && st["phases"].contains("temporal_frames")) {
+        const Json& c = st["phases"]["temporal_frames"][mode]["return_frame_cpu_ms"];
+        md << cell(c["p50"], 1) << " / " << cell(c["p95"], 1) << " / " << cell(c["p99"], 1);
+      } else {
+        md << "n/a";
+      }
+      md << " |\n";
+    }
+  }
+  md << "\n";
+}
+
+void latency_section(std::ostream& md, const Json& report) {
+  bool any = false;
+  for (const Json& s : report["scenes"]) any = any || s.contains("model_latency") || s.contains("semantic");
+  if (!any) return;
+  md << "## Stage latencies (virtual seconds, from the event logs)\n\n";
+  auto p50max = [](const Json& j) {
+    return j.is_object() ? cell(j["p50"], 3) + " / " + cell(j["max"], 3) : std::string("n/a");
+  };
+  bool model = false;
+  for (const Json& s : report["scenes"]) model = model || s.contains("model_latency");
+  if (model) {
+    md << "Model edits: the room produced live, one epoch per period while the client watches camera 0; from "
+          "the epoch's commit on the host (available) to each stage, p50 / max over the epochs.\n\n"
+       << "| scene | epochs | period s | → sent | → received | → published | → visible (first frame) |\n"
+       << "|---|---|---|---|---|---|---|\n";
+    for (const Json& s : report["scenes"]) {
+      if (!s.contains("model_latency")) continue;
+      const Json& l = s["model_latency"];
+      md << "| " << s["name"].get<std::string>() << " | " << l["epochs"].size() << " | " << cell(l["epoch_period_s"], 2)
+         << " | " << p50max(l["available_to_sent_s"]) << " | " << p50max(l["available_to_received_s"]) << " | "
+         << p50max(l["available_to_published_s"]) << " | " << p50max(l["available_to_visible_s"]) << " |\n";
+    }
+    md << "\n";
+  }
+  md << "Queries: from the client issuing the query to the host resolving it, the first frame showing the "
+        "highlight, the first frame with more target content resident (the client's event, and the harness's "
+        "own count against the residency before the query), and the target's convergence.\n\n"
+     << "| scene | query | M | → resolved | → highlight | → first additional (event / harness) | → converged | "
+        "target resident before → at the event's start → desired |\n"
+     << "|---|---|---|---|---|---|---|---|\n";
+  for (const Json& s : report["scenes"]) {
+    if (!s.contains("semantic")) continue;
+    for (const Json& r : s["semantic"]) {
+      if (r.contains("error") || !r.contains("latency")) continue;
+      const Json& l = r["latency"];
+      md << "| " << s["name"].get<std::string>() << " | " << r["query"].get<std::string>() << " | "
+         << integer(r["budget"]) << " | " << cell(l["resolved_s"], 3) << " | " << cell(l["highlight_s"], 3) << " | "
+         << cell(l["first_additional_s"], 3) << " / " << cell(l["first_more_resident_s"], 3) << " | "
+         << cell(l["converged_s"], 3) << " | " << integer(l["resident_before_query"]) << " → "
+         << integer(l["initial_residency"]) << " → " << integer(l["desired_residency"]) << " |\n";
+    }
+  }
+  md << "\n";
+}
+
+void ablation_section(std::ostream& md, const Json& report, bool images) {
+  bool any = false;
+  for (const Json& s : report["scenes"]) any = any || s.contains("ablation");
+  if (!any) return;
+  md << "## Budget ablation\n\n"
+     << "PC-HS (and GT-HS) means over the fidelity cameras at each budget M, each M on a fresh connection; the "
+        "frame time is the client's GPU pass time p50 / p95 of idle frames at the settled views (wall clock, "
+        "only with timing).\n\n"
+     << "| scene | size | M | PC-HS PSNR | PC-HS SSIM | PC-HS FLIP | GT-HS PSNR | frame ms p50 / p95 |\n"
+     << "|---|---|---|---|---|---|---|---|\n";
+  for (const Json& s : report["scenes"]) {
+    if (!s.contains("ablation")) continue;
+    for (const Json& p : s["ablation"]) {
+      std::string frame = "n/a";
+      if (report.contains("ablation"))
+        for (const Json& it : report["ablation"])
+          if (it["scene"] == s["name"] && it["budget"] == p["budget"] && it["width"] == p["width"] &&
+              it["height"] == p["height"])
+            frame = cell(it["frame_ms_p50"], 2) + " / " + cell(it["frame_ms_p95"], 2);
+      md << "| " << s["name"].get<std::string>() << " | " << integer(p["width"]) << "x" << integer(p["height"])
+         << " | " << integer(p["budget"]) << " | " << cell(p["psnr_pc_hs"], 2) << " | " << cell(p["ssim_pc_hs"], 3)
+         << " | " << cell(p["flip_pc_hs"], 3) << " | " << cell(p["psnr_gt_hs"], 2) << " | " << frame << " |\n";
+    }
+  }
+  md << "\n";
+  if (!images || !report.contains("plots")) return;
+  if (report["plots"].is_string()) {
+    md << "Plots: " << report["plots"].get<std::string>() << ".\n\n";
+    return;
+  }
+  for (const Json& f : report["plots"]) md << "![" << f.get<std::string>() << "](" << f.get<std::string>() << ")\n";
+  md << "\n";
+}
+
+void timing_section(std::ostream& md, const Json& report) {
+  if (!report.contains("timing")) return;
+  const Json& t = report["timing"];
+  md << "## Timing (wall clock, this machine)\n\n"
+     << "Not part of the deterministic report: the client's display-thread CPU time and GPU pass time per "
+        "frame on " << report["device"].get<std::string>() << ", while the runs above streamed and settled.\n\n"
+     << "| scene | frames | CPU ms p50 / p95 / p99 | GPU ms p50 / p95 / p99 | wall s |\n|---|---|---|---|---|\n";
+  for (const Json& s : t["scenes"]) {
+    const Json& c = s["frame_cpu_ms"];
+    const Json& g = s["frame_gpu_ms"];
+    md << "| " << s["name"].get<std::string>() << " | " << integer(c["n"]) << " | " << cell(c["p50"], 2) << " / "
+       << cell(c["p95"], 2) << " / " << cell(c["p99"], 2) << " | " << cell(g["p50"], 2) << " / " << cell(g["p95"], 2)
+       << " / " << cell(g["p99"], 2) << " | " << cell(s["wall_s"], 1) << " |\n";
+  }
+  md << "\nGPU time per pass (ms, p50 / p95 / p99 over the same frames, views summed; the frames include "
+        "those while publication ran):\n\n| scene | upload | mesh | preprocess | compact | depth sort | emit | "
+        "tile sort | ranges | blend |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const Json& s : t["scenes"]) {
+    if (!s.contains("pass_gpu_ms")) continue;
+    md << "| " << s["name"].get<std::string>();
+    for (const char* p : {"upload", "mesh", "preprocess", "compact", "depth_sort", "emit", "tile_sort", "ranges",
+                          "blend"}) {
+      const Json& v = s["pass_gpu_ms"].contains(p) ? s["pass_gpu_ms"][p] : Json();
+      md << " | " << (v.is_object() ? cell(v["p50"], 2) + " / " + cell(v["p95"], 2) + " / " + cell(v["p99"], 2)
+                                    : std::string("n/a"));
+    }
+    md << " |\n";
+  }
+  md << "\n";
+}
+
+}  // namespace
+
+Status write_markdown(const std::filesystem::path& path, const Json& report, bool images) {
+  std::ostringstream md;
+  md << "# gauss-eval report: " << report["name"].get<std::string>() << "\n\n"
+     << "Produced by\n\n```sh\nbuild/apps/" << report["command"].get<std::string>() << "\n```\n\n"
+     << "on " << report["device"].get<std::string>()
+     << ". Everything except the timing section comes from a virtual clock and reproduces exactly "
+        "(report.json, byte for byte, with --no-timing).\n\n";
+  const Json& checks = report["checks"];
+  md << "**Checks:** HS equals the host's render of the sent set at every view: "
+     << (checks["hs_equals_sent_render"].get<bool>() ? "yes" : "**NO**")
+     << "; every semantic share equals min(|G_obj|, ⌊ρM⌋)/M: "
+     << (checks["semantic_shares_match"].get<bool>() ? "yes" : "**NO**")
+     << "; every view converged: " << (checks["all_converged"].get<bool>() ? "yes" : "**NO**")
+     << "; Vulkan validation errors: " << integer(report["validation_errors"]) << ".\n\n";
+  fidelity_section(md, report, images);
+  semantic_section(md, report, images);
+  temporal_section(md, report);
+  latency_section(md, report);
+  ablation_section(md, report, images);
+  md << "## Definitions\n\n";
+  for (const auto& [k, v] : report["definitions"].items()) md << "- **" << k << "**: " << v.get<std::string>() << "\n";
+  md << "\n";
+  timing_section(md, report);
+  std::ofstream out(path);
+  out << md.str();
+  if (!out) return Error{"cannot write " + path.string()};
+  return Ok{};
+}
+
+}  // namespace gauss::eval_app

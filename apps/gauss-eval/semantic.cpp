@@ -1,0 +1,210 @@
+// The semantic reallocation table: a class and an instance query, each on its own
+// connection with a fixed budget, with and without the query.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <strings.h>
+
+#include "measurements.h"
+
+namespace gauss::eval_app {
+
+namespace {
+
+struct QuerySpec {
+  std::string kind;  // "class" | "instance"
+  std::string name;  // "chair", "robot_arm #8"
+  SemanticQuery query;
+  msg::Query wire;
+  std::string error;  // not measurable (no such object): the row says why
+};
+
+std::vector<QuerySpec> query_specs(const SceneStore& store, const Options& o) {
+  std::vector<QuerySpec> specs;
+  QuerySpec c;
+  c.kind = "class";
+  c.name = o.class_query;
+  c.query = SemanticQuery::for_class(o.class_query);
+  c.wire.kind = msg::QueryKind::ClassText;
+  c.wire.text = o.class_query;
+  c.wire.rho = msg::kHostDefaultRho;  // the host's rho (--rho): exactly the double asked for
+  specs.push_back(std::move(c));
+  // The instance query: the first object (lowest id) with the label.
+  const auto& objects = store.objects();
+  const auto inst = std::find_if(objects.begin(), objects.end(), [&](const SemanticObject& ob) {
+    return strcasecmp(ob.label.c_str(), o.instance_label.c_str()) == 0;
+  });
+  QuerySpec i;
+  if (inst == objects.end()) {
+    i.kind = "instance";
+    i.name = o.instance_label;
+    i.error = "no object with this label";
+    specs.push_back(std::move(i));
+    return specs;
+  }
+  i.kind = "instance";
+  i.name = o.instance_label + " #" + std::to_string(to_underlying(inst->id));
+  i.query = SemanticQuery::for_instance(inst->id);
+  i.wire.kind = msg::QueryKind::Instance;
+  i.wire.instance = inst->id;
+  i.wire.rho = msg::kHostDefaultRho;
+  specs.push_back(std::move(i));
+  return specs;
+}
+
+// Frames at `view` until the client's resolved query targets are (`want` = true) or are
+// not (false) set, at most `timeout_s` virtual seconds: the query's round trip, so that a
+// settle afterwards cannot take the frames before the host saw the query for convergence.
+// `on_frame` (may be empty) sees every frame.
+Status wait_for_query(EvalSession& session, const Camera& view, bool want, double timeout_s,
+                      const std::function<void(const client::DisplayFrameStats&)>& on_frame = {}) {
+  const double t0 = session.now();
+  while (session.now() - t0 <= timeout_s) {
+    const bool has = session.client().with_state([](const ClientState& s) { return !s.query_targets().empty(); });
+    if (has == want) return Ok{};
+    auto f = session.step(view);
+    if (!f) return f.error();
+    if (on_frame) on_frame(*f);
+  }
+  return Error{want ? "the query was not resolved in time" : "the query was not cleared in time"};
+}
+
+struct View {
+  const char* name;
+  Camera cam;
+  GroundTruthImage gt;
+  eval::Mask mask;        // the target's pixels
+  ImageRGBA8 hs[2];       // without, with the query
+  Json json;
+};
+
+// One query state (with or without it) at one view.
+Expected<Json> measure_state(Room& room, Stream& stream, View& v, std::span<const ObjectId> targets, bool with,
+                             const std::function<void(const client::DisplayFrameStats&)>& on_frame = {}) {
+  auto cap = capture(room, stream, v.cam, on_frame);
+  if (!cap) return cap.error();
+  const std::uint64_t on_object = stream.session->resident_on(targets);
+  Json j;
+  j["settle"] = settle_json(cap->settle);
+  j["resident"] = cap->resident;
+  j["resident_on_object"] = on_object;
+  j["share"] = double(on_object) / double(stream.session->client().capacity());
+  j["gt_hs_object"] = scores(v.gt.colour, cap->hs, v.mask);
+  j["hs_vs_sent_differing"] = cap->hs_vs_sent_differing;
+  v.hs[with ? 1 : 0] = std::move(cap->hs);
+  return j;
+}
+
+Expected<Json> measure_query(Room& room, const QuerySpec& q) {
+  const EvalScene& scene = room.scene;
+  const Options& o = room.options;
+  auto res = resolve_query(q.query, scene.store->objects());
+  if (!res) return Json{{"kind", q.kind}, {"query", q.name}, {"error", res.message()}};
+  const std::vector<ObjectId> targets = res->ids();
+  const std::uint32_t m =
+      o.semantic_budget > 0 ? o.semantic_budget : static_cast<std::uint32_t>(std::max<std::size_t>(16, res->gaussians));
+  auto stream = open_stream(room, m, o.progressive ? PublishMode::Progressive : PublishMode::Immediate);
+  if (!stream) return stream.error();
+  // floor(rho M) as the host computes it (the query leaves rho to the host's --rho).
+  const auto reserve = static_cast<std::uint64_t>(std::floor(o.rho * static_cast<double>(m)));
+  const std::uint64_t expected = std::min<std::uint64_t>(res->gaussians, reserve);
+  Json row;
+  row["kind"] = q.kind;
+  row["query"] = q.name;
+  Json ids = Json::array();
+  for (ObjectId id : targets) ids.push_back(to_underlying(id));
+  row["targets"] = ids;
+  row["model_gaussians"] = scene.appearance;
+  row["budget"] = m;
+  row["rho"] = o.rho;
+  row["object_gaussians"] = res->gaussians;
+  row["reserve"] = reserve;
+  row["expected_resident"] = expected;
+  row["expected_share"] = double(expected) / double(m);
+  const ObjectViews ov = object_views(*res, *scene.synthetic, o.width, o.height);
+  View vs[2] = {{"near", ov.near, {}, {}, {}, {}}, {"far", ov.far, {}, {}, {}, {}}};
+  for (View& v : vs) {
+    v.gt = scene.synthetic->render_ground_truth(v.cam);
+    v.mask = object_mask(v.gt, targets);
+    auto pc = render_covered(room.full, v.cam);
+    if (!pc) return pc.error();
+    v.json["pose"] = camera_json(v.cam);
+    v.json["object_pixels"] = count(v.mask);
+    v.json["gt_pc_object"] = scores(v.gt.colour, pc->image, v.mask);
+  }
+  EvalSession& session = *stream->session;
+  bool matches = true;
+  std::uint32_t query_id = 0;
+  double sent_at = 0.0;
+  // The harness's own view of the query's effect: target residency before the query and
+  // the first frame (after it was issued) that holds more, until the near view settles.
+  std::uint64_t base_resident = 0;
+  double first_more = -1.0;
+  bool tracking = false;
+  const auto track = [&](const client::DisplayFrameStats& f) {
+    if (tracking && first_more < 0.0 && session.resident_on(targets) > base_resident) first_more = f.now - sent_at;
+  };
+  for (bool with : {false, true}) {
+    if (with) {
+      base_resident = session.resident_on(targets);
+      tracking = true;
+      sent_at = session.now();
+      query_id = session.client().send_query(q.wire);
+      if (auto st = wait_for_query(session, vs[0].cam, true, o.settle_timeout_s, track); !st) return st.error();
+    }
+    for (View& v : vs) {
+      room.progress("semantic " + q.name + ", " + v.name + (with ? ", with the query" : ", without"));
+      auto st = measure_state(room, *stream, v, targets, with, track);
+      tracking = false;
+      if (!st) return Error{std::string(v.name) + ": " + st.message()};
+      if (with) {
+        const std::uint64_t got = (*st)["resident_on_object"].get<std::uint64_t>();
+        (*st)["share_matches"] = got == expected;
+        matches = matches && got == expected;
+        (*st)["client_reported_object_gaussians"] =
+            session.client().with_state([](const ClientState& s) { return s.query_target_gaussians(); });
+      }
+      v.json[with ? "with_query" : "without_query"] = std::move(*st);
+    }
+  }
+  row["share_matches"] = matches;
+  row["latency"] = query_latency(session, query_id, sent_at);
+  row["latency"]["resident_before_query"] = base_resident;
+  row["latency"]["first_more_resident_s"] = number(first_more);
+  row["views"] = Json{{"near", std::move(vs[0].json)}, {"far", std::move(vs[1].json)}};
+  row["stream"] = stream_json(session);
+  if (room.panels.enabled()) {
+    for (View& v : vs) {
+      ImageRGBA8 diffs[2];
+      for (int w = 0; w < 2; ++w) {
+        auto fm = eval::flip_map(view_of(v.gt.colour), view_of(v.hs[w]), v.mask);
+        diffs[w] = flip_image(fm ? *fm : std::vector<float>{}, o.width, o.height);
+      }
+      if (auto st = room.panels.write(scene.name + "_" + q.kind + "_" + v.name,
+                                      {&v.gt.colour, &v.hs[0], &diffs[0], &v.hs[1], &diffs[1]});
+          !st)
+        return st.error();
+    }
+  }
+  return row;
+}
+
+}  // namespace
+
+Expected<Json> measure_semantic(Room& room) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Json rows = Json::array();
+  for (const QuerySpec& q : query_specs(*room.scene.store, room.options)) {
+    if (!q.error.empty()) {
+      rows.push_back(Json{{"kind", q.kind}, {"query", q.name}, {"error", q.error}});
+      continue;
+    }
+    auto row = measure_query(room, q);
+    if (!row) return Error{room.scene.name + " query " + q.name + ": " + row.message()};
+    rows.push_back(std::move(*row));
+  }
+  room.timing.phases["semantic_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return rows;
+}
+
+}  // namespace gauss::eval_app

@@ -1,0 +1,125 @@
+// gauss-eval on a small configuration, twice: the deterministic report (--no-timing) must
+// reproduce byte for byte; every client frame it measured must equal the host's render of
+// the very set it sent (0 differing pixels); and every semantic query must hold exactly
+// min(|G_obj|, floor(rho M)) of the client's M slots, recomputed here from the report's
+// own figures.
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "child_process.h"
+
+namespace {
+
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// One room, one fidelity camera, a small scene and view, a short flicker window, a
+// two-point ablation: about 10-15 s a run on lavapipe (2 cores).
+std::vector<std::string> eval_args(const fs::path& out) {
+  return {GAUSS_EVAL_EXE, "--scenes", "0", "--gaussians", "12000", "--budget", "3000", "--size", "128x96",
+          "--cameras", "1", "--quiet", "0.25", "--flicker-window", "0.3", "--ablation", "1000,6000", "--no-timing",
+          "--name", "ctest", "--out", out.string()};
+}
+
+void run_eval(const fs::path& out) {
+  fs::remove_all(out);
+  fs::create_directories(out);
+  gauss::test::ChildProcess eval;
+  ASSERT_TRUE(eval.start(eval_args(out), out / "eval.log"));
+  const auto rc = eval.wait(240s);
+  if (!rc) eval.stop(SIGKILL);
+  ASSERT_EQ(rc.value_or(-1), 0) << read_text(out / "eval.log");
+}
+
+TEST(GaussEval, ReportReproducesAndItsExactnessChecksHold) {
+  const fs::path base = fs::path(GAUSS_TEST_OUTPUT_DIR) / "eval_app_gauss_eval";
+  ASSERT_NO_FATAL_FAILURE(run_eval(base / "a"));
+  ASSERT_NO_FATAL_FAILURE(run_eval(base / "b"));
+  const std::string a = read_text(base / "a" / "report.json"), b = read_text(base / "b" / "report.json");
+  ASSERT_FALSE(a.empty());
+  EXPECT_EQ(a, b) << "report.json differs between two runs of the same command";
+  EXPECT_TRUE(fs::exists(base / "a" / "report.md"));
+  EXPECT_TRUE(fs::exists(base / "a" / "room0_cam0.png"));
+
+  const nlohmann::json r = nlohmann::json::parse(a);
+  EXPECT_FALSE(r.contains("timing")) << "--no-timing leaves the wall-clock figures out";
+  EXPECT_EQ(r["validation_errors"].get<std::uint64_t>(), 0u);
+  ASSERT_EQ(r["scenes"].size(), 1u);
+  const nlohmann::json& scene = r["scenes"][0];
+
+  // HS equals the host's render of the sent set, at every view measured.
+  std::size_t views = 0;
+  for (const auto& c : scene["fidelity"]["cameras"]) {
+    EXPECT_EQ(c["hs_vs_sent"]["differing_pixels"].get<std::uint64_t>(), 0u) << "fidelity camera " << c["camera"];
+    EXPECT_TRUE(c["settle"]["converged"].get<bool>());
+    EXPECT_TRUE(c["pc_hs"]["psnr_db"].is_number()) << c["pc_hs"].dump();
+    EXPECT_GT(c["coverage"]["both"].get<double>(), 0.5);
+    ++views;
+  }
+  EXPECT_EQ(views, 1u);
+
+  // The semantic table: both queries, share = min(|G_obj|, floor(rho M)) / M exactly.
+  ASSERT_EQ(scene["semantic"].size(), 2u);
+  for (const auto& q : scene["semantic"]) {
+    ASSERT_FALSE(q.contains("error")) << q.dump();
+    const auto m = q["budget"].get<std::uint64_t>();
+    const auto g_obj = q["object_gaussians"].get<std::uint64_t>();
+    const double rho = q["rho"].get<double>();
+    const std::uint64_t expected = std::min<std::uint64_t>(g_obj, static_cast<std::uint64_t>(std::floor(rho * m)));
+    EXPECT_GT(g_obj, 0u);
+    for (const char* view : {"near", "far"}) {
+      const auto& with = q["views"][view]["with_query"];
+      const auto& without = q["views"][view]["without_query"];
+      EXPECT_EQ(with["resident_on_object"].get<std::uint64_t>(), expected) << q["query"] << " " << view;
+      EXPECT_DOUBLE_EQ(with["share"].get<double>(), double(expected) / double(m));
+      EXPECT_EQ(with["client_reported_object_gaussians"].get<std::uint64_t>(), g_obj);
+      EXPECT_EQ(with["resident"].get<std::uint64_t>(), m) << "the query moves the budget, it does not grow it";
+      EXPECT_LT(without["resident_on_object"].get<std::uint64_t>(), expected)
+          << "without the query the target holds less (" << q["query"] << ", " << view << ")";
+      EXPECT_EQ(with["hs_vs_sent_differing"].get<std::uint64_t>(), 0u);
+      EXPECT_EQ(without["hs_vs_sent_differing"].get<std::uint64_t>(), 0u);
+      EXPECT_GT(q["views"][view]["object_pixels"].get<std::uint64_t>(), 0u);
+    }
+  }
+  // Teleport and return per publication mode; the budget ablation's points.
+  ASSERT_EQ(scene["temporal"].size(), 2u);
+  for (const auto& t : scene["temporal"]) {
+    EXPECT_TRUE(t["return"]["converged"].get<bool>()) << t["mode"];
+    EXPECT_TRUE(t["ssim_convergence_s"].is_number()) << t["mode"];
+    EXPECT_GT(t["return"]["slot_writes"].get<std::uint64_t>(), 0u) << "the return to A publishes edits";
+    EXPECT_GT(t["flicker"]["frames"].get<std::uint64_t>(), 0u);
+  }
+  ASSERT_EQ(scene["ablation"].size(), 2u);
+  for (const auto& p : scene["ablation"])
+    for (const auto& c : p["cameras"]) EXPECT_EQ(c["hs_vs_sent_differing"].get<std::uint64_t>(), 0u);
+  EXPECT_FALSE(r.contains("ablation")) << "the plot script's list carries frame times: only with timing";
+  // Stage latencies: every live epoch reached the screen, after it became available.
+  const auto& live = scene["model_latency"]["epochs"];
+  ASSERT_FALSE(live.empty());
+  for (const auto& e : live) {
+    ASSERT_TRUE(e["visible_s"].is_number()) << e.dump();
+    EXPECT_GE(e["sent_s"].get<double>(), 0.0) << e.dump();
+    EXPECT_GE(e["visible_s"].get<double>(), e["sent_s"].get<double>()) << e.dump();
+  }
+
+  EXPECT_TRUE(r["checks"]["hs_equals_sent_render"].get<bool>());
+  EXPECT_TRUE(r["checks"]["semantic_shares_match"].get<bool>());
+  EXPECT_TRUE(r["checks"]["all_converged"].get<bool>());
+}
+
+}  // namespace
