@@ -144,6 +144,10 @@ Status ClientState::on_message(const wire::Message& m, double now) {
       t.targets = r->targets;
       t.target_gaussians = r->target_gaussians;
       std::sort(t.targets.begin(), t.targets.end());
+      // The residency the query starts from is counted now, before any publication: the
+      // reply and the first batch it causes may arrive before the same frame, and a count
+      // taken after that frame's publication would already include the new content.
+      t.initial = count_resident(t.targets);
       query_track_ = std::move(t);
     } else if (r->status == msg::QueryStatus::Cleared) {
       query_track_.reset();
@@ -151,6 +155,17 @@ Status ClientState::on_message(const wire::Message& m, double now) {
     return Ok{};
   }
   return Ok{};
+}
+
+std::uint64_t ClientState::count_resident(const std::vector<ObjectId>& targets) const {
+  std::uint64_t n = 0;
+  for (std::uint32_t s = 0; s < slots_.capacity(); ++s) {
+    GaussianId id{0};
+    if (slots_.occupant(SlotIndex{s}, id) &&
+        std::binary_search(targets.begin(), targets.end(), slots_.records()[s].object))
+      ++n;
+  }
+  return n;
 }
 
 void ClientState::track_query(double now, std::uint64_t frame_index, bool rendered, bool slots_written) {
@@ -165,25 +180,17 @@ void ClientState::track_query(double now, std::uint64_t frame_index, bool render
     return;
   }
   if (q.converged) return;
+  if (!q.initial_reported) {
+    q.initial_reported = true;
+    events_.query(now, client_index_, q.query_id, QueryStage::InitialResidency, first, q.initial, frame_index);
+  }
   // Target residency by a scan of the published slots: only while a query converges,
   // and only after a frame that wrote slots (a query waiting for its batch must not
   // cost an O(M) scan on every idle frame).
   auto is_target = [&q](ObjectId o) { return std::binary_search(q.targets.begin(), q.targets.end(), o); };
-  if (!q.resident || slots_written) {
-    std::uint64_t n = 0;
-    for (std::uint32_t s = 0; s < slots_.capacity(); ++s) {
-      GaussianId id{0};
-      if (slots_.occupant(SlotIndex{s}, id) && is_target(slots_.records()[s].object)) ++n;
-    }
-    q.resident = n;
-  }
+  if (!q.resident || slots_written) q.resident = count_resident(q.targets);
   const std::uint64_t resident = *q.resident;
-  if (!q.initial) {
-    q.initial = resident;
-    events_.query(now, client_index_, q.query_id, QueryStage::InitialResidency, first, resident, frame_index);
-    return;
-  }
-  if (!q.first_additional && resident > *q.initial) {
+  if (!q.first_additional && resident > q.initial) {
     q.first_additional = true;
     events_.query(now, client_index_, q.query_id, QueryStage::FirstAdditional, first, resident, frame_index);
   }

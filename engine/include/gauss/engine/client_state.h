@@ -118,6 +118,8 @@ class ClientState {
   Status on_batch(const msg::EditBatchMsg& b, double now);
   // `slots_written`: this frame's publication wrote slots (target residency may differ).
   void track_query(double now, std::uint64_t frame_index, bool rendered, bool slots_written);
+  // Published slots whose Gaussian belongs to one of `targets` (sorted). O(M).
+  std::uint64_t count_resident(const std::vector<ObjectId>& targets) const;
 
   std::uint32_t client_index_;
   ClientConfig config_;
@@ -153,7 +155,8 @@ class ClientState {
     std::uint32_t query_id{0};
     std::vector<ObjectId> targets;  // sorted
     std::uint64_t target_gaussians{0};  // on the host, at resolution
-    std::optional<std::uint64_t> initial;
+    std::uint64_t initial{0};               // target members published when the reply arrived
+    bool initial_reported{false};
     std::optional<std::uint64_t> resident;  // target members published, as of the last scan
     bool highlight_shown{false};
     bool first_additional{false};
