@@ -130,13 +130,18 @@ bool EvalSession::in_sync() {
 
 Expected<SettleResult> EvalSession::settle(const Camera& view, double timeout_s, double quiet_s,
                                            const std::function<void(const client::DisplayFrameStats&)>& on_frame) {
+  return settle_views(std::span<const Camera>(&view, 1), timeout_s, quiet_s, on_frame);
+}
+
+Expected<SettleResult> EvalSession::settle_views(std::span<const Camera> views, double timeout_s, double quiet_s,
+                                                 const std::function<void(const client::DisplayFrameStats&)>& on_frame) {
   SettleResult r;
   r.start_s = now_;
   double sync_since = -1.0;
   while (now_ - r.start_s <= timeout_s) {
     const double t = now_;
     const std::uint64_t sent_before = messages_down_;
-    auto f = step(view);
+    auto f = step_views(views);
     if (!f) return f.error();
     ++r.frames;
     r.slot_writes += f->publish.slot_writes();

@@ -77,6 +77,9 @@ class EvalSession {
   // empty) sees every frame.
   Expected<SettleResult> settle(const Camera& view, double timeout_s, double quiet_s,
                                 const std::function<void(const client::DisplayFrameStats&)>& on_frame = {});
+  // The same with 1 or 2 views per frame (stereo: view 0 is the head).
+  Expected<SettleResult> settle_views(std::span<const Camera> views, double timeout_s, double quiet_s,
+                                      const std::function<void(const client::DisplayFrameStats&)>& on_frame = {});
   // In sync now: welcomed, nothing in flight to the client, nothing pending, published
   // checksum == the host's sent checksum. O(M).
   bool in_sync();

@@ -118,6 +118,12 @@ Status run_room(vk::Context& ctx, const Options& o, int variant, const PanelWrit
     if (!latency) return latency.error();
     scene_json["model_latency"] = std::move(*latency);
   }
+  Json stereo_timing;
+  if (o.stereo_budget) {
+    auto stereo = measure_stereo_timing(room, stereo_timing);
+    if (!stereo) return Error{scene->name + " stereo timing: " + stereo.message()};
+    scene_json["stereo_timing"] = std::move(*stereo);
+  }
   if (!o.ablation_budgets.empty()) {
     std::vector<double> p50, p95;
     auto ablation = measure_ablation(room, p50, p95);
@@ -145,6 +151,7 @@ Status run_room(vk::Context& ctx, const Options& o, int variant, const PanelWrit
                      {"frame_cpu_ms", percentiles(timing.frame_cpu_ms)},
                      {"frame_gpu_ms", percentiles(timing.frame_gpu_ms)},
                      {"pass_gpu_ms", pass_json}};
+  if (o.stereo_budget) timing_json["stereo_timing"] = std::move(stereo_timing);
   status.done(label + "done in " + std::to_string(static_cast<int>(seconds_since(t0) + 0.5)) + " s");
   return Ok{};
 }
@@ -171,6 +178,8 @@ Json checks_of(const Json& report) {
     if (s.contains("temporal"))
       for (const Json& t : s["temporal"])
         for (const char* k : {"first", "teleport", "return"}) settle(t[k]);
+    if (s.contains("stereo_timing"))
+      for (const char* k : {"settle_a", "teleport"}) settle(s["stereo_timing"][k]);
     if (s.contains("model_latency"))
       for (const char* k : {"settle_first", "settle_last"}) settle(s["model_latency"][k]);
     if (s.contains("ablation"))

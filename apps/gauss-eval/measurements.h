@@ -70,6 +70,17 @@ Expected<Json> measure_semantic(Room& room);
 // settled frame, post-convergence flicker and churn under head sway. See temporal.cpp.
 Expected<Json> measure_temporal(Room& room);
 
+// The far teleport target of camera `a`: its eye mirrored through the room centre (x and
+// z, kept 25 cm inside the walls), looking the opposite way, with a's intrinsics.
+Camera teleport_target(const Camera& a, const SyntheticScene& scene);
+
+// Frame timing while publication runs, the headset's case: stereo at --ipd, M =
+// --stereo-budget, progressive; idle at A, a far teleport streaming in, idle at B. Returns
+// the deterministic part (frames, convergence, resident); `timing` gets the wall-clock
+// percentiles per phase (CPU ms per frame, GPU ms per frame and per pass). See
+// frame_timing.cpp.
+Expected<Json> measure_stereo_timing(Room& room, Json& timing);
+
 // Stage latencies of model edits: the room produced live (half its epochs before the
 // client connects, then one per --epoch-period) at M = --budget; per epoch, virtual
 // seconds from available (committed to the host's scene) to sent, received, published and

@@ -68,6 +68,10 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
                         "skip the stage latencies of model edits (the live room)");
   app.add_option("--epoch-period", o.epoch_period_s, "the live room's epoch period, virtual seconds")
       ->check(apps::in_range(0.01, 60.0));
+  app.add_option("--stereo-budget", o.stereo_budget,
+                 "frame timing while publication runs: stereo at this M after a far teleport (0: not run)")
+      ->check(apps::in_range<std::uint32_t>(0, 400000));
+  app.add_option("--ipd", o.ipd, "eye separation of the stereo frame timing, metres")->check(apps::in_range(0.0, 0.2));
   app.add_option("--ablation", o.ablation_budgets, "budget ablation over these M (e.g. 25000,50000,100000)")
       ->delimiter(',')
       ->check(apps::in_range<std::uint32_t>(1, 400000))
@@ -122,6 +126,7 @@ std::string canonical_command(const Options& o) {
   c << " --flicker-window " << shortest(o.flicker_window_s);
   if (!o.latency) c << " --no-latency";
   c << " --epoch-period " << shortest(o.epoch_period_s);
+  if (o.stereo_budget) c << " --stereo-budget " << o.stereo_budget << " --ipd " << shortest(o.ipd);
   if (!o.ablation_budgets.empty()) {
     c << " --ablation " << join(o.ablation_budgets) << " --ablation-sizes ";
     for (std::size_t i = 0; i < o.ablation_sizes.size(); ++i)

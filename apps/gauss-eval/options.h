@@ -37,6 +37,8 @@ struct Options {
   double flicker_window_s{2.0};           // virtual seconds of head sway after convergence
   bool latency{true};                     // stage latencies of model edits (a live room)
   double epoch_period_s{0.1};             // the live room's epoch period
+  std::uint32_t stereo_budget{0};         // M of the stereo frame-timing run (0: not run; the figure: 200000)
+  double ipd{0.064};                      // its eye separation, metres
   std::vector<std::uint32_t> ablation_budgets;  // budget ablation (empty: none)
   std::vector<std::pair<std::uint32_t, std::uint32_t>> ablation_sizes;  // its view sizes (empty: --size)
   std::string plot_script;                // scripts/plot_eval.py of the source tree (empty: no plots)

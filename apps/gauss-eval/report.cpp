@@ -252,6 +252,66 @@ void ablation_section(std::ostream& md, const Json& report, bool images) {
   md << "\n";
 }
 
+constexpr const char* kPasses[] = {"upload", "mesh", "preprocess", "compact", "depth_sort", "emit", "tile_sort",
+                                   "ranges", "blend"};
+constexpr const char* kPassHeader =
+    "upload | mesh | preprocess | compact | depth sort | emit | tile sort | ranges | blend |\n";
+
+// " | p50 / p95 / p99" per pass of a {"pass": percentiles} object.
+std::string pass_cells(const Json& passes) {
+  std::string out;
+  for (const char* p : kPasses) {
+    const Json& v = passes.contains(p) ? passes[p] : Json();
+    out += " | " + (v.is_object() ? cell(v["p50"], 2) + " / " + cell(v["p95"], 2) + " / " + cell(v["p99"], 2)
+                                   : std::string("n/a"));
+  }
+  return out;
+}
+
+// Frame timing while publication runs, stereo at M = --stereo-budget (its deterministic
+// part in the scene, its wall-clock figures under "timing").
+void stereo_timing_section(std::ostream& md, const Json& report) {
+  bool any = false;
+  for (const Json& s : report["scenes"]) any = any || s.contains("stereo_timing");
+  if (!any) return;
+  md << "## Frame timing while publication runs (stereo)\n\n"
+     << "Two eyes per frame, progressive publication at a fixed allowance: idle at A, then a far teleport to B "
+        "streaming in until the client converged, then idle at B. CPU: the display thread per frame; GPU: both "
+        "eyes, per frame and per pass (wall clock, on " << report["device"].get<std::string>() << ").\n\n"
+     << "| scene | M | size | resident A / B | streaming frames (virtual s) | phase | frames | CPU ms p50 / p95 / p99 "
+        "| GPU ms p50 / p95 / p99 |\n|---|---|---|---|---|---|---|---|---|\n";
+  for (const Json& s : report["scenes"]) {
+    if (!s.contains("stereo_timing")) continue;
+    const Json& st = s["stereo_timing"];
+    const Json& t = scene_timing(report, s["name"].get<std::string>());
+    const Json& phases = t.is_object() && t.contains("stereo_timing") ? t["stereo_timing"]["phases"] : Json();
+    for (const char* phase : {"idle_before", "streaming", "idle_after"}) {
+      const Json& p = phases.is_object() ? phases[phase] : Json();
+      const Json& c = p.is_object() ? p["frame_cpu_ms"] : Json();
+      const Json& g = p.is_object() ? p["frame_gpu_ms"] : Json();
+      auto pct = [](const Json& j) {
+        return j.is_object() ? cell(j["p50"], 1) + " / " + cell(j["p95"], 1) + " / " + cell(j["p99"], 1)
+                             : std::string("n/a (no timing)");
+      };
+      md << "| " << s["name"].get<std::string>() << " | " << integer(st["budget"]) << " | " << integer(st["width"])
+         << "x" << integer(st["height"]) << " | " << integer(st["resident_at_a"]) << " / "
+         << integer(st["resident_at_b"]) << " | " << integer(st["teleport"]["frames"]) << " ("
+         << cell(st["teleport"]["converged_s"], 2) << ") | " << phase << " | "
+         << (c.is_object() ? integer(c["n"]) : std::string("n/a")) << " | " << pct(c) << " | " << pct(g) << " |\n";
+    }
+  }
+  md << "\nGPU ms per pass (p50 / p95 / p99, both eyes):\n\n| scene | phase | " << kPassHeader
+     << "|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const Json& s : report["scenes"]) {
+    const Json& t = scene_timing(report, s["name"].get<std::string>());
+    if (!s.contains("stereo_timing") || !t.is_object() || !t.contains("stereo_timing")) continue;
+    for (const char* phase : {"idle_before", "streaming", "idle_after"})
+      md << "| " << s["name"].get<std::string>() << " | " << phase
+         << pass_cells(t["stereo_timing"]["phases"][phase]["pass_gpu_ms"]) << " |\n";
+  }
+  md << "\n";
+}
+
 void timing_section(std::ostream& md, const Json& report) {
   if (!report.contains("timing")) return;
   const Json& t = report["timing"];
@@ -267,18 +327,10 @@ void timing_section(std::ostream& md, const Json& report) {
        << " / " << cell(g["p99"], 2) << " | " << cell(s["wall_s"], 1) << " |\n";
   }
   md << "\nGPU time per pass (ms, p50 / p95 / p99 over the same frames, views summed; the frames include "
-        "those while publication ran):\n\n| scene | upload | mesh | preprocess | compact | depth sort | emit | "
-        "tile sort | ranges | blend |\n|---|---|---|---|---|---|---|---|---|---|\n";
+        "those while publication ran):\n\n| scene | " << kPassHeader << "|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Json& s : t["scenes"]) {
     if (!s.contains("pass_gpu_ms")) continue;
-    md << "| " << s["name"].get<std::string>();
-    for (const char* p : {"upload", "mesh", "preprocess", "compact", "depth_sort", "emit", "tile_sort", "ranges",
-                          "blend"}) {
-      const Json& v = s["pass_gpu_ms"].contains(p) ? s["pass_gpu_ms"][p] : Json();
-      md << " | " << (v.is_object() ? cell(v["p50"], 2) + " / " + cell(v["p95"], 2) + " / " + cell(v["p99"], 2)
-                                    : std::string("n/a"));
-    }
-    md << " |\n";
+    md << "| " << s["name"].get<std::string>() << pass_cells(s["pass_gpu_ms"]) << " |\n";
   }
   md << "\n";
 }
@@ -304,6 +356,7 @@ Status write_markdown(const std::filesystem::path& path, const Json& report, boo
   temporal_section(md, report);
   latency_section(md, report);
   ablation_section(md, report, images);
+  stereo_timing_section(md, report);
   md << "## Definitions\n\n";
   for (const auto& [k, v] : report["definitions"].items()) md << "- **" << k << "**: " << v.get<std::string>() << "\n";
   md << "\n";

@@ -32,22 +32,6 @@ constexpr double kSsimConverged = 0.99;
 glm::dvec3 eye_of(const Camera& c) { return glm::dvec3(glm::inverse(c.world_to_camera)[3]); }
 glm::dvec3 forward_of(const Camera& c) { return glm::normalize(glm::dvec3(glm::inverse(c.world_to_camera)[2])); }
 
-// A's eye mirrored through the room centre (x and z), looking the opposite way.
-Camera teleport_target(const Camera& a, const SyntheticScene& scene) {
-  const glm::dvec3 lo(scene.room_min()), hi(scene.room_max());
-  const glm::dvec3 e = eye_of(a), f = forward_of(a);
-  glm::dvec3 eye(lo.x + hi.x - e.x, e.y, lo.z + hi.z - e.z);
-  eye = glm::clamp(eye, lo + 0.25, hi - 0.25);
-  glm::dvec3 dir(-f.x, f.y, -f.z);
-  if (glm::length(glm::dvec3(dir.x, 0.0, dir.z)) < 1e-3) dir = glm::dvec3(1.0, 0.0, 0.0);
-  Camera b = look_camera(eye, eye + dir, a.width, a.height);
-  b.fx = a.fx;
-  b.fy = a.fy;
-  b.cx = a.cx;
-  b.cy = a.cy;
-  return b;
-}
-
 // A swayed by the standing user's sway at `t` seconds into the window.
 Camera swayed(const Camera& a, double t) {
   constexpr double kTwoPi = 6.283185307179586;
@@ -188,6 +172,21 @@ Expected<Json> measure_mode(Room& room, PublishMode mode, Json& timing) {
 }
 
 }  // namespace
+
+Camera teleport_target(const Camera& a, const SyntheticScene& scene) {
+  const glm::dvec3 lo(scene.room_min()), hi(scene.room_max());
+  const glm::dvec3 e = eye_of(a), f = forward_of(a);
+  glm::dvec3 eye(lo.x + hi.x - e.x, e.y, lo.z + hi.z - e.z);
+  eye = glm::clamp(eye, lo + 0.25, hi - 0.25);
+  glm::dvec3 dir(-f.x, f.y, -f.z);
+  if (glm::length(glm::dvec3(dir.x, 0.0, dir.z)) < 1e-3) dir = glm::dvec3(1.0, 0.0, 0.0);
+  Camera b = look_camera(eye, eye + dir, a.width, a.height);
+  b.fx = a.fx;
+  b.fy = a.fy;
+  b.cx = a.cx;
+  b.cy = a.cy;
+  return b;
+}
 
 Expected<Json> measure_temporal(Room& room) {
   const auto t0 = std::chrono::steady_clock::now();

@@ -32,7 +32,8 @@ std::string read_text(const fs::path& p) {
 // two-point ablation: about 10-15 s a run on lavapipe (2 cores).
 std::vector<std::string> eval_args(const fs::path& out) {
   return {GAUSS_EVAL_EXE, "--scenes", "0", "--gaussians", "12000", "--budget", "3000", "--size", "128x96",
-          "--cameras", "1", "--quiet", "0.25", "--flicker-window", "0.3", "--ablation", "1000,6000", "--no-timing",
+          "--cameras", "1", "--quiet", "0.25", "--flicker-window", "0.3", "--ablation", "1000,6000", "--stereo-budget",
+          "3000", "--no-timing",
           "--name", "ctest", "--out", out.string()};
 }
 
@@ -95,6 +96,11 @@ TEST(GaussEval, ReportReproducesAndItsExactnessChecksHold) {
       EXPECT_EQ(without["hs_vs_sent_differing"].get<std::uint64_t>(), 0u);
       EXPECT_GT(q["views"][view]["object_pixels"].get<std::uint64_t>(), 0u);
     }
+    // The client's own stage events: resolved, then more target content, then converged.
+    const auto& lat = q["latency"];
+    ASSERT_TRUE(lat["first_additional_s"].is_number()) << lat.dump();
+    EXPECT_LE(lat["resolved_s"].get<double>(), lat["first_additional_s"].get<double>()) << lat.dump();
+    EXPECT_LE(lat["first_additional_s"].get<double>(), lat["converged_s"].get<double>()) << lat.dump();
   }
   // Teleport and return per publication mode; the budget ablation's points.
   ASSERT_EQ(scene["temporal"].size(), 2u);
@@ -116,6 +122,15 @@ TEST(GaussEval, ReportReproducesAndItsExactnessChecksHold) {
     EXPECT_GE(e["sent_s"].get<double>(), 0.0) << e.dump();
     EXPECT_GE(e["visible_s"].get<double>(), e["sent_s"].get<double>()) << e.dump();
   }
+
+  // Stereo frame timing: a far teleport streamed in at M and converged; the counts are
+  // deterministic, the times are left out with --no-timing.
+  const auto& stereo = scene["stereo_timing"];
+  EXPECT_EQ(stereo["views"].get<int>(), 2);
+  EXPECT_EQ(stereo["resident_at_a"].get<std::uint64_t>(), 3000u);
+  EXPECT_EQ(stereo["resident_at_b"].get<std::uint64_t>(), 3000u);
+  EXPECT_TRUE(stereo["teleport"]["converged"].get<bool>());
+  EXPECT_GT(stereo["teleport"]["slot_writes"].get<std::uint64_t>(), 0u);
 
   EXPECT_TRUE(r["checks"]["hs_equals_sent_render"].get<bool>());
   EXPECT_TRUE(r["checks"]["semantic_shares_match"].get<bool>());

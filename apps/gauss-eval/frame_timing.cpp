@@ -1,0 +1,120 @@
+// Frame timing while publication runs: the headset's case. Stereo (two eyes per frame,
+// --ipd apart), M = --stereo-budget, progressive publication, on this machine's Vulkan
+// device.
+//
+// On a fresh connection: settle at A (fidelity camera 0) and render kIdleFrames more
+// frames there (idle before); teleport to B (temporal.cpp's target) and keep every frame
+// until the client has converged (streaming: the frames while the edits of a far
+// teleport are published); then kIdleFrames at B (idle after, the same resident count as
+// the streaming frames end with). Per phase the display thread's CPU ms per frame and the
+// GPU ms per pass (both eyes summed) are percentiles of the wall clock, so they live in
+// report.json's "timing"; the deterministic part (frames, virtual convergence time, slot
+// writes, resident) is the section's own.
+#include <chrono>
+
+#include "gauss/render/splat_math.h"
+#include "measurements.h"
+
+namespace gauss::eval_app {
+
+namespace {
+
+constexpr int kIdleFrames = 24;
+
+struct Phase {
+  explicit Phase(const char* n) : name(n) {}
+  const char* name;
+  std::uint64_t first{0}, last{0};  // display frame indices, inclusive
+  std::vector<double> cpu_ms;
+  Timing gpu;
+};
+
+}  // namespace
+
+Expected<Json> measure_stereo_timing(Room& room, Json& timing) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const Options& o = room.options;
+  const EvalScene& scene = room.scene;
+  auto stream = open_stream(room, o.stereo_budget, PublishMode::Progressive);
+  if (!stream) return stream.error();
+  EvalSession& session = *stream->session;
+  const Camera a = scene.cameras.front();
+  const Camera b = teleport_target(a, *scene.synthetic);
+  auto eyes = [&](const Camera& c) {
+    return std::array<Camera, 2>{render::stereo_eye_camera(c, o.ipd, render::Eye::Left),
+                                 render::stereo_eye_camera(c, o.ipd, render::Eye::Right)};
+  };
+  const auto eyes_a = eyes(a), eyes_b = eyes(b);
+
+  room.progress("stereo timing: settling at A (M = " + std::to_string(o.stereo_budget) + ")");
+  auto first = session.settle_views(eyes_a, o.settle_timeout_s, o.quiet_s);
+  if (!first) return first.error();
+  Phase phases[3] = {Phase("idle_before"), Phase("streaming"), Phase("idle_after")};
+  auto idle = [&](Phase& p, std::span<const Camera> views) -> Status {
+    for (int k = 0; k < kIdleFrames; ++k) {
+      auto f = session.step_views(views);
+      if (!f) return f.error();
+      if (k == 0) p.first = f->frame_index;
+      p.last = f->frame_index;
+      p.cpu_ms.push_back(f->cpu_ms);
+    }
+    return Ok{};
+  };
+  if (auto st = idle(phases[0], eyes_a); !st) return st.error();
+  const std::uint32_t resident_a = session.client().with_state([](const ClientState& s) {
+    return s.slots().size();
+  });
+
+  room.progress("stereo timing: teleport to B, publishing");
+  Phase& streaming = phases[1];
+  bool first_frame = true;
+  auto away = session.settle_views(eyes_b, o.settle_timeout_s, o.quiet_s, [&](const client::DisplayFrameStats& f) {
+    if (first_frame) streaming.first = f.frame_index;
+    first_frame = false;
+    streaming.last = f.frame_index;
+    streaming.cpu_ms.push_back(f.cpu_ms);
+  });
+  if (!away) return away.error();
+  room.progress("stereo timing: idle at B");
+  if (auto st = idle(phases[2], eyes_b); !st) return st.error();
+  // The last frames' GPU work finishes before their statistics are read.
+  if (auto img = session.client().renderer().read_image(); !img) return img.error();
+  for (const client::GpuFrameStats& g : session.client().take_gpu_stats())
+    for (Phase& p : phases)
+      if (g.frame_index >= p.first && g.frame_index <= p.last) p.gpu.add_gpu({g});
+  const std::uint32_t resident_b = session.client().with_state([](const ClientState& s) {
+    return s.slots().size();
+  });
+
+  Json phase_timing = Json::object();
+  for (Phase& p : phases) {
+    Json passes = Json::object();
+    for (const auto& [pass, ms] : p.gpu.pass_gpu_ms) passes[pass] = percentiles(ms);
+    phase_timing[p.name] = Json{{"frame_cpu_ms", percentiles(p.cpu_ms)},
+                                {"frame_gpu_ms", percentiles(p.gpu.frame_gpu_ms)},
+                                {"pass_gpu_ms", std::move(passes)}};
+    room.timing.frame_cpu_ms.insert(room.timing.frame_cpu_ms.end(), p.cpu_ms.begin(), p.cpu_ms.end());
+  }
+  timing = Json{{"budget", o.stereo_budget},
+                {"views", 2},
+                {"width", o.width},
+                {"height", o.height},
+                {"wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()},
+                {"phases", std::move(phase_timing)}};
+  return Json{{"budget", o.stereo_budget},
+              {"ipd_m", o.ipd},
+              {"views", 2},
+              {"width", o.width},
+              {"height", o.height},
+              {"allowance", o.allowance},
+              {"a", camera_json(a)},
+              {"b", camera_json(b)},
+              {"resident_at_a", resident_a},
+              {"resident_at_b", resident_b},
+              {"idle_frames", kIdleFrames},
+              {"settle_a", settle_json(*first)},
+              {"teleport", settle_json(*away)},
+              {"stream", stream_json(session)}};
+}
+
+}  // namespace gauss::eval_app
