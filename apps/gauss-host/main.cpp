@@ -59,9 +59,8 @@ int main(int argc, char** argv) {
 
   gauss::net::SessionHostConfig hc;
   hc.net.bind = o.bind;
-  hc.net.access_token = o.token;
+  hc.net.access_token = o.token;  // proved by challenge-response; never sent
   hc.net.max_clients = o.max_clients;
-  hc.session.access_token = o.token;
   if (o.max_budget > 0) hc.session.max_capacity = o.max_budget;
   hc.session.default_rho = o.rho;
   if (o.min_opacity > 0.0f || o.max_scale > 0.0f || o.min_support > 0) {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "enet_runtime.h"
+#include "gauss/net/auth.h"
 #include "packet_ref.h"
 
 namespace gauss::net {
@@ -127,7 +128,7 @@ struct NetClient::Impl {
   }
 
   // Handles one received frame; returns false when the connection must end (refused).
-  bool receive(const ENetPacket* packet, bool& welcomed, std::optional<msg::Welcome>& welcome_out) {
+  bool receive(ENetPeer* peer, const ENetPacket* packet, bool& welcomed, std::optional<msg::Welcome>& welcome_out) {
     {
       std::lock_guard lock(mu);
       counters.bytes_received += packet->dataLength;
@@ -153,6 +154,33 @@ struct NetClient::Impl {
       sink->on_refused(*refuse);
       set_status(ClientStatus::Refused);
       return false;
+    }
+    if (auto* challenge = std::get_if<msg::Challenge>(&m)) {
+      if (welcomed) {
+        reject("unexpected Challenge", &ClientCounters::wrong_direction);
+        return true;
+      }
+      if (cfg.access_token.empty()) {
+        // Nothing to prove with: end here, as a refusal, with the reason a user can act on.
+        msg::Refuse r{msg::RefuseReason::BadToken, msg::kProtocolVersion,
+                      "the host requires an access token and none was given"};
+        log("refused by " + endpoint + ": " + r.detail + "; not retrying");
+        {
+          std::lock_guard lock(mu);
+          counters.last_rejection = r.detail;
+        }
+        sink->on_refused(r);
+        set_status(ClientStatus::Refused);
+        return false;
+      }
+      // The proof binds the host's nonce to the exact Hello bytes this connection sent.
+      const msg::AuthProof proof = auth_proof(cfg.access_token, *challenge, *hello);
+      auto bytes = wire::encode(proof);
+      if (bytes.ok())
+        if (ENetPacket* p = detail::make_packet(std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value()),
+                                                true, nullptr))
+          if (enet_peer_send(peer, msg::kChannelModel, p) != 0) enet_packet_destroy(p);
+      return true;
     }
     if (auto* welcome = std::get_if<msg::Welcome>(&m)) {
       if (welcomed || welcome->protocol_version != msg::kProtocolVersion) {
@@ -234,7 +262,7 @@ struct NetClient::Impl {
       int r = enet_host_service(host, &ev, 2);
       while (r > 0 && alive) {
         if (ev.type == ENET_EVENT_TYPE_RECEIVE) {
-          if (!receive(ev.packet, welcomed, welcome)) refused = true;
+          if (!receive(peer, ev.packet, welcomed, welcome)) refused = true;
           enet_packet_destroy(ev.packet);
         } else if (ev.type == ENET_EVENT_TYPE_DISCONNECT) {
           alive = false;
@@ -326,7 +354,7 @@ NetClient::~NetClient() = default;
 Expected<std::unique_ptr<NetClient>> NetClient::start(NetClientConfig config, ClientSink& sink) {
   msg::Hello hello;
   hello.slot_capacity = config.slot_capacity;
-  hello.access_token = config.access_token;
+  // The token never crosses the wire: the host challenges, receive() answers.
   hello.client_name = config.name;
   auto bytes = wire::encode(hello);
   if (!bytes) return Error{"ClientConfig: " + bytes.message()};
@@ -334,6 +362,11 @@ Expected<std::unique_ptr<NetClient>> NetClient::start(NetClientConfig config, Cl
   impl->cfg = std::move(config);
   impl->hello = std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value());
   impl->sink = &sink;
+  if (!impl->cfg.access_token.empty()) {
+    if (impl->cfg.access_token.size() > msg::kMaxTokenBytes)
+      return Error{"ClientConfig: access token longer than " + std::to_string(msg::kMaxTokenBytes) + " bytes"};
+    if (auto s = auth_init(); !s) return s.error();
+  }
   if (auto s = impl->enet.acquire(); !s) return s.error();
   auto addr = detail::resolve(impl->cfg.server);
   if (!addr) return addr.error();

@@ -10,6 +10,7 @@
 #include <unordered_map>
 
 #include "enet_runtime.h"
+#include "gauss/net/auth.h"
 #include "packet_ref.h"
 
 namespace gauss::net {
@@ -33,6 +34,11 @@ struct PeerState {
   Clock::time_point refilled{};
   std::uint32_t rejected{0};
   detail::ByteCounter pending;
+  // Token authentication: the Hello waits here while its Challenge is answered.
+  bool challenged{false};
+  msg::Challenge challenge{};
+  msg::Hello hello{};
+  std::vector<std::uint8_t> hello_frame;
 };
 
 // Only the first few rejections per connection are logged in full; after that one
@@ -136,7 +142,8 @@ struct NetHost::Impl {
     }
   }
 
-  void handshake(ENetPeer* peer, PeerState& ps, Expected<wire::Message> decoded) {
+  void handshake(ENetPeer* peer, PeerState& ps, Expected<wire::Message> decoded,
+                 std::span<const std::uint8_t> frame) {
     if (!decoded.ok())
       return refuse(peer, ps, msg::RefuseReason::Malformed, "bad first message: " + decoded.message(),
                     &HostCounters::refused_malformed);
@@ -150,10 +157,39 @@ struct NetHost::Impl {
                     "protocol version " + std::to_string(hello->protocol_version) + ", host speaks " +
                         std::to_string(msg::kProtocolVersion),
                     &HostCounters::refused_version);
-    if (!cfg.access_token.empty() && hello->access_token != cfg.access_token)
-      return refuse(peer, ps, msg::RefuseReason::BadToken,
-                    hello->access_token.empty() ? "access token required" : "wrong access token",
-                    &HostCounters::refused_token);
+    // The token never travels: a Hello carrying one is refused (whoever sent it has
+    // already exposed it; the host does not even compare it).
+    if (!hello->access_token.empty())
+      return refuse(peer, ps, msg::RefuseReason::Malformed,
+                    "a Hello must not carry the access token over the network (the host sends a challenge)",
+                    &HostCounters::refused_malformed);
+    if (!cfg.access_token.empty()) {
+      // Nothing else about this Hello is judged before the peer proved the token, so a
+      // peer without it learns nothing but "authentication failed".
+      ps.challenged = true;
+      ps.challenge = make_challenge();
+      ps.hello = *hello;
+      ps.hello_frame.assign(frame.begin(), frame.end());
+      send_now(peer, ps.challenge);
+      return;
+    }
+    admit(peer, ps, *hello);
+  }
+
+  // The answer to this connection's Challenge: a wrong or missing proof gets the same
+  // refusal, whatever was wrong.
+  void authenticate(ENetPeer* peer, PeerState& ps, Expected<wire::Message> decoded) {
+    const auto* proof = decoded.ok() ? std::get_if<msg::AuthProof>(&decoded.value()) : nullptr;
+    if (proof == nullptr || !verify_auth_proof(cfg.access_token, ps.challenge, ps.hello_frame, *proof))
+      return refuse(peer, ps, msg::RefuseReason::BadToken, "authentication failed", &HostCounters::refused_token);
+    ps.challenged = false;
+    ps.hello_frame.clear();
+    admit(peer, ps, ps.hello);
+  }
+
+  // A Hello that passed version (and token): capacity and room, then Connected.
+  void admit(ENetPeer* peer, PeerState& ps, const msg::Hello& hello_in) {
+    const msg::Hello* hello = &hello_in;
     if (hello->slot_capacity > cfg.max_slot_capacity)
       return refuse(peer, ps, msg::RefuseReason::BadCapacity,
                     "slot capacity " + std::to_string(hello->slot_capacity) + " above this host's limit " +
@@ -204,11 +240,14 @@ struct NetHost::Impl {
       counters.bytes_received += packet->dataLength;
     }
     if (ps.closing) return;
-    auto decoded = wire::decode(std::span<const std::uint8_t>(packet->data, packet->dataLength));
-    if (!ps.welcomed) return handshake(peer, ps, std::move(decoded));
+    const std::span<const std::uint8_t> frame(packet->data, packet->dataLength);
+    auto decoded = wire::decode(frame);
+    if (!ps.welcomed && ps.challenged) return authenticate(peer, ps, std::move(decoded));
+    if (!ps.welcomed) return handshake(peer, ps, std::move(decoded), frame);
     if (!decoded.ok()) return reject(peer, ps, "malformed: " + decoded.message(), &HostCounters::malformed);
     const msg::MessageType type = wire::type_of(decoded.value());
-    if (msg::direction_of(type) != msg::Direction::ClientToHost || type == msg::MessageType::Hello)
+    if (msg::direction_of(type) != msg::Direction::ClientToHost || type == msg::MessageType::Hello ||
+        type == msg::MessageType::AuthProof)
       return reject(peer, ps, std::string("unexpected ") + msg::to_string(type) + " from a client",
                     &HostCounters::wrong_direction);
     if (type == msg::MessageType::Query && !take_query_token(ps)) {
@@ -373,6 +412,8 @@ Expected<std::unique_ptr<NetHost>> NetHost::start(NetHostConfig config) {
     return Error{"NetHostConfig: query_rate_hz must be > 0 and query_burst >= 1"};
   if (config.access_token.size() > msg::kMaxTokenBytes)
     return Error{"NetHostConfig: access token longer than " + std::to_string(msg::kMaxTokenBytes) + " bytes"};
+  if (!config.access_token.empty())
+    if (auto s = auth_init(); !s) return s.error();
   auto impl = std::make_unique<Impl>();
   impl->cfg = std::move(config);
   if (auto s = impl->enet.acquire(); !s) return s.error();

@@ -6,6 +6,14 @@ namespace gauss::net {
 
 Expected<std::unique_ptr<SessionHost>> SessionHost::start(SessionHostConfig config, CodecParams params) {
   if (auto s = validate_codec_params(params); !s) return Error{"SessionHost: " + s.message()};
+  // Over the network the transport proves the token (challenge-response) and the Hellos
+  // it passes on carry none, so a token is checked there and only there.
+  if (!config.session.access_token.empty()) {
+    if (config.net.access_token.empty()) config.net.access_token = config.session.access_token;
+    if (config.net.access_token != config.session.access_token)
+      return Error{"SessionHost: the session's and the transport's access tokens differ"};
+    config.session.access_token.clear();
+  }
   auto net = NetHost::start(config.net);
   if (!net) return net.error();
   return std::unique_ptr<SessionHost>(new SessionHost(std::move(config), params, std::move(net).value()));

@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "gauss/engine/wire.h"
+#include "gauss/net/auth.h"
 #include "gauss/net/client.h"
 #include "gauss/net/host.h"
 #include "wire_samples.h"
@@ -132,7 +133,9 @@ TEST(Transport, EveryMessageCrossesBothWays) {
   std::vector<wire::Message> down, up;
   for (auto& m : test::sample_messages()) {
     const auto t = wire::type_of(m);
-    if (t == msg::MessageType::Welcome || t == msg::MessageType::Refuse || t == msg::MessageType::Hello) continue;
+    if (t == msg::MessageType::Welcome || t == msg::MessageType::Refuse || t == msg::MessageType::Hello ||
+        t == msg::MessageType::Challenge || t == msg::MessageType::AuthProof)
+      continue;  // handshake only
     (msg::direction_of(t) == msg::Direction::HostToClient ? down : up).push_back(m);
   }
   for (const auto& m : down) ASSERT_TRUE((*host)->send(id, m).ok());
@@ -207,7 +210,7 @@ TEST(Transport, AccessTokenIsRequired) {
   ASSERT_TRUE((*c1)->wait_for(net::ClientStatus::Refused, 20s));
   ASSERT_TRUE(none.refused.has_value());
   EXPECT_EQ(none.refused->reason, msg::RefuseReason::BadToken);
-  EXPECT_NE(none.refused->detail.find("required"), std::string::npos);
+  EXPECT_NE(none.refused->detail.find("requires an access token"), std::string::npos) << none.refused->detail;
 
   auto wc = client_config((*host)->port());
   wc.access_token = "guess";
@@ -215,6 +218,7 @@ TEST(Transport, AccessTokenIsRequired) {
   ASSERT_TRUE(c2.ok());
   ASSERT_TRUE((*c2)->wait_for(net::ClientStatus::Refused, 20s));
   EXPECT_EQ(wrong.refused->reason, msg::RefuseReason::BadToken);
+  EXPECT_EQ(wrong.refused->detail, "authentication failed") << "says nothing about what was wrong";
 
   auto rc = client_config((*host)->port());
   rc.access_token = "open-sesame";
@@ -223,7 +227,9 @@ TEST(Transport, AccessTokenIsRequired) {
   accept_next(**host);
   ASSERT_TRUE((*c3)->wait_for(net::ClientStatus::Connected, 20s));
   const auto hc = (*host)->counters();
-  EXPECT_EQ(hc.refused_token, 2u);
+  // The client without a token ended the handshake itself (it had nothing to prove
+  // with); the host times that half-open handshake out. The wrong token was refused.
+  EXPECT_EQ(hc.refused_token, 1u);
   EXPECT_EQ(hc.accepted, 1u);  // the refused ones never reached the policy
 }
 
@@ -372,6 +378,21 @@ class RawPeer {
   bool connected() const { return connected_; }
   void send(const std::vector<std::uint8_t>& bytes) {
     enet_peer_send(peer_, 0, enet_packet_create(bytes.data(), bytes.size(), ENET_PACKET_FLAG_RELIABLE));
+    enet_host_flush(host_);
+  }
+  // The next message the host sends (nullopt: none within the timeout, or a disconnect).
+  std::optional<wire::Message> receive_one() {
+    ENetEvent ev;
+    const auto until = std::chrono::steady_clock::now() + 20s;
+    while (std::chrono::steady_clock::now() < until) {
+      if (enet_host_service(host_, &ev, 10) <= 0) continue;
+      if (ev.type == ENET_EVENT_TYPE_DISCONNECT) return std::nullopt;
+      if (ev.type != ENET_EVENT_TYPE_RECEIVE) continue;
+      auto m = wire::decode(std::span<const std::uint8_t>(ev.packet->data, ev.packet->dataLength));
+      enet_packet_destroy(ev.packet);
+      if (m.ok()) return std::move(m).value();
+    }
+    return std::nullopt;
   }
   // Receives until the host disconnects; returns the decoded Refuse, if any came.
   std::optional<msg::Refuse> refuse_then_disconnect() {
@@ -456,6 +477,104 @@ TEST(Transport, ASilentConnectionIsDroppedAfterTheHandshakeTimeout) {
   ASSERT_TRUE(p.connected());
   EXPECT_FALSE(p.refuse_then_disconnect().has_value());  // returns on the host's disconnect
   EXPECT_EQ((*host)->counters().handshake_timeouts, 1u);
+}
+
+// Challenge-response authentication, byte level: an honest handshake captured off the
+// wire (the Hello and the AuthProof frames a peer sent) and replayed on a new
+// connection is refused, because that connection's nonce differs; the token itself
+// never appears in what was captured.
+TEST(Transport, AReplayedHandshakeIsRefused) {
+  const std::string token = "correct horse battery staple";
+  auto cfg = host_config();
+  cfg.access_token = token;
+  auto host = net::NetHost::start(cfg);
+  ASSERT_TRUE(host.ok()) << host.message();
+  msg::Hello hello;
+  hello.slot_capacity = 500;
+  hello.client_name = "honest";
+  const auto hello_frame = wire::encode(hello).value();
+  std::vector<std::uint8_t> proof_frame;
+  {
+    RawPeer honest((*host)->port());
+    ASSERT_TRUE(honest.connected());
+    honest.send(hello_frame);
+    auto challenge = honest.receive_one();
+    ASSERT_TRUE(challenge.has_value());
+    ASSERT_TRUE(std::holds_alternative<msg::Challenge>(*challenge)) << msg::to_string(wire::type_of(*challenge));
+    const auto proof = net::auth_proof(token, std::get<msg::Challenge>(*challenge), hello_frame);
+    proof_frame = wire::encode(proof).value();
+    honest.send(proof_frame);
+    ASSERT_TRUE(wait_event(**host, [](const net::HostEvent& e) { return e.kind == net::HostEventKind::Connected; })
+                    .has_value())
+        << "the honest handshake is accepted";
+  }
+  // The capture holds no trace of the token.
+  for (const std::vector<std::uint8_t>& frame : {std::cref(hello_frame), std::cref(proof_frame)}) {
+    const std::string bytes(frame.begin(), frame.end());
+    EXPECT_EQ(bytes.find(token), std::string::npos);
+  }
+  // Replayed as captured, without waiting for (or reading) the new challenge.
+  RawPeer replay((*host)->port());
+  ASSERT_TRUE(replay.connected());
+  replay.send(hello_frame);
+  replay.send(proof_frame);
+  auto r = replay.refuse_then_disconnect();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->reason, msg::RefuseReason::BadToken);
+  EXPECT_EQ(r->detail, "authentication failed");
+  const auto hc = (*host)->counters();
+  EXPECT_EQ(hc.accepted, 1u);
+  EXPECT_EQ(hc.refused_token, 1u);
+}
+
+// A proof bound to one Hello does not admit another (a changed capacity), and a Hello
+// that carries the token in the clear is refused without the host comparing it.
+TEST(Transport, AProofIsBoundToItsHelloAndTokensNeverTravel) {
+  const std::string token = "t0ken";
+  auto cfg = host_config();
+  cfg.access_token = token;
+  auto host = net::NetHost::start(cfg);
+  ASSERT_TRUE(host.ok()) << host.message();
+  {
+    RawPeer p((*host)->port());
+    ASSERT_TRUE(p.connected());
+    msg::Hello sent;
+    sent.slot_capacity = 500;
+    p.send(wire::encode(sent).value());
+    auto challenge = p.receive_one();
+    ASSERT_TRUE(challenge.has_value() && std::holds_alternative<msg::Challenge>(*challenge));
+    msg::Hello other = sent;
+    other.slot_capacity = 400000;
+    p.send(wire::encode(net::auth_proof(token, std::get<msg::Challenge>(*challenge), wire::encode(other).value())).value());
+    auto r = p.refuse_then_disconnect();
+    ASSERT_TRUE(r.has_value());
+    EXPECT_EQ(r->detail, "authentication failed");
+  }
+  {
+    RawPeer p((*host)->port());
+    ASSERT_TRUE(p.connected());
+    msg::Hello clear;
+    clear.slot_capacity = 500;
+    clear.access_token = token;
+    p.send(wire::encode(clear).value());
+    auto r = p.refuse_then_disconnect();
+    ASSERT_TRUE(r.has_value());
+    EXPECT_EQ(r->reason, msg::RefuseReason::Malformed);
+  }
+  EXPECT_EQ((*host)->counters().accepted, 0u);
+}
+
+TEST(Auth, ProofDependsOnTokenNonceAndHello) {
+  ASSERT_TRUE(net::auth_init().ok());
+  const msg::Challenge a = net::make_challenge(), b = net::make_challenge();
+  EXPECT_NE(a.nonce, b.nonce) << "fresh nonces";
+  const std::vector<std::uint8_t> hello{1, 2, 3, 4}, other{1, 2, 3, 5};
+  const msg::AuthProof p = net::auth_proof("k", a, hello);
+  EXPECT_TRUE(net::verify_auth_proof("k", a, hello, p));
+  EXPECT_FALSE(net::verify_auth_proof("K", a, hello, p));
+  EXPECT_FALSE(net::verify_auth_proof("k", b, hello, p));
+  EXPECT_FALSE(net::verify_auth_proof("k", a, other, p));
+  EXPECT_FALSE(net::verify_auth_proof("", a, hello, p));
 }
 
 }  // namespace

@@ -96,7 +96,7 @@ TEST(Wire, EveryTruncationAndTrailingByteIsRejected) {
 
 TEST(Wire, BadHeadersAreRejectedWithReason) {
   auto bytes = frame_of(msg::Ack{1, Epoch{2}, Epoch{1}});
-  for (std::uint16_t type : {std::uint16_t{0}, std::uint16_t{13}, std::uint16_t{0xFFFF}}) {
+  for (std::uint16_t type : {std::uint16_t{0}, std::uint16_t{msg::kLastMessageType + 1}, std::uint16_t{0xFFFF}}) {
     auto b = bytes;
     b[0] = static_cast<std::uint8_t>(type);
     b[1] = static_cast<std::uint8_t>(type >> 8);

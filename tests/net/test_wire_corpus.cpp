@@ -36,6 +36,8 @@ const std::map<msg::MessageType, std::string>& target_names() {
       {msg::MessageType::QueryReply, "query_reply"},
       {msg::MessageType::Ack, "ack"},
       {msg::MessageType::ClientStats, "client_stats"},
+      {msg::MessageType::Challenge, "challenge"},
+      {msg::MessageType::AuthProof, "auth_proof"},
   };
   return names;
 }

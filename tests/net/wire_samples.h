@@ -155,6 +155,12 @@ inline std::vector<wire::Message> sample_messages() {
   stats.slack_ms = -0.5f;
   stats.rejected_messages = 2;
   out.push_back(stats);
+  msg::Challenge challenge;
+  for (std::size_t k = 0; k < challenge.nonce.size(); ++k) challenge.nonce[k] = static_cast<std::uint8_t>(7 * k + 1);
+  out.push_back(challenge);
+  msg::AuthProof proof;
+  for (std::size_t k = 0; k < proof.mac.size(); ++k) proof.mac[k] = static_cast<std::uint8_t>(255 - 3 * k);
+  out.push_back(proof);
   return out;
 }
 

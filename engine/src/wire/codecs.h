@@ -20,6 +20,8 @@ Status check(const msg::Query& m);
 Status check(const msg::QueryReply& m);
 Status check(const msg::Ack& m);
 Status check(const msg::ClientStats& m);
+inline Status check(const msg::Challenge&) { return Ok{}; }  // any 32 bytes
+inline Status check(const msg::AuthProof&) { return Ok{}; }
 
 void write(const msg::Hello& m, Writer& w);
 void write(const msg::Welcome& m, Writer& w);
@@ -34,6 +36,8 @@ void write(const msg::Query& m, Writer& w);
 void write(const msg::QueryReply& m, Writer& w);
 void write(const msg::Ack& m, Writer& w);
 void write(const msg::ClientStats& m, Writer& w);
+void write(const msg::Challenge& m, Writer& w);
+void write(const msg::AuthProof& m, Writer& w);
 
 // An id list on the wire: u32 count, then each ObjectId as i32 (QueryReply targets,
 // ObjectTableUpdate removed). read_ids bounds the count by `max` and by the bytes left.

@@ -21,6 +21,8 @@ const char* to_string(MessageType t) {
     case MessageType::QueryReply: return "QueryReply";
     case MessageType::Ack: return "Ack";
     case MessageType::ClientStats: return "ClientStats";
+    case MessageType::Challenge: return "Challenge";
+    case MessageType::AuthProof: return "AuthProof";
   }
   return "Unknown";
 }
@@ -43,6 +45,8 @@ constexpr msg::MessageType type_for() {
   else if constexpr (std::is_same_v<T, msg::Query>) return msg::MessageType::Query;
   else if constexpr (std::is_same_v<T, msg::QueryReply>) return msg::MessageType::QueryReply;
   else if constexpr (std::is_same_v<T, msg::Ack>) return msg::MessageType::Ack;
+  else if constexpr (std::is_same_v<T, msg::Challenge>) return msg::MessageType::Challenge;
+  else if constexpr (std::is_same_v<T, msg::AuthProof>) return msg::MessageType::AuthProof;
   else {
     static_assert(std::is_same_v<T, msg::ClientStats>);
     return msg::MessageType::ClientStats;
@@ -138,6 +142,8 @@ Expected<Message> decode(std::span<const std::uint8_t> frame) {
     case msg::MessageType::QueryReply: return wrap(decode_query_reply(body));
     case msg::MessageType::Ack: return wrap(decode_ack(body));
     case msg::MessageType::ClientStats: return wrap(decode_client_stats(body));
+    case msg::MessageType::Challenge: return wrap(decode_challenge(body));
+    case msg::MessageType::AuthProof: return wrap(decode_auth_proof(body));
   }
   return Error{"frame: unknown message type"};
 }

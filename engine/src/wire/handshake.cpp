@@ -1,5 +1,7 @@
 // Hello / Welcome / Refuse: frozen forever (see messages.h), so any protocol
 // version can read them and refuse cleanly.
+#include <algorithm>
+#include <array>
 #include <string>
 
 #include "codecs.h"
@@ -59,6 +61,9 @@ void write(const msg::Refuse& m, Writer& w) {
   w.str(m.detail);
 }
 
+void write(const msg::Challenge& m, Writer& w) { w.raw(m.nonce); }
+void write(const msg::AuthProof& m, Writer& w) { w.raw(m.mac); }
+
 }  // namespace detail
 
 Expected<msg::Hello> decode_hello(std::span<const std::uint8_t> body) {
@@ -93,6 +98,35 @@ Expected<msg::Refuse> decode_refuse(std::span<const std::uint8_t> body) {
   r.str("detail", m.detail, msg::kMaxReasonBytes);
   if (!r.finish()) return r.error();
   return detail::checked(std::move(m));
+}
+
+namespace {
+
+// A fixed-size byte field: exactly N bytes, nothing after them.
+template <std::size_t N>
+bool read_fixed(detail::Reader& r, const char* field, std::array<std::uint8_t, N>& out) {
+  std::span<const std::uint8_t> v;
+  if (!r.view(field, N, v)) return false;
+  std::copy(v.begin(), v.end(), out.begin());
+  return true;
+}
+
+}  // namespace
+
+Expected<msg::Challenge> decode_challenge(std::span<const std::uint8_t> body) {
+  detail::Reader r(body, "Challenge");
+  msg::Challenge m;
+  read_fixed(r, "nonce", m.nonce);
+  if (!r.finish()) return r.error();
+  return m;
+}
+
+Expected<msg::AuthProof> decode_auth_proof(std::span<const std::uint8_t> body) {
+  detail::Reader r(body, "AuthProof");
+  msg::AuthProof m;
+  read_fixed(r, "mac", m.mac);
+  if (!r.finish()) return r.error();
+  return m;
 }
 
 }  // namespace gauss::wire

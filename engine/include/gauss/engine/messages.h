@@ -18,6 +18,7 @@
 // Channels: the model stream (edits, surface, objects, scene info, handshake
 // replies) is one reliable ordered channel; pose, queries, acks and stats share
 // the second channel (see channel_of()).
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -35,7 +36,7 @@ namespace gauss::msg {
 
 // Bumped whenever a message type is added or retired. A host refuses a Hello with a
 // different version (RefuseReason::VersionMismatch) instead of guessing.
-inline constexpr std::uint32_t kProtocolVersion = 1;
+inline constexpr std::uint32_t kProtocolVersion = 2;  // 2: Challenge / AuthProof
 
 // ---- Bounds (each enforced by the decoder) ----------------------------------
 // Largest encoded message, header included. The host sends one edit batch per
@@ -75,9 +76,11 @@ enum class MessageType : std::uint16_t {
   QueryReply = 10,        // H->C  how the host resolved a query
   Ack = 11,               // C->H  epochs received / published
   ClientStats = 12,       // C->H  client counters for the host's log
+  Challenge = 13,         // H->C  handshake: prove you hold the access token
+  AuthProof = 14,         // C->H  handshake: the proof
 };
 inline constexpr std::uint16_t kFirstMessageType = 1;
-inline constexpr std::uint16_t kLastMessageType = 12;
+inline constexpr std::uint16_t kLastMessageType = 14;
 
 enum class Direction : std::uint8_t { ClientToHost, HostToClient };
 
@@ -88,6 +91,7 @@ constexpr Direction direction_of(MessageType t) {
     case MessageType::Query:
     case MessageType::Ack:
     case MessageType::ClientStats:
+    case MessageType::AuthProof:
       return Direction::ClientToHost;
     default:
       return Direction::HostToClient;
@@ -150,6 +154,26 @@ struct Refuse {
   std::uint32_t host_protocol_version{kProtocolVersion};
   std::string detail;  // at most kMaxReasonBytes
   bool operator==(const Refuse&) const = default;
+};
+
+// Token authentication over a network: the token itself never crosses the wire. A
+// client sends its Hello with an empty access_token; a host that requires a token
+// answers with a Challenge carrying a fresh random nonce, and the client proves it holds
+// the token with a keyed hash of the nonce and its Hello's encoded bytes under a key
+// derived from the token (gauss/net/auth.h). A captured handshake is worthless on
+// another connection: its nonce differs. Hello.access_token stays for in-process links,
+// where there is no wire.
+inline constexpr std::size_t kAuthNonceBytes = 32;
+inline constexpr std::size_t kAuthProofBytes = 32;
+
+struct Challenge {
+  std::array<std::uint8_t, kAuthNonceBytes> nonce{};
+  bool operator==(const Challenge&) const = default;
+};
+
+struct AuthProof {
+  std::array<std::uint8_t, kAuthProofBytes> mac{};
+  bool operator==(const AuthProof&) const = default;
 };
 
 // ---- Model stream (host -> client) -------------------------------------------------

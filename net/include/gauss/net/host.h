@@ -7,9 +7,13 @@
 // events and send(); SessionHost (session_host.h) wires the two together.
 //
 // Handshake: the first message of a connection must be a Hello of this protocol
-// version, within handshake_timeout, while fewer than max_clients are connected,
-// carrying access_token when one is configured here; otherwise the host answers
-// Refuse and disconnects, and the policy never hears of it. A Hello that passes
+// version, within handshake_timeout, while fewer than max_clients are connected;
+// when an access_token is configured here, the host answers that Hello with a
+// Challenge and the client must prove the token (AuthProof, gauss/net/auth.h) within
+// the same timeout; the token itself never crosses the wire (a Hello carrying one is
+// refused). Otherwise the host answers Refuse and disconnects, and the policy never
+// hears of it. A wrong or missing proof is refused as "authentication failed",
+// whatever was wrong, before anything else about the Hello is judged. A Hello that passes
 // becomes a Connected event with a fresh client id; the policy then replies with
 // Welcome (or Refuse: a Refuse sent through send() closes the connection after it
 // is delivered).
@@ -37,7 +41,7 @@ using LogFn = std::function<void(const std::string&)>;
 
 struct NetHostConfig {
   Endpoint bind{};                    // loopback by default; port 0 = any free port (see port())
-  std::string access_token;           // non-empty: a Hello without exactly this token is refused here
+  std::string access_token;           // non-empty: clients must prove it (challenge-response) here
   std::size_t max_clients{16};        // handshaken clients at once; more are refused (HostFull)
   std::uint32_t max_slot_capacity{gauss::kMaxSlotCapacity};  // larger requests are refused
   // Transport flood guard per client: a token bucket of `query_burst` refilled at

@@ -1,0 +1,29 @@
+#pragma once
+// Token authentication for the ENet handshake (see msg::Challenge): the access token
+// never crosses the wire. The host sends a fresh 32-byte random nonce; the client
+// answers with a keyed BLAKE2b-256 (libsodium crypto_generichash) of
+//   "gauss-auth-v1" || nonce || the Hello frame exactly as it was sent
+// under a key derived from the token (BLAKE2b-256 of "gauss-auth-key-v1" || token).
+// Binding the proof to the nonce makes a captured handshake worthless on another
+// connection; binding it to the Hello's bytes stops a man in the middle from reusing a
+// proof with a Hello of his own (another capacity or name).
+#include <span>
+#include <string_view>
+
+#include "gauss/engine/messages.h"
+#include "gauss/engine/result.h"
+
+namespace gauss::net {
+
+// Initialises libsodium (idempotent, thread-safe). Errors: the library cannot start.
+Status auth_init();
+// A fresh nonce from the system's CSPRNG. Requires auth_init().
+msg::Challenge make_challenge();
+// The client's answer to `challenge` for the Hello frame it sent.
+msg::AuthProof auth_proof(std::string_view token, const msg::Challenge& challenge,
+                          std::span<const std::uint8_t> hello_frame);
+// Whether `proof` answers `challenge` for `hello_frame` under `token` (constant time).
+bool verify_auth_proof(std::string_view token, const msg::Challenge& challenge,
+                       std::span<const std::uint8_t> hello_frame, const msg::AuthProof& proof);
+
+}  // namespace gauss::net
