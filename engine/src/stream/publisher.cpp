@@ -213,6 +213,13 @@ bool Publisher::refill_head(const DesiredState& desired) {
   head_.erase(head_.begin(), head_.begin() + static_cast<std::ptrdiff_t>(head_pos_));
   head_pos_ = 0;
   const std::size_t want = std::max<std::size_t>(1024, static_cast<std::size_t>(allowance_) * std::max(1u, config_.head_allowances));
+  // Spare removes (moved out of the backlog as room for inserts) compete again once the
+  // backlog cannot fill the head: when no insert is left to need them, nothing else would
+  // ever take them. (Returned only then: each return costs the next refill_spares a pass.)
+  if (backlog_.size() < want && !spare_removes_.empty()) {
+    backlog_.insert(backlog_.end(), spare_removes_.begin(), spare_removes_.end());
+    spare_removes_.clear();
+  }
   auto later = [](const Ranked& a, const Ranked& b) { return before(b, a); };
   while (head_.size() < want && !backlog_.empty()) {
     const std::size_t take = std::min(want - head_.size(), backlog_.size());
@@ -248,7 +255,14 @@ void Publisher::refill_spares(const DesiredState& desired, PendingKind kind, std
   if (kind == PendingKind::Remove) {
     backlog_.insert(backlog_.end(), out.begin(), out.end());
     out.clear();
-    const auto first = std::partition(backlog_.begin(), backlog_.end(), [](const Ranked& r) { return r.kind != PendingKind::Remove; });
+    // Only live removes may compete: the backlog also holds items that stopped being
+    // pending (published, or their entry re-ranked as another kind), and these, picked by
+    // their keys among the best, would crowd the live ones out of the `take` selected and
+    // leave an insert with no room although removes are pending. Dead items go for good.
+    std::erase_if(backlog_, [&](const Ranked& r) { return !still_pending(desired, r.index, r.id); });
+    const auto first = std::partition(backlog_.begin(), backlog_.end(), [&](const Ranked& r) {
+      return r.kind != PendingKind::Remove || desired.entry(r.index).pending_kind() != PendingKind::Remove;
+    });
     const std::size_t removes = static_cast<std::size_t>(backlog_.end() - first);
     const std::size_t take = std::min(keep, removes);
     if (take < removes)
