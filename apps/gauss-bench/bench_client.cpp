@@ -15,11 +15,15 @@
 //      device without host-visible memory), GiB/s, for 1 and for many ranges.
 // Timing never decides a test. Lavapipe renders on the CPU, so its absolute figures say
 // little about a headset; the ratios within one run are the result.
+#include <pthread.h>
+#include <sched.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <numeric>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -56,7 +60,34 @@ struct Options {
   bool teleport{true};
   bool calibrate{true};
   bool throughput{true};
+  bool isolate_host{false};
 };
+
+// --isolate-host: the host's threads on the last CPU, the client's (display thread,
+// lavapipe's workers, the network thread) on the others, so the host's select + diff +
+// encode burst after a teleport cannot take the client's cores, as a host on its own
+// machine would not. Threads inherit the affinity of the thread that creates them, so
+// the calling thread is pinned to the host's CPU while the host starts and to the
+// client's CPUs before the Vulkan device (and its worker threads) is created.
+struct CpuSplit {
+  cpu_set_t host, client;
+};
+Expected<CpuSplit> split_cpus() {
+  cpu_set_t all;
+  CPU_ZERO(&all);
+  if (sched_getaffinity(0, sizeof all, &all) != 0) return Error{"cannot read the CPU affinity"};
+  std::vector<int> cpus;
+  for (int c = 0; c < CPU_SETSIZE; ++c)
+    if (CPU_ISSET(c, &all)) cpus.push_back(c);
+  if (cpus.size() < 2) return Error{"--isolate-host needs at least 2 CPUs, this process may use " + std::to_string(cpus.size())};
+  CpuSplit s;
+  CPU_ZERO(&s.host);
+  CPU_ZERO(&s.client);
+  CPU_SET(cpus.back(), &s.host);
+  for (std::size_t k = 0; k + 1 < cpus.size(); ++k) CPU_SET(cpus[k], &s.client);
+  return s;
+}
+bool pin_this_thread(const cpu_set_t& set) { return pthread_setaffinity_np(pthread_self(), sizeof set, &set) == 0; }
 
 
 json pct(const std::vector<double>& v) {
@@ -158,6 +189,7 @@ struct Settle {
   std::vector<double> publish_ms, upload_ms;
   std::uint64_t frames{0};
   double seconds{0.0};
+  std::string error;  // the frame error that ended the run early
 };
 
 // Renders frames at `cam` until nothing is pending and nothing new arrived for `quiet_s`.
@@ -175,7 +207,7 @@ Settle run_until_settled(client::ClientRuntime& rt, const Camera& cam, double ti
     last = now;
     ++s.frames;
     if (!f) {
-      std::fprintf(stderr, "client bench: %s\n", f.message().c_str());
+      s.error = f.message();
       break;
     }
     s.publish_ms.push_back(f->publish_ms);
@@ -217,17 +249,20 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
                     std::uint32_t h) {
   const char* name = mode == PublishMode::Immediate ? "immediate" : "progressive";
   auto rt = connected_client(ctx, host, o.budget, std::string("bench-") + name, mode, o.frames_in_flight, w, h);
-  if (!rt) return json{{"error", rt.message()}};
+  if (!rt) return json{{"mode", name}, {"error", rt.message()}};
   const Camera a = room_camera(host, w, h, false), b = room_camera(host, w, h, true);
+  auto failed = [&](const Settle& s, const char* where) {
+    return json{{"mode", name}, {"error", s.error.empty() ? std::string("did not converge ") + where : s.error}};
+  };
   const Settle first = run_until_settled(**rt, a, o.timeout_s);
-  if (!first.converged) return json{{"error", "did not converge at A"}};
+  if (!first.converged) return failed(first, "at A");
   const std::vector<double> idle = idle_frames(**rt, a, o.idle_frames);
   // The display this device drives: its idle frame interval with 25 % headroom (lavapipe
   // cannot reach a headset's 72-90 Hz). Progressive publication keeps frames within it.
   const double period_s = 1.25e-3 * percentile(idle, 0.5);
   (*rt)->set_display_period(period_s);
   const Settle tele = run_until_settled(**rt, b, o.timeout_s);
-  if (!tele.converged) return json{{"error", "did not converge after the teleport"}};
+  if (!tele.converged) return failed(tele, "after the teleport");
   const std::vector<double> idle_b = idle_frames(**rt, b, o.idle_frames);
   const std::uint32_t resident = (*rt)->with_state([](const ClientState& s) { return s.slots().size(); });
   const auto ss = (*rt)->publication().stats();
@@ -393,17 +428,25 @@ json bench_throughput(vk::Context& ctx) {
 int bench_client_main(const Options& o) {
   const auto wh = apps::parse_size(o.size);
   const std::uint32_t w = wh->first, h = wh->second;
-  auto ctx = vk::Context::create({.app_name = "gauss-bench client"});
-  if (!ctx) {
-    std::fprintf(stderr, "gauss-bench client: %s\n", ctx.message().c_str());
-    return 1;
+  std::optional<CpuSplit> split;
+  if (o.isolate_host) {
+    auto s = split_cpus();
+    if (!s) {
+      std::fprintf(stderr, "gauss-bench client: %s\n", s.message().c_str());
+      return 1;
+    }
+    split = *s;
   }
-  json doc{{"device", (*ctx)->device_name()}, {"budget", o.budget}, {"size", o.size},
-           {"frames_in_flight", o.frames_in_flight}};
-  std::printf("gauss-bench client: device %s, M = %u, %ux%u, %u frames in flight\n", (*ctx)->device_name().c_str(),
-              o.budget, w, h, o.frames_in_flight);
+  // The host first (its threads inherit the host CPU when isolated), then the client's
+  // Vulkan device on the client CPUs.
   std::unique_ptr<LoopbackHost> host;
+  json doc{{"budget", o.budget}, {"size", o.size}, {"frames_in_flight", o.frames_in_flight},
+           {"isolate_host", o.isolate_host}};
   if (o.teleport || o.calibrate) {
+    if (split && !pin_this_thread(split->host)) {
+      std::fprintf(stderr, "gauss-bench client: cannot pin the host's threads\n");
+      return 1;
+    }
     const auto t0 = Clock::now();
     auto hs = apps::with_elapsed_status("gauss-bench client: producing the room",
                                         [&] { return LoopbackHost::start(o.gaussians); });
@@ -416,6 +459,19 @@ int bench_client_main(const Options& o) {
                 net::to_string(host->endpoint()).c_str(), 1e-3 * ms_since(t0));
     doc["scene_gaussians"] = host->scene_size();
   }
+  if (split && !pin_this_thread(split->client)) {
+    std::fprintf(stderr, "gauss-bench client: cannot pin the client's threads\n");
+    return 1;
+  }
+  auto ctx = vk::Context::create({.app_name = "gauss-bench client"});
+  if (!ctx) {
+    std::fprintf(stderr, "gauss-bench client: %s\n", ctx.message().c_str());
+    return 1;
+  }
+  doc["device"] = (*ctx)->device_name();
+  std::printf("gauss-bench client: device %s, M = %u, %ux%u, %u frames in flight%s\n", (*ctx)->device_name().c_str(),
+              o.budget, w, h, o.frames_in_flight,
+              o.isolate_host ? "; host threads on the last CPU, the client's on the others" : "");
   if (o.throughput) {
     std::printf("\n3. upload throughput, 200k x 64 B records (wall, median of 5)\n");
     doc["throughput"] = bench_throughput(**ctx);
@@ -428,14 +484,24 @@ int bench_client_main(const Options& o) {
     std::printf("\n1. far teleport over loopback (display period: 1.25 x the idle frame interval at A)\n");
     std::printf("   %-12s %8s %8s %9s %9s %9s   %9s %9s %9s  %8s  %13s  %13s\n", "mode", "conv s", "frames", "p50 ms",
                 "p95 ms", "p99 ms", "idle p50", "idle p95", "idle p99", "resident", "publish p50/99", "upload p50/99");
-    std::printf("   (the host runs in this process, on the same cores: its select + diff + encode after the\n"
-                "    teleport competes with the client's frames, which a headset's would not)\n");
+    if (!o.isolate_host)
+      std::printf("   (the host runs in this process, on the same cores: its select + diff + encode after the\n"
+                  "    teleport competes with the client's frames, which a headset's would not; see --isolate-host)\n");
     doc["teleport"] = json::array({bench_teleport(**ctx, o, *host, PublishMode::Immediate, w, h),
                                    bench_teleport(**ctx, o, *host, PublishMode::Progressive, w, h)});
   }
   doc["validation_errors"] = (*ctx)->validation_error_count();
   if (!o.json_out.empty() && !write_json(o.json_out, doc, "client")) return 1;
-  return 0;
+  // A part that failed (a client error, no convergence) is a failed run, not a missing row.
+  bool failed = false;
+  if (doc.contains("teleport"))
+    for (const json& t : doc["teleport"])
+      if (t.contains("error")) {
+        std::fprintf(stderr, "gauss-bench client: teleport (%s): %s\n", t.value("mode", "?").c_str(),
+                     t["error"].get<std::string>().c_str());
+        failed = true;
+      }
+  return failed ? 1 : 0;
 }
 
 BenchRun bench_client_setup(CLI::App& cmd) {
@@ -449,6 +515,8 @@ BenchRun bench_client_setup(CLI::App& cmd) {
   cmd.add_option("--timeout", o->timeout_s, "longest wait for a convergence, seconds")->check(apps::at_least(1.0));
   cmd.add_option("--idle-frames", o->idle_frames, "idle frames measured at each end")->check(apps::at_least(2u));
   cmd.add_option("--json", o->json_out, "also write the results as JSON to FILE");
+  cmd.add_flag("--isolate-host", o->isolate_host,
+               "run the in-process host's threads on the last CPU and the client's on the others");
   cmd.add_flag_callback("--no-teleport", [o] { o->teleport = false; }, "skip part 1");
   cmd.add_flag_callback("--no-calibration", [o] { o->calibrate = false; }, "skip part 2");
   cmd.add_flag_callback("--no-throughput", [o] { o->throughput = false; }, "skip part 3");
