@@ -75,14 +75,14 @@ Expected<Json> measure_ablation(Room& room, std::vector<double>& frame_ms_p50, s
         if (auto st = session.client().wait_frames(); !st) return st.error();
         for (const client::GpuFrameStats& g : session.client().take_gpu_stats())
           if (g.frame_index >= first_idle) gpu_ms.push_back(g.total_ms);
-        const GroundTruthImage gt = scene.synthetic->render_ground_truth(cam);
+        const std::optional<GroundTruthImage> gt = ground_truth(scene, cam);
         auto pc = render_covered(**full, cam);
         if (!pc) return pc.error();
         cameras.push_back(Json{{"camera", k},
                                {"settle", settle_json(cap->settle)},
                                {"resident", cap->resident},
                                {"pc_hs", scores(pc->image, cap->hs, mask_and(pc->cover, cap->sent.cover))},
-                               {"gt_hs", scores(gt.colour, cap->hs, valid_depth_mask(gt))},
+                               {"gt_hs", gt ? scores(gt->colour, cap->hs, valid_depth_mask(*gt)) : Json(nullptr)},
                                {"hs_vs_sent_differing", cap->hs_vs_sent_differing}});
       }
       frame_ms_p50.push_back(percentile_of(gpu_ms, 0.5));

@@ -7,6 +7,9 @@
 #include <glm/mat4x4.hpp>
 #include <glm/gtc/matrix_inverse.hpp>
 
+#include "central_box.h"
+#include "gauss/engine/scene_source.h"
+
 namespace gauss::eval_app {
 
 Expected<EvalScene> make_scene(const Options& o, int variant) {
@@ -29,6 +32,8 @@ Expected<EvalScene> make_scene(const Options& o, int variant) {
   s.codec.box.min = s.synthetic->room_min() - glm::vec3(0.5f);
   s.codec.box.max = s.synthetic->room_max() + glm::vec3(0.5f);
   s.appearance = s.store->size() - s.store->carrier_count();
+  s.region_min = glm::dvec3(s.synthetic->room_min());
+  s.region_max = glm::dvec3(s.synthetic->room_max());
   // Evenly spread over the trajectory (the centres of `cameras` equal parts), rescaled
   // to the evaluation size.
   const std::vector<Camera>& path = s.synthetic->trajectory();
@@ -46,15 +51,93 @@ Expected<EvalScene> make_scene(const Options& o, int variant) {
   return s;
 }
 
-Camera look_camera(const glm::dvec3& eye, const glm::dvec3& target, std::uint32_t width, std::uint32_t height) {
+namespace {
+
+// "+y", "-z", ... as a unit vector.
+Expected<glm::dvec3> parse_up(const std::string& up) {
+  if (up.size() == 2 && (up[0] == '+' || up[0] == '-') && up[1] >= 'x' && up[1] <= 'z') {
+    glm::dvec3 v(0.0);
+    v[up[1] - 'x'] = up[0] == '+' ? 1.0 : -1.0;
+    return v;
+  }
+  return Error{"--up " + up + ": expected one of +x -x +y -y +z -z"};
+}
+
+// Two unit vectors spanning the plane perpendicular to `up` (the scene's horizon).
+std::pair<glm::dvec3, glm::dvec3> horizon_basis(const glm::dvec3& up) {
+  const glm::dvec3 ref = std::abs(up.x) < 0.9 ? glm::dvec3(1.0, 0.0, 0.0) : glm::dvec3(0.0, 0.0, 1.0);
+  const glm::dvec3 a = glm::normalize(glm::cross(up, ref));
+  return {a, glm::cross(a, up)};
+}
+
+}  // namespace
+
+Expected<EvalScene> make_file_scene(const Options& o) {
+  auto up = parse_up(o.up);
+  if (!up) return up.error();
+  EvalScene s;
+  s.source = o.scene_file.string();
+  s.name = o.scene_file.filename().string();
+  s.up = *up;
+  SnapshotOptions so;
+  if (!o.labels.empty()) so.labels = o.labels;
+  if (!o.objects.empty()) so.objects_json = o.objects;
+  std::vector<std::string> log;
+  auto source = open_scene_file(o.scene_file, so, [&](const std::string& line) { log.push_back(line); });
+  if (!source) return source.error();
+  s.store = std::make_unique<SceneStore>();
+  auto committed = (*source)->next_epoch(*s.store);
+  if (!committed) return committed.error();
+  if (!*committed || s.store->size() == 0) {
+    std::string why = log.empty() ? "no Gaussians" : log.back();
+    return Error{s.source + ": nothing to evaluate: " + why};
+  }
+  s.codec = fit_codec_params(s.store->gaussians(), s.store->sh_degree());
+  s.appearance = s.store->size() - s.store->carrier_count();
+  std::tie(s.region_min, s.region_max) = apps::central_box(appearance_gaussians(*s.store));
+  const glm::dvec3 centre = 0.5 * (s.region_min + s.region_max);
+  const double radius = std::max(1e-3, 0.5 * glm::length(s.region_max - s.region_min));
+  const auto [a, b] = horizon_basis(s.up);
+  const double elevation = 20.0 * 3.14159265358979323846 / 180.0, dist = 1.8 * radius;
+  for (std::uint32_t k = 0; k < o.cameras; ++k) {
+    const double az = 2.0 * 3.14159265358979323846 * k / o.cameras;
+    const glm::dvec3 dir = std::cos(elevation) * (std::cos(az) * a + std::sin(az) * b) + std::sin(elevation) * s.up;
+    s.cameras.push_back(look_camera(centre + dist * dir, centre, o.width, o.height, s.up));
+  }
+  return s;
+}
+
+std::optional<GroundTruthImage> ground_truth(const EvalScene& scene, const Camera& camera) {
+  if (!scene.synthetic) return std::nullopt;
+  return scene.synthetic->render_ground_truth(camera);
+}
+
+glm::dvec3 eye_of(const Camera& c) { return glm::dvec3(glm::inverse(c.world_to_camera)[3]); }
+glm::dvec3 forward_of(const Camera& c) { return glm::normalize(glm::dvec3(glm::inverse(c.world_to_camera)[2])); }
+
+Camera look_camera(const glm::dvec3& eye, const glm::dvec3& target, std::uint32_t width, std::uint32_t height,
+                   const glm::dvec3& up) {
   Camera c;
   c.width = width;
   c.height = height;
   c.fx = c.fy = 0.75 * width;
   c.cx = 0.5 * width;
   c.cy = 0.5 * height;
-  c.world_to_camera = glm::inverse(opencv_look_at(eye, target, glm::dvec3(0.0, 1.0, 0.0)));
+  c.world_to_camera = glm::inverse(opencv_look_at(eye, target, up));
   return c;
+}
+
+ObjectViews object_views(const QueryResolution& r, const EvalScene& scene, std::uint32_t width, std::uint32_t height) {
+  const glm::dvec3 centre = 0.5 * (glm::dvec3(r.extent_min) + glm::dvec3(r.extent_max));
+  const double size = glm::length(glm::dvec3(r.extent_max) - glm::dvec3(r.extent_min));
+  const glm::dvec3 scene_centre = 0.5 * (scene.region_min + scene.region_max);
+  const glm::dvec3 eye0 = eye_of(scene.cameras.front());
+  const double orbit = glm::length(eye0 - scene_centre);
+  glm::dvec3 dir = eye0 - centre;
+  dir = glm::length(dir) > 1e-9 ? glm::normalize(dir) : glm::normalize(eye0 - scene_centre);
+  const glm::dvec3 near_eye = centre + std::max(1.5 * size, 0.2 * orbit) * dir;
+  const glm::dvec3 far_eye = scene_centre + 1.5 * (eye0 - scene_centre);
+  return {look_camera(near_eye, centre, width, height, scene.up), look_camera(far_eye, centre, width, height, scene.up)};
 }
 
 ObjectViews object_views(const QueryResolution& r, const SyntheticScene& scene, std::uint32_t width,

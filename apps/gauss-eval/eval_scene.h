@@ -1,10 +1,13 @@
 #pragma once
-// The scenes gauss-eval serves: a synthetic room, produced epoch by epoch up to the
-// configured count and then held still, with its exact ground truth (colour, depth and
-// object ids for any camera), the codec the host streams it with, and the cameras the
-// evaluation looks from.
+// The scenes gauss-eval serves, with the codec the host streams them with and the cameras
+// the evaluation looks from:
+//   - a synthetic room, produced epoch by epoch up to the configured count and then held
+//     still, with its exact ground truth (colour, depth and object ids for any camera);
+//   - a scene file (any splat format the host reads, with optional labels / objects JSON),
+//     one epoch, without ground truth: its cameras orbit the scene's central box.
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,9 +24,14 @@
 namespace gauss::eval_app {
 
 struct EvalScene {
-  std::string name;  // "room<variant>"
-  int variant{0};
-  std::unique_ptr<SyntheticScene> synthetic;
+  std::string name;  // "room<variant>", or the scene file's name
+  int variant{-1};   // the synthetic room, or -1 for a scene file
+  std::string source;  // the scene file as given (empty for a room)
+  std::unique_ptr<SyntheticScene> synthetic;  // null for a scene file: no ground truth
+  // Where viewpoints may go: the room's interior, or for a scene file the box of its
+  // central 96 % (per axis), whose centre the orbit cameras look at.
+  glm::dvec3 region_min{0.0}, region_max{0.0};
+  glm::dvec3 up{0.0, 1.0, 0.0};  // the scene's up direction (a scene file's --up)
   std::unique_ptr<SceneStore> store;  // held still during the evaluation
   CodecParams codec;
   std::size_t appearance{0};          // Gaussians that can be resident (carriers excluded)
@@ -32,10 +40,24 @@ struct EvalScene {
 
 // Produces room `variant` as the options say. Errors: the scene config (named field).
 Expected<EvalScene> make_scene(const Options& options, int variant);
+// Reads options.scene_file (with options.labels / options.objects) as the host would serve
+// it: one epoch, the codec fitted to it. Cameras: options.cameras on a circle around the
+// central box's centre, 20 degrees above its horizon (options.up), at 1.8 times the box's
+// half diagonal, so the box fills most of the view. Errors: the file, labels or objects
+// (named), an empty scene, a bad --up.
+Expected<EvalScene> make_file_scene(const Options& options);
 
-// A pinhole camera at `eye` looking at `target` (y up), with the trajectory's focal ratio
-// (fx = 0.75 width: about 67 degrees across).
-Camera look_camera(const glm::dvec3& eye, const glm::dvec3& target, std::uint32_t width, std::uint32_t height);
+// A pinhole camera at `eye` looking at `target` (`up` up), with the trajectory's focal
+// ratio (fx = 0.75 width: about 67 degrees across).
+Camera look_camera(const glm::dvec3& eye, const glm::dvec3& target, std::uint32_t width, std::uint32_t height,
+                   const glm::dvec3& up = glm::dvec3(0.0, 1.0, 0.0));
+
+// The ground truth at `camera`: the room's ray cast, or none for a scene file.
+std::optional<GroundTruthImage> ground_truth(const EvalScene& scene, const Camera& camera);
+
+// A camera's eye and viewing direction in world space.
+glm::dvec3 eye_of(const Camera& c);
+glm::dvec3 forward_of(const Camera& c);
 
 // A near and a far viewpoint on an object (or a set of objects: the resolution's extent),
 // both inside the room and chosen by what the ground truth shows of the targets (ray-cast
@@ -47,6 +69,12 @@ struct ObjectViews {
   Camera near, far;
 };
 ObjectViews object_views(const QueryResolution& resolution, const SyntheticScene& scene, std::uint32_t width,
+                         std::uint32_t height);
+// Without ground truth (a scene file), by geometry alone: near = 1.5 times the target's
+// size (at least a fifth of the scene's orbit distance) from its centre towards camera 0's
+// eye; far = camera 0's eye moved out to 1.5 times its orbit distance; both look at the
+// target's centre.
+ObjectViews object_views(const QueryResolution& resolution, const EvalScene& scene, std::uint32_t width,
                          std::uint32_t height);
 
 // The appearance Gaussians of the whole scene (carriers excluded), in the store's order:

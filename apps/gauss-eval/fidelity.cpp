@@ -90,10 +90,10 @@ Expected<Json> measure_fidelity(Room& room) {
     room.progress("fidelity camera " + std::to_string(k + 1) + "/" + std::to_string(scene.cameras.size()));
     auto cap = capture(room, *stream, cam);
     if (!cap) return Error{scene.name + " camera " + std::to_string(k) + ": " + cap.message()};
-    const GroundTruthImage gt = scene.synthetic->render_ground_truth(cam);
+    const std::optional<GroundTruthImage> gt = ground_truth(scene, cam);
     auto pc = render_covered(room.full, cam);
     if (!pc) return Error{scene.name + " camera " + std::to_string(k) + ": the host's full render: " + pc.message()};
-    const eval::Mask valid = valid_depth_mask(gt);
+    const eval::Mask valid = gt ? valid_depth_mask(*gt) : eval::Mask{};
     const eval::Mask both = mask_and(pc->cover, cap->sent.cover);
     Json c;
     c["camera"] = k;
@@ -101,10 +101,11 @@ Expected<Json> measure_fidelity(Room& room) {
     c["settle"] = settle_json(cap->settle);
     c["resident"] = cap->resident;
     c["desired"] = cap->desired;
-    c["gt_pc"] = scores(gt.colour, pc->image, valid);
-    c["gt_hs"] = scores(gt.colour, cap->hs, valid);
+    // Without ground truth the GT-referenced figures are null ("n/a" in the report).
+    c["gt_pc"] = gt ? scores(gt->colour, pc->image, valid) : Json(nullptr);
+    c["gt_hs"] = gt ? scores(gt->colour, cap->hs, valid) : Json(nullptr);
     c["pc_hs"] = scores(pc->image, cap->hs, both);
-    c["coverage"] = Json{{"gt_valid", fraction(valid)},
+    c["coverage"] = Json{{"gt_valid", gt ? Json(fraction(valid)) : Json(nullptr)},
                          {"pc", fraction(pc->cover)},
                          {"hs", fraction(cap->sent.cover)},
                          {"both", fraction(both)}};
@@ -115,9 +116,9 @@ Expected<Json> measure_fidelity(Room& room) {
       auto fm = eval::flip_map(view_of(pc->image), view_of(cap->hs));
       if (!fm) return Error{scene.name + ": FLIP map: " + fm.message()};
       const ImageRGBA8 diff = flip_image(*fm, cam.width, cam.height);
-      if (auto st = room.panels.write(scene.name + "_cam" + std::to_string(k), {&gt.colour, &pc->image, &cap->hs, &diff});
-          !st)
-        return st.error();
+      std::vector<const ImageRGBA8*> panel{&pc->image, &cap->hs, &diff};
+      if (gt) panel.insert(panel.begin(), &gt->colour);
+      if (auto st = room.panels.write(scene.name + "_cam" + std::to_string(k), panel); !st) return st.error();
     }
   }
   room.timing.phases["fidelity_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

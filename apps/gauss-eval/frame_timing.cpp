@@ -39,7 +39,7 @@ Expected<Json> measure_stereo_timing(Room& room, Json& timing) {
   if (!stream) return stream.error();
   EvalSession& session = *stream->session;
   const Camera a = scene.cameras.front();
-  const Camera b = teleport_target(a, *scene.synthetic);
+  const Camera b = teleport_target(a, scene);
   auto eyes = [&](const Camera& c) {
     return std::array<Camera, 2>{render::stereo_eye_camera(c, o.ipd, render::Eye::Left),
                                  render::stereo_eye_camera(c, o.ipd, render::Eye::Right)};

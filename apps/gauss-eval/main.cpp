@@ -37,7 +37,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 Json definitions(const Options& o) {
-  return Json{
+  Json d{
       {"PSNR", "10 log10(255^2 / MSE) over the 8-bit RGB values of the counted pixels; \"inf\" when they are "
                "identical"},
       {"SSIM", "Wang et al. 2004 on Rec. 601 luma, 11x11 Gaussian window (sigma 1.5), mean over the counted pixels"},
@@ -46,7 +46,8 @@ Json definitions(const Options& o) {
       {"LPIPS", "not computed: it needs learned network weights that this project cannot obtain; FLIP is the "
                 "perceptual metric instead"},
       {"GT-referenced pixels", "GT-PC and GT-HS count the pixels with valid ground-truth depth (in the closed "
-                               "synthetic rooms: all of them)"},
+                               "synthetic rooms: all of them); a scene file has no ground truth: null, n/a in the "
+                               "report"},
       {"coverage", "a pixel is covered when the splats' accumulated opacity there is at least 0.5 or a surface is "
                    "drawn under it: rendered over black and over white, the two differ by less than 128 in every "
                    "channel (the blend adds T x background; alpha is always 255)"},
@@ -67,7 +68,8 @@ Json definitions(const Options& o) {
                         "query took effect; every desired target Gaussian published"},
       {"model latency", "virtual seconds from a scene epoch's commit on the host to its batch being sent, received, "
                         "published into slots, and first rendered"},
-      {"object pixels", "pixels whose ground-truth ray hits one of the query's target objects"},
+      {"object pixels", "pixels whose ground-truth ray hits one of the query's target objects; without ground "
+                        "truth, the pixels the host's render of the targets' Gaussians alone covers"},
       {"convergence", "virtual seconds from the move to a view until the first frame of the final run of frames "
                       "in which nothing was in flight to the client, nothing pending, the published set equal "
                       "to the host's sent set (checksum of the decoded records) and no new host message, held "
@@ -76,16 +78,24 @@ Json definitions(const Options& o) {
                 "links of " + shortest(o.latency_ms) + " ms latency and " + shortest(o.bandwidth_mbps) +
                 " Mbit/s carrying the real encoded messages; progressive publication with a fixed allowance of " +
                 std::to_string(o.allowance) + " slot edits per frame"}};
+  if (!o.scene_file.empty())
+    d["scene file views"] = "cameras on a circle around the centre of the scene's central box (2 %..98 % of the "
+                            "positions per axis), 20 deg above its horizon (--up), 1.8 half-diagonals away; object "
+                            "views: near = 1.5 target sizes from the target towards camera 0, far = camera 0 moved "
+                            "out to 1.5 times its distance; teleport = the far side at 0.4 of camera 0's distance";
+  return d;
 }
 
-// Every measurement of one room. Fills `scene_json` and `timing_json`.
-Status run_room(vk::Context& ctx, const Options& o, int variant, const PanelWriter& panels, Json& scene_json,
-                Json& timing_json, Json& ablation_items) {
+// Every measurement of one scene: synthetic room `variant`, or the scene file (variant
+// -1). Fills `scene_json` and `timing_json`.
+Status run_scene(vk::Context& ctx, const Options& o, int variant, const PanelWriter& panels, Json& scene_json,
+                 Json& timing_json, Json& ablation_items) {
   const auto t0 = std::chrono::steady_clock::now();
   apps::StatusLine status;
-  const std::string label = "gauss-eval: room" + std::to_string(variant) + ": ";
-  status.update(label + "producing the scene", true);
-  auto scene = make_scene(o, variant);
+  const std::string label =
+      "gauss-eval: " + (variant >= 0 ? "room" + std::to_string(variant) : o.scene_file.filename().string()) + ": ";
+  status.update(label + (variant >= 0 ? "producing the scene" : "reading the scene"), true);
+  auto scene = variant >= 0 ? make_scene(o, variant) : make_file_scene(o);
   if (!scene) return scene.error();
   Timing timing;
   timing.phases["produce_s"] = seconds_since(t0);
@@ -94,7 +104,9 @@ Status run_room(vk::Context& ctx, const Options& o, int variant, const PanelWrit
   Room room{ctx, o, *scene, **full, panels, timing, [&](const std::string& what) { status.update(label + what); }};
 
   scene_json["name"] = scene->name;
-  scene_json["variant"] = variant;
+  if (variant >= 0) scene_json["variant"] = variant;
+  else scene_json["source"] = scene->source;
+  scene_json["ground_truth"] = scene->synthetic != nullptr;
   scene_json["gaussians"] = scene->store->size();
   scene_json["appearance_gaussians"] = scene->appearance;
   scene_json["objects"] = scene->store->objects().size();
@@ -113,7 +125,8 @@ Status run_room(vk::Context& ctx, const Options& o, int variant, const PanelWrit
     if (!temporal) return temporal.error();
     scene_json["temporal"] = std::move(*temporal);
   }
-  if (o.latency) {
+  // A scene file is one epoch: it has no model edits to time.
+  if (o.latency && scene->synthetic) {
     auto latency = measure_model_latency(room);
     if (!latency) return latency.error();
     scene_json["model_latency"] = std::move(*latency);
@@ -272,9 +285,11 @@ int main(int argc, char** argv) {
   Json timing_scenes = Json::array();
   Json ablation_items = Json::array();
   int rc = 0;
-  for (int variant : o.variants) {
+  std::vector<int> scenes = o.variants;
+  if (!o.scene_file.empty()) scenes.push_back(-1);
+  for (int variant : scenes) {
     Json scene_json, timing_json;
-    if (auto st = run_room(**ctx, o, variant, panels, scene_json, timing_json, ablation_items); !st) {
+    if (auto st = run_scene(**ctx, o, variant, panels, scene_json, timing_json, ablation_items); !st) {
       std::fprintf(stderr, "gauss-eval: %s\n", st.message().c_str());
       return 1;
     }

@@ -70,9 +70,11 @@ Expected<Json> measure_semantic(Room& room);
 // settled frame, post-convergence flicker and churn under head sway. See temporal.cpp.
 Expected<Json> measure_temporal(Room& room);
 
-// The far teleport target of camera `a`: its eye mirrored through the room centre (x and
-// z, kept 25 cm inside the walls), looking the opposite way, with a's intrinsics.
-Camera teleport_target(const Camera& a, const SyntheticScene& scene);
+// The far teleport target of camera `a`, with a's intrinsics: in a room, its eye mirrored
+// through the room centre (x and z, kept 25 cm inside the walls), looking the opposite
+// way; around a scene file, its eye mirrored across the vertical axis through the centre
+// at 0.4 of its distance, looking at the centre (a close-up of the far side).
+Camera teleport_target(const Camera& a, const EvalScene& scene);
 
 // Frame timing while publication runs, the headset's case: stereo at --ipd, M =
 // --stereo-budget, progressive; idle at A, a far teleport streaming in, idle at B. Returns

@@ -26,10 +26,20 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
 #ifdef GAUSS_SOURCE_DIR
   o.plot_script = GAUSS_SOURCE_DIR "/scripts/plot_eval.py";
 #endif
-  app.add_option("--scenes", o.variants, "synthetic room variants, comma separated")
-      ->delimiter(',')
-      ->check(apps::in_range(0, 3))
-      ->type_name("V,...");
+  auto* rooms = app.add_option("--scenes", o.variants, "synthetic room variants, comma separated")
+                    ->delimiter(',')
+                    ->check(apps::in_range(0, 3))
+                    ->type_name("V,...");
+  auto* scene = app.add_option("--scene", o.scene_file,
+                               "also (or, without --scenes, only) this scene file or SOG folder: no ground truth, "
+                               "GT columns n/a, cameras orbiting it")
+                    ->check(CLI::ExistingPath)
+                    ->type_name("FILE");
+  app.add_option("--labels", o.labels, "per-Gaussian labels of --scene")->check(CLI::ExistingFile)->needs(scene);
+  app.add_option("--objects", o.objects, "objects JSON of --scene")->check(CLI::ExistingFile)->needs(scene);
+  app.add_option("--up", o.up, "the up axis of --scene")
+      ->check(CLI::IsMember({"+x", "-x", "+y", "-y", "+z", "-z"}))
+      ->needs(scene);
   app.add_option("--gaussians", o.gaussians, "appearance Gaussians of each fully observed room")
       ->check(apps::in_range<std::size_t>(1000, 1000000));
   app.add_option("--epochs", o.epochs, "scene epochs produced before the evaluation")->check(apps::in_range(1, 64));
@@ -45,6 +55,8 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
       ->check(apps::in_range<std::uint32_t>(0, 400000));
   app.add_option("--class-query", o.class_query, "class query of the semantic table");
   app.add_option("--instance-label", o.instance_label, "instance query: the first object with this label");
+  app.add_option("--instance-id", o.instance_id, "instance query: this object id (instead of --instance-label)")
+      ->check(apps::in_range<std::int64_t>(0, 0xFFFFFFFFll));
   std::string mode = o.progressive ? "progressive" : "immediate";
   app.add_option("--mode", mode, "publication mode of the fidelity and semantic runs")
       ->check(CLI::IsMember({"progressive", "immediate"}));
@@ -95,6 +107,7 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
   o.width = wh->first;
   o.height = wh->second;
   o.progressive = mode == "progressive";
+  if (!o.scene_file.empty() && rooms->count() == 0) o.variants.clear();
   for (const std::string& sz : sizes) o.ablation_sizes.push_back(*apps::parse_size(sz));
   if (o.ablation_sizes.empty()) o.ablation_sizes.emplace_back(o.width, o.height);
   if (o.out.empty()) o.out = std::filesystem::path("docs/results") / o.name;
@@ -114,10 +127,18 @@ std::string canonical_command(const Options& o) {
     return s;
   };
   std::ostringstream c;
-  c << "gauss-eval --scenes " << join(o.variants) << " --gaussians " << o.gaussians << " --epochs " << o.epochs
+  c << "gauss-eval";
+  if (!o.variants.empty()) c << " --scenes " << join(o.variants);
+  if (!o.scene_file.empty()) {
+    c << " --scene '" << o.scene_file.string() << "' --up " << o.up;
+    if (!o.labels.empty()) c << " --labels '" << o.labels.string() << "'";
+    if (!o.objects.empty()) c << " --objects '" << o.objects.string() << "'";
+  }
+  c << " --gaussians " << o.gaussians << " --epochs " << o.epochs
     << " --seed " << o.seed << " --budget " << o.budget << " --size " << o.width << "x" << o.height << " --cameras "
     << o.cameras << " --rho " << shortest(o.rho) << " --semantic-budget " << o.semantic_budget << " --class-query '" << o.class_query << "' --instance-label '"
-    << o.instance_label << "' --mode " << (o.progressive ? "progressive" : "immediate") << " --allowance "
+    << o.instance_label << "'" << (o.instance_id >= 0 ? " --instance-id " + std::to_string(o.instance_id) : std::string())
+    << " --mode " << (o.progressive ? "progressive" : "immediate") << " --allowance "
     << o.allowance << " --display-hz " << shortest(o.display_hz) << " --latency-ms " << shortest(o.latency_ms) << " --bandwidth-mbps "
     << shortest(o.bandwidth_mbps) << " --settle-timeout " << shortest(o.settle_timeout_s) << " --quiet " << shortest(o.quiet_s) << " --surface "
     << o.surface;

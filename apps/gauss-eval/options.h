@@ -12,6 +12,12 @@ namespace gauss::eval_app {
 
 struct Options {
   std::vector<int> variants{0, 1, 2, 3};  // synthetic room variants evaluated, in this order
+  // A scene file (any splat format the host reads, or a SOG folder), evaluated after the
+  // rooms without ground truth. Given alone, no room is evaluated unless --scenes says so.
+  std::filesystem::path scene_file;
+  std::filesystem::path labels;           // per-Gaussian labels of --scene (labels file)
+  std::filesystem::path objects;          // objects JSON of --scene (names the labels)
+  std::string up{"+y"};                   // --scene's up axis (+x -x +y -y +z -z): its orbit cameras
   std::size_t gaussians{20000};           // appearance Gaussians of each fully observed room
   int epochs{12};                         // epochs produced before the evaluation (the room then stays)
   std::uint64_t seed{1};                  // the synthetic scenes' seed
@@ -24,6 +30,7 @@ struct Options {
   std::uint32_t semantic_budget{0};
   std::string class_query{"chair"};       // class query of the semantic table
   std::string instance_label{"robot_arm"};  // instance query: the first object with this label
+  std::int64_t instance_id{-1};           // instance query by object id instead (>= 0)
   bool progressive{true};                 // publication mode of the fidelity and semantic runs
   std::uint32_t allowance{2000};          // progressive: slot edits per frame (fixed: deterministic)
   double display_hz{72.0};                // virtual display rate

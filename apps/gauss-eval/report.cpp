@@ -36,7 +36,7 @@ std::string percent(const Json& j) {
 
 void fidelity_section(std::ostream& md, const Json& report, bool images) {
   md << "## Fidelity: GT → PC → HS\n\n"
-     << "GT: the analytic room ray-cast (exact colour and depth). PC: the host's render of the full float "
+     << "GT: the analytic room ray-cast (exact colour and depth); a scene file has none (n/a). PC: the host's render of the full float "
         "scene with the client's renderer. HS: the client's frame once it converged at the camera "
         "(at M = " << integer(report["config"]["budget"]) << ", quantised, published " 
      << report["config"]["mode"].get<std::string>() << "ly). *HS ≠ sent*: pixels where HS differs from the "
@@ -61,7 +61,8 @@ void fidelity_section(std::ostream& md, const Json& report, bool images) {
   }
   md << "\n";
   if (!images) return;
-  md << "Each panel: GT | PC | HS | FLIP(PC, HS) (magma: black = no error).\n\n";
+  md << "Each panel: GT | PC | HS | FLIP(PC, HS) (magma: black = no error); without ground truth PC | HS | "
+        "FLIP(PC, HS).\n\n";
   for (const Json& s : report["scenes"]) {
     if (!s.contains("fidelity")) continue;
     for (const Json& c : s["fidelity"]["cameras"]) {
@@ -78,18 +79,19 @@ void semantic_section(std::ostream& md, const Json& report, bool images) {
         "(carriers excluded) and gives the rest to the background; N_obj counts the client's resident "
         "Gaussians on the target after convergence. *Expected* is M_obj / M. Object PSNR is GT-HS over "
         "the target's pixels (the ground truth's object ids), without → with the query; GT-PC over the "
-        "same pixels is the ceiling.\n\n";
+        "same pixels is the ceiling. PC-HS is the same over the host's full render (for a scene file, "
+        "which has no ground truth, the target's pixels are those its Gaussians alone cover).\n\n";
   md << "| scene | object (query) | model | M | ρ | \\|G_obj\\| | N_obj near, without | N_obj near, with (share) | "
-        "N_obj far, with | expected share | object px near / far | near PSNR without → with (PC) | far PSNR "
-        "without → with (PC) |\n"
-     << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+        "N_obj far, with | expected share | object px near / far | near GT-HS PSNR without → with (GT-PC) | far "
+        "GT-HS PSNR without → with (GT-PC) | near / far PC-HS PSNR without → with |\n"
+     << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Json& s : report["scenes"]) {
     if (!s.contains("semantic")) continue;
     for (const Json& r : s["semantic"]) {
       md << "| " << s["name"].get<std::string>() << " | " << r["query"].get<std::string>() << " ("
          << r["kind"].get<std::string>() << ") | ";
       if (r.contains("error")) {
-        md << r["error"].get<std::string>() << " | | | | | | | | | | |\n";
+        md << r["error"].get<std::string>() << " | | | | | | | | | | | |\n";
         continue;
       }
       const Json& near = r["views"]["near"];
@@ -105,13 +107,17 @@ void semantic_section(std::ostream& md, const Json& report, bool images) {
          << metric(near["gt_pc_object"], "psnr_db", 2) << ") | "
          << metric(far["without_query"]["gt_hs_object"], "psnr_db", 2) << " → "
          << metric(far["with_query"]["gt_hs_object"], "psnr_db", 2) << " ("
-         << metric(far["gt_pc_object"], "psnr_db", 2) << ") |\n";
+         << metric(far["gt_pc_object"], "psnr_db", 2) << ") | "
+         << metric(near["without_query"]["pc_hs_object"], "psnr_db", 2) << " → "
+         << metric(near["with_query"]["pc_hs_object"], "psnr_db", 2) << " / "
+         << metric(far["without_query"]["pc_hs_object"], "psnr_db", 2) << " → "
+         << metric(far["with_query"]["pc_hs_object"], "psnr_db", 2) << " |\n";
     }
   }
   md << "\n";
   if (!images) return;
   md << "Each panel: GT | HS without the query | FLIP(GT, without) | HS with the query | FLIP(GT, with); the "
-        "FLIP maps cover the target's pixels only.\n\n";
+        "FLIP maps cover the target's pixels only. Without ground truth PC takes GT's place.\n\n";
   for (const Json& s : report["scenes"]) {
     if (!s.contains("semantic")) continue;
     for (const Json& r : s["semantic"]) {
@@ -140,7 +146,7 @@ void temporal_section(std::ostream& md, const Json& report) {
   if (!any) return;
   md << "## Teleport, return, flicker (per publication mode)\n\n"
      << "From camera 0 (A) the client teleports to B (A mirrored through the room centre, looking the other "
-        "way), settles, and returns to A. *Published = desired*: virtual seconds from the return until the "
+        "way; around a scene file, a close-up of the far side looking at its centre), settles, and returns to A. *Published = desired*: virtual seconds from the return until the "
         "client's published set equals the host's sent set for good; *SSIM conv.*: until every later frame has "
         "SSIM ≥ 0.99 to the settled frame. Flicker: mean (max) absolute change per pixel and channel, 8-bit "
         "levels, between consecutive frames of A while the head sways; churn: slot writes / set membership "

@@ -29,21 +29,23 @@ std::vector<QuerySpec> query_specs(const SceneStore& store, const Options& o) {
   c.wire.text = o.class_query;
   c.wire.rho = msg::kHostDefaultRho;  // the host's rho (--rho): exactly the double asked for
   specs.push_back(std::move(c));
-  // The instance query: the first object (lowest id) with the label.
+  // The instance query: the object --instance-id names, else the first object (lowest id)
+  // with the label.
   const auto& objects = store.objects();
+  const bool by_id = o.instance_id >= 0;
   const auto inst = std::find_if(objects.begin(), objects.end(), [&](const SemanticObject& ob) {
-    return strcasecmp(ob.label.c_str(), o.instance_label.c_str()) == 0;
+    return by_id ? to_underlying(ob.id) == o.instance_id : strcasecmp(ob.label.c_str(), o.instance_label.c_str()) == 0;
   });
   QuerySpec i;
   if (inst == objects.end()) {
     i.kind = "instance";
-    i.name = o.instance_label;
-    i.error = "no object with this label";
+    i.name = by_id ? "#" + std::to_string(o.instance_id) : o.instance_label;
+    i.error = by_id ? "no object with this id" : "no object with this label";
     specs.push_back(std::move(i));
     return specs;
   }
   i.kind = "instance";
-  i.name = o.instance_label + " #" + std::to_string(to_underlying(inst->id));
+  i.name = (by_id ? inst->label : o.instance_label) + " #" + std::to_string(to_underlying(inst->id));
   i.query = SemanticQuery::for_instance(inst->id);
   i.wire.kind = msg::QueryKind::Instance;
   i.wire.instance = inst->id;
@@ -72,11 +74,29 @@ Status wait_for_query(EvalSession& session, const Camera& view, bool want, doubl
 struct View {
   const char* name;
   Camera cam;
-  GroundTruthImage gt;
+  std::optional<GroundTruthImage> gt;  // none for a scene file
+  ImageRGBA8 pc;          // the host's render of the full scene
   eval::Mask mask;        // the target's pixels
   ImageRGBA8 hs[2];       // without, with the query
   Json json;
+  // What the panels and FLIP maps compare against: GT when there is one, else PC.
+  const ImageRGBA8& reference() const { return gt ? gt->colour : pc; }
 };
+
+// The target's pixels without ground truth: those the host's render of the target's
+// appearance Gaussians alone covers.
+Expected<std::unique_ptr<render::SplatRenderer>> target_renderer(Room& room, std::span<const ObjectId> targets) {
+  std::vector<Gaussian> on;
+  for (const Gaussian& g : appearance_gaussians(*room.scene.store))
+    if (std::binary_search(targets.begin(), targets.end(), g.object)) on.push_back(g);
+  auto r = render::SplatRenderer::create(room.context, {.capacity = static_cast<std::uint32_t>(std::max<std::size_t>(1, on.size())),
+                                                        .sh_degree = room.scene.store->sh_degree(),
+                                                        .max_width = room.options.width,
+                                                        .max_height = room.options.height});
+  if (!r) return Error{"the target's renderer: " + r.message()};
+  if (auto st = (*r)->write_slots(0, on); !st) return Error{"the target's renderer: " + st.message()};
+  return r;
+}
 
 // One query state (with or without it) at one view.
 Expected<Json> measure_state(Room& room, Stream& stream, View& v, std::span<const ObjectId> targets, bool with,
@@ -89,7 +109,8 @@ Expected<Json> measure_state(Room& room, Stream& stream, View& v, std::span<cons
   j["resident"] = cap->resident;
   j["resident_on_object"] = on_object;
   j["share"] = double(on_object) / double(stream.session->client().capacity());
-  j["gt_hs_object"] = scores(v.gt.colour, cap->hs, v.mask);
+  j["gt_hs_object"] = v.gt ? scores(v.gt->colour, cap->hs, v.mask) : Json(nullptr);
+  j["pc_hs_object"] = scores(v.pc, cap->hs, v.mask);
   j["hs_vs_sent_differing"] = cap->hs_vs_sent_differing;
   v.hs[with ? 1 : 0] = std::move(cap->hs);
   return j;
@@ -121,16 +142,31 @@ Expected<Json> measure_query(Room& room, const QuerySpec& q) {
   row["reserve"] = reserve;
   row["expected_resident"] = expected;
   row["expected_share"] = double(expected) / double(m);
-  const ObjectViews ov = object_views(*res, *scene.synthetic, o.width, o.height);
-  View vs[2] = {{"near", ov.near, {}, {}, {}, {}}, {"far", ov.far, {}, {}, {}, {}}};
+  const ObjectViews ov = scene.synthetic ? object_views(*res, *scene.synthetic, o.width, o.height)
+                                         : object_views(*res, scene, o.width, o.height);
+  View vs[2] = {{"near", ov.near, {}, {}, {}, {}, {}}, {"far", ov.far, {}, {}, {}, {}, {}}};
+  std::unique_ptr<render::SplatRenderer> target_only;
+  if (!scene.synthetic) {
+    auto r = target_renderer(room, targets);
+    if (!r) return r.error();
+    target_only = std::move(*r);
+  }
   for (View& v : vs) {
-    v.gt = scene.synthetic->render_ground_truth(v.cam);
-    v.mask = object_mask(v.gt, targets);
+    v.gt = ground_truth(scene, v.cam);
     auto pc = render_covered(room.full, v.cam);
     if (!pc) return pc.error();
+    v.pc = std::move(pc->image);
+    if (v.gt) {
+      v.mask = object_mask(*v.gt, targets);
+    } else {
+      auto alone = render_covered(*target_only, v.cam);
+      if (!alone) return alone.error();
+      v.mask = std::move(alone->cover);
+    }
     v.json["pose"] = camera_json(v.cam);
     v.json["object_pixels"] = count(v.mask);
-    v.json["gt_pc_object"] = scores(v.gt.colour, pc->image, v.mask);
+    v.json["object_pixels_from"] = v.gt ? "ground truth" : "render of the target alone";
+    v.json["gt_pc_object"] = v.gt ? scores(v.gt->colour, v.pc, v.mask) : Json(nullptr);
   }
   EvalSession& session = *stream->session;
   bool matches = true;
@@ -177,11 +213,11 @@ Expected<Json> measure_query(Room& room, const QuerySpec& q) {
     for (View& v : vs) {
       ImageRGBA8 diffs[2];
       for (int w = 0; w < 2; ++w) {
-        auto fm = eval::flip_map(view_of(v.gt.colour), view_of(v.hs[w]), v.mask);
+        auto fm = eval::flip_map(view_of(v.reference()), view_of(v.hs[w]), v.mask);
         diffs[w] = flip_image(fm ? *fm : std::vector<float>{}, o.width, o.height);
       }
       if (auto st = room.panels.write(scene.name + "_" + q.kind + "_" + v.name,
-                                      {&v.gt.colour, &v.hs[0], &diffs[0], &v.hs[1], &diffs[1]});
+                                      {&v.reference(), &v.hs[0], &diffs[0], &v.hs[1], &diffs[1]});
           !st)
         return st.error();
     }

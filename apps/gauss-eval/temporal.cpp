@@ -29,9 +29,6 @@ namespace {
 
 constexpr double kSsimConverged = 0.99;
 
-glm::dvec3 eye_of(const Camera& c) { return glm::dvec3(glm::inverse(c.world_to_camera)[3]); }
-glm::dvec3 forward_of(const Camera& c) { return glm::normalize(glm::dvec3(glm::inverse(c.world_to_camera)[2])); }
-
 // A swayed by the standing user's sway at `t` seconds into the window.
 Camera swayed(const Camera& a, double t) {
   constexpr double kTwoPi = 6.283185307179586;
@@ -66,7 +63,7 @@ Expected<Json> measure_mode(Room& room, PublishMode mode, Json& timing) {
   if (!stream) return stream.error();
   EvalSession& session = *stream->session;
   const Camera a = scene.cameras.front();
-  const Camera b = teleport_target(a, *scene.synthetic);
+  const Camera b = teleport_target(a, scene);
   room.progress(std::string("temporal ") + name + ": settling at A");
   auto first = session.settle(a, o.settle_timeout_s, o.quiet_s);
   if (!first) return first.error();
@@ -173,9 +170,24 @@ Expected<Json> measure_mode(Room& room, PublishMode mode, Json& timing) {
 
 }  // namespace
 
-Camera teleport_target(const Camera& a, const SyntheticScene& scene) {
-  const glm::dvec3 lo(scene.room_min()), hi(scene.room_max());
+Camera teleport_target(const Camera& a, const EvalScene& scene) {
   const glm::dvec3 e = eye_of(a), f = forward_of(a);
+  if (!scene.synthetic) {
+    // Around a scene file: the eye mirrored across the vertical axis through the centre
+    // and brought in to 0.4 of its distance, looking at the centre: a close-up of the far
+    // side. (At the orbit distance a small scene fits the budget's selection alike from
+    // both sides, and the teleport would change nothing.)
+    const glm::dvec3 c = 0.5 * (scene.region_min + scene.region_max);
+    const glm::dvec3 d = e - c;
+    const glm::dvec3 vertical = glm::dot(d, scene.up) * scene.up;
+    Camera b = look_camera(c + 0.4 * (vertical - (d - vertical)), c, a.width, a.height, scene.up);
+    b.fx = a.fx;
+    b.fy = a.fy;
+    b.cx = a.cx;
+    b.cy = a.cy;
+    return b;
+  }
+  const glm::dvec3 lo(scene.region_min), hi(scene.region_max);
   glm::dvec3 eye(lo.x + hi.x - e.x, e.y, lo.z + hi.z - e.z);
   eye = glm::clamp(eye, lo + 0.25, hi - 0.25);
   glm::dvec3 dir(-f.x, f.y, -f.z);

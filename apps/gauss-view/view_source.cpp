@@ -5,6 +5,7 @@
 #include <chrono>
 #include <vector>
 
+#include "central_box.h"
 #include "gauss/engine/splat_file.h"
 #include "gauss/engine/ply_mesh.h"
 #include "gauss/render/vk_frame_ring.h"
@@ -56,21 +57,6 @@ class StreamSource final : public ViewSource {
   std::uint64_t last_batches_{0};
   double last_change_{0.0};
 };
-
-// The 2nd..98th percentile box of the Gaussian centres (floaters ignored).
-std::pair<glm::dvec3, glm::dvec3> central_box(const std::vector<Gaussian>& gs) {
-  glm::dvec3 lo{0.0}, hi{0.0};
-  std::vector<float> axis(gs.size());
-  for (int a = 0; a < 3; ++a) {
-    for (std::size_t i = 0; i < gs.size(); ++i) axis[i] = gs[i].position[a];
-    const std::size_t i_lo = gs.size() * 2 / 100, i_hi = gs.size() - 1 - i_lo;
-    std::nth_element(axis.begin(), axis.begin() + static_cast<std::ptrdiff_t>(i_lo), axis.end());
-    lo[a] = axis[i_lo];
-    std::nth_element(axis.begin(), axis.begin() + static_cast<std::ptrdiff_t>(i_hi), axis.end());
-    hi[a] = axis[i_hi];
-  }
-  return {lo, hi};
-}
 
 class LocalSource final : public ViewSource {
  public:
@@ -136,7 +122,7 @@ Expected<std::unique_ptr<ViewSource>> make_local(vk::Context& context, const Vie
                      std::to_string(scene->cloud.sh_degree) + ")";
   if ((*r)->rejected_nonfinite() > 0)
     what += ", " + std::to_string((*r)->rejected_nonfinite()) + " non-finite Gaussians skipped";
-  return std::unique_ptr<ViewSource>(new LocalSource(std::move(*r), std::move(what), central_box(gs)));
+  return std::unique_ptr<ViewSource>(new LocalSource(std::move(*r), std::move(what), apps::central_box(gs)));
 }
 
 }  // namespace

@@ -2,7 +2,8 @@
 // reproduce byte for byte; every client frame it measured must equal the host's render of
 // the very set it sent (0 differing pixels); and every semantic query must hold exactly
 // min(|G_obj|, floor(rho M)) of the client's M slots, recomputed here from the report's
-// own figures.
+// own figures. And a scene file (a room written as PLY + objects JSON here): no ground
+// truth, so the GT-referenced figures are null, while everything else holds as for a room.
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -15,6 +16,9 @@
 #include <nlohmann/json.hpp>
 
 #include "child_process.h"
+#include "gauss/engine/ply_gaussian.h"
+#include "gauss/engine/scene_store.h"
+#include "gauss/engine/synthetic_scene.h"
 
 namespace {
 
@@ -37,11 +41,11 @@ std::vector<std::string> eval_args(const fs::path& out) {
           "--name", "ctest", "--out", out.string()};
 }
 
-void run_eval(const fs::path& out) {
+void run_eval(const fs::path& out, const std::vector<std::string>& args) {
   fs::remove_all(out);
   fs::create_directories(out);
   gauss::test::ChildProcess eval;
-  ASSERT_TRUE(eval.start(eval_args(out), out / "eval.log"));
+  ASSERT_TRUE(eval.start(args, out / "eval.log"));
   const auto rc = eval.wait(240s);
   if (!rc) eval.stop(SIGKILL);
   ASSERT_EQ(rc.value_or(-1), 0) << read_text(out / "eval.log");
@@ -49,8 +53,8 @@ void run_eval(const fs::path& out) {
 
 TEST(GaussEval, ReportReproducesAndItsExactnessChecksHold) {
   const fs::path base = fs::path(GAUSS_TEST_OUTPUT_DIR) / "eval_app_gauss_eval";
-  ASSERT_NO_FATAL_FAILURE(run_eval(base / "a"));
-  ASSERT_NO_FATAL_FAILURE(run_eval(base / "b"));
+  ASSERT_NO_FATAL_FAILURE(run_eval(base / "a", eval_args(base / "a")));
+  ASSERT_NO_FATAL_FAILURE(run_eval(base / "b", eval_args(base / "b")));
   const std::string a = read_text(base / "a" / "report.json"), b = read_text(base / "b" / "report.json");
   ASSERT_FALSE(a.empty());
   EXPECT_EQ(a, b) << "report.json differs between two runs of the same command";
@@ -135,6 +139,80 @@ TEST(GaussEval, ReportReproducesAndItsExactnessChecksHold) {
   EXPECT_TRUE(r["checks"]["hs_equals_sent_render"].get<bool>());
   EXPECT_TRUE(r["checks"]["semantic_shares_match"].get<bool>());
   EXPECT_TRUE(r["checks"]["all_converged"].get<bool>());
+}
+
+// Writes room 1 (its appearance Gaussians with their object ids) as a PLY and its object
+// table as JSON: a scene file a user could have.
+void write_room_file(const fs::path& ply, const fs::path& objects) {
+  gauss::SyntheticSceneConfig sc;
+  sc.variant = 1;
+  sc.target_gaussians = 8000;
+  sc.epochs = 4;
+  auto scene = gauss::SyntheticScene::create(sc);
+  ASSERT_TRUE(scene.ok()) << scene.message();
+  gauss::SceneStore store;
+  while (!scene->finished()) ASSERT_TRUE(scene->produce(store).ok());
+  gauss::GaussianCloud cloud;
+  cloud.sh_degree = store.sh_degree();
+  for (const gauss::Gaussian& g : store.gaussians())
+    if (!g.carrier) cloud.gaussians.push_back(g);
+  ASSERT_TRUE(gauss::write_gaussian_ply(ply, cloud, {.write_object_id = true}).ok());
+  nlohmann::json table = nlohmann::json::array();
+  for (const gauss::SemanticObject& o : store.objects())
+    table.push_back({{"id", gauss::to_underlying(o.id)}, {"label", o.label}});
+  std::ofstream(objects) << nlohmann::json{{"objects", table}}.dump();
+}
+
+TEST(GaussEval, ASceneFileHasNoGroundTruthAndKeepsEveryOtherCheck) {
+  const fs::path base = fs::path(GAUSS_TEST_OUTPUT_DIR) / "eval_app_gauss_eval_file";
+  fs::remove_all(base);
+  fs::create_directories(base);
+  ASSERT_NO_FATAL_FAILURE(write_room_file(base / "room1.ply", base / "room1_objects.json"));
+  const fs::path out = base / "report";
+  ASSERT_NO_FATAL_FAILURE(run_eval(out, {GAUSS_EVAL_EXE, "--scene", (base / "room1.ply").string(), "--objects",
+                                         (base / "room1_objects.json").string(), "--budget", "2000", "--size", "96x72",
+                                         "--cameras", "2", "--quiet", "0.25", "--flicker-window", "0.3",
+                                         "--class-query", "chair", "--no-timing", "--name", "ctest-file", "--out",
+                                         out.string()}));
+  const nlohmann::json r = nlohmann::json::parse(read_text(out / "report.json"));
+  ASSERT_EQ(r["scenes"].size(), 1u) << "--scene alone evaluates no room";
+  const nlohmann::json& scene = r["scenes"][0];
+  EXPECT_EQ(scene["name"], "room1.ply");
+  EXPECT_FALSE(scene["ground_truth"].get<bool>());
+  ASSERT_EQ(scene["fidelity"]["cameras"].size(), 2u);
+  for (const auto& c : scene["fidelity"]["cameras"]) {
+    EXPECT_TRUE(c["gt_pc"].is_null()) << "no ground truth, no GT-PC: " << c["gt_pc"].dump();
+    EXPECT_TRUE(c["gt_hs"].is_null());
+    EXPECT_TRUE(c["pc_hs"]["psnr_db"].is_number()) << c["pc_hs"].dump();
+    EXPECT_GT(c["coverage"]["both"].get<double>(), 0.2) << "the orbit camera sees the scene";
+    EXPECT_EQ(c["hs_vs_sent"]["differing_pixels"].get<std::uint64_t>(), 0u);
+  }
+  ASSERT_EQ(scene["semantic"].size(), 2u);
+  for (const auto& q : scene["semantic"]) {
+    ASSERT_FALSE(q.contains("error")) << q.dump();
+    const auto m = q["budget"].get<std::uint64_t>();
+    const std::uint64_t expected = std::min<std::uint64_t>(
+        q["object_gaussians"].get<std::uint64_t>(), static_cast<std::uint64_t>(std::floor(q["rho"].get<double>() * m)));
+    for (const char* view : {"near", "far"}) {
+      const auto& v = q["views"][view];
+      EXPECT_EQ(v["with_query"]["resident_on_object"].get<std::uint64_t>(), expected) << q["query"] << " " << view;
+      EXPECT_TRUE(v["gt_pc_object"].is_null());
+      EXPECT_TRUE(v["with_query"]["pc_hs_object"]["psnr_db"].is_number()) << v.dump();
+      EXPECT_GT(v["object_pixels"].get<std::uint64_t>(), 0u) << "the target's own render covers pixels";
+      EXPECT_EQ(v["with_query"]["hs_vs_sent_differing"].get<std::uint64_t>(), 0u);
+    }
+  }
+  EXPECT_FALSE(scene.contains("model_latency")) << "one epoch: no model edits to time";
+  ASSERT_EQ(scene["temporal"].size(), 2u);
+  for (const auto& t : scene["temporal"]) {
+    EXPECT_TRUE(t["return"]["converged"].get<bool>()) << t["mode"];
+    EXPECT_GT(t["teleport"]["slot_writes"].get<std::uint64_t>(), 0u) << "the close-up of the far side changes the set";
+  }
+  EXPECT_EQ(r["validation_errors"].get<std::uint64_t>(), 0u);
+  EXPECT_TRUE(r["checks"]["hs_equals_sent_render"].get<bool>());
+  EXPECT_TRUE(r["checks"]["all_converged"].get<bool>());
+  const std::string md = read_text(out / "report.md");
+  EXPECT_NE(md.find("| room1.ply | 0 | n/a |"), std::string::npos) << "the GT-PC column says n/a";
 }
 
 }  // namespace
