@@ -4,7 +4,9 @@
 //   2. far-teleport convergence at budget M over a modelled link (default 100 Mbit/s,
 //      5 ms) with a 72 Hz display, per publication mode, with post-convergence flicker;
 //   3. upload ranges per frame vs slot writes per frame while converging;
-//   4. bytes on the wire per second in steady state (scene evolving, viewer still).
+//   4. bytes on the wire per second in steady state (scene evolving, viewer still);
+//   5. the cost of a sealed stream (gauss-host --encrypt): seal and open throughput per
+//      frame size on one core (thread CPU), and what that adds to the teleport's bytes.
 // Definitions (also in the JSON):
 //   convergence time: from the teleport (the viewer's pose jumps) to the first display
 //     frame from which the client's published set equals its desired set and stays so,
@@ -40,6 +42,9 @@
 #include "gauss_cli.h"
 #include "gauss/engine/desired_state.h"
 #include "gauss/engine/sim.h"
+#include "gauss/net/auth.h"
+#include "gauss/net/stream_cipher.h"
+#include "percentile.h"
 
 namespace {
 
@@ -59,6 +64,7 @@ struct Options {
   std::string json_out;
   bool teleport{true};
   bool steady{true};
+  bool sealed{true};
   double pose_smoothing_s{-1.0};  // < 0: HostSessionConfig's default
   // --frame-cost: a frame cost model measured on a device (gauss-bench client's
   // calibration); the teleport then also runs with it, beside the default constants.
@@ -343,6 +349,65 @@ json bench_steady(const Options& o) {
               {"upload_ranges_per_frame", frames ? static_cast<double>(ranges) / frames : 0.0}};
 }
 
+// ---- 5. sealed stream -----------------------------------------------------------------
+
+// Seal and open throughput (MB/s of frame bytes, thread CPU, median of 5 rounds) per
+// frame size, and the CPU a sealed teleport of `teleport_bytes` costs each end.
+json bench_sealed(std::uint64_t teleport_bytes) {
+  std::printf("\n5. sealed stream (XChaCha20-Poly1305 per frame, one core, thread CPU, median of 5)\n");
+  std::printf("   %-10s %10s %10s %14s\n", "frame", "seal MB/s", "open MB/s", "bytes added");
+  json rows = json::array();
+  if (!net::auth_init()) return json{{"error", "libsodium could not be initialised"}};
+  msg::Challenge challenge = net::make_challenge();
+  const std::vector<std::uint8_t> hello(64, 7);
+  net::StreamCipher sealer("bench", challenge, hello, net::StreamDirection::HostToClient);
+  net::StreamCipher opener("bench", challenge, hello, net::StreamDirection::HostToClient);
+  std::mt19937 rng(3);
+  double seal_large = 0.0, open_large = 0.0;
+  for (std::size_t bytes : {std::size_t{64}, std::size_t{4} << 10, std::size_t{256} << 10, std::size_t{16} << 20}) {
+    std::vector<std::uint8_t> frame(bytes);
+    for (auto& b : frame) b = static_cast<std::uint8_t>(rng());
+    // Enough frames per round for ~64 MiB, at least 8.
+    const std::size_t count = std::max<std::size_t>(8, (std::size_t{64} << 20) / bytes);
+    std::vector<double> seal_mbs, open_mbs;
+    for (int round = 0; round < 5; ++round) {
+      std::vector<std::vector<std::uint8_t>> packets;
+      packets.reserve(count);
+      double t0 = thread_cpu_s();
+      for (std::size_t k = 0; k < count; ++k) packets.push_back(sealer.seal(frame));
+      const double seal_s = thread_cpu_s() - t0;
+      t0 = thread_cpu_s();
+      for (const auto& p : packets)
+        if (!opener.open(p)) return json{{"error", "a sealed frame did not open"}};
+      const double open_s = thread_cpu_s() - t0;
+      const double mb = static_cast<double>(bytes * count) / 1e6;
+      seal_mbs.push_back(mb / std::max(seal_s, 1e-9));
+      open_mbs.push_back(mb / std::max(open_s, 1e-9));
+    }
+    const double seal_med = apps::percentile(seal_mbs, 0.5), open_med = apps::percentile(open_mbs, 0.5);
+    seal_large = seal_med;
+    open_large = open_med;
+    const std::size_t added = net::kSealedHeaderBytes + net::kSealedTagBytes;
+    std::printf("   %-10zu %10.0f %10.0f %9zu (%4.1f %%)\n", bytes, seal_med, open_med, added,
+                100.0 * static_cast<double>(added) / static_cast<double>(bytes));
+    rows.push_back(json{{"frame_bytes", bytes},
+                        {"seal_mb_per_s", seal_med},
+                        {"open_mb_per_s", open_med},
+                        {"seal_mb_per_s_runs", seal_mbs},
+                        {"open_mb_per_s_runs", open_mbs},
+                        {"bytes_added", added}});
+  }
+  json out{{"frames", rows}};
+  if (teleport_bytes > 0) {
+    const double mb = static_cast<double>(teleport_bytes) / 1e6;
+    const double host_ms = 1e3 * mb / std::max(seal_large, 1e-9), client_ms = 1e3 * mb / std::max(open_large, 1e-9);
+    std::printf("   the progressive teleport above (%.1f MB): + %.1f ms host CPU to seal, + %.1f ms client CPU to open\n",
+                mb, host_ms, client_ms);
+    out["teleport"] = json{{"wire_bytes", teleport_bytes}, {"seal_cpu_ms", host_ms}, {"open_cpu_ms", client_ms}};
+  }
+  return out;
+}
+
 int bench_stream(const Options& o) {
   json out;
   out["coalescing"] = bench_coalescing(o);
@@ -367,6 +432,13 @@ int bench_stream(const Options& o) {
     }
   }
   if (o.steady) out["steady_state"] = bench_steady(o);
+  if (o.sealed) {
+    std::uint64_t teleport_bytes = 0;
+    if (out.contains("teleport"))
+      for (const json& t : out["teleport"])
+        if (t.contains("teleport_wire_bytes")) teleport_bytes = t["teleport_wire_bytes"].get<std::uint64_t>();
+    out["sealed"] = bench_sealed(teleport_bytes);
+  }
   out["definitions"] = {
       {"convergence", "teleport to the first frame from which published == desired (final), end state checked by checksum"},
       {"churn", "published-set membership changes per second in a 6 s window after convergence, static scene, head sway 5 cm / 3 cm / 3 deg"},
@@ -412,6 +484,7 @@ BenchRun bench_stream_setup(CLI::App& cmd) {
       ->type_name("MS,US,US");
   cmd.add_flag_callback("--no-teleport", [o] { o->teleport = false; }, "skip the far-teleport part (2+3)");
   cmd.add_flag_callback("--no-steady", [o] { o->steady = false; }, "skip the steady-state part (4)");
+  cmd.add_flag_callback("--no-sealed", [o] { o->sealed = false; }, "skip the sealed-stream cost (5)");
   cmd.add_option("--pose-smoothing", o->pose_smoothing_s,
                  "the host's sway low-pass time constant in s (0 = re-select at the raw pose; default: the "
                  "session's own)")

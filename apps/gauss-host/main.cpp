@@ -1,6 +1,6 @@
 // gauss-host: streams an evolving scene to VR/desktop clients over ENet.
 //
-//   gauss-host [--bind HOST:PORT] [--token T] [--scene synthetic:V | FILE | FOLDER]
+//   gauss-host [--bind HOST:PORT] [--token T [--encrypt]] [--scene synthetic:V | FILE | FOLDER]
 //              [--labels F] [--objects F] [--rgbd DIR | --mesh M.ply] [--epoch-period S]
 //              [--max-budget N] [--rho R] [--min-opacity A] [--max-scale S] [--min-support N]
 //              [--gaussians N] [--epochs N] [--seed N] [--max-clients N] [--duration S]
@@ -60,6 +60,7 @@ int main(int argc, char** argv) {
   gauss::net::SessionHostConfig hc;
   hc.net.bind = o.bind;
   hc.net.access_token = o.token;  // proved by challenge-response; never sent
+  hc.net.encrypt_stream = o.encrypt;
   hc.net.max_clients = o.max_clients;
   if (o.max_budget > 0) hc.session.max_capacity = o.max_budget;
   hc.session.default_rho = o.rho;
@@ -119,7 +120,7 @@ int main(int argc, char** argv) {
   }
   std::printf("gauss-host: serving %s: %zu Gaussians, SH degree %d, %zu objects, on %s:%u, session %016llx%s\n",
               (*feed)->describe().c_str(), store.size(), store.sh_degree(), store.objects().size(), o.bind.host.c_str(), (*host)->net().port(), static_cast<unsigned long long>((*host)->net().session_id()),
-              o.token.empty() ? "" : ", token required");
+              o.token.empty() ? "" : o.encrypt ? ", token required, stream sealed" : ", token required");
   std::fflush(stdout);
 
   using Clock = std::chrono::steady_clock;

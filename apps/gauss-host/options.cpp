@@ -47,7 +47,12 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
   app.add_option("--bind", bind, "address to listen on, HOST:PORT, HOST or :PORT (port 0: any free port)")
       ->check(apps::endpoint())
       ->type_name("HOST:PORT");
-  app.add_option("--token", o.token, "access token clients must present (default: none required)");
+  auto* token = app.add_option("--token", o.token,
+                               "access token clients must prove (challenge-response; it never crosses the wire)");
+  app.add_flag("--encrypt", o.encrypt,
+               "seal the stream after the handshake (XChaCha20-Poly1305, keys derived from the token): for "
+               "private scenes")
+      ->needs(token);
   app.add_option("--scene", scene,
                  "scene to stream: synthetic:VARIANT (0..3), a scene file (3DGS PLY, compressed PLY, .splat, "
                  "SPZ, SOG) or a folder of snapshots followed live")

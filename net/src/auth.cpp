@@ -52,6 +52,22 @@ msg::AuthProof auth_proof(std::string_view token, const msg::Challenge& challeng
   return p;
 }
 
+StreamKey stream_key(std::string_view token, const msg::Challenge& challenge, std::span<const std::uint8_t> hello_frame,
+                     std::uint8_t direction) {
+  constexpr std::string_view kStreamDomain = "gauss-stream-v1";
+  auto key = derive_key(token);
+  StreamKey out{};
+  crypto_generichash_state st;
+  crypto_generichash_init(&st, key.data(), key.size(), out.size());
+  crypto_generichash_update(&st, reinterpret_cast<const unsigned char*>(kStreamDomain.data()), kStreamDomain.size());
+  crypto_generichash_update(&st, &direction, 1);
+  crypto_generichash_update(&st, challenge.nonce.data(), challenge.nonce.size());
+  crypto_generichash_update(&st, hello_frame.data(), hello_frame.size());
+  crypto_generichash_final(&st, out.data(), out.size());
+  sodium_memzero(key.data(), key.size());
+  return out;
+}
+
 bool verify_auth_proof(std::string_view token, const msg::Challenge& challenge,
                        std::span<const std::uint8_t> hello_frame, const msg::AuthProof& proof) {
   const msg::AuthProof expected = auth_proof(token, challenge, hello_frame);

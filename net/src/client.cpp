@@ -11,6 +11,7 @@
 
 #include "enet_runtime.h"
 #include "gauss/net/auth.h"
+#include "gauss/net/stream_cipher.h"
 #include "packet_ref.h"
 
 namespace gauss::net {
@@ -59,6 +60,9 @@ struct NetClient::Impl {
   // connection was lost (for the reconnect log line).
   std::optional<std::uint64_t> last_session;
   Clock::time_point last_lost{};
+  // The connection's sealed stream, when its Challenge asked for one (network thread).
+  std::unique_ptr<StreamCipher> sealer;  // client -> host
+  std::unique_ptr<StreamCipher> opener;  // host -> client
 
   ~Impl() {
     if (thread.joinable()) {
@@ -108,6 +112,7 @@ struct NetClient::Impl {
       out.swap(outbox);
     }
     for (auto& o : out) {
+      if (sealer) o.frame = std::make_shared<const std::vector<std::uint8_t>>(sealer->seal(*o.frame));
       ENetPacket* p = detail::make_packet(o.frame, o.reliable, nullptr);
       const bool ok = p != nullptr && enet_peer_send(peer, o.channel, p) == 0;
       if (!ok && p != nullptr) enet_packet_destroy(p);
@@ -133,13 +138,31 @@ struct NetClient::Impl {
       std::lock_guard lock(mu);
       counters.bytes_received += packet->dataLength;
     }
-    auto decoded = wire::decode(std::span<const std::uint8_t>(packet->data, packet->dataLength));
+    std::span<const std::uint8_t> frame(packet->data, packet->dataLength);
+    std::vector<std::uint8_t> opened;
+    // On a sealed stream every frame is sealed, except a refusal before the Welcome (the
+    // host refuses before it holds keys when the proof fails).
+    const bool sealed = opener && looks_sealed(frame);
+    if (sealed) {
+      auto o = opener->open(frame);
+      if (!o) {
+        reject("sealed stream: " + o.message(), &ClientCounters::malformed);
+        return true;
+      }
+      opened = std::move(o).value();
+      frame = opened;
+    }
+    auto decoded = wire::decode(frame);
     if (!decoded.ok()) {
       reject("malformed: " + decoded.message(), &ClientCounters::malformed);
       return true;
     }
     wire::Message& m = decoded.value();
     const msg::MessageType type = wire::type_of(m);
+    if (opener && !sealed && (welcomed || type != msg::MessageType::Refuse)) {
+      reject(std::string("plain ") + msg::to_string(type) + " on a sealed stream", &ClientCounters::malformed);
+      return true;
+    }
     if (msg::direction_of(type) != msg::Direction::HostToClient) {
       reject(std::string("unexpected ") + msg::to_string(type) + " from the host", &ClientCounters::wrong_direction);
       return true;
@@ -175,6 +198,10 @@ struct NetClient::Impl {
       }
       // The proof binds the host's nonce to the exact Hello bytes this connection sent.
       const msg::AuthProof proof = auth_proof(cfg.access_token, *challenge, *hello);
+      if (challenge->flags & msg::kChallengeEncrypt) {
+        sealer = std::make_unique<StreamCipher>(cfg.access_token, *challenge, *hello, StreamDirection::ClientToHost);
+        opener = std::make_unique<StreamCipher>(cfg.access_token, *challenge, *hello, StreamDirection::HostToClient);
+      }
       auto bytes = wire::encode(proof);
       if (bytes.ok())
         if (ENetPacket* p = detail::make_packet(std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value()),
@@ -232,6 +259,8 @@ struct NetClient::Impl {
   // One connection attempt and its whole life. Returns when it ends; `welcome` gets the
   // connection's Welcome when there was one.
   Outcome session(ENetHost* host, std::optional<msg::Welcome>& welcome) {
+    sealer.reset();  // keys belong to one connection
+    opener.reset();
     ENetPeer* peer = enet_host_connect(host, &server, msg::kChannelCount, 0);
     if (peer == nullptr) {
       log("cannot start a connection to " + endpoint + " (ENet has no free peer)");

@@ -11,6 +11,7 @@
 
 #include "enet_runtime.h"
 #include "gauss/net/auth.h"
+#include "gauss/net/stream_cipher.h"
 #include "packet_ref.h"
 
 namespace gauss::net {
@@ -39,6 +40,9 @@ struct PeerState {
   msg::Challenge challenge{};
   msg::Hello hello{};
   std::vector<std::uint8_t> hello_frame;
+  // A sealed stream (encrypt_stream): set when the proof passed.
+  std::shared_ptr<StreamCipher> sealer;  // host -> client
+  std::shared_ptr<StreamCipher> opener;  // client -> host
 };
 
 // Only the first few rejections per connection are logged in full; after that one
@@ -61,6 +65,7 @@ struct NetHost::Impl {
   std::deque<HostEvent> events;
   HostCounters counters;
   std::unordered_map<std::uint32_t, detail::ByteCounter> pending;  // welcomed clients
+  std::unordered_map<std::uint32_t, std::shared_ptr<StreamCipher>> sealers;  // welcomed clients with a sealed stream
 
   // Service-thread only.
   std::unordered_map<ENetPeer*, PeerState> peers;
@@ -92,12 +97,15 @@ struct NetHost::Impl {
     cv.notify_all();
   }
 
-  void send_now(ENetPeer* peer, const wire::Message& m) {
+  // Sends `m` now, sealed once the peer is welcomed on a sealed stream (a refusal before
+  // that goes plain: the client may not hold the keys).
+  void send_now(ENetPeer* peer, const PeerState& ps, const wire::Message& m) {
     auto bytes = wire::encode(m);
     if (!bytes.ok()) {
       log("internal: cannot encode " + std::string(msg::to_string(wire::type_of(m))) + ": " + bytes.message());
       return;
     }
+    if (ps.welcomed && ps.sealer) *bytes = ps.sealer->seal(*bytes);
     auto frame = std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value());
     if (ENetPacket* p = detail::make_packet(frame, true, nullptr)) {
       if (enet_peer_send(peer, msg::channel_of(wire::type_of(m)), p) != 0) enet_packet_destroy(p);
@@ -116,7 +124,7 @@ struct NetHost::Impl {
     }
     log("refusing connection: " + detail);
     msg::Refuse r{reason, msg::kProtocolVersion, detail.substr(0, msg::kMaxReasonBytes)};
-    send_now(peer, r);
+    send_now(peer, ps, r);
     ps.closing = true;
     enet_peer_disconnect_later(peer, 0);  // after the Refuse is delivered
   }
@@ -168,9 +176,10 @@ struct NetHost::Impl {
       // peer without it learns nothing but "authentication failed".
       ps.challenged = true;
       ps.challenge = make_challenge();
+      if (cfg.encrypt_stream) ps.challenge.flags |= msg::kChallengeEncrypt;
       ps.hello = *hello;
       ps.hello_frame.assign(frame.begin(), frame.end());
-      send_now(peer, ps.challenge);
+      send_now(peer, ps, ps.challenge);
       return;
     }
     admit(peer, ps, *hello);
@@ -183,6 +192,12 @@ struct NetHost::Impl {
     if (proof == nullptr || !verify_auth_proof(cfg.access_token, ps.challenge, ps.hello_frame, *proof))
       return refuse(peer, ps, msg::RefuseReason::BadToken, "authentication failed", &HostCounters::refused_token);
     ps.challenged = false;
+    if (ps.challenge.flags & msg::kChallengeEncrypt) {
+      ps.sealer = std::make_shared<StreamCipher>(cfg.access_token, ps.challenge, ps.hello_frame,
+                                                 StreamDirection::HostToClient);
+      ps.opener = std::make_shared<StreamCipher>(cfg.access_token, ps.challenge, ps.hello_frame,
+                                                 StreamDirection::ClientToHost);
+    }
     ps.hello_frame.clear();
     admit(peer, ps, ps.hello);
   }
@@ -209,6 +224,7 @@ struct NetHost::Impl {
       std::lock_guard lock(mu);
       ++counters.accepted;
       pending[ps.client] = ps.pending;
+      if (ps.sealer) sealers[ps.client] = ps.sealer;
     }
     // The policy answers with Welcome (or Refuse) through send(); the model channel
     // is ordered, so whatever it queues after the Welcome arrives after it.
@@ -240,7 +256,14 @@ struct NetHost::Impl {
       counters.bytes_received += packet->dataLength;
     }
     if (ps.closing) return;
-    const std::span<const std::uint8_t> frame(packet->data, packet->dataLength);
+    std::span<const std::uint8_t> frame(packet->data, packet->dataLength);
+    std::vector<std::uint8_t> opened;
+    if (ps.welcomed && ps.opener) {
+      auto o = ps.opener->open(frame);
+      if (!o) return reject(peer, ps, "sealed stream: " + o.message(), &HostCounters::malformed);
+      opened = std::move(o).value();
+      frame = opened;
+    }
     auto decoded = wire::decode(frame);
     if (!ps.welcomed && ps.challenged) return authenticate(peer, ps, std::move(decoded));
     if (!ps.welcomed) return handshake(peer, ps, std::move(decoded), frame);
@@ -257,7 +280,7 @@ struct NetHost::Impl {
       reply.query_id = q.query_id;
       reply.status = msg::QueryStatus::Rejected;
       reply.reason = "query rate limit: " + std::to_string(cfg.query_rate_hz) + " per second";
-      if (!ps.closing) send_now(peer, reply);
+      if (!ps.closing) send_now(peer, ps, reply);
       return;
     }
     {
@@ -281,6 +304,7 @@ struct NetHost::Impl {
         std::lock_guard lock(mu);
         ++counters.disconnects;
         pending.erase(id);
+        sealers.erase(id);
       }
       log("client " + std::to_string(id) + " disconnected");
       HostEvent e;
@@ -412,6 +436,8 @@ Expected<std::unique_ptr<NetHost>> NetHost::start(NetHostConfig config) {
     return Error{"NetHostConfig: query_rate_hz must be > 0 and query_burst >= 1"};
   if (config.access_token.size() > msg::kMaxTokenBytes)
     return Error{"NetHostConfig: access token longer than " + std::to_string(msg::kMaxTokenBytes) + " bytes"};
+  if (config.encrypt_stream && config.access_token.empty())
+    return Error{"NetHostConfig: encrypt_stream needs an access token (the stream's keys derive from it)"};
   if (!config.access_token.empty())
     if (auto s = auth_init(); !s) return s.error();
   auto impl = std::make_unique<Impl>();
@@ -463,6 +489,15 @@ Status NetHost::send_encoded(std::uint32_t client, msg::MessageType type,
   if (!frame || frame->size() < wire::kHeaderBytes) return Error{"NetHost::send_encoded: empty frame"};
   if (msg::direction_of(type) != msg::Direction::HostToClient)
     return Error{std::string("NetHost::send_encoded: ") + msg::to_string(type) + " is a client->host message"};
+  std::shared_ptr<StreamCipher> sealer;
+  {
+    std::lock_guard lock(impl_->mu);
+    if (auto it = impl_->sealers.find(client); it != impl_->sealers.end()) sealer = it->second;
+  }
+  // Sealed here, on the caller's thread, like the encoding: a big batch never stalls the
+  // service loop. Two threads sealing for one client may queue out of counter order; the
+  // receiver's window accepts that.
+  if (sealer) frame = std::make_shared<const std::vector<std::uint8_t>>(sealer->seal(*frame));
   std::lock_guard lock(impl_->mu);
   impl_->outbox.push_back(Outgoing{client, type, std::move(frame)});
   return Ok{};

@@ -39,6 +39,7 @@ class StreamHarness {
     int epochs{6};
     double epoch_period_s{0.15};
     std::string access_token;
+    bool encrypt_stream{false};  // seal the stream (needs access_token)
   };
 
   explicit StreamHarness(Options o) : opt_(std::move(o)), start_(std::chrono::steady_clock::now()) {
@@ -57,6 +58,7 @@ class StreamHarness {
     net::SessionHostConfig hc;
     hc.net.bind.port = 0;
     hc.net.access_token = opt_.access_token;
+    hc.net.encrypt_stream = opt_.encrypt_stream;
     hc.net.peer_timeout_min = std::chrono::milliseconds(500);
     hc.net.peer_timeout_max = std::chrono::milliseconds(2000);
     hc.net.log = [](const std::string&) {};

@@ -117,5 +117,32 @@ TEST(StreamLoopback, AccessTokenRefusesAClientWithoutIt) {
   EXPECT_TRUE(h.run_until_converged({good.get()}, std::chrono::seconds(25))) << h.describe(*good);
 }
 
+// A sealed stream carries the same content: two hosts on the same scene, one plain and
+// one sealed, bring the same client (budget, camera) to the same published set.
+TEST(StreamLoopback, ASealedStreamEndsInTheSameStateAsAPlainOne) {
+  std::uint64_t checksum[2] = {0, 0};
+  std::uint64_t bytes[2] = {0, 0};
+  for (int sealed = 0; sealed < 2; ++sealed) {
+    test::StreamHarness::Options o;
+    o.access_token = "private-scene";
+    o.encrypt_stream = sealed == 1;
+    test::StreamHarness h(o);
+    ASSERT_TRUE(h.ready());
+    auto c = h.connect("viewer", 4000, h.port(), 3);
+    ASSERT_TRUE(c);
+    const bool ok = h.run_until_converged({c.get()}, std::chrono::seconds(25));
+    ASSERT_FALSE(::testing::Test::HasFatalFailure());
+    ASSERT_TRUE(ok) << (sealed ? "sealed: " : "plain: ") << h.describe(*c);
+    EXPECT_EQ(c->sink->rejected(), 0u);
+    const auto hc = h.host().net().counters();
+    EXPECT_EQ(hc.malformed + hc.wrong_direction, 0u) << hc.last_rejection;
+    checksum[sealed] = c->sink->with_state([](ClientState& s) { return s.published_checksum(); });
+    bytes[sealed] = hc.bytes_sent;
+  }
+  EXPECT_EQ(checksum[0], checksum[1]) << "the sealed stream published another set";
+  std::printf("plain stream %llu bytes, sealed %llu bytes\n", static_cast<unsigned long long>(bytes[0]),
+              static_cast<unsigned long long>(bytes[1]));
+}
+
 }  // namespace
 }  // namespace gauss

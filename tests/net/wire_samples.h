@@ -157,6 +157,7 @@ inline std::vector<wire::Message> sample_messages() {
   out.push_back(stats);
   msg::Challenge challenge;
   for (std::size_t k = 0; k < challenge.nonce.size(); ++k) challenge.nonce[k] = static_cast<std::uint8_t>(7 * k + 1);
+  challenge.flags = msg::kChallengeEncrypt;
   out.push_back(challenge);
   msg::AuthProof proof;
   for (std::size_t k = 0; k < proof.mac.size(); ++k) proof.mac[k] = static_cast<std::uint8_t>(255 - 3 * k);

@@ -20,7 +20,10 @@ Status check(const msg::Query& m);
 Status check(const msg::QueryReply& m);
 Status check(const msg::Ack& m);
 Status check(const msg::ClientStats& m);
-inline Status check(const msg::Challenge&) { return Ok{}; }  // any 32 bytes
+inline Status check(const msg::Challenge& m) {  // any 32 bytes; only known flags
+  if ((m.flags & ~msg::kChallengeKnownFlags) != 0) return Error{"Challenge: unknown flag bits"};
+  return Ok{};
+}
 inline Status check(const msg::AuthProof&) { return Ok{}; }
 
 void write(const msg::Hello& m, Writer& w);

@@ -61,7 +61,10 @@ void write(const msg::Refuse& m, Writer& w) {
   w.str(m.detail);
 }
 
-void write(const msg::Challenge& m, Writer& w) { w.raw(m.nonce); }
+void write(const msg::Challenge& m, Writer& w) {
+  w.raw(m.nonce);
+  w.u8(m.flags);
+}
 void write(const msg::AuthProof& m, Writer& w) { w.raw(m.mac); }
 
 }  // namespace detail
@@ -117,6 +120,9 @@ Expected<msg::Challenge> decode_challenge(std::span<const std::uint8_t> body) {
   detail::Reader r(body, "Challenge");
   msg::Challenge m;
   read_fixed(r, "nonce", m.nonce);
+  r.u8("flags", m.flags);
+  if (r.ok() && (m.flags & ~msg::kChallengeKnownFlags) != 0)
+    r.fail_at("flags", msg::kAuthNonceBytes, "unknown flag bits " + std::to_string(m.flags & ~msg::kChallengeKnownFlags));
   if (!r.finish()) return r.error();
   return m;
 }

@@ -166,8 +166,15 @@ struct Refuse {
 inline constexpr std::size_t kAuthNonceBytes = 32;
 inline constexpr std::size_t kAuthProofBytes = 32;
 
+// Challenge flags. kChallengeEncrypt: everything after the proof, both ways, travels
+// sealed under keys derived from the token, this nonce and the Hello
+// (gauss/net/stream_cipher.h).
+inline constexpr std::uint8_t kChallengeEncrypt = 1;
+inline constexpr std::uint8_t kChallengeKnownFlags = kChallengeEncrypt;
+
 struct Challenge {
   std::array<std::uint8_t, kAuthNonceBytes> nonce{};
+  std::uint8_t flags{0};  // kChallenge* bits; others must be 0
   bool operator==(const Challenge&) const = default;
 };
 

@@ -7,6 +7,7 @@
 // Binding the proof to the nonce makes a captured handshake worthless on another
 // connection; binding it to the Hello's bytes stops a man in the middle from reusing a
 // proof with a Hello of his own (another capacity or name).
+#include <array>
 #include <span>
 #include <string_view>
 
@@ -22,6 +23,12 @@ msg::Challenge make_challenge();
 // The client's answer to `challenge` for the Hello frame it sent.
 msg::AuthProof auth_proof(std::string_view token, const msg::Challenge& challenge,
                           std::span<const std::uint8_t> hello_frame);
+// The key of one direction of a connection's sealed stream (stream_cipher.h): keyed
+// BLAKE2b-256 under the token's key of "gauss-stream-v1" || direction || nonce || the Hello
+// frame. Each connection (nonce) and direction gets its own key.
+using StreamKey = std::array<std::uint8_t, 32>;
+StreamKey stream_key(std::string_view token, const msg::Challenge& challenge, std::span<const std::uint8_t> hello_frame,
+                     std::uint8_t direction);
 // Whether `proof` answers `challenge` for `hello_frame` under `token` (constant time).
 bool verify_auth_proof(std::string_view token, const msg::Challenge& challenge,
                        std::span<const std::uint8_t> hello_frame, const msg::AuthProof& proof);

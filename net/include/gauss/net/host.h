@@ -11,7 +11,8 @@
 // when an access_token is configured here, the host answers that Hello with a
 // Challenge and the client must prove the token (AuthProof, gauss/net/auth.h) within
 // the same timeout; the token itself never crosses the wire (a Hello carrying one is
-// refused). Otherwise the host answers Refuse and disconnects, and the policy never
+// refused). With encrypt_stream the Challenge says so, and every frame after the proof
+// travels sealed both ways (stream_cipher.h); a plain or altered one is rejected. Otherwise the host answers Refuse and disconnects, and the policy never
 // hears of it. A wrong or missing proof is refused as "authentication failed",
 // whatever was wrong, before anything else about the Hello is judged. A Hello that passes
 // becomes a Connected event with a fresh client id; the policy then replies with
@@ -42,6 +43,9 @@ using LogFn = std::function<void(const std::string&)>;
 struct NetHostConfig {
   Endpoint bind{};                    // loopback by default; port 0 = any free port (see port())
   std::string access_token;           // non-empty: clients must prove it (challenge-response) here
+  // Seal every frame after the handshake, both ways (stream_cipher.h): for private
+  // scenes. Needs access_token (the keys derive from it).
+  bool encrypt_stream{false};
   std::size_t max_clients{16};        // handshaken clients at once; more are refused (HostFull)
   std::uint32_t max_slot_capacity{gauss::kMaxSlotCapacity};  // larger requests are refused
   // Transport flood guard per client: a token bucket of `query_burst` refilled at
