@@ -33,6 +33,8 @@ struct PeerState {
   Clock::time_point connected_at{};
   double tokens{0.0};      // query bucket
   Clock::time_point refilled{};
+  double message_tokens{0.0};  // message bucket
+  Clock::time_point message_refilled{};
   std::uint32_t rejected{0};
   detail::ByteCounter pending;
   // Token authentication: the Hello waits here while its Challenge is answered.
@@ -107,6 +109,7 @@ struct NetHost::Impl {
     }
     if (ps.welcomed && ps.sealer) *bytes = ps.sealer->seal(*bytes);
     auto frame = std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value());
+    detail::HostSendLimit sending(host);
     if (ENetPacket* p = detail::make_packet(frame, true, nullptr)) {
       if (enet_peer_send(peer, msg::channel_of(wire::type_of(m)), p) != 0) enet_packet_destroy(p);
       std::lock_guard lock(mu);
@@ -218,6 +221,8 @@ struct NetHost::Impl {
     ps.client = next_client++;
     ps.tokens = cfg.query_burst;
     ps.refilled = Clock::now();
+    ps.message_tokens = cfg.message_burst;
+    ps.message_refilled = ps.refilled;
     ps.pending = std::make_shared<std::atomic<std::int64_t>>(0);
     clients[ps.client] = peer;
     {
@@ -237,14 +242,18 @@ struct NetHost::Impl {
     push_event(std::move(e));
   }
 
-  bool take_query_token(PeerState& ps) {
+  // One token from a bucket of `burst` refilled at `rate` per second.
+  static bool take_token(double& tokens, Clock::time_point& refilled, double rate, double burst) {
     const auto now = Clock::now();
-    const double dt = std::chrono::duration<double>(now - ps.refilled).count();
-    ps.refilled = now;
-    ps.tokens = std::min(cfg.query_burst, ps.tokens + dt * cfg.query_rate_hz);
-    if (ps.tokens < 1.0) return false;
-    ps.tokens -= 1.0;
+    const double dt = std::chrono::duration<double>(now - refilled).count();
+    refilled = now;
+    tokens = std::min(burst, tokens + dt * rate);
+    if (tokens < 1.0) return false;
+    tokens -= 1.0;
     return true;
+  }
+  bool take_query_token(PeerState& ps) {
+    return take_token(ps.tokens, ps.refilled, cfg.query_rate_hz, cfg.query_burst);
   }
 
   void receive(ENetPeer* peer, const ENetPacket* packet) {
@@ -273,6 +282,9 @@ struct NetHost::Impl {
         type == msg::MessageType::AuthProof)
       return reject(peer, ps, std::string("unexpected ") + msg::to_string(type) + " from a client",
                     &HostCounters::wrong_direction);
+    if (!take_token(ps.message_tokens, ps.message_refilled, cfg.message_rate_hz, cfg.message_burst))
+      return reject(peer, ps, std::string(msg::to_string(type)) + " over the message rate limit",
+                    &HostCounters::message_flood);
     if (type == msg::MessageType::Query && !take_query_token(ps)) {
       const auto& q = std::get<msg::Query>(decoded.value());
       reject(peer, ps, "query " + std::to_string(q.query_id) + " over the rate limit", &HostCounters::query_flood);
@@ -322,6 +334,7 @@ struct NetHost::Impl {
       std::lock_guard lock(mu);
       out.swap(outbox);
     }
+    detail::HostSendLimit sending(host);
     for (auto& o : out) {
       auto it = clients.find(o.client);
       if (it == clients.end()) {
@@ -434,6 +447,8 @@ Expected<std::unique_ptr<NetHost>> NetHost::start(NetHostConfig config) {
     return Error{"NetHostConfig: max_slot_capacity outside [1, " + std::to_string(gauss::kMaxSlotCapacity) + "]"};
   if (!(config.query_rate_hz > 0.0) || !(config.query_burst >= 1.0))
     return Error{"NetHostConfig: query_rate_hz must be > 0 and query_burst >= 1"};
+  if (!(config.message_rate_hz > 0.0) || !(config.message_burst >= 1.0))
+    return Error{"NetHostConfig: message_rate_hz must be > 0 and message_burst >= 1"};
   if (config.access_token.size() > msg::kMaxTokenBytes)
     return Error{"NetHostConfig: access token longer than " + std::to_string(msg::kMaxTokenBytes) + " bytes"};
   if (config.encrypt_stream && config.access_token.empty())
@@ -450,6 +465,7 @@ Expected<std::unique_ptr<NetHost>> NetHost::start(NetHostConfig config) {
   auto host = detail::create_host(&addr.value(), impl->cfg.max_clients + 16, detail::kHostWaitingBytesPerPeer);
   if (!host) return Error{host.message() + " (bind " + to_string(impl->cfg.bind) + ")"};
   impl->host = host.value();
+  impl->host->maximumPacketSize = detail::kHostIncomingPacketBytes;  // raised only to send (HostSendLimit)
   impl->session = impl->cfg.session_id;
   if (impl->session == 0) {
     std::random_device rd;

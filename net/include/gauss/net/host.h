@@ -53,6 +53,13 @@ struct NetHostConfig {
   // reaches the policy (which applies its own, tighter rate limit to what passes).
   double query_rate_hz{20.0};
   double query_burst{40.0};
+  // Every message from a client (poses, acks, stats, queries) draws from a second bucket:
+  // a well-behaved client sends ~10 poses, a few acks and a stats line per second, so
+  // 200/s with a burst of 400 is far above it, while a flood is cut off at the transport
+  // (rejected, counted as message_flood, and kicked with the other rejections) before it
+  // can fill the policy's event queue that every client shares.
+  double message_rate_hz{200.0};
+  double message_burst{400.0};
   // More rejected messages than this from one client and it is disconnected: a peer
   // that only sends garbage costs the host nothing more.
   std::uint32_t max_rejected_per_client{256};
@@ -83,6 +90,7 @@ struct HostCounters {
   std::uint64_t malformed{0};          // undecodable messages after the handshake
   std::uint64_t wrong_direction{0};    // host->client types sent by a client (Hello again included)
   std::uint64_t query_flood{0};        // queries over the rate limit
+  std::uint64_t message_flood{0};      // messages over the per-client message rate
   std::uint64_t events_dropped{0};     // poll() queue full
   std::uint64_t kicked{0};             // clients disconnected for too many rejections
   std::uint64_t messages_sent{0};
@@ -91,7 +99,7 @@ struct HostCounters {
   std::uint64_t send_dropped{0};       // send() to a client that was gone by the time it flushed
   std::string last_rejection;          // reason of the newest rejection, for tests and logs
   std::uint64_t rejected() const {
-    return malformed + wrong_direction + query_flood;
+    return malformed + wrong_direction + query_flood + message_flood;
   }
 };
 
