@@ -5,7 +5,11 @@
 //   3. wire bytes per Gaussian (raw, before zstd, and after zstd at several levels) with
 //      the quantisation error beside it as PSNR of quantised vs float reference renders;
 //   4. identity tracking on an N-Gaussian snapshot (5 % perturbed, 2 % new, 2 % removed,
-//      shuffled): kept-id rate and time.
+//      shuffled): kept-id rate and time;
+//   5. several clients on one host: K = 1, 2, 4, 8 HostSessions at budget M, each walking
+//      its own path, ticked together per pose update the way SessionHost::pump does it
+//      (a WorkerPool over the machine's threads): wall ms per update of all K, process
+//      CPU ms per client, and wall time relative to K = 1.
 // Prints a table and optionally writes JSON (--json). Timing never decides a test.
 #include <algorithm>
 #include <chrono>
@@ -35,7 +39,9 @@
 #include "gauss/engine/identity_tracker.h"
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/selector.h"
+#include "gauss/engine/host_session.h"
 #include "gauss/engine/synthetic_scene.h"
+#include "gauss/net/worker_pool.h"
 #include "gauss/render/image_metrics.h"
 #include "gauss/render/reference_rasterizer.h"
 
@@ -63,6 +69,8 @@ struct Options {
   bool psnr{true};
   bool identity{true};
   bool codec{true};
+  bool clients{true};
+  std::vector<unsigned> client_counts{1, 2, 4, 8};
   fs::path json_out;
 };
 
@@ -432,6 +440,101 @@ json bench_identity(const SceneStore& store) {
           {"removed", rep->removed}};
 }
 
+// ---- 5. several clients ---------------------------------------------------------------
+
+// One client's session as the host holds it, and where it looks.
+struct BenchClient {
+  std::unique_ptr<HostSession> session;
+  ClientPose pose;
+  std::uint32_t sequence{0};
+  std::vector<wire::Message> out;
+  Status error{Ok{}};
+};
+
+// The wire form of a selector pose (the inverse of to_client_pose).
+msg::HeadPose head_pose_of(const ClientPose& c) {
+  msg::HeadPose h;
+  h.position = glm::vec3(c.position);
+  const glm::dquat q = glm::normalize(c.orientation);
+  h.rotation = glm::vec4(static_cast<float>(q.w), static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z));
+  h.tan_half_fov_x = static_cast<float>(c.tan_half_fov_x);
+  h.tan_half_fov_y = static_cast<float>(c.tan_half_fov_y);
+  return h;
+}
+
+// Feeds the client's pose (and acks what it was sent, as a client that keeps up does).
+void feed(BenchClient& c, const SceneStore& store, double now) {
+  for (const wire::Message& m : c.out)
+    if (const auto* b = std::get_if<msg::EditBatchMsg>(&m))
+      (void)c.session->on_message(wire::Message{msg::Ack{b->batch_id, b->epoch, b->epoch}}, store, now);
+  msg::HeadPose p = head_pose_of(c.pose);
+  p.sequence = ++c.sequence;
+  p.client_time_us = static_cast<std::uint64_t>(now * 1e6);
+  (void)c.session->on_message(wire::Message{p}, store, now);
+}
+
+json bench_clients(const SceneStore& store, const SyntheticScene& scene, const Options& o) {
+  net::WorkerPool pool(0);
+  std::printf("\n5. several clients, one host (M = %zu each, %u threads tick the sessions; wall and process CPU)\n",
+              o.budget, pool.threads());
+  std::printf("   %8s %14s %14s %16s %10s\n", "clients", "update ms p50", "update ms p90", "CPU ms / client", "wall / K=1");
+  const CodecParams params = fit_codec_params(store.gaussians(), store.sh_degree());
+  HostSessionConfig cfg;
+  cfg.pose_smoothing_s = 0.0;  // every step of the walk re-selects (no sway rejection)
+  cfg.pose_epsilon_m = 0.01;
+  json rows = json::array();
+  double base_ms = 0.0;
+  const auto& path = scene.trajectory();
+  for (unsigned k : o.client_counts) {
+    std::vector<BenchClient> clients(k);
+    double now = 0.0;
+    for (unsigned i = 0; i < k; ++i) {
+      clients[i].session = std::make_unique<HostSession>(i + 1, 1, params, cfg);
+      clients[i].pose = ClientPose::from_camera(path[(i * path.size()) / std::max(1u, k)]);
+      msg::Hello hello;
+      hello.slot_capacity = static_cast<std::uint32_t>(o.budget);
+      hello.client_name = "bench-" + std::to_string(i);
+      (void)clients[i].session->on_message(wire::Message{hello}, store, now);
+    }
+    auto tick_all = [&] {
+      for (BenchClient& c : clients) feed(c, store, now);
+      pool.parallel_for(clients.size(), [&](std::size_t i) {
+        auto r = clients[i].session->tick(store, now);
+        if (r) clients[i].out = std::move(r).value();
+        else clients[i].error = r.error();
+      });
+      now += 0.1;
+    };
+    for (int settle = 0; settle < 3; ++settle) tick_all();  // the first selection and full batch
+    std::vector<double> wall_ms;
+    double cpu_ms = 0.0;
+    for (int u = 0; u < std::max(3, o.updates / 2); ++u) {
+      for (BenchClient& c : clients) c.pose = small_motion(c.pose);
+      const auto t0 = Clock::now();
+      const double c0 = process_cpu_ms();
+      tick_all();
+      cpu_ms += process_cpu_ms() - c0;
+      wall_ms.push_back(ms_since(t0));
+    }
+    for (const BenchClient& c : clients)
+      if (!c.error) {
+        std::fprintf(stderr, "bench clients: %s\n", c.error.message().c_str());
+        return json{{"error", c.error.message()}};
+      }
+    const double p50 = percentile(wall_ms, 0.5), p90 = percentile(wall_ms, 0.9);
+    const double per_client = cpu_ms / static_cast<double>(wall_ms.size()) / k;
+    if (k == o.client_counts.front()) base_ms = p50;
+    std::printf("   %8u %14.1f %14.1f %16.1f %10.2f\n", k, p50, p90, per_client, p50 / std::max(base_ms, 1e-9));
+    rows.push_back(json{{"clients", k},
+                        {"update_wall_ms_p50", p50},
+                        {"update_wall_ms_p90", p90},
+                        {"cpu_ms_per_client_per_update", per_client},
+                        {"wall_relative_to_first", p50 / std::max(base_ms, 1e-9)},
+                        {"updates", wall_ms.size()}});
+  }
+  return json{{"threads", pool.threads()}, {"budget", o.budget}, {"rows", rows}};
+}
+
 int bench_host_main(const Options& o) {
   SceneStore store;
   double build_ms = 0.0;
@@ -449,6 +552,7 @@ int bench_host_main(const Options& o) {
   out["select"] = bench_select(store, *scene, o);
   if (o.codec) out["codec"] = bench_codec(store, o);
   if (o.identity) out["identity"] = bench_identity(store);
+  if (o.clients) out["clients"] = bench_clients(store, *scene, o);
   if (!o.json_out.empty() && !write_json(o.json_out, out, "host")) return 1;
   return 0;
 }
@@ -471,6 +575,11 @@ BenchRun bench_host_setup(CLI::App& cmd) {
   cmd.add_flag_callback("--no-psnr", [o] { o->psnr = false; }, "skip the quantisation PSNR renders");
   cmd.add_flag_callback("--no-codec", [o] { o->codec = false; }, "skip the wire-bytes part");
   cmd.add_flag_callback("--no-identity", [o] { o->identity = false; }, "skip identity tracking");
+  cmd.add_flag_callback("--no-clients", [o] { o->clients = false; }, "skip the several-clients part");
+  cmd.add_option("--clients", o->client_counts, "client counts of the several-clients part")
+      ->delimiter(',')
+      ->check(gauss::apps::in_range(1u, 64u))
+      ->type_name("K,...");
   cmd.add_option("--json", o->json_out, "write the results as JSON")->type_name("FILE");
   return [o] { return bench_host_main(*o); };
 }

@@ -1,6 +1,8 @@
 #include "gauss/net/session_host.h"
 
 #include <cstdio>
+#include <optional>
+#include <utility>
 
 namespace gauss::net {
 
@@ -20,7 +22,7 @@ Expected<std::unique_ptr<SessionHost>> SessionHost::start(SessionHostConfig conf
 }
 
 SessionHost::SessionHost(SessionHostConfig config, CodecParams params, std::unique_ptr<NetHost> net)
-    : config_(std::move(config)), params_(params), net_(std::move(net)) {}
+    : config_(std::move(config)), params_(params), net_(std::move(net)), pool_(config_.tick_threads) {}
 
 void SessionHost::log(const std::string& line) {
   if (config_.net.log) config_.net.log(line);
@@ -59,20 +61,28 @@ void SessionHost::pump(const SceneStore& scene, double now) {
         break;
     }
   }
+  // The sessions due this pump tick in parallel (each reads the scene and writes only
+  // itself); their messages go out afterwards, in client order, from this thread.
+  std::vector<std::pair<std::uint32_t, HostSession*>> due;
   for (auto& [client, session] : sessions_) {
     if (session.closed()) continue;
     if (net_->pending_bytes(client) > config_.max_pending_bytes) {
       ++stats_.held_back;
       continue;
     }
-    auto out = session.tick(scene, now);
-    if (!out) {
+    due.emplace_back(client, &session);
+  }
+  std::vector<std::optional<Expected<std::vector<wire::Message>>>> out(due.size());
+  pool_.parallel_for(due.size(), [&](std::size_t i) { out[i] = due[i].second->tick(scene, now); });
+  for (std::size_t i = 0; i < due.size(); ++i) {
+    Expected<std::vector<wire::Message>>& r = *out[i];
+    if (!r) {
       ++stats_.tick_errors;
-      stats_.last_error = out.message();
-      log(out.message());
+      stats_.last_error = r.message();
+      log(r.message());
       continue;
     }
-    send_all(client, out.value());
+    send_all(due[i].first, r.value());
   }
 }
 

@@ -14,6 +14,7 @@
 #include "gauss/engine/host_session.h"
 #include "gauss/engine/scene_store.h"
 #include "gauss/net/host.h"
+#include "gauss/net/worker_pool.h"
 
 namespace gauss::net {
 
@@ -24,6 +25,11 @@ struct SessionHostConfig {
   // pump() (its session diffs from what it was sent, so it catches up in one batch
   // when the link drains instead of queueing stale epochs).
   std::size_t max_pending_bytes{16u << 20};
+  // Threads that tick the clients' sessions in parallel each pump (WorkerPool: the pump
+  // thread counts as one; 1 = one after another; 0 = one per hardware thread). Each
+  // session's selection + diff + encode only reads the scene, so N clients cost about
+  // N / threads times one client's time.
+  unsigned tick_threads{0};
   // Called with each session right before it is erased: on its client's disconnect
   // (inside pump()) and for every session still open in close_all(). `client_name` is
   // the name from the client's Hello. Runs on the thread calling pump()/close_all();
@@ -75,6 +81,7 @@ class SessionHost {
   std::map<std::uint32_t, HostSession> sessions_;
   std::map<std::uint32_t, std::string> client_names_;  // from each session's Hello
   SessionHostStats stats_;
+  WorkerPool pool_;
 };
 
 }  // namespace gauss::net
