@@ -58,6 +58,13 @@ Expected<ClientCapture> capture(Room& room, Stream& stream, const Camera& camera
 // GT | PC | HS | FLIP(PC, HS).
 Expected<Json> measure_fidelity(Room& room);
 
+// GT-PC, GT-HS and PC-HS (each over its pixels, see definitions) and the coverage
+// fractions of the client's frame `hs` at `cam`, whose coverage is `hs_cover` (the sent
+// set's), added to `out`; the panel `panel`.png (GT | PC | HS | FLIP(PC, HS)) written.
+// Errors: the host's full render, the FLIP map, the panel.
+Status add_fidelity_chain(Room& room, const Camera& cam, const ImageRGBA8& hs, const eval::Mask& hs_cover,
+                          const std::string& panel, Json& out);
+
 // The semantic reallocation table for the class query and the instance query, each on
 // its own connection at its own M (--semantic-budget): resident Gaussians on the target
 // with and without the query at a near and a far view, share against
