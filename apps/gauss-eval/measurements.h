@@ -100,6 +100,13 @@ Expected<Json> measure_model_latency(Room& room);
 // converged (client); and the initial / desired target residency.
 Json query_latency(EvalSession& session, std::uint32_t query_id, double sent_at);
 
+// gauss-eval --realtime: gauss-host started as a child process serving this scene,
+// the real client over loopback ENet on the wall clock: per fidelity camera a fresh
+// connection settled, captured and compared (GT -> PC -> HS, and HS against the host's
+// render of the set its dump says it sent); a teleport far and back per publication mode.
+// Wall-clock figures; nothing reproduces. See realtime.cpp.
+Expected<Json> measure_realtime(Room& room);
+
 // The budget ablation over --ablation (M) and --ablation-sizes: per point the means over
 // the fidelity cameras of PC-HS (and GT-HS) metrics at M, each on a fresh connection. The
 // client's GPU frame time p50 / p95 of idle frames at each point (wall clock) is appended
