@@ -65,6 +65,20 @@ Expected<Json> measure_fidelity(Room& room);
 Status add_fidelity_chain(Room& room, const Camera& cam, const ImageRGBA8& hs, const eval::Mask& hs_cover,
                           const std::string& panel, Json& out);
 
+// A query of the semantic table: the class query, and the instance query (--instance-id,
+// else the first object labelled --instance-label).
+struct QuerySpec {
+  std::string kind;  // "class" | "instance"
+  std::string name;  // "chair", "robot_arm #8"
+  SemanticQuery query;
+  msg::Query wire;
+  std::string error;  // not measurable (no such object): the row says why
+};
+std::vector<QuerySpec> query_specs(const SceneStore& store, const Options& options);
+// The host's render of the targets' appearance Gaussians alone (a scene file's object
+// pixels: those it covers). Errors: the renderer.
+Expected<std::unique_ptr<render::SplatRenderer>> target_renderer(Room& room, std::span<const ObjectId> targets);
+
 // The semantic reallocation table for the class query and the instance query, each on
 // its own connection at its own M (--semantic-budget): resident Gaussians on the target
 // with and without the query at a near and a far view, share against

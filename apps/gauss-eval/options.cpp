@@ -43,7 +43,8 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
       "client over loopback ENet on the wall clock: per fidelity camera a fresh connection settles\n"
       "(--quiet, --settle-timeout in wall seconds), its frame is compared with GT and PC and, after\n"
       "it disconnects, with the host's render of the set the host's --dump-sent says it sent; then a\n"
-      "teleport far and back per publication mode. Wall-clock figures: they do not reproduce.",
+      "teleport far and back per publication mode, and each semantic query at its near view (its share\n"
+      "exact). Wall-clock figures: they do not reproduce.",
       "gauss-eval"};
   apps::configure(app);
 #ifdef GAUSS_SOURCE_DIR
@@ -124,7 +125,7 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
                         "leave the wall-clock figures out (report.json then reproduces exactly)");
   app.add_flag("--realtime", o.realtime,
                "host and client as processes over loopback ENet on the wall clock (see above); needs timing, "
-               "the real client's adaptive allowance replaces --allowance, no semantic/latency/ablation runs");
+               "the real client's adaptive allowance replaces --allowance; no latency, flicker or ablation runs");
   app.add_option("--host-exe", o.host_exe, "--realtime: the gauss-host to start (default: the one beside gauss-eval)")
       ->type_name("PATH");
   app.add_flag_callback("--no-images", [&o] { o.images = false; }, "write no PNGs");

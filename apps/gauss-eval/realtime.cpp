@@ -16,9 +16,14 @@
 // fidelity cameras therefore each converge from an empty client (a fresh connection at
 // the camera), unlike the deterministic run, which moves one connection from camera to
 // camera. The teleport (A, far B, back to A) per publication mode is one connection,
-// compared the same way after the return.
+// compared the same way after the return. Each query of the semantic table (unless
+// --no-semantic) is one connection at M = |G_obj| at the query's near view, the query sent
+// as it connects; the "without the query" baseline and the far view are left out.
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
+#include <optional>
 #include <span>
 #include <unordered_map>
 
@@ -133,8 +138,8 @@ void compare_records(const EvalScene& scene, const GaussianCloud& dump, bool dum
   out.matches_scene = all_ours && scene_sum == dump_sum && dump_has_mesh == !scene.store->surface_chunks().empty();
 }
 
-Expected<SentComparison> compare_with_dump(Room& room, const fs::path& ply, const RealtimeCapture& cap,
-                                           const Camera& cam) {
+Expected<SentComparison> compare_with_dump(Room& room, const fs::path& ply, std::uint32_t budget,
+                                           const RealtimeCapture& cap, const Camera& cam) {
   SentComparison out;
   out.dump = ply;
   auto dump = read_gaussian_ply(ply);
@@ -145,7 +150,7 @@ Expected<SentComparison> compare_with_dump(Room& room, const fs::path& ply, cons
   const bool has_mesh = fs::exists(mesh_path, ec);
   compare_records(room.scene, dump->cloud, has_mesh, cap, out);
 
-  auto renderer = render::SplatRenderer::create(room.context, {.capacity = room.options.budget,
+  auto renderer = render::SplatRenderer::create(room.context, {.capacity = budget,
                                                                .sh_degree = dump->cloud.sh_degree,
                                                                .max_width = cam.width,
                                                                .max_height = cam.height});
@@ -172,7 +177,16 @@ Expected<SentComparison> compare_with_dump(Room& room, const fs::path& ply, cons
   return out;
 }
 
-// One connection: settled at each of `views` in turn, captured at the last, closed, and
+// One connection: its client's name (the host's dump file is named after it), publication
+// mode, budget M and an optional query sent as it connects.
+struct ConnectionSpec {
+  std::string name;
+  PublishMode mode{PublishMode::Progressive};
+  std::uint32_t budget{0};
+  std::optional<msg::Query> query;
+};
+
+// A connection settled at each of its views in turn, captured at the last, closed, and
 // compared with the host's dump of it.
 struct Connection {
   std::vector<RealtimeSettle> legs;
@@ -188,18 +202,22 @@ std::vector<double> gpu_totals(Room& room, const std::vector<client::GpuFrameSta
   return ms;
 }
 
-Expected<Connection> run_connection(Room& room, HostProcess& host, const std::string& name, PublishMode mode,
+Expected<Connection> run_connection(Room& room, HostProcess& host, const ConnectionSpec& spec,
                                     std::span<const Camera> views) {
   const Options& o = room.options;
   const Camera& last = views.back();
   auto client = RealtimeClient::connect(room.context, {.port = host.port(),
-                                                       .name = name,
-                                                       .budget = o.budget,
-                                                       .mode = mode,
+                                                       .name = spec.name,
+                                                       .budget = spec.budget,
+                                                       .mode = spec.mode,
                                                        .display_hz = o.display_hz,
                                                        .width = last.width,
                                                        .height = last.height});
   if (!client) return client.error();
+  if (spec.query) {
+    (*client)->send_query(*spec.query);
+    if (auto st = (*client)->wait_for_query(views.front(), o.settle_timeout_s); !st) return st.error();
+  }
   Connection c;
   for (const Camera& view : views) {
     auto s = (*client)->settle(view, o.settle_timeout_s, o.quiet_s);
@@ -214,9 +232,9 @@ Expected<Connection> run_connection(Room& room, HostProcess& host, const std::st
   const std::vector<double> tail = gpu_totals(room, (*client)->take_gpu_stats());
   c.leg_gpu_ms.back().insert(c.leg_gpu_ms.back().end(), tail.begin(), tail.end());
   (*client)->close();
-  auto ply = host.wait_dump(name, kDumpTimeout_s);
+  auto ply = host.wait_dump(spec.name, kDumpTimeout_s);
   if (!ply) return ply.error();
-  auto sent = compare_with_dump(room, *ply, c.capture, last);
+  auto sent = compare_with_dump(room, *ply, spec.budget, c.capture, last);
   if (!sent) return sent.error();
   c.sent = std::move(*sent);
   return c;
@@ -259,7 +277,9 @@ Expected<Json> realtime_fidelity(Room& room, HostProcess& host) {
     const Camera& cam = scene.cameras[k];
     const std::string where = scene.name + " realtime camera " + std::to_string(k);
     room.progress("realtime camera " + std::to_string(k + 1) + "/" + std::to_string(scene.cameras.size()));
-    auto c = run_connection(room, host, "gauss-eval-cam" + std::to_string(k), mode, std::span<const Camera>(&cam, 1));
+    const ConnectionSpec spec{
+        .name = "gauss-eval-cam" + std::to_string(k), .mode = mode, .budget = o.budget, .query = std::nullopt};
+    auto c = run_connection(room, host, spec, std::span<const Camera>(&cam, 1));
     if (!c) return Error{where + ": " + c.message()};
     add_frames(*c, cpu, gpu);
     Json j;
@@ -294,7 +314,11 @@ Expected<Json> realtime_teleport(Room& room, HostProcess& host) {
   Json out = Json::array();
   for (PublishMode mode : {PublishMode::Progressive, PublishMode::Immediate}) {
     room.progress(std::string("realtime teleport, ") + mode_name(mode));
-    auto c = run_connection(room, host, std::string("gauss-eval-teleport-") + mode_name(mode), mode, path);
+    const ConnectionSpec spec{.name = std::string("gauss-eval-teleport-") + mode_name(mode),
+                              .mode = mode,
+                              .budget = room.options.budget,
+                              .query = std::nullopt};
+    auto c = run_connection(room, host, spec, path);
     if (!c) return Error{scene.name + " realtime teleport (" + mode_name(mode) + "): " + c.message()};
     out.push_back(Json{{"mode", mode_name(mode)},
                        {"a", camera_json(a)},
@@ -307,6 +331,86 @@ Expected<Json> realtime_teleport(Room& room, HostProcess& host) {
   }
   room.timing.phases["realtime_teleport_s"] = since(t0);
   return out;
+}
+
+// One query of the semantic table on its own connection at its own M (--semantic-budget,
+// else |G_obj|), settled at the query's near view with the query sent as it connected: the
+// target's residency must be exactly min(|G_obj|, floor(rho M)) (the host's --rho), as in
+// the deterministic table; GT-HS and PC-HS over the target's pixels; HS against the dump.
+Expected<Json> realtime_query(Room& room, HostProcess& host, const QuerySpec& q) {
+  const EvalScene& scene = room.scene;
+  const Options& o = room.options;
+  auto res = resolve_query(q.query, scene.store->objects());
+  if (!res) return Json{{"kind", q.kind}, {"query", q.name}, {"error", res.message()}};
+  const std::vector<ObjectId> targets = res->ids();
+  const std::uint32_t m =
+      o.semantic_budget > 0 ? o.semantic_budget : static_cast<std::uint32_t>(std::max<std::size_t>(16, res->gaussians));
+  const auto reserve = static_cast<std::uint64_t>(std::floor(o.rho * static_cast<double>(m)));
+  const std::uint64_t expected = std::min<std::uint64_t>(res->gaussians, reserve);
+  const Camera near = (scene.synthetic ? object_views(*res, *scene.synthetic, o.width, o.height)
+                                       : object_views(*res, scene, o.width, o.height))
+                          .near;
+  room.progress("realtime query " + q.name);
+  auto c = run_connection(room, host,
+                          {.name = "gauss-eval-query-" + q.kind,
+                           .mode = o.progressive ? PublishMode::Progressive : PublishMode::Immediate,
+                           .budget = m,
+                           .query = q.wire},
+                          std::span<const Camera>(&near, 1));
+  if (!c) return c.error();
+  const auto on_object = static_cast<std::uint64_t>(
+      std::count_if(c->capture.slot_objects.begin(), c->capture.slot_objects.end(),
+                    [&](ObjectId id) { return std::binary_search(targets.begin(), targets.end(), id); }));
+  // The target's pixels: the ground truth's object ids, else what the targets alone cover.
+  const std::optional<GroundTruthImage> gt = ground_truth(scene, near);
+  eval::Mask mask;
+  if (gt) {
+    mask = object_mask(*gt, targets);
+  } else {
+    auto alone = target_renderer(room, targets);
+    if (!alone) return alone.error();
+    auto covered = render_covered(**alone, near);
+    if (!covered) return covered.error();
+    mask = std::move(covered->cover);
+  }
+  auto pc = render_covered(room.full, near);
+  if (!pc) return Error{"the host's full render: " + pc.message()};
+  Json ids = Json::array();
+  for (ObjectId id : targets) ids.push_back(to_underlying(id));
+  return Json{{"kind", q.kind},
+              {"query", q.name},
+              {"targets", std::move(ids)},
+              {"budget", m},
+              {"rho", o.rho},
+              {"object_gaussians", res->gaussians},
+              {"expected_resident", expected},
+              {"expected_share", double(expected) / double(m)},
+              {"resident_on_object", on_object},
+              {"share", double(on_object) / double(m)},
+              {"share_matches", on_object == expected},
+              {"client_reported_object_gaussians", c->capture.query_target_gaussians},
+              {"pose", camera_json(near)},
+              {"settle", settle_json(c->legs.front(), c->leg_gpu_ms.front())},
+              {"object_pixels", count(mask)},
+              {"gt_hs_object", gt ? scores(gt->colour, c->capture.hs, mask) : Json(nullptr)},
+              {"pc_hs_object", scores(pc->image, c->capture.hs, mask)},
+              {"hs_vs_sent", sent_json(*c, near)}};
+}
+
+Expected<Json> realtime_semantic(Room& room, HostProcess& host) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Json rows = Json::array();
+  for (const QuerySpec& q : query_specs(*room.scene.store, room.options)) {
+    if (!q.error.empty()) {
+      rows.push_back(Json{{"kind", q.kind}, {"query", q.name}, {"error", q.error}});
+      continue;
+    }
+    auto row = realtime_query(room, host, q);
+    if (!row) return Error{room.scene.name + " realtime query " + q.name + ": " + row.message()};
+    rows.push_back(std::move(*row));
+  }
+  room.timing.phases["realtime_semantic_s"] = since(t0);
+  return rows;
 }
 
 }  // namespace
@@ -324,6 +428,12 @@ Expected<Json> measure_realtime(Room& room) {
   if (!fidelity) return fidelity.error();
   auto teleport = realtime_teleport(room, **host);
   if (!teleport) return teleport.error();
+  Json semantic = Json::array();
+  if (room.options.semantic) {
+    auto rows = realtime_semantic(room, **host);
+    if (!rows) return rows.error();
+    semantic = std::move(*rows);
+  }
   // gauss-host exits 0 on SIGTERM; anything else is a failure of the host itself.
   auto status = (*host)->stop();
   if (!status) return Error{room.scene.name + ": " + status.message()};
@@ -331,7 +441,10 @@ Expected<Json> measure_realtime(Room& room) {
   if (*status != 0)
     return Error{room.scene.name + ": gauss-host exited with status " + std::to_string(*status) +
                  " when stopped; see " + (dir / "host.log").string()};
-  return Json{{"host", std::move(host_json)}, {"fidelity", std::move(*fidelity)}, {"teleport", std::move(*teleport)}};
+  return Json{{"host", std::move(host_json)},
+              {"fidelity", std::move(*fidelity)},
+              {"teleport", std::move(*teleport)},
+              {"semantic", std::move(semantic)}};
 }
 
 }  // namespace gauss::eval_app

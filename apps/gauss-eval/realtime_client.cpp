@@ -34,20 +34,38 @@ Expected<std::unique_ptr<RealtimeClient>> RealtimeClient::connect(vk::Context& c
   return std::unique_ptr<RealtimeClient>(new RealtimeClient(std::move(*rt), c.display_hz));
 }
 
+Expected<client::DisplayFrameStats> RealtimeClient::paced_frame(const Camera& view, Clock::time_point& next) {
+  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / display_hz_));
+  std::this_thread::sleep_until(next);
+  next = std::max(next + period, Clock::now());  // a late frame is not made up
+  auto f = runtime_->frame(std::span<const Camera>(&view, 1));
+  if (!f) return Error{"the realtime client's frame: " + f.message()};
+  return f;
+}
+
+Status RealtimeClient::wait_for_query(const Camera& view, double timeout_s) {
+  const auto t0 = Clock::now();
+  auto next = t0;
+  while (since(t0) <= timeout_s) {
+    if (runtime_->with_state([](const ClientState& s) { return !s.query_targets().empty(); })) return Ok{};
+    if (runtime_->connection().status == net::ClientStatus::Refused)
+      return Error{"gauss-host refused the client: " + runtime_->connection().counters.last_rejection};
+    auto f = paced_frame(view, next);
+    if (!f) return f.error();
+  }
+  return Error{"the host's resolution of the query did not arrive within " + std::to_string(timeout_s) + " s"};
+}
+
 Expected<RealtimeSettle> RealtimeClient::settle(const Camera& view, double timeout_s, double quiet_s) {
   RealtimeSettle r;
   const auto t0 = Clock::now();
-  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / display_hz_));
   auto next = t0;
   std::uint64_t last_messages = ~std::uint64_t{0};
   double quiet_since = -1.0;
-  while (true) {
-    std::this_thread::sleep_until(next);
-    next = std::max(next + period, Clock::now());  // a late frame is not made up
+  while (since(t0) <= timeout_s) {
+    auto f = paced_frame(view, next);
+    if (!f) return f.error();
     const double t = since(t0);
-    if (t > timeout_s) break;
-    auto f = runtime_->frame(std::span<const Camera>(&view, 1));
-    if (!f) return Error{"the realtime client's frame: " + f.message()};
     ++r.frames;
     r.slot_writes += f->publish.slot_writes();
     r.frame_cpu_ms.push_back(f->cpu_ms);
@@ -85,8 +103,11 @@ Expected<RealtimeCapture> RealtimeClient::capture() {
     const SlotTable& slots = s.slots();
     for (std::uint32_t k = 0; k < slots.capacity(); ++k) {
       GaussianId id{0};
-      if (slots.occupant(SlotIndex{k}, id)) c.slots.emplace_back(k, id);
+      if (!slots.occupant(SlotIndex{k}, id)) continue;
+      c.slots.emplace_back(k, id);
+      c.slot_objects.push_back(slots.records()[k].object);
     }
+    c.query_target_gaussians = s.query_target_gaussians();
     c.published_checksum = s.published_checksum();
     c.resident = slots.size();
     c.desired = s.desired().desired_count();

@@ -8,6 +8,7 @@
 // Frames are paced at the display rate (frame k at k / display_hz wall seconds after the
 // settle began; a late frame is not made up): a display is paced by its vsync, and an
 // unpaced loop would take the cores the host process needs on a small machine.
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -48,9 +49,11 @@ struct RealtimeSettle {
 struct RealtimeCapture {
   ImageRGBA8 hs;
   std::vector<std::pair<std::uint32_t, GaussianId>> slots;  // occupied slots, by slot
+  std::vector<ObjectId> slot_objects;                       // the object of each of `slots`' records
   std::uint64_t published_checksum{0};                      // ClientState::published_checksum()
   std::uint32_t resident{0};
   std::uint64_t desired{0};
+  std::uint64_t query_target_gaussians{0};  // |G_obj| as the host reported it (0: no query)
 };
 
 class RealtimeClient {
@@ -63,6 +66,12 @@ class RealtimeClient {
   // nothing and received no host message for `quiet_s` wall seconds, or `timeout_s`
   // passed (then converged = false). Errors: a frame failed, the host refused the client.
   Expected<RealtimeSettle> settle(const Camera& view, double timeout_s, double quiet_s);
+  // Sends a query (queued until the client is welcomed).
+  void send_query(const msg::Query& query) { runtime_->send_query(query); }
+  // Frames at `view` until the host's resolution of the query reached the client, so a
+  // settle afterwards cannot converge before the host saw the query. Errors: a frame, no
+  // resolution within `timeout_s` wall seconds.
+  Status wait_for_query(const Camera& view, double timeout_s);
   // The last frame (after the frames in flight finished) and the published set.
   Expected<RealtimeCapture> capture();
   // GPU figures of the frames finished since the last call.
@@ -74,6 +83,8 @@ class RealtimeClient {
  private:
   RealtimeClient(std::unique_ptr<client::ClientRuntime> runtime, double display_hz)
       : runtime_(std::move(runtime)), display_hz_(display_hz) {}
+  // One frame at `view` at the display rate: sleeps until `next`, then advances it.
+  Expected<client::DisplayFrameStats> paced_frame(const Camera& view, std::chrono::steady_clock::time_point& next);
 
   std::unique_ptr<client::ClientRuntime> runtime_;
   double display_hz_;

@@ -408,6 +408,37 @@ void realtime_teleport_section(std::ostream& md, const Json& report) {
   md << "\n";
 }
 
+void realtime_semantic_section(std::ostream& md, const Json& report) {
+  bool any = false;
+  for (const Json& s : report["scenes"]) any = any || !s["realtime"]["semantic"].empty();
+  if (!any) return;
+  md << "## Semantic reallocation (realtime)\n\n"
+     << "Per query one connection at its M, settled at the query's near view with the query sent as it "
+        "connected. N_obj: the client's resident Gaussians on the target; *expected* = min(|G_obj|, ⌊ρM⌋). "
+        "Object PSNR over the target's pixels.\n\n"
+     << "| scene | object (query) | M | ρ | \\|G_obj\\| | N_obj (share) | expected | object px | GT-HS PSNR | "
+        "PC-HS PSNR | conv. s (wall) | HS ≠ sent |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const Json& s : report["scenes"]) {
+    for (const Json& q : s["realtime"]["semantic"]) {
+      md << "| " << s["name"].get<std::string>() << " | " << q["query"].get<std::string>() << " ("
+         << q["kind"].get<std::string>() << ") | ";
+      if (q.contains("error")) {
+        md << q["error"].get<std::string>() << " | | | | | | | | | |\n";
+        continue;
+      }
+      md << integer(q["budget"]) << " | " << cell(q["rho"], 2) << " | " << integer(q["object_gaussians"]) << " | "
+         << integer(q["resident_on_object"]) << " (" << percent(q["share"]) << ") | "
+         << integer(q["expected_resident"]) << (q["share_matches"].get<bool>() ? "" : " **MISMATCH**") << " | "
+         << integer(q["object_pixels"]) << " | " << metric(q["gt_hs_object"], "psnr_db", 2) << " | "
+         << metric(q["pc_hs_object"], "psnr_db", 2) << " | "
+         << (q["settle"]["converged"].get<bool>() ? cell(q["settle"]["converged_s"], 2)
+                                                  : std::string("**not converged**"))
+         << " | " << integer(q["hs_vs_sent"]["differing_pixels"]) << " |\n";
+    }
+  }
+  md << "\n";
+}
+
 void realtime_host_section(std::ostream& md, const Json& report) {
   md << "## gauss-host processes\n\n"
      << "| scene | pid | port | final epoch | exit status | log |\n|---|---|---|---|---|---|\n";
@@ -434,10 +465,12 @@ std::string realtime_markdown(const Json& report, bool images) {
   md << "**Checks:** HS equals the host's render of the set it sent at every view: " << yes("hs_equals_sent_render")
      << "; the client published exactly that set: " << yes("published_equals_sent")
      << "; the host served this evaluation's scene: " << yes("sent_matches_scene")
+     << "; every semantic share equals min(|G_obj|, ⌊ρM⌋)/M: " << yes("semantic_shares_match")
      << "; every view converged: " << yes("all_converged")
      << "; Vulkan validation errors: " << integer(report["validation_errors"]) << ".\n\n";
   realtime_fidelity_section(md, report, images);
   realtime_teleport_section(md, report);
+  realtime_semantic_section(md, report);
   realtime_host_section(md, report);
   md << "## Definitions\n\n";
   for (const auto& [k, v] : report["definitions"].items()) md << "- **" << k << "**: " << v.get<std::string>() << "\n";
