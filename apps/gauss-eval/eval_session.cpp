@@ -6,6 +6,7 @@
 
 #include "gauss/engine/wire.h"
 #include "gauss/render/splat_renderer.h"
+#include "measure.h"
 
 namespace gauss::eval_app {
 
@@ -199,33 +200,16 @@ Status EvalSession::load_sent_set(render::SplatRenderer& renderer) {
   if (held.size() != sent.size())
     return Error{"load_sent_set: the client holds " + std::to_string(held.size()) + " Gaussians, the host sent " +
                  std::to_string(sent.size())};
-  // Runs of occupied slots are written with one call each, the gaps between them cleared.
-  std::vector<Gaussian> run;
-  std::uint32_t run_first = 0, next_clear = 0;
-  auto flush = [&]() -> Status {
-    if (run.empty()) return Ok{};
-    if (run_first > next_clear)
-      if (auto st = renderer.clear_slots(next_clear, run_first - next_clear); !st) return st;
-    if (auto st = renderer.write_slots(run_first, run); !st) return st;
-    next_clear = run_first + static_cast<std::uint32_t>(run.size());
-    run.clear();
-    return Ok{};
-  };
-  for (const auto& [slot, id] : held) {
+  auto record_of = [&](GaussianId id) -> Expected<Gaussian> {
     if (!std::binary_search(sent.begin(), sent.end(), id))
       return Error{"load_sent_set: the client holds Gaussian " + std::to_string(to_underlying(id)) +
                    ", which the host did not send"};
     const Gaussian* g = scene_->find(id);
     if (!g)
       return Error{"load_sent_set: Gaussian " + std::to_string(to_underlying(id)) + " is no longer in the scene"};
-    if (!run.empty() && slot != run_first + run.size())
-      if (auto st = flush(); !st) return st;
-    if (run.empty()) run_first = slot;
-    run.push_back(quantize_roundtrip(*g, params_));
-  }
-  if (auto st = flush(); !st) return st;
-  if (renderer.capacity() > next_clear)
-    if (auto st = renderer.clear_slots(next_clear, renderer.capacity() - next_clear); !st) return st;
+    return quantize_roundtrip(*g, params_);
+  };
+  if (auto st = write_at_slots(renderer, held, record_of); !st) return st;
   renderer.clear_mesh();
   for (const SurfaceChunk& chunk : scene_->surface_chunks())
     if (auto st = renderer.set_mesh_chunk(chunk.chunk_id, chunk.mesh); !st) return st;

@@ -78,6 +78,31 @@ Expected<ClientCapture> capture(Room& room, Stream& stream, const Camera& camera
   return cap;
 }
 
+Status add_fidelity_chain(Room& room, const Camera& cam, const ImageRGBA8& hs, const eval::Mask& hs_cover,
+                          const std::string& panel, Json& out) {
+  const EvalScene& scene = room.scene;
+  const std::optional<GroundTruthImage> gt = ground_truth(scene, cam);
+  auto pc = render_covered(room.full, cam);
+  if (!pc) return Error{"the host's full render: " + pc.message()};
+  const eval::Mask valid = gt ? valid_depth_mask(*gt) : eval::Mask{};
+  const eval::Mask both = mask_and(pc->cover, hs_cover);
+  // Without ground truth the GT-referenced figures are null ("n/a" in the report).
+  out["gt_pc"] = gt ? scores(gt->colour, pc->image, valid) : Json(nullptr);
+  out["gt_hs"] = gt ? scores(gt->colour, hs, valid) : Json(nullptr);
+  out["pc_hs"] = scores(pc->image, hs, both);
+  out["coverage"] = Json{{"gt_valid", gt ? Json(fraction(valid)) : Json(nullptr)},
+                         {"pc", fraction(pc->cover)},
+                         {"hs", fraction(hs_cover)},
+                         {"both", fraction(both)}};
+  if (!room.panels.enabled()) return Ok{};
+  auto fm = eval::flip_map(view_of(pc->image), view_of(hs));
+  if (!fm) return Error{"FLIP map: " + fm.message()};
+  const ImageRGBA8 diff = flip_image(*fm, cam.width, cam.height);
+  std::vector<const ImageRGBA8*> images{&pc->image, &hs, &diff};
+  if (gt) images.insert(images.begin(), &gt->colour);
+  return room.panels.write(panel, images);
+}
+
 Expected<Json> measure_fidelity(Room& room) {
   const auto t0 = std::chrono::steady_clock::now();
   const EvalScene& scene = room.scene;
@@ -90,36 +115,19 @@ Expected<Json> measure_fidelity(Room& room) {
     room.progress("fidelity camera " + std::to_string(k + 1) + "/" + std::to_string(scene.cameras.size()));
     auto cap = capture(room, *stream, cam);
     if (!cap) return Error{scene.name + " camera " + std::to_string(k) + ": " + cap.message()};
-    const std::optional<GroundTruthImage> gt = ground_truth(scene, cam);
-    auto pc = render_covered(room.full, cam);
-    if (!pc) return Error{scene.name + " camera " + std::to_string(k) + ": the host's full render: " + pc.message()};
-    const eval::Mask valid = gt ? valid_depth_mask(*gt) : eval::Mask{};
-    const eval::Mask both = mask_and(pc->cover, cap->sent.cover);
     Json c;
     c["camera"] = k;
     c["pose"] = camera_json(cam);
     c["settle"] = settle_json(cap->settle);
     c["resident"] = cap->resident;
     c["desired"] = cap->desired;
-    // Without ground truth the GT-referenced figures are null ("n/a" in the report).
-    c["gt_pc"] = gt ? scores(gt->colour, pc->image, valid) : Json(nullptr);
-    c["gt_hs"] = gt ? scores(gt->colour, cap->hs, valid) : Json(nullptr);
-    c["pc_hs"] = scores(pc->image, cap->hs, both);
-    c["coverage"] = Json{{"gt_valid", gt ? Json(fraction(valid)) : Json(nullptr)},
-                         {"pc", fraction(pc->cover)},
-                         {"hs", fraction(cap->sent.cover)},
-                         {"both", fraction(both)}};
+    const std::string where = scene.name + " camera " + std::to_string(k);
+    if (auto st = add_fidelity_chain(room, cam, cap->hs, cap->sent.cover, scene.name + "_cam" + std::to_string(k), c);
+        !st)
+      return Error{where + ": " + st.message()};
     c["hs_vs_sent"] = Json{{"differing_pixels", cap->hs_vs_sent_differing},
                            {"pixels", std::uint64_t{cam.width} * cam.height}};
     cameras.push_back(std::move(c));
-    if (room.panels.enabled()) {
-      auto fm = eval::flip_map(view_of(pc->image), view_of(cap->hs));
-      if (!fm) return Error{scene.name + ": FLIP map: " + fm.message()};
-      const ImageRGBA8 diff = flip_image(*fm, cam.width, cam.height);
-      std::vector<const ImageRGBA8*> panel{&pc->image, &cap->hs, &diff};
-      if (gt) panel.insert(panel.begin(), &gt->colour);
-      if (auto st = room.panels.write(scene.name + "_cam" + std::to_string(k), panel); !st) return st.error();
-    }
   }
   room.timing.phases["fidelity_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   Json out;

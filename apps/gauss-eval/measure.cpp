@@ -32,6 +32,34 @@ Expected<std::unique_ptr<render::SplatRenderer>> make_sent_renderer(vk::Context&
   return r;
 }
 
+Status write_at_slots(render::SplatRenderer& renderer, std::span<const std::pair<std::uint32_t, GaussianId>> held,
+                      const std::function<Expected<Gaussian>(GaussianId)>& record_of) {
+  // Runs of occupied slots are written with one call each, the gaps between them cleared.
+  std::vector<Gaussian> run;
+  std::uint32_t run_first = 0, next_clear = 0;
+  auto flush = [&]() -> Status {
+    if (run.empty()) return Ok{};
+    if (run_first > next_clear)
+      if (auto st = renderer.clear_slots(next_clear, run_first - next_clear); !st) return st;
+    if (auto st = renderer.write_slots(run_first, run); !st) return st;
+    next_clear = run_first + static_cast<std::uint32_t>(run.size());
+    run.clear();
+    return Ok{};
+  };
+  for (const auto& [slot, id] : held) {
+    auto g = record_of(id);
+    if (!g) return g.error();
+    if (!run.empty() && slot != run_first + run.size())
+      if (auto st = flush(); !st) return st;
+    if (run.empty()) run_first = slot;
+    run.push_back(std::move(*g));
+  }
+  if (auto st = flush(); !st) return st;
+  if (renderer.capacity() > next_clear)
+    if (auto st = renderer.clear_slots(next_clear, renderer.capacity() - next_clear); !st) return st;
+  return Ok{};
+}
+
 Expected<CoveredImage> render_covered(render::SplatRenderer& renderer, const Camera& camera) {
   CoveredImage out;
   render::SplatRenderOptions black;  // the client's options: default background black

@@ -38,6 +38,13 @@ Expected<std::unique_ptr<render::SplatRenderer>> make_sent_renderer(vk::Context&
                                                                     std::uint32_t budget, std::uint32_t width,
                                                                     std::uint32_t height);
 
+// Loads a client's published set into `renderer` as the client holds it: `record_of(id)`
+// at each occupied slot of `held` (sorted by slot), every other slot cleared, so equal
+// depths blend in the client's slot order. Errors: the first `record_of` error (an id the
+// host did not send), a slot beyond the renderer, an upload failure.
+Status write_at_slots(render::SplatRenderer& renderer, std::span<const std::pair<std::uint32_t, GaussianId>> held,
+                      const std::function<Expected<Gaussian>(GaussianId)>& record_of);
+
 struct CoveredImage {
   ImageRGBA8 image;  // over black (the client's background)
   eval::Mask cover;

@@ -58,6 +58,27 @@ Expected<ClientCapture> capture(Room& room, Stream& stream, const Camera& camera
 // GT | PC | HS | FLIP(PC, HS).
 Expected<Json> measure_fidelity(Room& room);
 
+// GT-PC, GT-HS and PC-HS (each over its pixels, see definitions) and the coverage
+// fractions of the client's frame `hs` at `cam`, whose coverage is `hs_cover` (the sent
+// set's), added to `out`; the panel `panel`.png (GT | PC | HS | FLIP(PC, HS)) written.
+// Errors: the host's full render, the FLIP map, the panel.
+Status add_fidelity_chain(Room& room, const Camera& cam, const ImageRGBA8& hs, const eval::Mask& hs_cover,
+                          const std::string& panel, Json& out);
+
+// A query of the semantic table: the class query, and the instance query (--instance-id,
+// else the first object labelled --instance-label).
+struct QuerySpec {
+  std::string kind;  // "class" | "instance"
+  std::string name;  // "chair", "robot_arm #8"
+  SemanticQuery query;
+  msg::Query wire;
+  std::string error;  // not measurable (no such object): the row says why
+};
+std::vector<QuerySpec> query_specs(const SceneStore& store, const Options& options);
+// The host's render of the targets' appearance Gaussians alone (a scene file's object
+// pixels: those it covers). Errors: the renderer.
+Expected<std::unique_ptr<render::SplatRenderer>> target_renderer(Room& room, std::span<const ObjectId> targets);
+
 // The semantic reallocation table for the class query and the instance query, each on
 // its own connection at its own M (--semantic-budget): resident Gaussians on the target
 // with and without the query at a near and a far view, share against
@@ -92,6 +113,13 @@ Expected<Json> measure_model_latency(Room& room);
 // client issued it): resolved (host), highlight, first additional target content,
 // converged (client); and the initial / desired target residency.
 Json query_latency(EvalSession& session, std::uint32_t query_id, double sent_at);
+
+// gauss-eval --realtime: gauss-host started as a child process serving this scene,
+// the real client over loopback ENet on the wall clock: per fidelity camera a fresh
+// connection settled, captured and compared (GT -> PC -> HS, and HS against the host's
+// render of the set its dump says it sent); a teleport far and back per publication mode.
+// Wall-clock figures; nothing reproduces. See realtime.cpp.
+Expected<Json> measure_realtime(Room& room);
 
 // The budget ablation over --ablation (M) and --ablation-sizes: per point the means over
 // the fidelity cameras of PC-HS (and GT-HS) metrics at M, each on a fresh connection. The

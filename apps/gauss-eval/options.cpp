@@ -1,11 +1,29 @@
 #include "options.h"
 
 #include <charconv>
+#include <cstdio>
 #include <sstream>
 
 #include "gauss_cli.h"
 
 namespace gauss::eval_app {
+
+namespace {
+
+// Why the options cannot run with --realtime (empty: they can).
+std::string realtime_conflict(const Options& o) {
+  if (!o.realtime) return {};
+  if (!o.timing)
+    return "--realtime contradicts --no-timing: every realtime figure is a wall-clock measurement, and "
+           "--no-timing leaves those out";
+  if (o.surface != "none")
+    return "--realtime --surface " + o.surface + ": gauss-host streams no analytic surface; use --surface none";
+  if (!o.ablation_budgets.empty() || o.stereo_budget)
+    return "--realtime: --ablation and --stereo-budget are runs of the deterministic evaluation; leave them out";
+  return {};
+}
+
+}  // namespace
 
 std::optional<int> parse_options(int argc, char** argv, Options& o) {
   CLI::App app{
@@ -20,7 +38,13 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
       "figures only under \"timing\", left out by --no-timing), report.md and PNGs.\n"
       "Exit status: 0 written and every exactness check held; 1 an error, or a check failed\n"
       "(HS differs from the host's render of the sent set, a share differs from\n"
-      "min(|G_obj|, floor(rho M))/M, a view did not converge); 2 bad arguments.",
+      "min(|G_obj|, floor(rho M))/M, a view did not converge); 2 bad arguments.\n"
+      "--realtime instead runs gauss-host as a child process serving the same scene and the real\n"
+      "client over loopback ENet on the wall clock: per fidelity camera a fresh connection settles\n"
+      "(--quiet, --settle-timeout in wall seconds), its frame is compared with GT and PC and, after\n"
+      "it disconnects, with the host's render of the set the host's --dump-sent says it sent; then a\n"
+      "teleport far and back per publication mode, and each semantic query at its near view (its share\n"
+      "exact). Wall-clock figures: they do not reproduce.",
       "gauss-eval"};
   apps::configure(app);
 #ifdef GAUSS_SOURCE_DIR
@@ -99,10 +123,19 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
   app.add_option("--out", o.out, "output folder (default docs/results/<name>)")->type_name("DIR");
   app.add_flag_callback("--no-timing", [&o] { o.timing = false; },
                         "leave the wall-clock figures out (report.json then reproduces exactly)");
+  app.add_flag("--realtime", o.realtime,
+               "host and client as processes over loopback ENet on the wall clock (see above); needs timing, "
+               "the real client's adaptive allowance replaces --allowance; no latency, flicker or ablation runs");
+  app.add_option("--host-exe", o.host_exe, "--realtime: the gauss-host to start (default: the one beside gauss-eval)")
+      ->type_name("PATH");
   app.add_flag_callback("--no-images", [&o] { o.images = false; }, "write no PNGs");
   app.add_option("--device", o.device, "Vulkan device index or name substring (else $GAUSS_DEVICE, else the best)")
       ->type_name("NAME");
   if (auto rc = apps::parse(app, argc, argv)) return rc;
+  if (const std::string why = realtime_conflict(o); !why.empty()) {
+    std::fprintf(stderr, "%s\nRun with --help for more information.\n", why.c_str());
+    return apps::kUsageError;
+  }
   const auto wh = apps::parse_size(size);
   o.width = wh->first;
   o.height = wh->second;
@@ -133,6 +166,17 @@ std::string canonical_command(const Options& o) {
     c << " --scene '" << o.scene_file.string() << "' --up " << o.up;
     if (!o.labels.empty()) c << " --labels '" << o.labels.string() << "'";
     if (!o.objects.empty()) c << " --objects '" << o.objects.string() << "'";
+  }
+  if (o.realtime) {
+    // Only what a realtime run reads: no link model, allowance or deterministic-only run.
+    c << " --realtime --gaussians " << o.gaussians << " --epochs " << o.epochs << " --seed " << o.seed << " --budget "
+      << o.budget << " --size " << o.width << "x" << o.height << " --cameras " << o.cameras << " --rho "
+      << shortest(o.rho) << " --mode " << (o.progressive ? "progressive" : "immediate") << " --display-hz "
+      << shortest(o.display_hz) << " --settle-timeout " << shortest(o.settle_timeout_s) << " --quiet "
+      << shortest(o.quiet_s) << " --name " << o.name;
+    if (!o.host_exe.empty()) c << " --host-exe '" << o.host_exe.string() << "'";
+    if (!o.images) c << " --no-images";
+    return c.str();
   }
   c << " --gaussians " << o.gaussians << " --epochs " << o.epochs
     << " --seed " << o.seed << " --budget " << o.budget << " --size " << o.width << "x" << o.height << " --cameras "

@@ -54,6 +54,10 @@ struct Options {
   bool timing{true};                      // wall-clock figures under "timing"
   bool images{true};                      // PNGs and the images in report.md
   std::string device;                     // Vulkan device index or name substring
+  // Host and client as processes over loopback ENet on the wall clock (realtime.cpp)
+  // instead of the deterministic simulation; needs timing.
+  bool realtime{false};
+  std::filesystem::path host_exe;         // --realtime's gauss-host (empty: beside this executable)
 };
 
 // Parses argv. Returns the exit status when the program should stop (0 after --help,
@@ -61,7 +65,8 @@ struct Options {
 std::optional<int> parse_options(int argc, char** argv, Options& out);
 
 // The command that reproduces the deterministic part of a run (every option spelled out,
-// --out and --device left out: they do not change report.json).
+// --out and --device left out: they do not change report.json); for --realtime, the
+// command that repeats the run's setup (its figures do not reproduce).
 std::string canonical_command(const Options& o);
 
 // A double in its shortest form that reads back exactly ("0.9", "72", "1e-05").

@@ -341,9 +341,153 @@ void timing_section(std::ostream& md, const Json& report) {
   md << "\n";
 }
 
+// " p50 / p95 / p99" of a percentiles object.
+std::string pct3(const Json& j, int digits) {
+  return j.is_object() ? cell(j["p50"], digits) + " / " + cell(j["p95"], digits) + " / " + cell(j["p99"], digits)
+                       : std::string("n/a");
+}
+
+void realtime_fidelity_section(std::ostream& md, const Json& report, bool images) {
+  md << "## Fidelity: GT → PC → HS (realtime)\n\n"
+     << "Each camera is its own connection to gauss-host: the client connects at the camera, settles, is captured "
+        "and disconnects; the host then writes the set it sent, which is rendered in the client's slot order "
+        "(*HS ≠ sent*, must be 0; *pub. = sent*: the client's published records equal the host's dump). Conv.: "
+        "wall seconds from the connection until the client was quiet for good. Frame times per camera: CPU / GPU "
+        "ms p50 / p95 / p99.\n\n";
+  md << "| scene | cam | GT-PC PSNR | PC-HS PSNR | PC-HS SSIM | PC-HS FLIP | GT-HS PSNR | GT-HS SSIM | GT-HS FLIP "
+        "| cover PC / HS / both | resident | HS ≠ sent | pub. = sent | conv. s (wall) | frames | CPU ms | GPU ms |\n"
+     << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const Json& s : report["scenes"]) {
+    for (const Json& c : s["realtime"]["fidelity"]["cameras"]) {
+      const Json& st = c["settle"];
+      md << "| " << s["name"].get<std::string>() << " | " << c["camera"].get<int>() << " | "
+         << metric(c["gt_pc"], "psnr_db", 2) << " | " << metric(c["pc_hs"], "psnr_db", 2) << " | "
+         << metric(c["pc_hs"], "ssim", 3) << " | " << metric(c["pc_hs"], "flip", 3) << " | "
+         << metric(c["gt_hs"], "psnr_db", 2) << " | " << metric(c["gt_hs"], "ssim", 3) << " | "
+         << metric(c["gt_hs"], "flip", 3) << " | " << percent(c["coverage"]["pc"]) << " / "
+         << percent(c["coverage"]["hs"]) << " / " << percent(c["coverage"]["both"]) << " | "
+         << integer(c["resident"]) << " | " << integer(c["hs_vs_sent"]["differing_pixels"]) << " | "
+         << (c["hs_vs_sent"]["published_equals_sent"].get<bool>() ? "yes" : "**NO**") << " | "
+         << (st["converged"].get<bool>() ? cell(st["converged_s"], 2) : std::string("**not converged**")) << " | "
+         << integer(st["frames"]) << " | " << pct3(st["frame_cpu_ms"], 2) << " | " << pct3(st["frame_gpu_ms"], 2)
+         << " |\n";
+    }
+  }
+  md << "\n";
+  if (!images) return;
+  md << "Each panel: GT | PC | HS | FLIP(PC, HS); without ground truth PC | HS | FLIP(PC, HS).\n\n";
+  for (const Json& s : report["scenes"])
+    for (const Json& c : s["realtime"]["fidelity"]["cameras"]) {
+      const std::string f =
+          s["name"].get<std::string>() + "_realtime_cam" + std::to_string(c["camera"].get<int>()) + ".png";
+      md << "![" << f << "](" << f << ")\n";
+    }
+  md << "\n";
+}
+
+void realtime_teleport_section(std::ostream& md, const Json& report) {
+  md << "## Teleport and return (realtime, per publication mode)\n\n"
+     << "One connection per mode: settle at camera 0 (A), teleport to B (A mirrored through the room centre, "
+        "looking the other way; around a scene file a close-up of the far side), settle, return to A and settle. "
+        "Wall seconds from each move until the client was quiet for good; the return's frame times (ms p50 / p95 "
+        "/ p99); HS against the host's render of the set it sent after the return.\n\n"
+     << "| scene | mode | at A s | A → B s | B → A s | return slot writes | return CPU ms | return GPU ms | "
+        "HS ≠ sent | pub. = sent |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  auto conv = [](const Json& st) {
+    return st["converged"].get<bool>() ? cell(st["converged_s"], 2) : std::string("**not converged**");
+  };
+  for (const Json& s : report["scenes"]) {
+    for (const Json& t : s["realtime"]["teleport"]) {
+      md << "| " << s["name"].get<std::string>() << " | " << t["mode"].get<std::string>() << " | "
+         << conv(t["first"]) << " | " << conv(t["teleport"]) << " | " << conv(t["return"]) << " | "
+         << integer(t["return"]["slot_writes"]) << " | " << pct3(t["return"]["frame_cpu_ms"], 2) << " | "
+         << pct3(t["return"]["frame_gpu_ms"], 2) << " | " << integer(t["hs_vs_sent"]["differing_pixels"]) << " | "
+         << (t["hs_vs_sent"]["published_equals_sent"].get<bool>() ? "yes" : "**NO**") << " |\n";
+    }
+  }
+  md << "\n";
+}
+
+void realtime_semantic_section(std::ostream& md, const Json& report) {
+  bool any = false;
+  for (const Json& s : report["scenes"]) any = any || !s["realtime"]["semantic"].empty();
+  if (!any) return;
+  md << "## Semantic reallocation (realtime)\n\n"
+     << "Per query one connection at its M, settled at the query's near view with the query sent as it "
+        "connected. N_obj: the client's resident Gaussians on the target; *expected* = min(|G_obj|, ⌊ρM⌋). "
+        "Object PSNR over the target's pixels.\n\n"
+     << "| scene | object (query) | M | ρ | \\|G_obj\\| | N_obj (share) | expected | object px | GT-HS PSNR | "
+        "PC-HS PSNR | conv. s (wall) | HS ≠ sent |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const Json& s : report["scenes"]) {
+    for (const Json& q : s["realtime"]["semantic"]) {
+      md << "| " << s["name"].get<std::string>() << " | " << q["query"].get<std::string>() << " ("
+         << q["kind"].get<std::string>() << ") | ";
+      if (q.contains("error")) {
+        md << q["error"].get<std::string>() << " | | | | | | | | | |\n";
+        continue;
+      }
+      md << integer(q["budget"]) << " | " << cell(q["rho"], 2) << " | " << integer(q["object_gaussians"]) << " | "
+         << integer(q["resident_on_object"]) << " (" << percent(q["share"]) << ") | "
+         << integer(q["expected_resident"]) << (q["share_matches"].get<bool>() ? "" : " **MISMATCH**") << " | "
+         << integer(q["object_pixels"]) << " | " << metric(q["gt_hs_object"], "psnr_db", 2) << " | "
+         << metric(q["pc_hs_object"], "psnr_db", 2) << " | "
+         << (q["settle"]["converged"].get<bool>() ? cell(q["settle"]["converged_s"], 2)
+                                                  : std::string("**not converged**"))
+         << " | " << integer(q["hs_vs_sent"]["differing_pixels"]) << " |\n";
+    }
+  }
+  md << "\n";
+}
+
+void realtime_host_section(std::ostream& md, const Json& report) {
+  md << "## gauss-host processes\n\n"
+     << "| scene | pid | port | final epoch | exit status | log |\n|---|---|---|---|---|---|\n";
+  for (const Json& s : report["scenes"]) {
+    const Json& h = s["realtime"]["host"];
+    md << "| " << s["name"].get<std::string>() << " | " << integer(h["pid"]) << " | " << integer(h["port"]) << " | "
+       << integer(h["final_epoch"]) << " | " << integer(h["exit_status"]) << " | " << h["log"].get<std::string>()
+       << " |\n";
+  }
+  md << "\n";
+}
+
+// report.md of a realtime run: wall-clock figures throughout, said at the top.
+std::string realtime_markdown(const Json& report, bool images) {
+  std::ostringstream md;
+  md << "# gauss-eval report: " << report["name"].get<std::string>() << " (realtime)\n\n"
+     << "Produced by\n\n```sh\nbuild/apps/" << report["command"].get<std::string>() << "\n```\n\n"
+     << "on " << report["device"].get<std::string>() << ".\n\n"
+     << "**Realtime run: every figure here is a wall-clock measurement** of gauss-host and the real client as "
+        "separate processes over loopback ENet on this machine (its load included). Unlike the default "
+        "deterministic report, these figures do not reproduce from run to run; the checks below do.\n\n";
+  const Json& checks = report["checks"];
+  auto yes = [&](const char* k) { return checks[k].get<bool>() ? "yes" : "**NO**"; };
+  md << "**Checks:** HS equals the host's render of the set it sent at every view: " << yes("hs_equals_sent_render")
+     << "; the client published exactly that set: " << yes("published_equals_sent")
+     << "; the host served this evaluation's scene: " << yes("sent_matches_scene")
+     << "; every semantic share equals min(|G_obj|, ⌊ρM⌋)/M: " << yes("semantic_shares_match")
+     << "; every view converged: " << yes("all_converged")
+     << "; Vulkan validation errors: " << integer(report["validation_errors"]) << ".\n\n";
+  realtime_fidelity_section(md, report, images);
+  realtime_teleport_section(md, report);
+  realtime_semantic_section(md, report);
+  realtime_host_section(md, report);
+  md << "## Definitions\n\n";
+  for (const auto& [k, v] : report["definitions"].items()) md << "- **" << k << "**: " << v.get<std::string>() << "\n";
+  md << "\n";
+  timing_section(md, report);
+  return md.str();
+}
+
 }  // namespace
 
 Status write_markdown(const std::filesystem::path& path, const Json& report, bool images) {
+  if (report.contains("realtime")) {
+    std::ofstream out(path);
+    out << realtime_markdown(report, images);
+    if (!out) return Error{"cannot write " + path.string()};
+    return Ok{};
+  }
   std::ostringstream md;
   md << "# gauss-eval report: " << report["name"].get<std::string>() << "\n\n"
      << "Produced by\n\n```sh\nbuild/apps/" << report["command"].get<std::string>() << "\n```\n\n"

@@ -9,16 +9,6 @@
 
 namespace gauss::eval_app {
 
-namespace {
-
-struct QuerySpec {
-  std::string kind;  // "class" | "instance"
-  std::string name;  // "chair", "robot_arm #8"
-  SemanticQuery query;
-  msg::Query wire;
-  std::string error;  // not measurable (no such object): the row says why
-};
-
 std::vector<QuerySpec> query_specs(const SceneStore& store, const Options& o) {
   std::vector<QuerySpec> specs;
   QuerySpec c;
@@ -54,6 +44,23 @@ std::vector<QuerySpec> query_specs(const SceneStore& store, const Options& o) {
   return specs;
 }
 
+// The target's pixels without ground truth: those the host's render of the target's
+// appearance Gaussians alone covers.
+Expected<std::unique_ptr<render::SplatRenderer>> target_renderer(Room& room, std::span<const ObjectId> targets) {
+  std::vector<Gaussian> on;
+  for (const Gaussian& g : appearance_gaussians(*room.scene.store))
+    if (std::binary_search(targets.begin(), targets.end(), g.object)) on.push_back(g);
+  auto r = render::SplatRenderer::create(room.context, {.capacity = static_cast<std::uint32_t>(std::max<std::size_t>(1, on.size())),
+                                                        .sh_degree = room.scene.store->sh_degree(),
+                                                        .max_width = room.options.width,
+                                                        .max_height = room.options.height});
+  if (!r) return Error{"the target's renderer: " + r.message()};
+  if (auto st = (*r)->write_slots(0, on); !st) return Error{"the target's renderer: " + st.message()};
+  return r;
+}
+
+namespace {
+
 // Frames at `view` until the client's resolved query targets are (`want` = true) or are
 // not (false) set, at most `timeout_s` virtual seconds: the query's round trip, so that a
 // settle afterwards cannot take the frames before the host saw the query for convergence.
@@ -82,21 +89,6 @@ struct View {
   // What the panels and FLIP maps compare against: GT when there is one, else PC.
   const ImageRGBA8& reference() const { return gt ? gt->colour : pc; }
 };
-
-// The target's pixels without ground truth: those the host's render of the target's
-// appearance Gaussians alone covers.
-Expected<std::unique_ptr<render::SplatRenderer>> target_renderer(Room& room, std::span<const ObjectId> targets) {
-  std::vector<Gaussian> on;
-  for (const Gaussian& g : appearance_gaussians(*room.scene.store))
-    if (std::binary_search(targets.begin(), targets.end(), g.object)) on.push_back(g);
-  auto r = render::SplatRenderer::create(room.context, {.capacity = static_cast<std::uint32_t>(std::max<std::size_t>(1, on.size())),
-                                                        .sh_degree = room.scene.store->sh_degree(),
-                                                        .max_width = room.options.width,
-                                                        .max_height = room.options.height});
-  if (!r) return Error{"the target's renderer: " + r.message()};
-  if (auto st = (*r)->write_slots(0, on); !st) return Error{"the target's renderer: " + st.message()};
-  return r;
-}
 
 // One query state (with or without it) at one view.
 Expected<Json> measure_state(Room& room, Stream& stream, View& v, std::span<const ObjectId> targets, bool with,

@@ -1,0 +1,119 @@
+#include "realtime_client.h"
+
+#include <algorithm>
+#include <chrono>
+#include <span>
+#include <thread>
+
+namespace gauss::eval_app {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+}  // namespace
+
+Expected<std::unique_ptr<RealtimeClient>> RealtimeClient::connect(vk::Context& context,
+                                                                  const RealtimeClientConfig& c) {
+  client::ClientRuntimeConfig rc;
+  rc.state.capacity = c.budget;
+  rc.state.name = c.name;
+  rc.state.publisher.mode = c.mode;
+  rc.state.publisher.display_period_s = 1.0 / c.display_hz;
+  rc.max_width = c.width;
+  rc.max_height = c.height;
+  rc.highlight_query = false;  // measured, not tinted (as the deterministic runs)
+  auto rt = client::ClientRuntime::create(context, rc);  // the real clock: steady time
+  if (!rt) return Error{"the realtime client: " + rt.message()};
+  net::NetClientConfig net;
+  net.server = net::Endpoint{"127.0.0.1", c.port};
+  net.log = [](const std::string&) {};  // its state changes are judged by settle(), not printed
+  if (auto st = (*rt)->connect(net); !st) return Error{"the realtime client: connecting: " + st.message()};
+  return std::unique_ptr<RealtimeClient>(new RealtimeClient(std::move(*rt), c.display_hz));
+}
+
+Expected<client::DisplayFrameStats> RealtimeClient::paced_frame(const Camera& view, Clock::time_point& next) {
+  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / display_hz_));
+  std::this_thread::sleep_until(next);
+  next = std::max(next + period, Clock::now());  // a late frame is not made up
+  auto f = runtime_->frame(std::span<const Camera>(&view, 1));
+  if (!f) return Error{"the realtime client's frame: " + f.message()};
+  return f;
+}
+
+Status RealtimeClient::wait_for_query(const Camera& view, double timeout_s) {
+  const auto t0 = Clock::now();
+  auto next = t0;
+  while (since(t0) <= timeout_s) {
+    if (runtime_->with_state([](const ClientState& s) { return !s.query_targets().empty(); })) return Ok{};
+    if (runtime_->connection().status == net::ClientStatus::Refused)
+      return Error{"gauss-host refused the client: " + runtime_->connection().counters.last_rejection};
+    auto f = paced_frame(view, next);
+    if (!f) return f.error();
+  }
+  return Error{"the host's resolution of the query did not arrive within " + std::to_string(timeout_s) + " s"};
+}
+
+Expected<RealtimeSettle> RealtimeClient::settle(const Camera& view, double timeout_s, double quiet_s) {
+  RealtimeSettle r;
+  const auto t0 = Clock::now();
+  auto next = t0;
+  std::uint64_t last_messages = ~std::uint64_t{0};
+  double quiet_since = -1.0;
+  while (since(t0) <= timeout_s) {
+    auto f = paced_frame(view, next);
+    if (!f) return f.error();
+    const double t = since(t0);
+    ++r.frames;
+    r.slot_writes += f->publish.slot_writes();
+    r.frame_cpu_ms.push_back(f->cpu_ms);
+    const client::ConnectionInfo conn = runtime_->connection();
+    if (conn.status == net::ClientStatus::Refused)
+      return Error{"gauss-host refused the client: " + conn.counters.last_rejection};
+    const bool welcomed = runtime_->with_state([](const ClientState& s) { return s.welcomed(); });
+    // Quiet: in the stream, nothing left to publish, and no host message since the last frame.
+    const bool quiet = welcomed && conn.status == net::ClientStatus::Connected && f->pending == 0 &&
+                       f->desired > 0 && f->publish.slot_writes() == 0 &&
+                       conn.counters.messages_received == last_messages;
+    last_messages = conn.counters.messages_received;
+    if (!quiet) {
+      quiet_since = -1.0;
+      continue;
+    }
+    if (quiet_since < 0.0) quiet_since = t;
+    if (t - quiet_since >= quiet_s) {
+      r.converged = true;
+      r.converged_s = quiet_since;
+      break;
+    }
+  }
+  r.wall_s = since(t0);
+  return r;
+}
+
+Expected<RealtimeCapture> RealtimeClient::capture() {
+  RealtimeCapture c;
+  if (auto st = runtime_->wait_frames(); !st) return st.error();
+  auto hs = runtime_->renderer().read_image();
+  if (!hs) return hs.error();
+  c.hs = std::move(*hs);
+  runtime_->with_state([&](const ClientState& s) {
+    const SlotTable& slots = s.slots();
+    for (std::uint32_t k = 0; k < slots.capacity(); ++k) {
+      GaussianId id{0};
+      if (!slots.occupant(SlotIndex{k}, id)) continue;
+      c.slots.emplace_back(k, id);
+      c.slot_objects.push_back(slots.records()[k].object);
+    }
+    c.query_target_gaussians = s.query_target_gaussians();
+    c.published_checksum = s.published_checksum();
+    c.resident = slots.size();
+    c.desired = s.desired().desired_count();
+    return 0;
+  });
+  return c;
+}
+
+}  // namespace gauss::eval_app
