@@ -75,6 +75,14 @@ struct QuerySpec {
   std::string error;  // not measurable (no such object): the row says why
 };
 std::vector<QuerySpec> query_specs(const SceneStore& store, const Options& options);
+// A query's connection budget M (--semantic-budget, else |G_obj|, at least 16), its
+// reserve floor(rho M), and the target residency it must reach: min(|G_obj|, reserve).
+struct QueryBudget {
+  std::uint32_t m{0};
+  std::uint64_t reserve{0};
+  std::uint64_t expected{0};
+};
+QueryBudget query_budget(const Options& options, std::size_t object_gaussians);
 // The host's render of the targets' appearance Gaussians alone (a scene file's object
 // pixels: those it covers). Errors: the renderer.
 Expected<std::unique_ptr<render::SplatRenderer>> target_renderer(Room& room, std::span<const ObjectId> targets);

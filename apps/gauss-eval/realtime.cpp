@@ -343,10 +343,7 @@ Expected<Json> realtime_query(Room& room, HostProcess& host, const QuerySpec& q)
   auto res = resolve_query(q.query, scene.store->objects());
   if (!res) return Json{{"kind", q.kind}, {"query", q.name}, {"error", res.message()}};
   const std::vector<ObjectId> targets = res->ids();
-  const std::uint32_t m =
-      o.semantic_budget > 0 ? o.semantic_budget : static_cast<std::uint32_t>(std::max<std::size_t>(16, res->gaussians));
-  const auto reserve = static_cast<std::uint64_t>(std::floor(o.rho * static_cast<double>(m)));
-  const std::uint64_t expected = std::min<std::uint64_t>(res->gaussians, reserve);
+  const auto [m, reserve, expected] = query_budget(o, res->gaussians);
   const Camera near = (scene.synthetic ? object_views(*res, *scene.synthetic, o.width, o.height)
                                        : object_views(*res, scene, o.width, o.height))
                           .near;

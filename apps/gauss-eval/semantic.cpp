@@ -114,13 +114,9 @@ Expected<Json> measure_query(Room& room, const QuerySpec& q) {
   auto res = resolve_query(q.query, scene.store->objects());
   if (!res) return Json{{"kind", q.kind}, {"query", q.name}, {"error", res.message()}};
   const std::vector<ObjectId> targets = res->ids();
-  const std::uint32_t m =
-      o.semantic_budget > 0 ? o.semantic_budget : static_cast<std::uint32_t>(std::max<std::size_t>(16, res->gaussians));
+  const auto [m, reserve, expected] = query_budget(o, res->gaussians);
   auto stream = open_stream(room, m, o.progressive ? PublishMode::Progressive : PublishMode::Immediate);
   if (!stream) return stream.error();
-  // floor(rho M) as the host computes it (the query leaves rho to the host's --rho).
-  const auto reserve = static_cast<std::uint64_t>(std::floor(o.rho * static_cast<double>(m)));
-  const std::uint64_t expected = std::min<std::uint64_t>(res->gaussians, reserve);
   Json row;
   row["kind"] = q.kind;
   row["query"] = q.name;
@@ -218,6 +214,15 @@ Expected<Json> measure_query(Room& room, const QuerySpec& q) {
 }
 
 }  // namespace
+
+QueryBudget query_budget(const Options& o, std::size_t object_gaussians) {
+  QueryBudget b;
+  b.m = o.semantic_budget > 0 ? o.semantic_budget : static_cast<std::uint32_t>(std::max<std::size_t>(16, object_gaussians));
+  // floor(rho M) as the host computes it (the query leaves rho to the host's --rho).
+  b.reserve = static_cast<std::uint64_t>(std::floor(o.rho * static_cast<double>(b.m)));
+  b.expected = std::min<std::uint64_t>(object_gaussians, b.reserve);
+  return b;
+}
 
 Expected<Json> measure_semantic(Room& room) {
   const auto t0 = std::chrono::steady_clock::now();

@@ -21,6 +21,7 @@
 #include "gauss/engine/wire.h"
 #include "gauss/net/client.h"
 #include "gauss/net/host.h"
+#include "raw_peer.h"
 
 namespace gauss {
 namespace {
@@ -52,14 +53,7 @@ net::NetClientConfig client_to(std::uint16_t port, const std::string& name) {
   return c;
 }
 
-bool wait_until(const std::function<bool()>& pred, std::chrono::milliseconds timeout = 20s) {
-  const auto until = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < until) {
-    if (pred()) return true;
-    std::this_thread::sleep_for(10ms);
-  }
-  return pred();
-}
+using test::wait_until;
 
 // Welcomes every new connection and counts the messages per client.
 struct Policy {

@@ -15,6 +15,7 @@
 #include "gauss/net/auth.h"
 #include "gauss/net/host.h"
 #include "gauss/net/stream_cipher.h"
+#include "raw_peer.h"
 
 namespace gauss {
 namespace {
@@ -95,74 +96,34 @@ TEST(StreamCipher, ReplaysAndAlterationsAreRefusedReorderingIsNot) {
 // and send plain packets after the handshake.
 class SealedPeer {
  public:
-  SealedPeer(std::uint16_t port, const std::string& token) : token_(token) {
-    enet_initialize();
-    host_ = enet_host_create(nullptr, 1, msg::kChannelCount, 0, 0);
-    ENetAddress a{};
-    enet_address_set_host(&a, "127.0.0.1");
-    a.port = port;
-    peer_ = enet_host_connect(host_, &a, msg::kChannelCount, 0);
-    ENetEvent ev;
-    const auto until = std::chrono::steady_clock::now() + 20s;
-    while (!connected_ && std::chrono::steady_clock::now() < until)
-      if (enet_host_service(host_, &ev, 10) > 0 && ev.type == ENET_EVENT_TYPE_CONNECT) connected_ = true;
-  }
-  ~SealedPeer() {
-    enet_host_destroy(host_);
-    enet_deinitialize();
-  }
+  SealedPeer(std::uint16_t port, const std::string& token) : raw_(port), token_(token) {}
 
   // Hello, Challenge (must ask for a sealed stream), proof; then the keys.
   bool handshake() {
-    if (!connected_) return false;
+    if (!raw_.connected()) return false;
     msg::Hello hello;
     hello.slot_capacity = 100;
     hello.client_name = "sealed";
     const auto hello_frame = wire::encode(hello).value();
-    send(hello_frame);
-    auto packet = receive_packet();
-    if (!packet) return false;
-    auto m = wire::decode(*packet);
-    if (!m.ok() || !std::holds_alternative<msg::Challenge>(*m)) return false;
+    raw_.send(hello_frame);
+    auto m = raw_.receive_one();
+    if (!m || !std::holds_alternative<msg::Challenge>(*m)) return false;
     const auto& challenge = std::get<msg::Challenge>(*m);
     if (!(challenge.flags & msg::kChallengeEncrypt)) return false;
-    send(wire::encode(net::auth_proof(token_, challenge, hello_frame)).value());
+    raw_.send(wire::encode(net::auth_proof(token_, challenge, hello_frame)).value());
     sealer_ = std::make_unique<net::StreamCipher>(token_, challenge, hello_frame, net::StreamDirection::ClientToHost);
     opener_ = std::make_unique<net::StreamCipher>(token_, challenge, hello_frame, net::StreamDirection::HostToClient);
     return true;
   }
-  void send(const std::vector<std::uint8_t>& bytes) {
-    enet_peer_send(peer_, 0, enet_packet_create(bytes.data(), bytes.size(), ENET_PACKET_FLAG_RELIABLE));
-    enet_host_flush(host_);
-  }
+  void send(const std::vector<std::uint8_t>& bytes) { raw_.send(bytes); }
   std::vector<std::uint8_t> seal(const wire::Message& m) { return sealer_->seal(wire::encode(m).value()); }
-  // The next packet's bytes as they crossed the wire.
-  std::optional<std::vector<std::uint8_t>> receive_packet() {
-    ENetEvent ev;
-    const auto until = std::chrono::steady_clock::now() + 20s;
-    while (std::chrono::steady_clock::now() < until) {
-      if (enet_host_service(host_, &ev, 10) <= 0) continue;
-      if (ev.type == ENET_EVENT_TYPE_DISCONNECT) return std::nullopt;
-      if (ev.type != ENET_EVENT_TYPE_RECEIVE) continue;
-      std::vector<std::uint8_t> out(ev.packet->data, ev.packet->data + ev.packet->dataLength);
-      enet_packet_destroy(ev.packet);
-      return out;
-    }
-    return std::nullopt;
-  }
+  std::optional<std::vector<std::uint8_t>> receive_packet() { return raw_.receive_packet(); }
   Expected<std::vector<std::uint8_t>> open(const std::vector<std::uint8_t>& packet) { return opener_->open(packet); }
-  void service(std::chrono::milliseconds d) {
-    ENetEvent ev;
-    const auto until = std::chrono::steady_clock::now() + d;
-    while (std::chrono::steady_clock::now() < until)
-      if (enet_host_service(host_, &ev, 5) > 0 && ev.type == ENET_EVENT_TYPE_RECEIVE) enet_packet_destroy(ev.packet);
-  }
+  void service(std::chrono::milliseconds d) { raw_.service(d); }
 
  private:
+  test::RawPeer raw_;
   std::string token_;
-  ENetHost* host_{nullptr};
-  ENetPeer* peer_{nullptr};
-  bool connected_{false};
   std::unique_ptr<net::StreamCipher> sealer_, opener_;
 };
 

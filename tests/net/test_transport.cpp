@@ -16,6 +16,7 @@
 #include "gauss/net/auth.h"
 #include "gauss/net/client.h"
 #include "gauss/net/host.h"
+#include "raw_peer.h"
 #include "wire_samples.h"
 
 namespace gauss {
@@ -87,14 +88,8 @@ std::optional<net::HostEvent> wait_event(net::NetHost& host, const std::function
   return std::nullopt;
 }
 
-bool wait_until(const std::function<bool()>& pred, std::chrono::milliseconds timeout = 20s) {
-  const auto until = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < until) {
-    if (pred()) return true;
-    std::this_thread::sleep_for(10ms);
-  }
-  return pred();
-}
+using test::RawPeer;
+using test::wait_until;
 
 // Accepts the next Hello the way the engine policy would: replies Welcome.
 std::uint32_t accept_next(net::NetHost& host) {
@@ -354,69 +349,6 @@ TEST(Transport, AClientThatOnlySendsGarbageIsDisconnected) {
   EXPECT_GE(hc.malformed, 11u);
   EXPECT_EQ((*host)->client_count(), 0u);
 }
-
-// A raw ENet peer that does not run NetClient: its first message is whatever the
-// test sends, so the host's handshake guard sees garbage and forged Hellos.
-class RawPeer {
- public:
-  explicit RawPeer(std::uint16_t port) {
-    enet_initialize();
-    host_ = enet_host_create(nullptr, 1, msg::kChannelCount, 0, 0);
-    ENetAddress a{};
-    enet_address_set_host(&a, "127.0.0.1");
-    a.port = port;
-    peer_ = enet_host_connect(host_, &a, msg::kChannelCount, 0);
-    ENetEvent ev;
-    const auto until = std::chrono::steady_clock::now() + 20s;
-    while (!connected_ && std::chrono::steady_clock::now() < until)
-      if (enet_host_service(host_, &ev, 10) > 0 && ev.type == ENET_EVENT_TYPE_CONNECT) connected_ = true;
-  }
-  ~RawPeer() {
-    enet_host_destroy(host_);
-    enet_deinitialize();
-  }
-  bool connected() const { return connected_; }
-  void send(const std::vector<std::uint8_t>& bytes) {
-    enet_peer_send(peer_, 0, enet_packet_create(bytes.data(), bytes.size(), ENET_PACKET_FLAG_RELIABLE));
-    enet_host_flush(host_);
-  }
-  // The next message the host sends (nullopt: none within the timeout, or a disconnect).
-  std::optional<wire::Message> receive_one() {
-    ENetEvent ev;
-    const auto until = std::chrono::steady_clock::now() + 20s;
-    while (std::chrono::steady_clock::now() < until) {
-      if (enet_host_service(host_, &ev, 10) <= 0) continue;
-      if (ev.type == ENET_EVENT_TYPE_DISCONNECT) return std::nullopt;
-      if (ev.type != ENET_EVENT_TYPE_RECEIVE) continue;
-      auto m = wire::decode(std::span<const std::uint8_t>(ev.packet->data, ev.packet->dataLength));
-      enet_packet_destroy(ev.packet);
-      if (m.ok()) return std::move(m).value();
-    }
-    return std::nullopt;
-  }
-  // Receives until the host disconnects; returns the decoded Refuse, if any came.
-  std::optional<msg::Refuse> refuse_then_disconnect() {
-    std::optional<msg::Refuse> refuse;
-    ENetEvent ev;
-    const auto until = std::chrono::steady_clock::now() + 20s;
-    while (std::chrono::steady_clock::now() < until) {
-      if (enet_host_service(host_, &ev, 10) <= 0) continue;
-      if (ev.type == ENET_EVENT_TYPE_RECEIVE) {
-        auto m = wire::decode(std::span<const std::uint8_t>(ev.packet->data, ev.packet->dataLength));
-        if (m.ok() && std::holds_alternative<msg::Refuse>(m.value())) refuse = std::get<msg::Refuse>(m.value());
-        enet_packet_destroy(ev.packet);
-      } else if (ev.type == ENET_EVENT_TYPE_DISCONNECT) {
-        break;
-      }
-    }
-    return refuse;
-  }
-
- private:
-  ENetHost* host_{nullptr};
-  ENetPeer* peer_{nullptr};
-  bool connected_{false};
-};
 
 TEST(Transport, AnythingButAValidHelloFirstIsRefused) {
   auto host = net::NetHost::start(host_config());
