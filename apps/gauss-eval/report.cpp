@@ -34,6 +34,19 @@ std::string percent(const Json& j) {
   return b;
 }
 
+// A fidelity row's cells from GT-PC PSNR to "HS ≠ sent" (the deterministic and the
+// realtime tables share them).
+std::string fidelity_cells(const Json& c) {
+  std::ostringstream md;
+  md << metric(c["gt_pc"], "psnr_db", 2) << " | " << metric(c["pc_hs"], "psnr_db", 2) << " | "
+     << metric(c["pc_hs"], "ssim", 3) << " | " << metric(c["pc_hs"], "flip", 3) << " | "
+     << metric(c["gt_hs"], "psnr_db", 2) << " | " << metric(c["gt_hs"], "ssim", 3) << " | "
+     << metric(c["gt_hs"], "flip", 3) << " | " << percent(c["coverage"]["pc"]) << " / " << percent(c["coverage"]["hs"])
+     << " / " << percent(c["coverage"]["both"]) << " | " << integer(c["resident"]) << " | "
+     << integer(c["hs_vs_sent"]["differing_pixels"]);
+  return md.str();
+}
+
 void fidelity_section(std::ostream& md, const Json& report, bool images) {
   md << "## Fidelity: GT → PC → HS\n\n"
      << "GT: the analytic room ray-cast (exact colour and depth); a scene file has none (n/a). PC: the host's render of the full float "
@@ -49,14 +62,8 @@ void fidelity_section(std::ostream& md, const Json& report, bool images) {
   for (const Json& s : report["scenes"]) {
     if (!s.contains("fidelity")) continue;
     for (const Json& c : s["fidelity"]["cameras"]) {
-      md << "| " << s["name"].get<std::string>() << " | " << c["camera"].get<int>() << " | "
-         << metric(c["gt_pc"], "psnr_db", 2) << " | " << metric(c["pc_hs"], "psnr_db", 2) << " | "
-         << metric(c["pc_hs"], "ssim", 3) << " | " << metric(c["pc_hs"], "flip", 3) << " | "
-         << metric(c["gt_hs"], "psnr_db", 2) << " | " << metric(c["gt_hs"], "ssim", 3) << " | "
-         << metric(c["gt_hs"], "flip", 3) << " | " << percent(c["coverage"]["pc"]) << " / "
-         << percent(c["coverage"]["hs"]) << " / " << percent(c["coverage"]["both"]) << " | "
-         << integer(c["resident"]) << " | " << integer(c["hs_vs_sent"]["differing_pixels"]) << " | "
-         << cell(c["settle"]["converged_s"], 2) << " |\n";
+      md << "| " << s["name"].get<std::string>() << " | " << c["camera"].get<int>() << " | " << fidelity_cells(c)
+         << " | " << cell(c["settle"]["converged_s"], 2) << " |\n";
     }
   }
   md << "\n";
@@ -360,13 +367,8 @@ void realtime_fidelity_section(std::ostream& md, const Json& report, bool images
   for (const Json& s : report["scenes"]) {
     for (const Json& c : s["realtime"]["fidelity"]["cameras"]) {
       const Json& st = c["settle"];
-      md << "| " << s["name"].get<std::string>() << " | " << c["camera"].get<int>() << " | "
-         << metric(c["gt_pc"], "psnr_db", 2) << " | " << metric(c["pc_hs"], "psnr_db", 2) << " | "
-         << metric(c["pc_hs"], "ssim", 3) << " | " << metric(c["pc_hs"], "flip", 3) << " | "
-         << metric(c["gt_hs"], "psnr_db", 2) << " | " << metric(c["gt_hs"], "ssim", 3) << " | "
-         << metric(c["gt_hs"], "flip", 3) << " | " << percent(c["coverage"]["pc"]) << " / "
-         << percent(c["coverage"]["hs"]) << " / " << percent(c["coverage"]["both"]) << " | "
-         << integer(c["resident"]) << " | " << integer(c["hs_vs_sent"]["differing_pixels"]) << " | "
+      md << "| " << s["name"].get<std::string>() << " | " << c["camera"].get<int>() << " | " << fidelity_cells(c)
+         << " | "
          << (c["hs_vs_sent"]["published_equals_sent"].get<bool>() ? "yes" : "**NO**") << " | "
          << (st["converged"].get<bool>() ? cell(st["converged_s"], 2) : std::string("**not converged**")) << " | "
          << integer(st["frames"]) << " | " << pct3(st["frame_cpu_ms"], 2) << " | " << pct3(st["frame_gpu_ms"], 2)

@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "child_process.h"
+#include "text_file.h"
 #include "gauss/engine/image_io.h"
 
 namespace gauss::test {
@@ -20,12 +21,6 @@ namespace gauss::test {
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
-inline std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 // The host writes its dump of what it sent the client when it sees the client leave;
 // then it is stopped. Renders that set with gauss-render from the client's final camera

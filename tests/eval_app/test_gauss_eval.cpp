@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "child_process.h"
+#include "text_file.h"
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/synthetic_scene.h"
@@ -25,12 +26,7 @@ namespace {
 using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using gauss::test::read_text;
 
 // One room, one fidelity camera, a small scene and view, a short flicker window, a
 // two-point ablation: about 10-15 s a run on lavapipe (2 cores).

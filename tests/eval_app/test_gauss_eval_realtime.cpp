@@ -23,18 +23,14 @@
 #include <nlohmann/json.hpp>
 
 #include "child_process.h"
+#include "text_file.h"
 
 namespace {
 
 using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using gauss::test::read_text;
 
 // One room of 8000 Gaussians at M = 2000, one camera at 96x72: about 10 s on lavapipe (2
 // cores), most of it the five connections settling. The quiet window (0.5 s) leaves the
