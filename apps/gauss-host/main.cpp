@@ -73,16 +73,26 @@ int main(int argc, char** argv) {
   }
   // Edits sent by sessions that have ended, for the status line and the summary.
   std::uint64_t closed_edits = 0, closed_batches = 0;
+  // One line per client that leaves: what it was sent, as the checksum its published set
+  // has once it converged (ClientState::published_checksum; scripts/soak compares them).
+  auto report_left = [&](std::uint32_t client, const std::string& name, const gauss::HostSession& session) {
+    if (!session.accepted()) return;
+    std::printf("gauss-host: client %u '%s' left: sent %zu Gaussians, checksum %llu\n", client, name.c_str(),
+                session.sent_ids().size(), static_cast<unsigned long long>(session.sent_checksum(store)));
+    std::fflush(stdout);
+  };
   if (o.dump_sent_dir.empty()) {
-    hc.on_session_closed = [&](std::uint32_t, const std::string&, const gauss::HostSession& session) {
+    hc.on_session_closed = [&](std::uint32_t client, const std::string& name, const gauss::HostSession& session) {
       closed_edits += session.stats().edits_sent;
       closed_batches += session.stats().batches_sent;
+      report_left(client, name, session);
     };
   } else {
     // Synchronous in the host loop: a sent set is at most a few 100k Gaussians.
     hc.on_session_closed = [&](std::uint32_t client, const std::string& name, const gauss::HostSession& session) {
       closed_edits += session.stats().edits_sent;
       closed_batches += session.stats().batches_sent;
+      report_left(client, name, session);
       if (!session.accepted()) return;  // refused at the Hello: it was sent nothing
       const std::string stem = gauss::host_app::dump_file_stem(name, client);
       auto r = gauss::host_app::dump_sent(o.dump_sent_dir, stem, session, store, params);
