@@ -162,7 +162,10 @@ void main() {
 
   // 11. Tints: highlight first, then the edit visualisation.
   if (TINT) {
-    if (view.frame.z > 0u && highlighted(g.object)) {
+    // No `view.frame.z > 0u` guard (highlighted() with none returns at once): lavapipe
+    // inlines a UBO word that alone decides a branch and then recompiled this shader on
+    // every bind (see tests/render/test_splat_steady_memory.cpp).
+    if (highlighted(g.object)) {
       colour = mix_toward(colour, vec3(1.0, 0.8, 0.0), SPLAT_HIGHLIGHT_STRENGTH);
     }
     if ((edit_kind == 1u || edit_kind == 2u) && edit_age < SPLAT_EDIT_TINT_FRAMES) {
