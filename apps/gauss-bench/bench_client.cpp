@@ -2,10 +2,12 @@
 // loopback -> ClientState -> staging ring -> SplatRenderer, frames in flight) on this
 // machine's Vulkan device.
 //   1. far teleport at M of an N-Gaussian synthetic room served by an in-process
-//      SessionHost over loopback ENet, per publication mode: display-frame interval
-//      percentiles while the edits stream in, beside the idle interval at the same
-//      resident count; convergence time (teleport -> first frame from which nothing is
-//      pending and the host sent nothing more).
+//      SessionHost over loopback ENet, per publication mode, repeated (A -> B -> A ...,
+//      --teleports): display-frame interval percentiles over the pooled streaming frames,
+//      beside the idle interval at the same resident count after each; convergence time
+//      (teleport -> first frame from which nothing is pending and the host sent nothing
+//      more); the network thread's CPU time per teleport (what it takes from the client's
+//      core).
 //   2. frame cost calibration: blocking frames (CPU packing + GPU copies + passes) while
 //      K slots are rewritten in R runs, fitted by least squares as base + a K + b R: the
 //      simulation's FrameCostModel from this device, beside its old constants, with the
@@ -55,7 +57,8 @@ struct Options {
   std::string size{"320x240"};
   std::uint32_t frames_in_flight{2};
   double timeout_s{600.0};
-  std::uint32_t idle_frames{20};
+  std::uint32_t idle_frames{30};
+  std::uint32_t teleports{4};
   std::string json_out;
   bool teleport{true};
   bool calibrate{true};
@@ -186,7 +189,12 @@ struct Settle {
   std::vector<double> frame_ms;  // display-frame intervals until converged
   // Display-thread CPU per frame until converged: ClientState::frame (publication policy)
   // and packing into the staging ring.
-  std::vector<double> publish_ms, upload_ms;
+  std::vector<double> publish_ms, upload_ms, lock_wait_ms;
+  std::vector<std::uint32_t> slot_writes;  // slots written or cleared per frame
+  // GPU side, per finished frame (in frame order): the view's whole GPU time, its blend
+  // pass, and the splats it binned and the (tile, splat) pairs it blended.
+  std::vector<double> gpu_ms, blend_ms;
+  std::vector<std::uint32_t> visible, pairs;
   std::uint64_t frames{0};
   double seconds{0.0};
   std::string error;  // the frame error that ended the run early
@@ -200,6 +208,7 @@ Settle run_until_settled(client::ClientRuntime& rt, const Camera& cam, double ti
   double quiet_since = -1.0;
   std::uint64_t last_edits = ~0ull;
   double converged_at = -1.0;
+  rt.take_gpu_stats();  // frames before this run are not its own
   while (1e-3 * ms_since(t0) < timeout_s) {
     auto f = rt.frame(std::span<const Camera>(&cam, 1));
     const auto now = Clock::now();
@@ -212,6 +221,14 @@ Settle run_until_settled(client::ClientRuntime& rt, const Camera& cam, double ti
     }
     s.publish_ms.push_back(f->publish_ms);
     s.upload_ms.push_back(f->upload_ms);
+    s.lock_wait_ms.push_back(f->lock_wait_ms);
+    s.slot_writes.push_back(f->publish.slot_writes());
+    for (const client::GpuFrameStats& g : rt.take_gpu_stats()) {
+      s.gpu_ms.push_back(g.total_ms);
+      s.blend_ms.push_back(g.view[0].gpu.blend_ms);
+      s.visible.push_back(g.view[0].visible);
+      s.pairs.push_back(g.view[0].pairs);
+    }
     const std::uint64_t edits = rt.with_state([](const ClientState& st) { return st.stats().edits_received; });
     const double t = 1e-3 * ms_since(t0);
     const bool idle = f->pending == 0 && f->publish.slot_writes() == 0 && f->desired > 0;
@@ -256,34 +273,59 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
   };
   const Settle first = run_until_settled(**rt, a, o.timeout_s);
   if (!first.converged) return failed(first, "at A");
-  const std::vector<double> idle = idle_frames(**rt, a, o.idle_frames);
+  std::vector<double> idle_before = idle_frames(**rt, a, o.idle_frames);
   // The display this device drives: its idle frame interval with 25 % headroom (lavapipe
   // cannot reach a headset's 72-90 Hz). Progressive publication keeps frames within it.
-  const double period_s = 1.25e-3 * percentile(idle, 0.5);
+  const double period_s = 1.25e-3 * percentile(idle_before, 0.5);
   (*rt)->set_display_period(period_s);
-  const Settle tele = run_until_settled(**rt, b, o.timeout_s);
-  if (!tele.converged) return failed(tele, "after the teleport");
-  const std::vector<double> idle_b = idle_frames(**rt, b, o.idle_frames);
+  // Far teleports A -> B -> A ...: the streaming frames of all of them are pooled, and so
+  // are the idle frames after each, so a p99 rests on more than a few dozen frames.
+  std::vector<double> streaming, idle_after, publish, upload, lock_wait, convergence, net_cpu;
+  json series = json::array();
+  for (std::uint32_t t = 0; t < o.teleports; ++t) {
+    const Camera& to = t % 2 == 0 ? b : a;
+    const double net0 = (*rt)->connection().counters.thread_cpu_ms;
+    const Settle tele = run_until_settled(**rt, to, o.timeout_s);
+    if (!tele.converged) return failed(tele, "after a teleport");
+    net_cpu.push_back((*rt)->connection().counters.thread_cpu_ms - net0);
+    convergence.push_back(tele.seconds);
+    streaming.insert(streaming.end(), tele.frame_ms.begin(), tele.frame_ms.end());
+    publish.insert(publish.end(), tele.publish_ms.begin(), tele.publish_ms.end());
+    upload.insert(upload.end(), tele.upload_ms.begin(), tele.upload_ms.end());
+    lock_wait.insert(lock_wait.end(), tele.lock_wait_ms.begin(), tele.lock_wait_ms.end());
+    series.push_back(json{{"frame_ms", tele.frame_ms}, {"publish_ms", tele.publish_ms}, {"upload_ms", tele.upload_ms},
+                          {"lock_wait_ms", tele.lock_wait_ms},
+                          {"slot_writes", tele.slot_writes}, {"gpu_ms", tele.gpu_ms}, {"blend_ms", tele.blend_ms},
+                          {"visible", tele.visible}, {"pairs", tele.pairs}});
+    const std::vector<double> idle = idle_frames(**rt, to, o.idle_frames);
+    idle_after.insert(idle_after.end(), idle.begin(), idle.end());
+  }
   const std::uint32_t resident = (*rt)->with_state([](const ClientState& s) { return s.slots().size(); });
   const auto ss = (*rt)->publication().stats();
-  std::printf("   %-12s %8.2f %8zu %9.1f %9.1f %9.1f   %9.1f %9.1f %9.1f  %8u  %6.1f/%6.1f  %6.1f/%6.1f\n", name,
-              tele.seconds, tele.frame_ms.size(), percentile(tele.frame_ms, 0.5), percentile(tele.frame_ms, 0.95),
-              percentile(tele.frame_ms, 0.99), percentile(idle_b, 0.5), percentile(idle_b, 0.95),
-              percentile(idle_b, 0.99), resident, percentile(tele.publish_ms, 0.5), percentile(tele.publish_ms, 0.99),
-              percentile(tele.upload_ms, 0.5), percentile(tele.upload_ms, 0.99));
+  std::printf("   %-12s %8.2f %8zu %9.1f %9.1f %9.1f   %9.1f %9.1f %9.1f  %8u  %6.1f/%6.1f  %6.1f/%6.1f  %8.0f\n", name,
+              median(convergence), streaming.size(), percentile(streaming, 0.5), percentile(streaming, 0.95),
+              percentile(streaming, 0.99), percentile(idle_after, 0.5), percentile(idle_after, 0.95),
+              percentile(idle_after, 0.99), resident, percentile(publish, 0.5), percentile(publish, 0.99),
+              percentile(upload, 0.5), percentile(upload, 0.99), median(net_cpu));
   return json{{"mode", name},
               {"display_period_ms", period_s * 1e3},
-              {"convergence_s", tele.seconds},
-              {"streaming_frames", tele.frame_ms.size()},
-              {"frame_ms_streaming", pct(tele.frame_ms)},
-              {"frame_ms_idle_before", pct(idle)},
-              {"frame_ms_idle_after", pct(idle_b)},
-              {"publish_cpu_ms_streaming", pct(tele.publish_ms)},
-              {"upload_cpu_ms_streaming", pct(tele.upload_ms)},
-              {"p99_over_idle_p99", percentile(tele.frame_ms, 0.99) / std::max(1e-9, percentile(idle_b, 0.99))},
+              {"teleports", o.teleports},
+              {"convergence_s", median(convergence)},
+              {"convergence_s_each", convergence},
+              {"streaming_frames", streaming.size()},
+              {"frame_ms_streaming", pct(streaming)},
+              {"frame_ms_idle_before", pct(idle_before)},
+              {"frame_ms_idle_after", pct(idle_after)},
+              {"idle_frames_after", idle_after.size()},
+              {"publish_cpu_ms_streaming", pct(publish)},
+              {"upload_cpu_ms_streaming", pct(upload)},
+              {"lock_wait_ms_streaming", pct(lock_wait)},
+              {"network_thread_cpu_ms_each", net_cpu},
+              {"p99_over_idle_p99", percentile(streaming, 0.99) / std::max(1e-9, percentile(idle_after, 0.99))},
               {"resident", resident},
               {"slots_uploaded_total", ss.slots_written + ss.slots_cleared},
-              {"first_convergence_s", first.seconds}};
+              {"first_convergence_s", first.seconds},
+              {"series", series}};
 }
 
 // Least squares y = c0 + c1 x1 + c2 x2 (normal equations, 3x3).
@@ -482,8 +524,10 @@ int bench_client_main(const Options& o) {
   }
   if (o.teleport) {
     std::printf("\n1. far teleport over loopback (display period: 1.25 x the idle frame interval at A)\n");
-    std::printf("   %-12s %8s %8s %9s %9s %9s   %9s %9s %9s  %8s  %13s  %13s\n", "mode", "conv s", "frames", "p50 ms",
-                "p95 ms", "p99 ms", "idle p50", "idle p95", "idle p99", "resident", "publish p50/99", "upload p50/99");
+    std::printf("   %u teleports per mode, their streaming frames pooled; idle: the frames after each\n", o.teleports);
+    std::printf("   %-12s %8s %8s %9s %9s %9s   %9s %9s %9s  %8s  %13s  %13s  %8s\n", "mode", "conv s", "frames",
+                "p50 ms", "p95 ms", "p99 ms", "idle p50", "idle p95", "idle p99", "resident", "publish p50/99",
+                "upload p50/99", "net cpu");
     if (!o.isolate_host)
       std::printf("   (the host runs in this process, on the same cores: its select + diff + encode after the\n"
                   "    teleport competes with the client's frames, which a headset's would not; see --isolate-host)\n");
@@ -514,6 +558,8 @@ BenchRun bench_client_setup(CLI::App& cmd) {
       ->check(apps::in_range<std::uint32_t>(1, 4));
   cmd.add_option("--timeout", o->timeout_s, "longest wait for a convergence, seconds")->check(apps::at_least(1.0));
   cmd.add_option("--idle-frames", o->idle_frames, "idle frames measured at each end")->check(apps::at_least(2u));
+  cmd.add_option("--teleports", o->teleports, "far teleports per mode (A -> B -> A ...), their frames pooled")
+      ->check(apps::in_range<std::uint32_t>(1, 100));
   cmd.add_option("--json", o->json_out, "also write the results as JSON to FILE");
   cmd.add_flag("--isolate-host", o->isolate_host,
                "run the in-process host's threads on the last CPU and the client's on the others");

@@ -331,7 +331,8 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
                                  {"connects", conn.counters.connects},
                                  {"disconnects", conn.counters.disconnects},
                                  {"bytes_received", conn.counters.bytes_received},
-                                 {"bytes_sent", conn.counters.bytes_sent}};
+                                 {"bytes_sent", conn.counters.bytes_sent},
+                                 {"network_thread_cpu_ms", conn.counters.thread_cpu_ms}};
     // The published set in slot order: equal depths blend in slot order, so a render of
     // the same set must load it in this order to be byte-identical (gauss-render --order).
     json slot_ids = json::array();

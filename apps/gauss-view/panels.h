@@ -71,6 +71,7 @@ class Panels {
     double at_s{-1.0};
     std::uint64_t in{0}, out{0};
     double in_per_s{0.0}, out_per_s{0.0};
+    double net_cpu_ms{0.0}, net_cpu_share{0.0};  // the network thread's CPU time, and its share of one core
   };
 
   void place(float x, float y, float w, float h, bool collapsed) const;

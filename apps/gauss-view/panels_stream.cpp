@@ -88,17 +88,20 @@ void Panels::draw_connection(double now_s) {
       break;
   }
   if (rates_.at_s < 0.0) {
-    rates_ = Rates{now_s, c.counters.bytes_received, c.counters.bytes_sent, 0.0, 0.0};
+    rates_ = Rates{now_s, c.counters.bytes_received, c.counters.bytes_sent, 0.0, 0.0, c.counters.thread_cpu_ms, 0.0};
   } else if (now_s - rates_.at_s >= kRateWindowS) {
     const double dt = now_s - rates_.at_s;
     rates_.in_per_s = static_cast<double>(c.counters.bytes_received - rates_.in) / dt;
     rates_.out_per_s = static_cast<double>(c.counters.bytes_sent - rates_.out) / dt;
+    rates_.net_cpu_share = (c.counters.thread_cpu_ms - rates_.net_cpu_ms) * 1e-3 / dt;
     rates_.in = c.counters.bytes_received;
     rates_.out = c.counters.bytes_sent;
+    rates_.net_cpu_ms = c.counters.thread_cpu_ms;
     rates_.at_s = now_s;
   }
   ImGui::Text("in         %s", rate_text(rates_.in_per_s).c_str());
   ImGui::Text("out        %s", rate_text(rates_.out_per_s).c_str());
+  if (c.counters.thread_cpu_ms >= 0.0) ImGui::Text("net thread %.0f %% of a core", 100.0 * rates_.net_cpu_share);
   ImGui::Text("reconnects %llu", static_cast<unsigned long long>(c.counters.connects > 0 ? c.counters.connects - 1 : 0));
   ImGui::End();
 }

@@ -107,6 +107,7 @@ Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, 
   std::optional<int> sh_degree;
   std::vector<ObjectId> targets;
   auto fr = sink_->with_state([&](ClientState& s) -> Expected<FrameResult> {
+    out.lock_wait_ms = ms_since(t0);
     if (config_.pose_period_s == 0.0 || out.now - last_pose_time_ >= config_.pose_period_s) {
       msg::HeadPose pose = head_pose_from_camera(views[0]);
       pose.client_time_us = static_cast<std::uint64_t>(std::max(0.0, out.now) * 1e6);

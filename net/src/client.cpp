@@ -1,6 +1,9 @@
 // NetClient: connect / Hello / receive loop on its own thread, with reconnects.
 #include "gauss/net/client.h"
 
+#include <pthread.h>
+#include <time.h>
+
 #include <algorithm>
 #include <condition_variable>
 #include <cstdio>
@@ -440,8 +443,17 @@ bool NetClient::wait_for(ClientStatus s, std::chrono::milliseconds timeout) cons
 }
 
 ClientCounters NetClient::counters() const {
-  std::lock_guard lock(impl_->mu);
-  return impl_->counters;
+  ClientCounters c;
+  {
+    std::lock_guard lock(impl_->mu);
+    c = impl_->counters;
+  }
+  clockid_t clock{};
+  timespec ts{};
+  if (impl_->thread.joinable() && pthread_getcpuclockid(impl_->thread.native_handle(), &clock) == 0 &&
+      clock_gettime(clock, &ts) == 0)
+    c.thread_cpu_ms = static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+  return c;
 }
 
 void NetClient::abandon() {

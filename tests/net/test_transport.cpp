@@ -188,6 +188,11 @@ TEST(Transport, LargeBatchesArriveIntactAndTheBacklogDrains) {
     ASSERT_NE(got, nullptr);
     EXPECT_TRUE(*got == big);
   }
+  // Receiving and decoding 6 MiB took the network thread measurable CPU time; the counter
+  // never goes back.
+  const double cpu_ms = (*client)->counters().thread_cpu_ms;
+  EXPECT_GT(cpu_ms, 0.0);
+  EXPECT_GE((*client)->counters().thread_cpu_ms, cpu_ms);
   EXPECT_TRUE(wait_until([&] { return (*host)->pending_bytes(id) == 0; }));
   msg::EditBatchMsg too_big;
   too_big.payload.resize(msg::kMaxMessageBytes);

@@ -66,7 +66,8 @@ struct DisplayFrameStats {
   std::uint64_t serial{0};          // the renderer's frame serial
   double now{0.0};
   double cpu_ms{0.0};               // the whole frame on the display thread
-  double publish_ms{0.0};           // ClientState::frame: policy, slot table
+  double publish_ms{0.0};           // ClientState::frame: policy, slot table (lock_wait_ms included)
+  double lock_wait_ms{0.0};         // of which waiting for ClientState's lock (the network thread applying)
   double upload_ms{0.0};            // packing slots and chunks into the staging ring
   double render_ms{0.0};            // recording + submission (includes waiting for frame k - N)
   PublishReport publish;

@@ -77,6 +77,9 @@ struct ClientCounters {
   std::uint64_t bytes_received{0};
   std::uint64_t send_dropped{0};       // send() while not connected
   std::uint64_t failed_attempts{0};    // attempts that ended without a Welcome (nor a Refuse)
+  // CPU time the network thread has used (receive, decode, the sink's apply): what it takes
+  // from a display thread and a CPU renderer sharing its core. -1 where not measurable.
+  double thread_cpu_ms{-1.0};
   std::string last_rejection;          // also the host's reason after a Refuse
 };
 
