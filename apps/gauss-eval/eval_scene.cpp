@@ -12,6 +12,8 @@
 
 namespace gauss::eval_app {
 
+namespace fs = std::filesystem;
+
 Expected<EvalScene> make_scene(const Options& o, int variant) {
   SyntheticSceneConfig sc;
   sc.variant = variant;
@@ -83,12 +85,22 @@ Expected<EvalScene> make_file_scene(const Options& o) {
   if (!o.labels.empty()) so.labels = o.labels;
   if (!o.objects.empty()) so.objects_json = o.objects;
   std::vector<std::string> log;
-  auto source = open_scene_file(o.scene_file, so, [&](const std::string& line) { log.push_back(line); });
+  auto keep = [&](const std::string& line) { log.push_back(line); };
+  std::error_code ec;
+  const bool folder = fs::is_directory(o.scene_file, ec) && !fs::is_regular_file(o.scene_file / "meta.json", ec);
+  auto source = folder ? open_snapshot_folder(o.scene_file, so, keep) : open_scene_file(o.scene_file, so, keep);
   if (!source) return source.error();
   s.store = std::make_unique<SceneStore>();
-  auto committed = (*source)->next_epoch(*s.store);
-  if (!committed) return committed.error();
-  if (!*committed || s.store->size() == 0) {
+  // A file is one epoch; a folder gives one per snapshot, in order, until it has no more.
+  for (;;) {
+    auto committed = (*source)->next_epoch(*s.store);
+    if (!committed) return Error{s.source + ": " + committed.message()};
+    if (!*committed) break;
+    ++s.snapshots;
+    if (!folder) break;
+  }
+  if (!folder) s.snapshots = 0;
+  if (s.store->size() == 0) {
     std::string why = log.empty() ? "no Gaussians" : log.back();
     return Error{s.source + ": nothing to evaluate: " + why};
   }
@@ -106,6 +118,50 @@ Expected<EvalScene> make_file_scene(const Options& o) {
   }
   return s;
 }
+
+Expected<EpochFeed> EpochFeed::open(const EvalScene& scene, const Options& o) {
+  EpochFeed f;
+  if (scene.synthetic) {
+    SyntheticSceneConfig sc;
+    sc.variant = scene.variant;
+    sc.seed = o.seed;
+    sc.target_gaussians = o.gaussians;
+    sc.epochs = o.epochs;
+    sc.surface_chunk = o.surface == "analytic";
+    auto synth = SyntheticScene::create(sc);
+    if (!synth) return synth.error();
+    f.synthetic_.emplace(std::move(*synth));
+    f.total_ = o.epochs;
+    return f;
+  }
+  if (scene.snapshots > 0) {
+    SnapshotOptions so;
+    if (!o.labels.empty()) so.labels = o.labels;
+    if (!o.objects.empty()) so.objects_json = o.objects;
+    auto source = open_snapshot_folder(o.scene_file, so, [](const std::string&) {});
+    if (!source) return source.error();
+    f.folder_ = std::move(*source);
+    f.total_ = scene.snapshots;
+    return f;
+  }
+  return Error{scene.name + ": one epoch, no epochs to replay"};
+}
+
+Status EpochFeed::produce(SceneStore& store) {
+  if (finished()) return Error{"EpochFeed: no epoch left"};
+  if (synthetic_) {
+    if (auto st = synthetic_->produce(store); !st) return st;
+  } else {
+    auto committed = folder_->next_epoch(store);
+    if (!committed) return committed.error();
+    if (!*committed) return Error{"snapshot " + std::to_string(produced_ + 1) + " of " + std::to_string(total_) +
+                                  " is gone from the folder"};
+  }
+  ++produced_;
+  return Ok{};
+}
+
+bool EpochFeed::finished() const { return produced_ >= total_; }
 
 std::optional<GroundTruthImage> ground_truth(const EvalScene& scene, const Camera& camera) {
   if (!scene.synthetic) return std::nullopt;

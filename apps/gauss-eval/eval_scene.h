@@ -4,7 +4,9 @@
 //   - a synthetic room, produced epoch by epoch up to the configured count and then held
 //     still, with its exact ground truth (colour, depth and object ids for any camera);
 //   - a scene file (any splat format the host reads, with optional labels / objects JSON),
-//     one epoch, without ground truth: its cameras orbit the scene's central box.
+//     one epoch, without ground truth: its cameras orbit the scene's central box;
+//   - a snapshot folder (as gauss-host follows one): every snapshot committed in order, the
+//     evaluation looks at the last, and the model-edit latencies replay them as epochs.
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -17,6 +19,7 @@
 #include "gauss/engine/codec.h"
 #include "gauss/engine/query.h"
 #include "gauss/engine/result.h"
+#include "gauss/engine/scene_source.h"
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/synthetic_scene.h"
 #include "options.h"
@@ -26,7 +29,8 @@ namespace gauss::eval_app {
 struct EvalScene {
   std::string name;  // "room<variant>", or the scene file's name
   int variant{-1};   // the synthetic room, or -1 for a scene file
-  std::string source;  // the scene file as given (empty for a room)
+  std::string source;  // the scene file or snapshot folder as given (empty for a room)
+  int snapshots{0};    // a snapshot folder's snapshots (epochs committed); 0 otherwise
   std::unique_ptr<SyntheticScene> synthetic;  // null for a scene file: no ground truth
   // Where viewpoints may go: the room's interior, or for a scene file the box of its
   // central 96 % (per axis), whose centre the orbit cameras look at.
@@ -45,7 +49,26 @@ Expected<EvalScene> make_scene(const Options& options, int variant);
 // central box's centre, 20 degrees above its horizon (options.up), at 1.8 times the box's
 // half diagonal, so the box fills most of the view. Errors: the file, labels or objects
 // (named), an empty scene, a bad --up.
+// A snapshot folder: every snapshot committed in order (identity tracked as the host
+// does), the codec and cameras fitted to the last; errors name the folder or snapshot.
 Expected<EvalScene> make_file_scene(const Options& options);
+
+// The epochs of a scene one at a time, as a host receives them: a room's trajectory, or a
+// snapshot folder's snapshots. For the model-edit latencies.
+class EpochFeed {
+ public:
+  // Errors: a room that is not synthetic nor a snapshot folder, or the source (named).
+  static Expected<EpochFeed> open(const EvalScene& scene, const Options& options);
+  Status produce(SceneStore& store);  // commits the next epoch
+  bool finished() const;
+  int produced() const noexcept { return produced_; }
+  int total() const noexcept { return total_; }
+
+ private:
+  std::optional<SyntheticScene> synthetic_;
+  std::shared_ptr<SceneSource> folder_;
+  int produced_{0}, total_{0};
+};
 
 // A pinhole camera at `eye` looking at `target` (`up` up), with the trajectory's focal
 // ratio (fx = 0.75 width: about 67 degrees across).

@@ -1,6 +1,6 @@
 // Stage latencies from the event logs (virtual seconds), on the real client path.
-//   model edits: a room produced live, one epoch per --epoch-period while the client
-//     watches camera 0: per epoch, available (the host's scene committed it) -> sent ->
+//   model edits: a room produced live (or a snapshot folder replayed), one epoch per
+//     --epoch-period while the client watches camera 0: per epoch, available (the host's scene committed it) -> sent ->
 //     received -> published (in slots) -> first frame rendered with it;
 //   queries: see query_latency(), called by the semantic runs.
 #include <algorithm>
@@ -49,20 +49,14 @@ Json query_latency(EvalSession& session, std::uint32_t query_id, double sent_at)
 Expected<Json> measure_model_latency(Room& room) {
   const auto t0 = std::chrono::steady_clock::now();
   const Options& o = room.options;
-  // The same room, produced live: the first half of its epochs before the client
-  // connects, the rest one per epoch period while it watches.
-  SyntheticSceneConfig sc;
-  sc.variant = room.scene.variant;
-  sc.seed = o.seed;
-  sc.target_gaussians = o.gaussians;
-  sc.epochs = o.epochs;
-  sc.surface_chunk = o.surface == "analytic";
-  auto synth = SyntheticScene::create(sc);
-  if (!synth) return synth.error();
+  // The same scene, produced live (a room) or replayed (a snapshot folder): the first half
+  // of its epochs before the client connects, the rest one per epoch period while it watches.
+  auto feed = EpochFeed::open(room.scene, o);
+  if (!feed) return feed.error();
   SceneStore store;
-  const int before = std::max(1, o.epochs / 2);
+  const int before = std::max(1, feed->total() / 2);
   for (int e = 0; e < before; ++e)
-    if (auto st = synth->produce(store); !st) return st.error();
+    if (auto st = feed->produce(store); !st) return st.error();
   EvalSessionConfig cfg = session_config(o, o.budget, o.progressive ? PublishMode::Progressive : PublishMode::Immediate);
   auto session = EvalSession::create(room.context, store, room.scene.codec, cfg);
   if (!session) return session.error();
@@ -71,11 +65,11 @@ Expected<Json> measure_model_latency(Room& room) {
   auto first = (*session)->settle(cam, o.settle_timeout_s, o.quiet_s);
   if (!first) return first.error();
   std::vector<std::pair<Epoch, double>> available;
-  while (!synth->finished()) {
-    room.progress("model latency: epoch " + std::to_string(synth->produced() + 1) + "/" + std::to_string(o.epochs));
+  while (!feed->finished()) {
+    room.progress("model latency: epoch " + std::to_string(feed->produced() + 1) + "/" + std::to_string(feed->total()));
     // Ticks up to now have run: the epoch is available from now on, to the next tick.
     if (auto st = (*session)->run_host_until((*session)->now()); !st) return st.error();
-    if (auto st = synth->produce(store); !st) return st.error();
+    if (auto st = feed->produce(store); !st) return st.error();
     available.emplace_back(store.epoch(), (*session)->now());
     const double until = (*session)->now() + o.epoch_period_s;
     while ((*session)->now() < until)

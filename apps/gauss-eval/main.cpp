@@ -104,8 +104,9 @@ Status measure_deterministic(Room& room, const EvalScene& scene, Json& scene_jso
     if (!temporal) return temporal.error();
     scene_json["temporal"] = std::move(*temporal);
   }
-  // A scene file is one epoch: it has no model edits to time.
-  if (o.latency && scene.synthetic) {
+  // A scene file is one epoch: it has no model edits to time. A snapshot folder has one
+  // per snapshot.
+  if (o.latency && (scene.synthetic || scene.snapshots >= 2)) {
     auto latency = measure_model_latency(room);
     if (!latency) return latency.error();
     scene_json["model_latency"] = std::move(*latency);
@@ -157,6 +158,7 @@ Status run_scene(vk::Context& ctx, const Options& o, int variant, const PanelWri
   scene_json["name"] = scene->name;
   if (variant >= 0) scene_json["variant"] = variant;
   else scene_json["source"] = scene->source;
+  if (scene->snapshots > 0) scene_json["snapshots"] = scene->snapshots;
   scene_json["ground_truth"] = scene->synthetic != nullptr;
   scene_json["gaussians"] = scene->store->size();
   scene_json["appearance_gaussians"] = scene->appearance;

@@ -55,10 +55,11 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
                     ->check(apps::in_range(0, 3))
                     ->type_name("V,...");
   auto* scene = app.add_option("--scene", o.scene_file,
-                               "also (or, without --scenes, only) this scene file or SOG folder: no ground truth, "
-                               "GT columns n/a, cameras orbiting it")
+                               "also (or, without --scenes, only) this scene file, SOG folder or snapshot folder (its "
+                               "snapshots in order; the last is evaluated, all replayed for the model-edit latencies): "
+                               "no ground truth, GT columns n/a, cameras orbiting it")
                     ->check(CLI::ExistingPath)
-                    ->type_name("FILE");
+                    ->type_name("PATH");
   app.add_option("--labels", o.labels, "per-Gaussian labels of --scene")->check(CLI::ExistingFile)->needs(scene);
   app.add_option("--objects", o.objects, "objects JSON of --scene")->check(CLI::ExistingFile)->needs(scene);
   app.add_option("--up", o.up, "the up axis of --scene")

@@ -211,4 +211,63 @@ TEST(GaussEval, ASceneFileHasNoGroundTruthAndKeepsEveryOtherCheck) {
   EXPECT_NE(md.find("| room1.ply | 0 | n/a |"), std::string::npos) << "the GT-PC column says n/a";
 }
 
+// A trainer's snapshot folder: room 1 after epochs 2, 3 and 4 (appearance Gaussians with
+// their ids and object ids), snap_2.ply .. snap_4.ply, plus the object table.
+void write_snapshot_folder(const fs::path& folder) {
+  fs::create_directories(folder);
+  gauss::SyntheticSceneConfig sc;
+  sc.variant = 1;
+  sc.target_gaussians = 8000;
+  sc.epochs = 4;
+  auto scene = gauss::SyntheticScene::create(sc);
+  ASSERT_TRUE(scene.ok()) << scene.message();
+  gauss::SceneStore store;
+  for (int e = 1; e <= 4; ++e) {
+    ASSERT_TRUE(scene->produce(store).ok());
+    if (e < 2) continue;
+    gauss::GaussianCloud cloud;
+    cloud.sh_degree = store.sh_degree();
+    for (const gauss::Gaussian& g : store.gaussians())
+      if (!g.carrier) cloud.gaussians.push_back(g);
+    ASSERT_TRUE(gauss::write_gaussian_ply(folder / ("snap_" + std::to_string(e) + ".ply"), cloud,
+                                          {.write_object_id = true, .write_gaussian_id = true})
+                    .ok());
+  }
+  nlohmann::json table = nlohmann::json::array();
+  for (const gauss::SemanticObject& o : store.objects())
+    table.push_back({{"id", gauss::to_underlying(o.id)}, {"label", o.label}});
+  std::ofstream(folder / "objects.json") << nlohmann::json{{"objects", table}}.dump();
+}
+
+TEST(GaussEval, ASnapshotFolderIsEvaluatedAtItsLastSnapshotAndReplayedForTheEditLatencies) {
+  const fs::path base = fs::path(GAUSS_TEST_OUTPUT_DIR) / "eval_app_gauss_eval_folder";
+  fs::remove_all(base);
+  ASSERT_NO_FATAL_FAILURE(write_snapshot_folder(base / "snapshots"));
+  const fs::path out = base / "report";
+  ASSERT_NO_FATAL_FAILURE(run_eval(out, {GAUSS_EVAL_EXE, "--scene", (base / "snapshots").string(), "--budget", "2000",
+                                         "--size", "96x72", "--cameras", "1", "--quiet", "0.25", "--no-semantic",
+                                         "--no-temporal", "--epoch-period", "0.2", "--no-timing", "--name",
+                                         "ctest-folder", "--out", out.string()}));
+  const nlohmann::json r = nlohmann::json::parse(read_text(out / "report.json"));
+  ASSERT_EQ(r["scenes"].size(), 1u);
+  const nlohmann::json& scene = r["scenes"][0];
+  EXPECT_EQ(scene["name"], "snapshots");
+  EXPECT_EQ(scene["snapshots"].get<int>(), 3);
+  EXPECT_FALSE(scene["ground_truth"].get<bool>());
+  EXPECT_GT(scene["objects"].get<std::uint64_t>(), 0u) << "objects.json in the folder names the objects";
+  ASSERT_EQ(scene["fidelity"]["cameras"].size(), 1u);
+  EXPECT_EQ(scene["fidelity"]["cameras"][0]["hs_vs_sent"]["differing_pixels"].get<std::uint64_t>(), 0u);
+  // Three snapshots: the first before the client connects, the other two replayed live,
+  // each sent, received, published and shown.
+  ASSERT_TRUE(scene.contains("model_latency")) << scene.dump();
+  const auto& epochs = scene["model_latency"]["epochs"];
+  ASSERT_EQ(epochs.size(), 2u) << scene["model_latency"].dump();
+  for (const auto& e : epochs) {
+    EXPECT_GT(e["edits"].get<std::uint64_t>(), 0u) << e.dump();
+    EXPECT_GE(e["visible_s"].get<double>(), e["published_s"].get<double>()) << e.dump();
+  }
+  EXPECT_TRUE(r["checks"]["hs_equals_sent_render"].get<bool>());
+  EXPECT_EQ(r["validation_errors"].get<std::uint64_t>(), 0u);
+}
+
 }  // namespace
