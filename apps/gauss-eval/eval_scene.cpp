@@ -6,6 +6,7 @@
 #include <glm/geometric.hpp>
 #include <glm/mat4x4.hpp>
 #include <glm/gtc/matrix_inverse.hpp>
+#include <glm/gtc/matrix_transform.hpp>
 
 #include "central_box.h"
 #include "gauss/engine/scene_source.h"
@@ -162,6 +163,24 @@ Status EpochFeed::produce(SceneStore& store) {
 }
 
 bool EpochFeed::finished() const { return produced_ >= total_; }
+
+Camera swayed(const Camera& a, double t) {
+  constexpr double kTwoPi = 6.283185307179586;
+  const glm::dmat4 cam_to_world = glm::inverse(a.world_to_camera);
+  const glm::dvec3 right = glm::normalize(glm::dvec3(cam_to_world[0]));
+  glm::dvec3 fwd = glm::dvec3(cam_to_world[2]);
+  fwd.y = 0.0;
+  fwd = glm::length(fwd) > 1e-6 ? glm::normalize(fwd) : glm::dvec3(0.0, 0.0, 1.0);
+  const glm::dvec3 offset = 0.05 * std::sin(kTwoPi * 0.3 * t) * right + 0.03 * std::sin(kTwoPi * 0.45 * t) * fwd;
+  const double yaw = 3.0 * 3.14159265358979323846 / 180.0 * std::sin(kTwoPi * 0.2 * t);
+  const glm::dvec3 eye = glm::dvec3(cam_to_world[3]) + offset;
+  const glm::dmat4 rot = glm::rotate(glm::dmat4(1.0), yaw, glm::dvec3(0.0, 1.0, 0.0));
+  glm::dmat4 c2w = rot * cam_to_world;
+  c2w[3] = glm::dvec4(eye, 1.0);
+  Camera out = a;
+  out.world_to_camera = glm::inverse(c2w);
+  return out;
+}
 
 std::optional<GroundTruthImage> ground_truth(const EvalScene& scene, const Camera& camera) {
   if (!scene.synthetic) return std::nullopt;

@@ -70,6 +70,10 @@ class EpochFeed {
   int produced_{0}, total_{0};
 };
 
+// `a` moved by a standing user's head sway `t` seconds into a flicker window: a few cm
+// side to side and back and forth, a few degrees of yaw, at 0.2-0.45 Hz.
+Camera swayed(const Camera& a, double t);
+
 // A pinhole camera at `eye` looking at `target` (`up` up), with the trajectory's focal
 // ratio (fx = 0.75 width: about 67 degrees across).
 Camera look_camera(const glm::dvec3& eye, const glm::dvec3& target, std::uint32_t width, std::uint32_t height,

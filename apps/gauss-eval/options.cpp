@@ -43,8 +43,8 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
       "client over loopback ENet on the wall clock: per fidelity camera a fresh connection settles\n"
       "(--quiet, --settle-timeout in wall seconds), its frame is compared with GT and PC and, after\n"
       "it disconnects, with the host's render of the set the host's --dump-sent says it sent; then a\n"
-      "teleport far and back per publication mode, and each semantic query at its near view (its share\n"
-      "exact). Wall-clock figures: they do not reproduce.",
+      "teleport far and back per publication mode with a flicker window at the start view, and each\n"
+      "semantic query at its near view (its share exact). Wall-clock figures: they do not reproduce.",
       "gauss-eval"};
   apps::configure(app);
 #ifdef GAUSS_SOURCE_DIR

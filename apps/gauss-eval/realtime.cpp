@@ -184,6 +184,7 @@ struct ConnectionSpec {
   PublishMode mode{PublishMode::Progressive};
   std::uint32_t budget{0};
   std::optional<msg::Query> query;
+  double flicker_s{0.0};  // > 0: a flicker window of this many wall seconds after the last settle
 };
 
 // A connection settled at each of its views in turn, captured at the last, closed, and
@@ -191,6 +192,7 @@ struct ConnectionSpec {
 struct Connection {
   std::vector<RealtimeSettle> legs;
   std::vector<std::vector<double>> leg_gpu_ms;  // GPU ms per frame finished during each leg
+  std::optional<RealtimeFlicker> flicker;
   RealtimeCapture capture;
   SentComparison sent;
 };
@@ -225,6 +227,19 @@ Expected<Connection> run_connection(Room& room, HostProcess& host, const Connect
     room.timing.frame_cpu_ms.insert(room.timing.frame_cpu_ms.end(), s->frame_cpu_ms.begin(), s->frame_cpu_ms.end());
     c.legs.push_back(std::move(*s));
     c.leg_gpu_ms.push_back(gpu_totals(room, (*client)->take_gpu_stats()));
+  }
+  if (spec.flicker_s > 0.0) {
+    auto f = (*client)->flicker(last, spec.flicker_s);
+    if (!f) return f.error();
+    room.timing.frame_cpu_ms.insert(room.timing.frame_cpu_ms.end(), f->frame_cpu_ms.begin(), f->frame_cpu_ms.end());
+    gpu_totals(room, (*client)->take_gpu_stats());
+    c.flicker = std::move(*f);
+    // The window's last frame looked from a swayed eye: settle at the view again, so the
+    // captured frame is the view's own (and whatever the sway made the host send is in).
+    auto again = (*client)->settle(last, o.settle_timeout_s, o.quiet_s);
+    if (!again) return again.error();
+    if (!again->converged) return Error{"did not settle again after the flicker window"};
+    gpu_totals(room, (*client)->take_gpu_stats());
   }
   auto cap = (*client)->capture();
   if (!cap) return cap.error();
@@ -304,7 +319,8 @@ Expected<Json> realtime_fidelity(Room& room, HostProcess& host) {
 }
 
 // Teleport far and back per publication mode, one connection each: settle at A (camera 0),
-// at B (teleport_target), back at A; wall seconds to convergence per leg.
+// at B (teleport_target), back at A; wall seconds to convergence per leg; then the flicker
+// window at A (--flicker-window wall seconds, the head swaying).
 Expected<Json> realtime_teleport(Room& room, HostProcess& host) {
   const auto t0 = std::chrono::steady_clock::now();
   const EvalScene& scene = room.scene;
@@ -317,7 +333,8 @@ Expected<Json> realtime_teleport(Room& room, HostProcess& host) {
     const ConnectionSpec spec{.name = std::string("gauss-eval-teleport-") + mode_name(mode),
                               .mode = mode,
                               .budget = room.options.budget,
-                              .query = std::nullopt};
+                              .query = std::nullopt,
+                              .flicker_s = room.options.flicker_window_s};
     auto c = run_connection(room, host, spec, path);
     if (!c) return Error{scene.name + " realtime teleport (" + mode_name(mode) + "): " + c.message()};
     out.push_back(Json{{"mode", mode_name(mode)},
@@ -326,6 +343,14 @@ Expected<Json> realtime_teleport(Room& room, HostProcess& host) {
                        {"first", settle_json(c->legs[0], c->leg_gpu_ms[0])},
                        {"teleport", settle_json(c->legs[1], c->leg_gpu_ms[1])},
                        {"return", settle_json(c->legs[2], c->leg_gpu_ms[2])},
+                       {"flicker", Json{{"window_s", c->flicker->window_s},
+                                        {"frames", c->flicker->frames},
+                                        {"mean_abs_change", c->flicker->mean_abs_change},
+                                        {"max_abs_change", c->flicker->max_abs_change},
+                                        {"slot_writes", c->flicker->slot_writes},
+                                        {"membership_changes", c->flicker->membership_changes},
+                                        {"host_messages", c->flicker->host_messages},
+                                        {"frame_cpu_ms", percentiles(c->flicker->frame_cpu_ms)}}},
                        {"resident", c->capture.resident},
                        {"hs_vs_sent", sent_json(*c, a)}});
   }

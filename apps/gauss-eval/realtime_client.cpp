@@ -5,6 +5,9 @@
 #include <span>
 #include <thread>
 
+#include "eval_scene.h"
+#include "gauss/eval/image_metrics.h"
+
 namespace gauss::eval_app {
 
 namespace {
@@ -90,6 +93,42 @@ Expected<RealtimeSettle> RealtimeClient::settle(const Camera& view, double timeo
     }
   }
   r.wall_s = since(t0);
+  return r;
+}
+
+Expected<RealtimeFlicker> RealtimeClient::flicker(const Camera& a, double window_s) {
+  RealtimeFlicker r;
+  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / display_hz_));
+  const std::uint64_t messages_before = runtime_->connection().counters.messages_received;
+  const auto t0 = Clock::now();
+  auto next = t0;
+  double change_sum = 0.0;
+  std::uint64_t pairs = 0;
+  ImageRGBA8 prev;
+  while (since(t0) < window_s) {
+    std::this_thread::sleep_until(next);
+    next = std::max(next + period, Clock::now());
+    const Camera views[2] = {swayed(a, since(t0)), a};
+    auto f = runtime_->frame(views);
+    if (!f) return Error{"the realtime client's frame: " + f.message()};
+    ++r.frames;
+    r.slot_writes += f->publish.slot_writes();
+    r.membership_changes += f->publish.inserted + f->publish.removed + 2ull * f->publish.replaced;
+    r.frame_cpu_ms.push_back(f->cpu_ms);
+    auto img = runtime_->renderer().read_image(1);
+    if (!img) return Error{"the realtime client's readback: " + img.message()};
+    if (!prev.pixels.empty()) {
+      auto mean = eval::mean_abs_difference({prev.width, prev.height, prev.pixels}, {img->width, img->height, img->pixels});
+      if (!mean) return mean.error();
+      change_sum += *mean;
+      r.max_abs_change = std::max(r.max_abs_change, *mean);
+      ++pairs;
+    }
+    prev = std::move(*img);
+  }
+  r.window_s = since(t0);
+  r.mean_abs_change = pairs ? change_sum / static_cast<double>(pairs) : 0.0;
+  r.host_messages = runtime_->connection().counters.messages_received - messages_before;
   return r;
 }
 

@@ -45,6 +45,18 @@ struct RealtimeSettle {
   std::vector<double> frame_cpu_ms;  // the display thread per frame
 };
 
+// A flicker window at a settled view, on the wall clock: the head sways (the first view,
+// swayed()) while the settled view is rendered as a second one and compared frame to frame.
+struct RealtimeFlicker {
+  double window_s{0.0};
+  std::uint64_t frames{0};
+  double mean_abs_change{0.0}, max_abs_change{0.0};  // per pixel and channel, 8-bit levels
+  std::uint64_t slot_writes{0};
+  std::uint64_t membership_changes{0};  // inserts + removes + 2 x replaces published
+  std::uint64_t host_messages{0};       // received during the window
+  std::vector<double> frame_cpu_ms;
+};
+
 // The client's state once settled: its frame and the set it published, in slot order.
 struct RealtimeCapture {
   ImageRGBA8 hs;
@@ -66,6 +78,9 @@ class RealtimeClient {
   // nothing and received no host message for `quiet_s` wall seconds, or `timeout_s`
   // passed (then converged = false). Errors: a frame failed, the host refused the client.
   Expected<RealtimeSettle> settle(const Camera& view, double timeout_s, double quiet_s);
+  // Paced stereo frames for `window_s` wall seconds: view 0 sways around `a`, view 1 is `a`,
+  // read back every frame (so these frames wait for the GPU). Errors: a frame, a readback.
+  Expected<RealtimeFlicker> flicker(const Camera& a, double window_s);
   // Sends a query (queued until the client is welcomed).
   void send_query(const msg::Query& query) { runtime_->send_query(query); }
   // Frames at `view` until the host's resolution of the query reached the client, so a

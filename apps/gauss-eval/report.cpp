@@ -392,9 +392,11 @@ void realtime_teleport_section(std::ostream& md, const Json& report) {
      << "One connection per mode: settle at camera 0 (A), teleport to B (A mirrored through the room centre, "
         "looking the other way; around a scene file a close-up of the far side), settle, return to A and settle. "
         "Wall seconds from each move until the client was quiet for good; the return's frame times (ms p50 / p95 "
-        "/ p99); HS against the host's render of the set it sent after the return.\n\n"
+        "/ p99); then a flicker window at A (the head swaying, A rendered as a second view and compared frame to "
+        "frame: the mean absolute change per pixel and channel in 8-bit levels, and the slot writes in the window); "
+        "HS against the host's render of the set it sent after the return.\n\n"
      << "| scene | mode | at A s | A → B s | B → A s | return slot writes | return CPU ms | return GPU ms | "
-        "HS ≠ sent | pub. = sent |\n|---|---|---|---|---|---|---|---|---|---|\n";
+        "flicker | window writes | HS ≠ sent | pub. = sent |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   auto conv = [](const Json& st) {
     return st["converged"].get<bool>() ? cell(st["converged_s"], 2) : std::string("**not converged**");
   };
@@ -403,7 +405,8 @@ void realtime_teleport_section(std::ostream& md, const Json& report) {
       md << "| " << s["name"].get<std::string>() << " | " << t["mode"].get<std::string>() << " | "
          << conv(t["first"]) << " | " << conv(t["teleport"]) << " | " << conv(t["return"]) << " | "
          << integer(t["return"]["slot_writes"]) << " | " << pct3(t["return"]["frame_cpu_ms"], 2) << " | "
-         << pct3(t["return"]["frame_gpu_ms"], 2) << " | " << integer(t["hs_vs_sent"]["differing_pixels"]) << " | "
+         << pct3(t["return"]["frame_gpu_ms"], 2) << " | " << cell(t["flicker"]["mean_abs_change"], 3) << " | "
+         << integer(t["flicker"]["slot_writes"]) << " | " << integer(t["hs_vs_sent"]["differing_pixels"]) << " | "
          << (t["hs_vs_sent"]["published_equals_sent"].get<bool>() ? "yes" : "**NO**") << " |\n";
     }
   }

@@ -18,7 +18,6 @@
 #include <chrono>
 #include <cmath>
 
-#include <glm/gtc/matrix_transform.hpp>
 #include <glm/mat4x4.hpp>
 
 #include "measurements.h"
@@ -28,25 +27,6 @@ namespace gauss::eval_app {
 namespace {
 
 constexpr double kSsimConverged = 0.99;
-
-// A swayed by the standing user's sway at `t` seconds into the window.
-Camera swayed(const Camera& a, double t) {
-  constexpr double kTwoPi = 6.283185307179586;
-  const glm::dmat4 cam_to_world = glm::inverse(a.world_to_camera);
-  const glm::dvec3 right = glm::normalize(glm::dvec3(cam_to_world[0]));
-  glm::dvec3 fwd = glm::dvec3(cam_to_world[2]);
-  fwd.y = 0.0;
-  fwd = glm::length(fwd) > 1e-6 ? glm::normalize(fwd) : glm::dvec3(0.0, 0.0, 1.0);
-  const glm::dvec3 offset = 0.05 * std::sin(kTwoPi * 0.3 * t) * right + 0.03 * std::sin(kTwoPi * 0.45 * t) * fwd;
-  const double yaw = 3.0 * 3.14159265358979323846 / 180.0 * std::sin(kTwoPi * 0.2 * t);
-  const glm::dvec3 eye = glm::dvec3(cam_to_world[3]) + offset;
-  const glm::dmat4 rot = glm::rotate(glm::dmat4(1.0), yaw, glm::dvec3(0.0, 1.0, 0.0));
-  glm::dmat4 c2w = rot * cam_to_world;
-  c2w[3] = glm::dvec4(eye, 1.0);
-  Camera out = a;
-  out.world_to_camera = glm::inverse(c2w);
-  return out;
-}
 
 std::vector<std::uint64_t> published_ids(EvalSession& session) {
   std::vector<std::uint64_t> ids;
@@ -125,12 +105,10 @@ Expected<Json> measure_mode(Room& room, PublishMode mode, Json& timing) {
     auto img = session.client().renderer().read_image(1);
     if (!img) return img.error();
     if (!prev.pixels.empty()) {
-      std::uint64_t sum = 0;
-      for (std::size_t i = 0; i < img->pixels.size(); i += 4)
-        for (int c = 0; c < 3; ++c) sum += static_cast<std::uint64_t>(std::abs(int(img->pixels[i + c]) - int(prev.pixels[i + c])));
-      const double mean = double(sum) / (3.0 * double(img->pixels.size() / 4));
-      change_sum += mean;
-      change_max = std::max(change_max, mean);
+      auto mean = eval::mean_abs_difference(view_of(prev), view_of(*img));
+      if (!mean) return mean.error();
+      change_sum += *mean;
+      change_max = std::max(change_max, *mean);
       ++pairs;
     }
     prev = std::move(*img);

@@ -118,6 +118,18 @@ Expected<double> psnr(const ImageView& a, const ImageView& b, const Mask& mask) 
   return 10.0 * std::log10(255.0 * 255.0 / mse);
 }
 
+Expected<double> mean_abs_difference(const ImageView& a, const ImageView& b, const Mask& mask) {
+  auto counted = detail::check_inputs("mean_abs_difference", a, b, mask);
+  if (!counted) return counted.error();
+  const std::size_t pixels = std::size_t{a.width} * a.height;
+  std::uint64_t sum = 0;
+  for (std::size_t i = 0; i < pixels; ++i) {
+    if (!counts(mask, i)) continue;
+    for (std::size_t c = 0; c < 3; ++c) sum += static_cast<std::uint64_t>(std::abs(int{a.rgba[i * 4 + c]} - int{b.rgba[i * 4 + c]}));
+  }
+  return static_cast<double>(sum) / (3.0 * static_cast<double>(*counted));
+}
+
 namespace {
 
 // Rec. 601 luma of pixel i, in [0, 255].

@@ -37,8 +37,8 @@ using gauss::test::read_text;
 // host time to answer a move (poses go out at 10 Hz) on a loaded machine.
 std::vector<std::string> realtime_args(const fs::path& out) {
   return {GAUSS_EVAL_EXE, "--realtime", "--scenes", "0", "--gaussians", "8000", "--budget", "2000", "--size", "96x72",
-          "--cameras", "1", "--quiet", "0.5", "--settle-timeout", "30", "--name", "ctest-realtime", "--out",
-          out.string()};
+          "--cameras", "1", "--quiet", "0.5", "--settle-timeout", "30", "--flicker-window", "1", "--name",
+          "ctest-realtime", "--out", out.string()};
 }
 
 // Runs gauss-eval with `args` (its output to out/eval.log); its exit status.
@@ -100,6 +100,15 @@ TEST(GaussEvalRealtime, HostAndClientAsProcessesOverLoopbackMatchTheSentSet) {
       EXPECT_TRUE(t[leg]["converged"].get<bool>()) << mode << " " << leg << ": " << t[leg].dump();
     EXPECT_GT(t["return"]["slot_writes"].get<std::uint64_t>(), 0u) << mode << ": the return to A publishes edits";
     expect_exact(t["hs_vs_sent"], 2000, "teleport " + mode);
+    // The flicker window at A: frames were compared, and a window that published nothing
+    // rendered the settled view identically every frame.
+    const auto& f = t["flicker"];
+    EXPECT_GE(f["frames"].get<std::uint64_t>(), 2u) << mode << ": " << f.dump();
+    EXPECT_GE(f["mean_abs_change"].get<double>(), 0.0) << mode;
+    EXPECT_LE(f["mean_abs_change"].get<double>(), f["max_abs_change"].get<double>()) << mode;
+    if (f["slot_writes"].get<std::uint64_t>() == 0) {
+      EXPECT_EQ(f["max_abs_change"].get<double>(), 0.0) << mode;
+    }
   }
   // Each query at its own M = |G_obj|: the target holds exactly min(|G_obj|, floor(rho M)),
   // recomputed here from the report's own figures.

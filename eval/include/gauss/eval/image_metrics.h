@@ -45,6 +45,9 @@ struct ImageScores {
 // Errors: sizes differ, a span shorter than width*height*4, a mask of the wrong size, or
 // no pixel in the mask.
 Expected<double> psnr(const ImageView& a, const ImageView& b, const Mask& mask = {});
+// The mean absolute difference of the RGB values (0..255) over the masked pixels: the
+// flicker between consecutive frames of a settled view.
+Expected<double> mean_abs_difference(const ImageView& a, const ImageView& b, const Mask& mask = {});
 Expected<double> ssim(const ImageView& a, const ImageView& b, const Mask& mask = {});
 Expected<double> flip(const ImageView& reference, const ImageView& test, const Mask& mask = {});
 Expected<ImageScores> compare(const ImageView& reference, const ImageView& test, const Mask& mask = {});
