@@ -277,7 +277,7 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
   };
   const Settle first = run_until_settled(**rt, a, o.timeout_s);
   if (!first.converged) return failed(first, "at A");
-  std::vector<double> idle_before = idle_frames(**rt, a, o.idle_frames);
+  const std::vector<double> idle_before = idle_frames(**rt, a, o.idle_frames);
   // The display this device drives: its idle frame interval with 25 % headroom (lavapipe
   // cannot reach a headset's 72-90 Hz). Progressive publication keeps frames within it.
   const double period_s = 1.25e-3 * percentile(idle_before, 0.5);

@@ -13,16 +13,31 @@
 
 namespace gauss::eval_app {
 
-namespace fs = std::filesystem;
+namespace {
 
-Expected<EvalScene> make_scene(const Options& o, int variant) {
+// Room `variant` as the options configure it (make_scene and EpochFeed produce the same room).
+SyntheticSceneConfig room_config(const Options& o, int variant) {
   SyntheticSceneConfig sc;
   sc.variant = variant;
   sc.seed = o.seed;
   sc.target_gaussians = o.gaussians;
   sc.epochs = o.epochs;
   sc.surface_chunk = o.surface == "analytic";
-  auto synth = SyntheticScene::create(sc);
+  return sc;
+}
+
+// --labels / --objects for a scene file or snapshot folder.
+SnapshotOptions snapshot_options(const Options& o) {
+  SnapshotOptions so;
+  if (!o.labels.empty()) so.labels = o.labels;
+  if (!o.objects.empty()) so.objects_json = o.objects;
+  return so;
+}
+
+}  // namespace
+
+Expected<EvalScene> make_scene(const Options& o, int variant) {
+  auto synth = SyntheticScene::create(room_config(o, variant));
   if (!synth) return Error{"room " + std::to_string(variant) + ": " + synth.message()};
   EvalScene s;
   s.name = "room" + std::to_string(variant);
@@ -82,25 +97,20 @@ Expected<EvalScene> make_file_scene(const Options& o) {
   s.source = o.scene_file.string();
   s.name = o.scene_file.filename().string();
   s.up = *up;
-  SnapshotOptions so;
-  if (!o.labels.empty()) so.labels = o.labels;
-  if (!o.objects.empty()) so.objects_json = o.objects;
+  const SnapshotOptions so = snapshot_options(o);
   std::vector<std::string> log;
   auto keep = [&](const std::string& line) { log.push_back(line); };
-  std::error_code ec;
-  const bool folder = fs::is_directory(o.scene_file, ec) && !fs::is_regular_file(o.scene_file / "meta.json", ec);
+  const bool folder = is_snapshot_folder(o.scene_file);
   auto source = folder ? open_snapshot_folder(o.scene_file, so, keep) : open_scene_file(o.scene_file, so, keep);
   if (!source) return source.error();
   s.store = std::make_unique<SceneStore>();
   // A file is one epoch; a folder gives one per snapshot, in order, until it has no more.
-  for (;;) {
+  for (bool more = true; more;) {
     auto committed = (*source)->next_epoch(*s.store);
     if (!committed) return Error{s.source + ": " + committed.message()};
-    if (!*committed) break;
-    ++s.snapshots;
-    if (!folder) break;
+    if (*committed && folder) ++s.snapshots;
+    more = *committed && folder;
   }
-  if (!folder) s.snapshots = 0;
   if (s.store->size() == 0) {
     std::string why = log.empty() ? "no Gaussians" : log.back();
     return Error{s.source + ": nothing to evaluate: " + why};
@@ -123,23 +133,14 @@ Expected<EvalScene> make_file_scene(const Options& o) {
 Expected<EpochFeed> EpochFeed::open(const EvalScene& scene, const Options& o) {
   EpochFeed f;
   if (scene.synthetic) {
-    SyntheticSceneConfig sc;
-    sc.variant = scene.variant;
-    sc.seed = o.seed;
-    sc.target_gaussians = o.gaussians;
-    sc.epochs = o.epochs;
-    sc.surface_chunk = o.surface == "analytic";
-    auto synth = SyntheticScene::create(sc);
+    auto synth = SyntheticScene::create(room_config(o, scene.variant));
     if (!synth) return synth.error();
     f.synthetic_.emplace(std::move(*synth));
     f.total_ = o.epochs;
     return f;
   }
   if (scene.snapshots > 0) {
-    SnapshotOptions so;
-    if (!o.labels.empty()) so.labels = o.labels;
-    if (!o.objects.empty()) so.objects_json = o.objects;
-    auto source = open_snapshot_folder(o.scene_file, so, [](const std::string&) {});
+    auto source = open_snapshot_folder(o.scene_file, snapshot_options(o), [](const std::string&) {});
     if (!source) return source.error();
     f.folder_ = std::move(*source);
     f.total_ = scene.snapshots;

@@ -37,11 +37,11 @@ Expected<std::unique_ptr<RealtimeClient>> RealtimeClient::connect(vk::Context& c
   return std::unique_ptr<RealtimeClient>(new RealtimeClient(std::move(*rt), c.display_hz));
 }
 
-Expected<client::DisplayFrameStats> RealtimeClient::paced_frame(const Camera& view, Clock::time_point& next) {
+Expected<client::DisplayFrameStats> RealtimeClient::paced_frame(std::span<const Camera> views, Clock::time_point& next) {
   const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / display_hz_));
   std::this_thread::sleep_until(next);
   next = std::max(next + period, Clock::now());  // a late frame is not made up
-  auto f = runtime_->frame(std::span<const Camera>(&view, 1));
+  auto f = runtime_->frame(views);
   if (!f) return Error{"the realtime client's frame: " + f.message()};
   return f;
 }
@@ -53,7 +53,7 @@ Status RealtimeClient::wait_for_query(const Camera& view, double timeout_s) {
     if (runtime_->with_state([](const ClientState& s) { return !s.query_targets().empty(); })) return Ok{};
     if (runtime_->connection().status == net::ClientStatus::Refused)
       return Error{"gauss-host refused the client: " + runtime_->connection().counters.last_rejection};
-    auto f = paced_frame(view, next);
+    auto f = paced_frame(std::span<const Camera>(&view, 1), next);
     if (!f) return f.error();
   }
   return Error{"the host's resolution of the query did not arrive within " + std::to_string(timeout_s) + " s"};
@@ -66,7 +66,7 @@ Expected<RealtimeSettle> RealtimeClient::settle(const Camera& view, double timeo
   std::uint64_t last_messages = ~std::uint64_t{0};
   double quiet_since = -1.0;
   while (since(t0) <= timeout_s) {
-    auto f = paced_frame(view, next);
+    auto f = paced_frame(std::span<const Camera>(&view, 1), next);
     if (!f) return f.error();
     const double t = since(t0);
     ++r.frames;
@@ -98,36 +98,25 @@ Expected<RealtimeSettle> RealtimeClient::settle(const Camera& view, double timeo
 
 Expected<RealtimeFlicker> RealtimeClient::flicker(const Camera& a, double window_s) {
   RealtimeFlicker r;
-  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / display_hz_));
   const std::uint64_t messages_before = runtime_->connection().counters.messages_received;
   const auto t0 = Clock::now();
   auto next = t0;
-  double change_sum = 0.0;
-  std::uint64_t pairs = 0;
-  ImageRGBA8 prev;
+  eval::FrameChange change;
   while (since(t0) < window_s) {
-    std::this_thread::sleep_until(next);
-    next = std::max(next + period, Clock::now());
     const Camera views[2] = {swayed(a, since(t0)), a};
-    auto f = runtime_->frame(views);
-    if (!f) return Error{"the realtime client's frame: " + f.message()};
+    auto f = paced_frame(views, next);
+    if (!f) return f.error();
     ++r.frames;
     r.slot_writes += f->publish.slot_writes();
     r.membership_changes += f->publish.inserted + f->publish.removed + 2ull * f->publish.replaced;
     r.frame_cpu_ms.push_back(f->cpu_ms);
     auto img = runtime_->renderer().read_image(1);
     if (!img) return Error{"the realtime client's readback: " + img.message()};
-    if (!prev.pixels.empty()) {
-      auto mean = eval::mean_abs_difference({prev.width, prev.height, prev.pixels}, {img->width, img->height, img->pixels});
-      if (!mean) return mean.error();
-      change_sum += *mean;
-      r.max_abs_change = std::max(r.max_abs_change, *mean);
-      ++pairs;
-    }
-    prev = std::move(*img);
+    if (auto st = change.add({img->width, img->height, img->pixels}); !st) return st.error();
   }
   r.window_s = since(t0);
-  r.mean_abs_change = pairs ? change_sum / static_cast<double>(pairs) : 0.0;
+  r.mean_abs_change = change.mean();
+  r.max_abs_change = change.max();
   r.host_messages = runtime_->connection().counters.messages_received - messages_before;
   return r;
 }

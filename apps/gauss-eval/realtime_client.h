@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -98,8 +99,9 @@ class RealtimeClient {
  private:
   RealtimeClient(std::unique_ptr<client::ClientRuntime> runtime, double display_hz)
       : runtime_(std::move(runtime)), display_hz_(display_hz) {}
-  // One frame at `view` at the display rate: sleeps until `next`, then advances it.
-  Expected<client::DisplayFrameStats> paced_frame(const Camera& view, std::chrono::steady_clock::time_point& next);
+  // One frame of `views` (1 or 2) at the display rate: sleeps until `next`, then advances it.
+  Expected<client::DisplayFrameStats> paced_frame(std::span<const Camera> views,
+                                                  std::chrono::steady_clock::time_point& next);
 
   std::unique_ptr<client::ClientRuntime> runtime_;
   double display_hz_;

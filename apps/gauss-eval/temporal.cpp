@@ -89,10 +89,9 @@ Expected<Json> measure_mode(Room& room, PublishMode mode, Json& timing) {
   const std::vector<std::uint64_t> ids_before = published_ids(session);
   const std::uint64_t messages_before = session.messages_down();
   std::uint64_t writes = 0, membership = 0;
-  double change_sum = 0.0, change_max = 0.0;
-  std::uint64_t pairs = 0, window_frames = 0;
+  eval::FrameChange change;
+  std::uint64_t window_frames = 0;
   std::vector<double> window_cpu_ms;
-  ImageRGBA8 prev;
   const double w0 = session.now();
   while (session.now() - w0 < o.flicker_window_s) {
     const Camera views[2] = {swayed(a, session.now() - w0), a};
@@ -104,14 +103,7 @@ Expected<Json> measure_mode(Room& room, PublishMode mode, Json& timing) {
     window_cpu_ms.push_back(f->cpu_ms);
     auto img = session.client().renderer().read_image(1);
     if (!img) return img.error();
-    if (!prev.pixels.empty()) {
-      auto mean = eval::mean_abs_difference(view_of(prev), view_of(*img));
-      if (!mean) return mean.error();
-      change_sum += *mean;
-      change_max = std::max(change_max, *mean);
-      ++pairs;
-    }
-    prev = std::move(*img);
+    if (auto st = change.add(view_of(*img)); !st) return st.error();
   }
   const std::vector<std::uint64_t> ids_after = published_ids(session);
   std::vector<std::uint64_t> net;
@@ -137,8 +129,8 @@ Expected<Json> measure_mode(Room& room, PublishMode mode, Json& timing) {
               {"ssim_to_settled", std::move(ssim_list)},
               {"flicker", Json{{"window_s", session.now() - w0},
                                {"frames", window_frames},
-                               {"mean_abs_change", pairs ? change_sum / double(pairs) : 0.0},
-                               {"max_abs_change", change_max},
+                               {"mean_abs_change", change.mean()},
+                               {"max_abs_change", change.max()},
                                {"slot_writes", writes},
                                {"membership_changes", membership},
                                {"net_set_changes", net.size()},

@@ -71,10 +71,8 @@ Expected<std::unique_ptr<SceneFeed>> SceneFeed::open(const Options& o, SceneStor
     if (!m) return Error{"--mesh: " + m.message()};
   }
   SourceLog quiet_log = [](const std::string&) {};  // lines are printed by the host loop
-  std::error_code ec;
   const fs::path& path = *o.scene_path;
-  const bool sog_folder = fs::is_regular_file(path / "meta.json", ec);
-  feed->folder_ = fs::is_directory(path, ec) && !sog_folder;
+  feed->folder_ = is_snapshot_folder(path);
   auto source = feed->folder_ ? open_snapshot_folder(path, so, quiet_log) : open_scene_file(path, so, quiet_log);
   if (!source) return source.error();
   feed->source_ = std::move(*source);

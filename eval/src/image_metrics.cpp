@@ -130,6 +130,20 @@ Expected<double> mean_abs_difference(const ImageView& a, const ImageView& b, con
   return static_cast<double>(sum) / (3.0 * static_cast<double>(*counted));
 }
 
+Status FrameChange::add(const ImageView& frame) {
+  if (!prev_.empty()) {
+    auto d = mean_abs_difference({width_, height_, prev_}, frame);
+    if (!d) return d.error();
+    sum_ += *d;
+    max_ = std::max(max_, *d);
+    ++pairs_;
+  }
+  prev_.assign(frame.rgba.begin(), frame.rgba.end());
+  width_ = frame.width;
+  height_ = frame.height;
+  return Ok{};
+}
+
 namespace {
 
 // Rec. 601 luma of pixel i, in [0, 255].

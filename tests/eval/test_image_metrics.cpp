@@ -179,6 +179,34 @@ TEST(Psnr, CountsOnlyMaskedPixels) {
 
 // ---------------------------------------------------------------- SSIM
 
+TEST(MeanAbsDifference, ClosedFormOverTheMaskedPixels) {
+  Image a(4, 2, {10, 20, 30}), b(4, 2, {10, 20, 30});
+  b.set(0, 0, {13, 20, 30});  // 3 levels in one channel
+  b.set(3, 1, {0, 0, 0});     // 10 + 20 + 30 levels
+  auto all = mean_abs_difference(a.view(), b.view());
+  ASSERT_TRUE(all.ok()) << all.message();
+  EXPECT_DOUBLE_EQ(*all, (3.0 + 60.0) / (3.0 * 8.0));
+  Mask first(8, 0);
+  first[0] = 1;
+  auto one = mean_abs_difference(a.view(), b.view(), first);
+  ASSERT_TRUE(one.ok());
+  EXPECT_DOUBLE_EQ(*one, 1.0);
+  EXPECT_FALSE(mean_abs_difference(a.view(), Image(4, 3).view()).ok()) << "sizes differ";
+}
+
+TEST(FrameChange, MeanAndMaxOverConsecutivePairs) {
+  FrameChange change;
+  EXPECT_EQ(change.mean(), 0.0) << "no pair yet";
+  const Image f0(2, 2, {0, 0, 0}), f1(2, 2, {3, 3, 3}), f2(2, 2, {3, 3, 3});
+  ASSERT_TRUE(change.add(f0.view()).ok());
+  ASSERT_TRUE(change.add(f1.view()).ok());  // 3 levels everywhere
+  ASSERT_TRUE(change.add(f2.view()).ok());  // unchanged
+  EXPECT_EQ(change.pairs(), 2u);
+  EXPECT_DOUBLE_EQ(change.mean(), 1.5);
+  EXPECT_DOUBLE_EQ(change.max(), 3.0);
+  EXPECT_FALSE(change.add(Image(3, 2).view()).ok()) << "a frame of another size";
+}
+
 TEST(Ssim, IdenticalImagesAreExactlyOne) {
   const Image a = noise_image(20, 17, 2);
   EXPECT_EQ(value(ssim(a.view(), a.view())), 1.0);

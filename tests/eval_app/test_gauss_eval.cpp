@@ -139,24 +139,39 @@ TEST(GaussEval, ReportReproducesAndItsExactnessChecksHold) {
 
 // Writes room 1 (its appearance Gaussians with their object ids) as a PLY and its object
 // table as JSON: a scene file a user could have.
-void write_room_file(const fs::path& ply, const fs::path& objects) {
+// Room 1 as a small scene of 4 epochs (8000 Gaussians).
+gauss::Expected<gauss::SyntheticScene> small_room1() {
   gauss::SyntheticSceneConfig sc;
   sc.variant = 1;
   sc.target_gaussians = 8000;
   sc.epochs = 4;
-  auto scene = gauss::SyntheticScene::create(sc);
-  ASSERT_TRUE(scene.ok()) << scene.message();
-  gauss::SceneStore store;
-  while (!scene->finished()) ASSERT_TRUE(scene->produce(store).ok());
+  return gauss::SyntheticScene::create(sc);
+}
+
+// The store's appearance Gaussians (carriers left out), as a scene file holds them.
+gauss::GaussianCloud appearance_cloud(const gauss::SceneStore& store) {
   gauss::GaussianCloud cloud;
   cloud.sh_degree = store.sh_degree();
   for (const gauss::Gaussian& g : store.gaussians())
     if (!g.carrier) cloud.gaussians.push_back(g);
-  ASSERT_TRUE(gauss::write_gaussian_ply(ply, cloud, {.write_object_id = true}).ok());
+  return cloud;
+}
+
+// The store's object table as an objects JSON.
+void write_objects_json(const gauss::SceneStore& store, const fs::path& objects) {
   nlohmann::json table = nlohmann::json::array();
   for (const gauss::SemanticObject& o : store.objects())
     table.push_back({{"id", gauss::to_underlying(o.id)}, {"label", o.label}});
   std::ofstream(objects) << nlohmann::json{{"objects", table}}.dump();
+}
+
+void write_room_file(const fs::path& ply, const fs::path& objects) {
+  auto scene = small_room1();
+  ASSERT_TRUE(scene.ok()) << scene.message();
+  gauss::SceneStore store;
+  while (!scene->finished()) ASSERT_TRUE(scene->produce(store).ok());
+  ASSERT_TRUE(gauss::write_gaussian_ply(ply, appearance_cloud(store), {.write_object_id = true}).ok());
+  write_objects_json(store, objects);
 }
 
 TEST(GaussEval, ASceneFileHasNoGroundTruthAndKeepsEveryOtherCheck) {
@@ -215,28 +230,17 @@ TEST(GaussEval, ASceneFileHasNoGroundTruthAndKeepsEveryOtherCheck) {
 // their ids and object ids), snap_2.ply .. snap_4.ply, plus the object table.
 void write_snapshot_folder(const fs::path& folder) {
   fs::create_directories(folder);
-  gauss::SyntheticSceneConfig sc;
-  sc.variant = 1;
-  sc.target_gaussians = 8000;
-  sc.epochs = 4;
-  auto scene = gauss::SyntheticScene::create(sc);
+  auto scene = small_room1();
   ASSERT_TRUE(scene.ok()) << scene.message();
   gauss::SceneStore store;
   for (int e = 1; e <= 4; ++e) {
     ASSERT_TRUE(scene->produce(store).ok());
     if (e < 2) continue;
-    gauss::GaussianCloud cloud;
-    cloud.sh_degree = store.sh_degree();
-    for (const gauss::Gaussian& g : store.gaussians())
-      if (!g.carrier) cloud.gaussians.push_back(g);
-    ASSERT_TRUE(gauss::write_gaussian_ply(folder / ("snap_" + std::to_string(e) + ".ply"), cloud,
+    ASSERT_TRUE(gauss::write_gaussian_ply(folder / ("snap_" + std::to_string(e) + ".ply"), appearance_cloud(store),
                                           {.write_object_id = true, .write_gaussian_id = true})
                     .ok());
   }
-  nlohmann::json table = nlohmann::json::array();
-  for (const gauss::SemanticObject& o : store.objects())
-    table.push_back({{"id", gauss::to_underlying(o.id)}, {"label", o.label}});
-  std::ofstream(folder / "objects.json") << nlohmann::json{{"objects", table}}.dump();
+  write_objects_json(store, folder / "objects.json");
 }
 
 TEST(GaussEval, ASnapshotFolderIsEvaluatedAtItsLastSnapshotAndReplayedForTheEditLatencies) {

@@ -277,6 +277,11 @@ Expected<std::unique_ptr<SceneSource>> open_snapshot_folder(const fs::path& fold
       std::make_unique<SnapshotSource>(folder, false, options, std::move(objects).value(), std::move(log)));
 }
 
+bool is_snapshot_folder(const fs::path& path) {
+  std::error_code ec;
+  return fs::is_directory(path, ec) && !fs::is_regular_file(path / "meta.json", ec);
+}
+
 Expected<std::unique_ptr<SceneSource>> open_scene_file(const fs::path& ply, const SnapshotOptions& options,
                                                        SourceLog log) {
   if (auto s = check_rate(options.rate_hz); !s) return s.error();

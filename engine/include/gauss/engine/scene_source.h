@@ -82,6 +82,10 @@ struct SnapshotOptions {
   IdentityTrackerConfig identity;       // for snapshots without gaussian_id
 };
 
+// A folder of snapshots (to open with open_snapshot_folder), as opposed to a scene file or a
+// SOG folder (a folder holding meta.json, opened with open_scene_file).
+bool is_snapshot_folder(const std::filesystem::path& path);
+
 // (b) Lists the folder now (and again on each next_epoch). Fails when the folder does not
 // exist or the objects JSON is bad. An empty folder is not an error (nothing yet).
 // Meshes: <stem>_mesh.ply beside a flat snapshot, mesh.ply in an iteration folder, or

@@ -49,6 +49,22 @@ Expected<double> psnr(const ImageView& a, const ImageView& b, const Mask& mask =
 // flicker between consecutive frames of a settled view.
 Expected<double> mean_abs_difference(const ImageView& a, const ImageView& b, const Mask& mask = {});
 Expected<double> ssim(const ImageView& a, const ImageView& b, const Mask& mask = {});
+
+// Flicker of a settled view: each frame's mean_abs_difference from the one before.
+class FrameChange {
+ public:
+  // Errors: a frame of another size than the first (as mean_abs_difference).
+  Status add(const ImageView& frame);
+  double mean() const { return pairs_ ? sum_ / static_cast<double>(pairs_) : 0.0; }
+  double max() const { return max_; }
+  std::uint64_t pairs() const { return pairs_; }
+
+ private:
+  std::vector<std::uint8_t> prev_;
+  std::uint32_t width_{0}, height_{0};
+  double sum_{0.0}, max_{0.0};
+  std::uint64_t pairs_{0};
+};
 Expected<double> flip(const ImageView& reference, const ImageView& test, const Mask& mask = {});
 Expected<ImageScores> compare(const ImageView& reference, const ImageView& test, const Mask& mask = {});
 
