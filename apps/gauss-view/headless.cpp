@@ -8,6 +8,7 @@
 #include <fstream>
 #include <array>
 #include <map>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -179,6 +180,12 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
   Camera camera{};
   std::uint64_t frame = 0, rendered = 0;
   std::uint32_t views = opts.stereo_ipd > 0.0 ? 2 : 1;
+  // The path's clock starts with the stream: until the host has welcomed the client and its
+  // first epoch is published, frames look from the path's start and are not path frames
+  // (else a path flown while connecting would show nothing). A stream that does not start
+  // within the settle limit (no host there) is reported, and the path is flown anyway.
+  bool streaming = rt == nullptr;
+  std::uint64_t path_frame = 0, preroll_frames = 0;
   for (; frame < opts.max_frames; ++frame) {
     bool connected = false;  // welcomed by the host at this frame (a local scene: never)
     if (rt) {
@@ -191,10 +198,16 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
         return 1;
       }
     }
-    const double t = std::min(static_cast<double>(frame) / path->fps, path->duration());
+    if (!streaming && std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count() > settle_limit) {
+      status.done({});
+      std::fprintf(stderr, "gauss-view: no stream from %s after %.0f s; flying the path anyway\n",
+                   src.describe().c_str(), settle_limit);
+      streaming = true;
+    }
+    const double t = std::min(static_cast<double>(path_frame) / path->fps, path->duration());
     camera = path->camera_at(t, in);
     // Events due by this frame's time (each fires once).
-    while (frame < path_frames && next_event < path->events.size() && path->events[next_event].t <= t) {
+    while (streaming && path_frame < path_frames && next_event < path->events.size() && path->events[next_event].t <= t) {
       const client::PathEvent& e = path->events[next_event++];
       if (!rt) continue;  // a local scene has no stream to query
       switch (e.kind) {
@@ -234,6 +247,7 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
     cpu_ms.push_back(fs->cpu_ms);
     log.cpu(frame, json{{"frame", frame},
                         {"t", t},
+                        {"on_path", streaming},
                         {"wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count()},
                         {"connected", connected},
                         {"cpu_ms", fs->cpu_ms},
@@ -251,9 +265,19 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
                         {"allowance", fs->publish.allowance},
                         {"chunks_changed", fs->uploaded.chunks_changed}});
     for (const auto& g : src.take_gpu_stats()) log.gpu(g);
-    if (opts.every > 0 && frame < path_frames && frame % opts.every == 0) {
+    if (!streaming) {
+      ++preroll_frames;
+      streaming = connected && fs->published_epoch.has_value();
+      char wait[160];
+      std::snprintf(wait, sizeof wait, "gauss-view: waiting for the stream from %s (%s)", src.describe().c_str(),
+                    connected ? "connected" : "connecting");
+      status.update(wait);
+      if (!streaming) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // leave the cores to the host
+      continue;
+    }
+    if (opts.every > 0 && path_frame < path_frames && path_frame % opts.every == 0) {
       char name[32];
-      std::snprintf(name, sizeof name, "frame_%06llu", static_cast<unsigned long long>(frame));
+      std::snprintf(name, sizeof name, "frame_%06llu", static_cast<unsigned long long>(path_frame));
       if (auto st = write_views(src, opts.out / "frames" / name, views); !st) {
         std::fprintf(stderr, "gauss-view: %s\n", st.message().c_str());
         return 1;
@@ -263,7 +287,7 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
     std::snprintf(line, sizeof line, "gauss-view: frame %llu t %.2f s  resident %u  pending %u  cpu %.1f ms",
                   static_cast<unsigned long long>(frame), t, fs->resident, fs->pending, fs->cpu_ms);
     status.update(line);
-    if (frame + 1 >= path_frames) {
+    if (++path_frame >= path_frames) {
       if (!settle_start) settle_start = std::chrono::steady_clock::now();
       if (src.settled(opts.quiet_s)) {
         settled = true;
@@ -293,6 +317,7 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
   json summary{{"source", src.describe()},
                {"frames", rendered},
                {"path_frames", path_frames},
+               {"preroll_frames", preroll_frames},
                {"settled", settled},
                {"wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count()},
                {"cpu_ms", {{"p50", percentile(cpu_ms, 0.5)}, {"p95", percentile(cpu_ms, 0.95)}, {"p99", percentile(cpu_ms, 0.99)}}},

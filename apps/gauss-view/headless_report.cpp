@@ -65,7 +65,8 @@ Status write_report(const fs::path& out, const nlohmann::json& s) {
   };
   md << "# gauss-view headless run\n\n";
   md << "- source: " << s.value("source", "") << "\n";
-  md << "- frames: " << s.value("frames", 0) << " (" << s.value("path_frames", 0) << " on the path), "
+  md << "- frames: " << s.value("frames", 0) << " (" << s.value("path_frames", 0) << " on the path, "
+     << s.value("preroll_frames", 0) << " while the stream started), "
      << (s.value("settled", false) ? "settled" : "NOT settled") << " after " << num(s["wall_s"], 1) << " s\n";
   md << "- resident Gaussians: " << s.value("resident", 0);
   if (s.contains("capacity")) md << " of M = " << s["capacity"].get<std::uint64_t>();
@@ -96,6 +97,7 @@ Status write_report(const fs::path& out, const nlohmann::json& s) {
       for (const auto& [id, stages] : s["query_latency_s"].items()) {
         md << "- query " << id << ":";
         for (const auto& [stage, t] : stages.items()) md << " " << stage << " " << num(t, 2) << " s;";
+        if (stages.empty()) md << " no stage recorded under this id (a query re-sent after a reconnect takes a new id)";
         md << "\n";
       }
   }
