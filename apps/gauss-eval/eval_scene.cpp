@@ -91,6 +91,7 @@ std::pair<glm::dvec3, glm::dvec3> horizon_basis(const glm::dvec3& up) {
 }  // namespace
 
 Expected<EvalScene> make_file_scene(const Options& o) {
+  if (is_rgbd_capture(o.scene_file)) return make_capture_scene(o);
   auto up = parse_up(o.up);
   if (!up) return up.error();
   EvalScene s;
@@ -108,14 +109,15 @@ Expected<EvalScene> make_file_scene(const Options& o) {
   for (bool more = true; more;) {
     auto committed = (*source)->next_epoch(*s.store);
     if (!committed) return Error{s.source + ": " + committed.message()};
-    if (*committed && folder) ++s.snapshots;
+    if (*committed && folder && ++s.snapshots == 1)  // as gauss-host fits a followed folder's codec
+      s.codec = fit_live_codec_params(s.store->gaussians(), s.store->sh_degree());
     more = *committed && folder;
   }
   if (s.store->size() == 0) {
     std::string why = log.empty() ? "no Gaussians" : log.back();
     return Error{s.source + ": nothing to evaluate: " + why};
   }
-  s.codec = fit_codec_params(s.store->gaussians(), s.store->sh_degree());
+  if (!folder) s.codec = fit_codec_params(s.store->gaussians(), s.store->sh_degree());
   s.appearance = s.store->size() - s.store->carrier_count();
   std::tie(s.region_min, s.region_max) = apps::central_box(appearance_gaussians(*s.store));
   const glm::dvec3 centre = 0.5 * (s.region_min + s.region_max);
@@ -139,6 +141,13 @@ Expected<EpochFeed> EpochFeed::open(const EvalScene& scene, const Options& o) {
     f.total_ = o.epochs;
     return f;
   }
+  if (scene.capture) {
+    auto source = open_rgbd_capture(o.scene_file, capture_options(o), [](const std::string&) {});
+    if (!source) return source.error();
+    f.folder_ = std::move(*source);
+    f.total_ = scene.snapshots;
+    return f;
+  }
   if (scene.snapshots > 0) {
     auto source = open_snapshot_folder(o.scene_file, snapshot_options(o), [](const std::string&) {});
     if (!source) return source.error();
@@ -156,7 +165,7 @@ Status EpochFeed::produce(SceneStore& store) {
   } else {
     auto committed = folder_->next_epoch(store);
     if (!committed) return committed.error();
-    if (!*committed) return Error{"snapshot " + std::to_string(produced_ + 1) + " of " + std::to_string(total_) +
+    if (!*committed) return Error{"epoch " + std::to_string(produced_ + 1) + " of " + std::to_string(total_) +
                                   " is gone from the folder"};
   }
   ++produced_;
@@ -181,11 +190,6 @@ Camera swayed(const Camera& a, double t) {
   Camera out = a;
   out.world_to_camera = glm::inverse(c2w);
   return out;
-}
-
-std::optional<GroundTruthImage> ground_truth(const EvalScene& scene, const Camera& camera) {
-  if (!scene.synthetic) return std::nullopt;
-  return scene.synthetic->render_ground_truth(camera);
 }
 
 glm::dvec3 eye_of(const Camera& c) { return glm::dvec3(glm::inverse(c.world_to_camera)[3]); }

@@ -6,7 +6,10 @@
 //   - a scene file (any splat format the host reads, with optional labels / objects JSON),
 //     one epoch, without ground truth: its cameras orbit the scene's central box;
 //   - a snapshot folder (as gauss-host follows one): every snapshot committed in order, the
-//     evaluation looks at the last, and the model-edit latencies replay them as epochs.
+//     evaluation looks at the last, and the model-edit latencies replay them as epochs;
+//   - an RGB-D capture (as gauss-host serves one: Gaussians seeded from its frames, one epoch
+//     per frame): its cameras are the capture's own, and its frames, downsampled to the
+//     evaluation size, are the ground truth at exactly those cameras (no other view has any).
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -19,6 +22,7 @@
 #include "gauss/engine/codec.h"
 #include "gauss/engine/query.h"
 #include "gauss/engine/result.h"
+#include "gauss/engine/rgbd_scene.h"
 #include "gauss/engine/scene_source.h"
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/synthetic_scene.h"
@@ -30,7 +34,8 @@ struct EvalScene {
   std::string name;  // "room<variant>", or the scene file's name
   int variant{-1};   // the synthetic room, or -1 for a scene file
   std::string source;  // the scene file or snapshot folder as given (empty for a room)
-  int snapshots{0};    // a snapshot folder's snapshots (epochs committed); 0 otherwise
+  int snapshots{0};    // epochs a snapshot folder or RGB-D capture committed; 0 otherwise
+  bool capture{false};  // an RGB-D capture
   std::unique_ptr<SyntheticScene> synthetic;  // null for a scene file: no ground truth
   // Where viewpoints may go: the room's interior, or for a scene file the box of its
   // central 96 % (per axis), whose centre the orbit cameras look at.
@@ -40,7 +45,15 @@ struct EvalScene {
   CodecParams codec;
   std::size_t appearance{0};          // Gaussians that can be resident (carriers excluded)
   std::vector<Camera> cameras;        // the fidelity cameras (from the room's trajectory)
+  // An RGB-D capture's ground truth: the frame behind each of `cameras`, same order.
+  std::vector<GroundTruthImage> capture_truth;
+  std::vector<std::string> capture_frames;  // their frame names
 };
+
+// How gauss-host seeds and fuses an RGB-D capture for these options (--rgbd-stride,
+// --rgbd-cell, --surface fused at kCaptureSurfaceVoxel).
+inline constexpr double kCaptureSurfaceVoxel = 0.04;  // gauss-host's --surface-voxel default
+RgbdSceneOptions capture_options(const Options& options);
 
 // Produces room `variant` as the options say. Errors: the scene config (named field).
 Expected<EvalScene> make_scene(const Options& options, int variant);
@@ -50,14 +63,20 @@ Expected<EvalScene> make_scene(const Options& options, int variant);
 // half diagonal, so the box fills most of the view. Errors: the file, labels or objects
 // (named), an empty scene, a bad --up.
 // A snapshot folder: every snapshot committed in order (identity tracked as the host
-// does), the codec and cameras fitted to the last; errors name the folder or snapshot.
+// does), the codec fitted to the first as the host fits it (fit_live_codec_params), the
+// cameras to the last; errors name the folder or snapshot.
+// An RGB-D capture: every frame committed as the host does, the codec as for a folder; cameras: options.cameras of its
+// frames evenly spread (those that load), at the evaluation size, which must divide the
+// frames' size by one whole factor; up: against the cameras' mean image-down axis (--up is
+// ignored). Errors: the capture, a size it does not divide, a frame without colour.
 Expected<EvalScene> make_file_scene(const Options& options);
+Expected<EvalScene> make_capture_scene(const Options& options);  // the capture case of make_file_scene
 
-// The epochs of a scene one at a time, as a host receives them: a room's trajectory, or a
-// snapshot folder's snapshots. For the model-edit latencies.
+// The epochs of a scene one at a time, as a host receives them: a room's trajectory, a
+// snapshot folder's snapshots or a capture's frames. For the model-edit latencies.
 class EpochFeed {
  public:
-  // Errors: a room that is not synthetic nor a snapshot folder, or the source (named).
+  // Errors: a scene of one epoch (a scene file), or the source (named).
   static Expected<EpochFeed> open(const EvalScene& scene, const Options& options);
   Status produce(SceneStore& store);  // commits the next epoch
   bool finished() const;
@@ -79,7 +98,8 @@ Camera swayed(const Camera& a, double t);
 Camera look_camera(const glm::dvec3& eye, const glm::dvec3& target, std::uint32_t width, std::uint32_t height,
                    const glm::dvec3& up = glm::dvec3(0.0, 1.0, 0.0));
 
-// The ground truth at `camera`: the room's ray cast, or none for a scene file.
+// The ground truth at `camera`: the room's ray cast; a capture's frame when `camera` is one of
+// its cameras exactly; else none (a scene file, a capture's other views).
 std::optional<GroundTruthImage> ground_truth(const EvalScene& scene, const Camera& camera);
 
 // A camera's eye and viewing direction in world space.

@@ -18,6 +18,7 @@
 
 #include "eval_scene.h"
 #include "eval_session.h"
+#include "gauss/engine/rgbd_scene.h"
 #include "gauss/render/vk_context.h"
 #include "gauss_cli.h"
 #include "measure.h"
@@ -35,6 +36,14 @@ namespace fs = std::filesystem;
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
+
+// What an RGB-D capture's ground truth is (for the definitions of a run that has one).
+const char* const kCaptureTruth =
+    "an RGB-D capture's own colour frames at its cameras (their poses and intrinsics), box-filtered to the "
+    "evaluation size; pixels whose block lacks depth anywhere are not counted. The capture's Gaussians are seeded "
+    "from these same frames (a Gaussian per pixel block, no optimisation), so GT-PC says how well that seeding "
+    "reproduces its own input, the ceiling for this scene, not a novel-view score; other views (teleport, object "
+    "views, other sizes) have no ground truth";
 
 Json definitions(const Options& o) {
   Json d{
@@ -78,7 +87,9 @@ Json definitions(const Options& o) {
                 "links of " + shortest(o.latency_ms) + " ms latency and " + shortest(o.bandwidth_mbps) +
                 " Mbit/s carrying the real encoded messages; progressive publication with a fixed allowance of " +
                 std::to_string(o.allowance) + " slot edits per frame"}};
-  if (!o.scene_file.empty())
+  const bool capture = !o.scene_file.empty() && is_rgbd_capture(o.scene_file);
+  if (capture) d["capture ground truth"] = kCaptureTruth;
+  if (!o.scene_file.empty() && !capture)
     d["scene file views"] = "cameras on a circle around the centre of the scene's central box (2 %..98 % of the "
                             "positions per axis), 20 deg above its horizon (--up), 1.8 half-diagonals away; object "
                             "views: near = 1.5 target sizes from the target towards camera 0, far = camera 0 moved "
@@ -159,7 +170,8 @@ Status run_scene(vk::Context& ctx, const Options& o, int variant, const PanelWri
   if (variant >= 0) scene_json["variant"] = variant;
   else scene_json["source"] = scene->source;
   if (scene->snapshots > 0) scene_json["snapshots"] = scene->snapshots;
-  scene_json["ground_truth"] = scene->synthetic != nullptr;
+  scene_json["ground_truth"] = scene->synthetic != nullptr || scene->capture;
+  if (scene->capture) scene_json["capture_frames"] = scene->capture_frames;
   scene_json["gaussians"] = scene->store->size();
   scene_json["appearance_gaussians"] = scene->appearance;
   scene_json["objects"] = scene->store->objects().size();
@@ -251,6 +263,7 @@ Json realtime_checks_of(const Json& report) {
     for (const Json& q : rt["semantic"]) {
       if (q.contains("error")) continue;
       shares = shares && q["share_matches"].get<bool>();
+      settle(q["settle_without_query"]);
       settle(q["settle"]);
       sent(q["hs_vs_sent"]);
     }
@@ -264,7 +277,7 @@ Json realtime_checks_of(const Json& report) {
 }
 
 Json realtime_definitions(const Options& o) {
-  return Json{
+  Json d{
       {"realtime", "every figure is a wall-clock measurement of real processes on this machine: gauss-host (a child "
                    "process) and the real client (ClientRuntime with its NetClient) over loopback ENet, the client's "
                    "adaptive publication allowance, frames paced at " + shortest(o.display_hz) + " Hz; they do not "
@@ -291,12 +304,19 @@ Json realtime_definitions(const Options& o) {
       {"frame times", "CPU: the display thread per frame; GPU: the frame's passes (lavapipe)"},
       {"semantic", "per query one connection at M = " +
                        (o.semantic_budget ? std::to_string(o.semantic_budget) : std::string("|G_obj|")) +
-                       " settled at the query's near view, the query sent as it connects (the host's rho): the "
-                       "target's resident Gaussians against min(|G_obj|, floor(rho M)); GT-HS and PC-HS over the "
-                       "target's pixels"},
-      {"not measured", "the semantic table's baseline without the query and its far view, query and model-edit "
-                       "latencies, flicker, stereo timing and the budget ablation (deterministic runs: gauss-eval "
-                       "without --realtime)"}};
+                       " settled at the query's near view without the query and captured, then the query sent "
+                       "(the host's rho) and settled again: the target's resident Gaussians against "
+                       "min(|G_obj|, floor(rho M)); GT-HS and PC-HS over the target's pixels, without and with"},
+      {"query latency", "wall seconds on the client's clock from sending the query to: the host's resolution "
+                        "arriving (targets known); the first frame rendered knowing them (\"highlight\"; no tint "
+                        "drawn); the first frame with more target Gaussians resident than when the query took "
+                        "effect; every desired target Gaussian published. The host's own resolution time is on "
+                        "another process's clock and is not compared"},
+      {"not measured", "the semantic table's far view, model-edit latencies (the host's commit and the client's "
+                       "frame are on two processes' clocks), stereo timing and the budget ablation (deterministic "
+                       "runs: gauss-eval without --realtime)"}};
+  if (!o.scene_file.empty() && is_rgbd_capture(o.scene_file)) d["capture ground truth"] = kCaptureTruth;
+  return d;
 }
 
 // Runs the plot script on report.json (its "ablation" list). Returns what it wrote, or why

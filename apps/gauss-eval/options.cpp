@@ -1,5 +1,7 @@
 #include "options.h"
 
+#include "gauss/engine/rgbd_scene.h"
+
 #include <charconv>
 #include <cstdio>
 #include <sstream>
@@ -16,8 +18,8 @@ std::string realtime_conflict(const Options& o) {
   if (!o.timing)
     return "--realtime contradicts --no-timing: every realtime figure is a wall-clock measurement, and "
            "--no-timing leaves those out";
-  if (o.surface != "none")
-    return "--realtime --surface " + o.surface + ": gauss-host streams no analytic surface; use --surface none";
+  if (o.surface == "analytic")
+    return "--realtime --surface analytic: gauss-host streams no analytic surface; use --surface none";
   if (!o.ablation_budgets.empty() || o.stereo_budget)
     return "--realtime: --ablation and --stereo-budget are runs of the deterministic evaluation; leave them out";
   return {};
@@ -65,6 +67,10 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
   app.add_option("--up", o.up, "the up axis of --scene")
       ->check(CLI::IsMember({"+x", "-x", "+y", "-y", "+z", "-z"}))
       ->needs(scene);
+  app.add_option("--rgbd-stride", o.rgbd_stride,
+                 "--scene is an RGB-D capture: one Gaussian per STRIDE x STRIDE pixel block (as gauss-host)")
+      ->check(apps::in_range(1u, 64u))
+      ->needs(scene);
   app.add_option("--gaussians", o.gaussians, "appearance Gaussians of each fully observed room")
       ->check(apps::in_range<std::size_t>(1000, 1000000));
   app.add_option("--epochs", o.epochs, "scene epochs produced before the evaluation")->check(apps::in_range(1, 64));
@@ -95,8 +101,10 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
   app.add_option("--quiet", o.quiet_s, "virtual seconds in sync before a view counts as converged")
       ->check(apps::in_range(0.05, 60.0));
   app.add_option("--surface", o.surface,
-                 "surface the host streams: none (splats alone) or analytic (the room's exact mesh as one chunk)")
-      ->check(CLI::IsMember({"none", "analytic"}));
+                 "surface the host streams: none (splats alone), analytic (a room's exact mesh as one chunk; "
+                 "rooms only) or fused (an RGB-D capture's depth fused into a TSDF at 4 cm, as gauss-host does; "
+                 "a capture only)")
+      ->check(CLI::IsMember({"none", "analytic", "fused"}));
   app.add_flag_callback("--no-semantic", [&o] { o.semantic = false; }, "skip the semantic reallocation table");
   app.add_flag_callback("--no-temporal", [&o] { o.temporal = false; }, "skip the teleport convergence and flicker runs");
   app.add_option("--flicker-window", o.flicker_window_s, "virtual seconds of head sway after convergence (flicker)")
@@ -142,6 +150,13 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
   o.height = wh->second;
   o.progressive = mode == "progressive";
   if (!o.scene_file.empty() && rooms->count() == 0) o.variants.clear();
+  // Each surface kind belongs to one kind of scene: a run that could not stream it is refused.
+  const bool capture = !o.scene_file.empty() && is_rgbd_capture(o.scene_file);
+  if ((o.surface == "fused" && !capture) || (o.surface == "analytic" && o.variants.empty())) {
+    std::fprintf(stderr, "--surface %s: %s\nRun with --help for more information.\n", o.surface.c_str(),
+                 o.surface == "fused" ? "needs --scene to be an RGB-D capture" : "needs a synthetic room (--scenes)");
+    return apps::kUsageError;
+  }
   for (const std::string& sz : sizes) o.ablation_sizes.push_back(*apps::parse_size(sz));
   if (o.ablation_sizes.empty()) o.ablation_sizes.emplace_back(o.width, o.height);
   if (o.out.empty()) o.out = std::filesystem::path("docs/results") / o.name;
@@ -165,6 +180,7 @@ std::string canonical_command(const Options& o) {
   if (!o.variants.empty()) c << " --scenes " << join(o.variants);
   if (!o.scene_file.empty()) {
     c << " --scene '" << o.scene_file.string() << "' --up " << o.up;
+    if (is_rgbd_capture(o.scene_file)) c << " --rgbd-stride " << o.rgbd_stride;
     if (!o.labels.empty()) c << " --labels '" << o.labels.string() << "'";
     if (!o.objects.empty()) c << " --objects '" << o.objects.string() << "'";
   }
@@ -174,7 +190,7 @@ std::string canonical_command(const Options& o) {
       << o.budget << " --size " << o.width << "x" << o.height << " --cameras " << o.cameras << " --rho "
       << shortest(o.rho) << " --mode " << (o.progressive ? "progressive" : "immediate") << " --display-hz "
       << shortest(o.display_hz) << " --settle-timeout " << shortest(o.settle_timeout_s) << " --quiet "
-      << shortest(o.quiet_s) << " --name " << o.name;
+      << shortest(o.quiet_s) << " --surface " << o.surface << " --name " << o.name;
     if (!o.host_exe.empty()) c << " --host-exe '" << o.host_exe.string() << "'";
     if (!o.images) c << " --no-images";
     return c.str();

@@ -18,6 +18,7 @@ struct Options {
   std::filesystem::path labels;           // per-Gaussian labels of --scene (labels file)
   std::filesystem::path objects;          // objects JSON of --scene (names the labels)
   std::string up{"+y"};                   // --scene's up axis (+x -x +y -y +z -z): its orbit cameras
+  std::uint32_t rgbd_stride{4};           // an RGB-D capture: a Gaussian per stride x stride pixels (as gauss-host)
   std::size_t gaussians{20000};           // appearance Gaussians of each fully observed room
   int epochs{12};                         // epochs produced before the evaluation (the room then stays)
   std::uint64_t seed{1};                  // the synthetic scenes' seed
@@ -38,7 +39,7 @@ struct Options {
   double bandwidth_mbps{100.0};           // link bandwidth (both directions)
   double settle_timeout_s{20.0};          // virtual seconds a view may take to converge
   double quiet_s{0.5};                    // virtual seconds in sync before a view counts as converged
-  std::string surface{"none"};            // none | analytic: the surface chunk the host streams
+  std::string surface{"none"};            // none | analytic (a room) | fused (a capture): the host's surface
   bool semantic{true};                    // the semantic reallocation table
   bool temporal{true};                    // teleport far and return, per publication mode
   double flicker_window_s{2.0};           // virtual seconds of head sway after convergence

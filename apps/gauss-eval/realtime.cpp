@@ -76,6 +76,9 @@ std::vector<std::string> host_args(const Options& o, const EvalScene& scene, con
     return a;
   }
   a.insert(a.end(), {"--scene", o.scene_file.string()});
+  if (scene.capture)  // every frame at once, seeded and fused as this evaluation's copy
+    a.insert(a.end(), {"--epoch-period", "0", "--rgbd-stride", std::to_string(o.rgbd_stride), "--surface-voxel",
+                       o.surface == "fused" ? shortest(kCaptureSurfaceVoxel) : std::string("0")});
   if (!o.labels.empty()) a.insert(a.end(), {"--labels", o.labels.string()});
   if (!o.objects.empty()) a.insert(a.end(), {"--objects", o.objects.string()});
   return a;
@@ -98,7 +101,7 @@ Expected<std::unique_ptr<HostProcess>> start_host(Room& room, const fs::path& di
   if (*final_epoch != ours)
     return Error{"gauss-host's scene ended at epoch " + std::to_string(*final_epoch) + ", this evaluation's copy at " +
                  std::to_string(ours) + ": not the same scene (see " + (*host)->log().string() + ")"};
-  if (!scene.synthetic && (*host)->first_epoch_gaussians() != scene.store->size())
+  if (!scene.synthetic && !scene.capture && (*host)->first_epoch_gaussians() != scene.store->size())
     return Error{"gauss-host serves " + std::to_string((*host)->first_epoch_gaussians()) + " Gaussians of " +
                  scene.source + ", this evaluation reads " + std::to_string(scene.store->size())};
   host_json = Json{{"executable", exe.string()},
@@ -178,7 +181,8 @@ Expected<SentComparison> compare_with_dump(Room& room, const fs::path& ply, std:
 }
 
 // One connection: its client's name (the host's dump file is named after it), publication
-// mode, budget M and an optional query sent as it connects.
+// mode, budget M and an optional query, sent once the connection settled at its views (the
+// last view is then captured without it and settled again with it).
 struct ConnectionSpec {
   std::string name;
   PublishMode mode{PublishMode::Progressive};
@@ -193,6 +197,8 @@ struct Connection {
   std::vector<RealtimeSettle> legs;
   std::vector<std::vector<double>> leg_gpu_ms;  // GPU ms per frame finished during each leg
   std::optional<RealtimeFlicker> flicker;
+  std::optional<RealtimeCapture> before_query;  // the last view settled without the query
+  std::optional<RealtimeQueryStages> query_stages;
   RealtimeCapture capture;
   SentComparison sent;
 };
@@ -216,17 +222,26 @@ Expected<Connection> run_connection(Room& room, HostProcess& host, const Connect
                                                        .width = last.width,
                                                        .height = last.height});
   if (!client) return client.error();
-  if (spec.query) {
-    (*client)->send_query(*spec.query);
-    if (auto st = (*client)->wait_for_query(views.front(), o.settle_timeout_s); !st) return st.error();
-  }
   Connection c;
-  for (const Camera& view : views) {
+  const auto settle_leg = [&](const Camera& view) -> Status {
     auto s = (*client)->settle(view, o.settle_timeout_s, o.quiet_s);
     if (!s) return s.error();
     room.timing.frame_cpu_ms.insert(room.timing.frame_cpu_ms.end(), s->frame_cpu_ms.begin(), s->frame_cpu_ms.end());
     c.legs.push_back(std::move(*s));
     c.leg_gpu_ms.push_back(gpu_totals(room, (*client)->take_gpu_stats()));
+    return Ok{};
+  };
+  for (const Camera& view : views)
+    if (auto st = settle_leg(view); !st) return st.error();
+  if (spec.query) {
+    // Settled without it first, so its stages start from a still client, as a user's would.
+    auto before = (*client)->capture();
+    if (!before) return before.error();
+    c.before_query = std::move(*before);
+    const auto [id, sent_at] = (*client)->send_query(*spec.query);
+    if (auto st = (*client)->wait_for_query(last, o.settle_timeout_s); !st) return st.error();
+    if (auto st = settle_leg(last); !st) return st.error();
+    c.query_stages = (*client)->query_stages(id, sent_at);
   }
   if (spec.flicker_s > 0.0) {
     auto f = (*client)->flicker(last, spec.flicker_s);
@@ -358,10 +373,21 @@ Expected<Json> realtime_teleport(Room& room, HostProcess& host) {
   return out;
 }
 
+// A query's client-side stage latencies as JSON (null: a stage not reached).
+Json stages_json(const RealtimeQueryStages& q) {
+  const auto opt = [](const auto& v) { return v ? Json(*v) : Json(nullptr); };
+  return Json{{"targets_s", opt(q.targets_s)},
+              {"highlight_s", opt(q.highlight_s)},
+              {"first_additional_s", opt(q.first_additional_s)},
+              {"converged_s", opt(q.converged_s)},
+              {"initial_residency", opt(q.initial_residency)}};
+}
+
 // One query of the semantic table on its own connection at its own M (--semantic-budget,
-// else |G_obj|), settled at the query's near view with the query sent as it connected: the
-// target's residency must be exactly min(|G_obj|, floor(rho M)) (the host's --rho), as in
-// the deterministic table; GT-HS and PC-HS over the target's pixels; HS against the dump.
+// else |G_obj|), settled at the query's near view without the query, captured, then the
+// query sent and settled again: the target's residency must be exactly min(|G_obj|,
+// floor(rho M)) (the host's --rho), as in the deterministic table; GT-HS and PC-HS over the
+// target's pixels without and with it; the stages on the client's clock; HS against the dump.
 Expected<Json> realtime_query(Room& room, HostProcess& host, const QuerySpec& q) {
   const EvalScene& scene = room.scene;
   const Options& o = room.options;
@@ -380,9 +406,12 @@ Expected<Json> realtime_query(Room& room, HostProcess& host, const QuerySpec& q)
                            .query = q.wire},
                           std::span<const Camera>(&near, 1));
   if (!c) return c.error();
-  const auto on_object = static_cast<std::uint64_t>(
-      std::count_if(c->capture.slot_objects.begin(), c->capture.slot_objects.end(),
-                    [&](ObjectId id) { return std::binary_search(targets.begin(), targets.end(), id); }));
+  const auto on_target = [&](const RealtimeCapture& cap) {
+    return static_cast<std::uint64_t>(
+        std::count_if(cap.slot_objects.begin(), cap.slot_objects.end(),
+                      [&](ObjectId id) { return std::binary_search(targets.begin(), targets.end(), id); }));
+  };
+  const std::uint64_t on_object = on_target(c->capture);
   // The target's pixels: the ground truth's object ids, else what the targets alone cover.
   const std::optional<GroundTruthImage> gt = ground_truth(scene, near);
   eval::Mask mask;
@@ -412,10 +441,16 @@ Expected<Json> realtime_query(Room& room, HostProcess& host, const QuerySpec& q)
               {"share_matches", on_object == expected},
               {"client_reported_object_gaussians", c->capture.query_target_gaussians},
               {"pose", camera_json(near)},
-              {"settle", settle_json(c->legs.front(), c->leg_gpu_ms.front())},
+              {"settle_without_query", settle_json(c->legs.front(), c->leg_gpu_ms.front())},
+              {"settle", settle_json(c->legs.back(), c->leg_gpu_ms.back())},
               {"object_pixels", count(mask)},
+              {"without_query",
+               Json{{"resident_on_object", on_target(*c->before_query)},
+                    {"gt_hs_object", gt ? scores(gt->colour, c->before_query->hs, mask) : Json(nullptr)},
+                    {"pc_hs_object", scores(pc->image, c->before_query->hs, mask)}}},
               {"gt_hs_object", gt ? scores(gt->colour, c->capture.hs, mask) : Json(nullptr)},
               {"pc_hs_object", scores(pc->image, c->capture.hs, mask)},
+              {"latency", stages_json(*c->query_stages)},
               {"hs_vs_sent", sent_json(*c, near)}};
 }
 

@@ -121,6 +121,33 @@ Expected<RealtimeFlicker> RealtimeClient::flicker(const Camera& a, double window
   return r;
 }
 
+std::pair<std::uint32_t, double> RealtimeClient::send_query(const msg::Query& query) {
+  const double at = runtime_->now();
+  return {runtime_->send_query(query), at};
+}
+
+RealtimeQueryStages RealtimeClient::query_stages(std::uint32_t id, double sent_at) {
+  const EventLog log = runtime_->with_state([](const ClientState& s) { return s.events(); });
+  RealtimeQueryStages r;
+  for (const StageEvent& ev : log.events()) {
+    if (!ev.is_query || ev.query != id) continue;
+    const auto first = [&](std::optional<double>& slot) {
+      if (!slot) slot = ev.t - sent_at;
+    };
+    switch (static_cast<QueryStage>(ev.stage)) {
+      case QueryStage::Target: first(r.targets_s); break;
+      case QueryStage::Highlight: first(r.highlight_s); break;
+      case QueryStage::FirstAdditional: first(r.first_additional_s); break;
+      case QueryStage::Converged: first(r.converged_s); break;
+      case QueryStage::InitialResidency:
+        if (!r.initial_residency) r.initial_residency = ev.count;
+        break;
+      default: break;
+    }
+  }
+  return r;
+}
+
 Expected<RealtimeCapture> RealtimeClient::capture() {
   RealtimeCapture c;
   if (auto st = runtime_->wait_frames(); !st) return st.error();

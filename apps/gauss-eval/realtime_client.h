@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <utility>
@@ -58,6 +59,15 @@ struct RealtimeFlicker {
   std::vector<double> frame_cpu_ms;
 };
 
+// A query's stages as the client logged them, wall seconds after it was sent (nullopt: the
+// stage was not reached): the host's resolution arrived (targets known), the first frame
+// rendered knowing them (the highlight; not tinted here), the first frame with more target
+// Gaussians resident than when the query took effect, every desired target Gaussian published.
+struct RealtimeQueryStages {
+  std::optional<double> targets_s, highlight_s, first_additional_s, converged_s;
+  std::optional<std::uint64_t> initial_residency;  // target Gaussians resident when it took effect
+};
+
 // The client's state once settled: its frame and the set it published, in slot order.
 struct RealtimeCapture {
   ImageRGBA8 hs;
@@ -82,8 +92,10 @@ class RealtimeClient {
   // Paced stereo frames for `window_s` wall seconds: view 0 sways around `a`, view 1 is `a`,
   // read back every frame (so these frames wait for the GPU). Errors: a frame, a readback.
   Expected<RealtimeFlicker> flicker(const Camera& a, double window_s);
-  // Sends a query (queued until the client is welcomed).
-  void send_query(const msg::Query& query) { runtime_->send_query(query); }
+  // Sends a query (queued until the client is welcomed): its id and the client clock then.
+  std::pair<std::uint32_t, double> send_query(const msg::Query& query);
+  // Query `id`'s stages from the client's event log, relative to `sent_at` (its clock).
+  RealtimeQueryStages query_stages(std::uint32_t id, double sent_at);
   // Frames at `view` until the host's resolution of the query reached the client, so a
   // settle afterwards cannot converge before the host saw the query. Errors: a frame, no
   // resolution within `timeout_s` wall seconds.

@@ -49,7 +49,11 @@ std::string fidelity_cells(const Json& c) {
 
 void fidelity_section(std::ostream& md, const Json& report, bool images) {
   md << "## Fidelity: GT → PC → HS\n\n"
-     << "GT: the analytic room ray-cast (exact colour and depth); a scene file has none (n/a). PC: the host's render of the full float "
+     << "GT: the analytic room ray-cast (exact colour and depth); a scene file has none (n/a)"
+     << (report["definitions"].contains("capture ground truth")
+             ? "; an RGB-D capture: its own frames at its cameras (see capture ground truth below)"
+             : "")
+     << ". PC: the host's render of the full float "
         "scene with the client's renderer. HS: the client's frame once it converged at the camera "
         "(at M = " << integer(report["config"]["budget"]) << ", quantised, published " 
      << report["config"]["mode"].get<std::string>() << "ly). *HS ≠ sent*: pixels where HS differs from the "
@@ -81,6 +85,9 @@ void fidelity_section(std::ostream& md, const Json& report, bool images) {
 }
 
 void semantic_section(std::ostream& md, const Json& report, bool images) {
+  bool any = false;  // --no-semantic, or scenes without objects: no table to show
+  for (const Json& s : report["scenes"]) any = any || (s.contains("semantic") && !s["semantic"].empty());
+  if (!any) return;
   md << "## Semantic reallocation of a fixed budget\n\n"
      << "A query reserves M_obj = min(|G_obj|, ⌊ρM⌋) of the M slots for the target's appearance Gaussians "
         "(carriers excluded) and gives the rest to the background; N_obj counts the client's resident "
@@ -418,24 +425,32 @@ void realtime_semantic_section(std::ostream& md, const Json& report) {
   for (const Json& s : report["scenes"]) any = any || !s["realtime"]["semantic"].empty();
   if (!any) return;
   md << "## Semantic reallocation (realtime)\n\n"
-     << "Per query one connection at its M, settled at the query's near view with the query sent as it "
-        "connected. N_obj: the client's resident Gaussians on the target; *expected* = min(|G_obj|, ⌊ρM⌋). "
-        "Object PSNR over the target's pixels.\n\n"
-     << "| scene | object (query) | M | ρ | \\|G_obj\\| | N_obj (share) | expected | object px | GT-HS PSNR | "
-        "PC-HS PSNR | conv. s (wall) | HS ≠ sent |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+     << "Per query one connection at its M, settled at the query's near view without the query, captured, then "
+        "the query sent and settled again. N_obj: the client's resident Gaussians on the target; *expected* = "
+        "min(|G_obj|, ⌊ρM⌋). Object PSNR over the target's pixels, without → with the query. Stages: wall "
+        "seconds on the client's clock from sending the query to its targets arriving / the first frame knowing "
+        "them / the first frame with more target content / the target converged.\n\n"
+     << "| scene | object (query) | M | ρ | \\|G_obj\\| | N_obj without → with (share) | expected | object px | "
+        "GT-HS PSNR | PC-HS PSNR | stages s (wall) | conv. s (wall) | HS ≠ sent |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Json& s : report["scenes"]) {
     for (const Json& q : s["realtime"]["semantic"]) {
       md << "| " << s["name"].get<std::string>() << " | " << q["query"].get<std::string>() << " ("
          << q["kind"].get<std::string>() << ") | ";
       if (q.contains("error")) {
-        md << q["error"].get<std::string>() << " | | | | | | | | | |\n";
+        md << q["error"].get<std::string>() << " | | | | | | | | | | |\n";
         continue;
       }
+      const Json& w = q["without_query"];
+      const Json& l = q["latency"];
       md << integer(q["budget"]) << " | " << cell(q["rho"], 2) << " | " << integer(q["object_gaussians"]) << " | "
-         << integer(q["resident_on_object"]) << " (" << percent(q["share"]) << ") | "
-         << integer(q["expected_resident"]) << (q["share_matches"].get<bool>() ? "" : " **MISMATCH**") << " | "
-         << integer(q["object_pixels"]) << " | " << metric(q["gt_hs_object"], "psnr_db", 2) << " | "
-         << metric(q["pc_hs_object"], "psnr_db", 2) << " | "
+         << integer(w["resident_on_object"]) << " → " << integer(q["resident_on_object"]) << " ("
+         << percent(q["share"]) << ") | " << integer(q["expected_resident"])
+         << (q["share_matches"].get<bool>() ? "" : " **MISMATCH**") << " | " << integer(q["object_pixels"]) << " | "
+         << metric(w["gt_hs_object"], "psnr_db", 2) << " → " << metric(q["gt_hs_object"], "psnr_db", 2) << " | "
+         << metric(w["pc_hs_object"], "psnr_db", 2) << " → " << metric(q["pc_hs_object"], "psnr_db", 2) << " | "
+         << cell(l["targets_s"], 3) << " / " << cell(l["highlight_s"], 3) << " / " << cell(l["first_additional_s"], 3)
+         << " / " << cell(l["converged_s"], 3) << " | "
          << (q["settle"]["converged"].get<bool>() ? cell(q["settle"]["converged_s"], 2)
                                                   : std::string("**not converged**"))
          << " | " << integer(q["hs_vs_sent"]["differing_pixels"]) << " |\n";

@@ -55,7 +55,9 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
       ->needs(token);
   app.add_option("--scene", scene,
                  "scene to stream: synthetic:VARIANT (0..3), a scene file (3DGS PLY, compressed PLY, .splat, "
-                 "SPZ, SOG) or a folder of snapshots followed live")
+                 "SPZ, SOG), a folder of snapshots followed live, or an RGB-D capture (3DMatch/SUN3D, TUM or "
+                 "Replica layout: its frames replayed as epochs, Gaussians seeded from their pixels, the surface "
+                 "fused from their depth)")
       ->check(CLI::Validator([](std::string& in) { return check_scene(in); }, ""))
       ->type_name("SOURCE");
   app.add_option("--labels", o.labels, "per-Gaussian object ids (one integer per line, 0 = none)")
@@ -67,6 +69,10 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
   app.add_option("--rgbd", o.rgbd, "fuse this RGB-D capture (3DMatch/SUN3D, TUM or Replica layout) into the surface")
       ->check(CLI::ExistingDirectory)
       ->type_name("DIR");
+  app.add_option("--rgbd-stride", o.rgbd_stride,
+                 "an RGB-D capture as the scene: one Gaussian per STRIDE x STRIDE pixel block with depth that "
+                 "the earlier frames' Gaussians do not already show")
+      ->check(apps::in_range(1u, 64u));
   app.add_option("--mesh", o.mesh, "a fixed surface mesh (PLY) instead of the meshes beside the snapshots")
       ->check(CLI::ExistingFile)
       ->type_name("FILE");
@@ -89,7 +95,8 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
   app.add_option("--max-clients", o.max_clients, "clients served at once")->check(apps::at_least<std::size_t>(1));
   app.add_option("--duration", o.duration_s, "seconds to run (0: until SIGINT/SIGTERM)")->check(apps::at_least(0.0));
   app.add_option("--surface-voxel", o.surface_voxel,
-                 "TSDF voxel size in metres for the fused surface (synthetic, --rgbd; 0: no synthetic surface)")
+                 "TSDF voxel size in metres for the fused surface (synthetic, --rgbd, a capture as the scene; 0: none "
+                 "for synthetic and a capture)")
       ->check(apps::at_least(0.0));
   app.add_option("--events", o.events_path, "write every session's stage events to FILE as JSON lines")
       ->type_name("FILE");

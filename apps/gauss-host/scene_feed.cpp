@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "gauss/engine/ply_mesh.h"
+#include "gauss/engine/rgbd_scene.h"
 #include "gauss/engine/rgbd_source.h"
 #include "gauss_cli.h"
 
@@ -15,15 +16,22 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// A followed folder's later snapshots may reach beyond the first one's bounds: the codec
-// box gets this share of the extent as margin on every side (positions beyond it clamp,
-// and the codec counts them).
-constexpr float kLiveBoxMargin = 0.25f;
-
 Expected<TsdfVolume> make_volume(double voxel_m) {
   TsdfConfig tc;
   tc.voxel_size = static_cast<float>(voxel_m);
   return TsdfVolume::create(tc);
+}
+
+// The capture's seeding and surface as the options say (gauss-eval builds the same).
+RgbdSceneOptions capture_options(const Options& o) {
+  RgbdSceneOptions r;
+  r.seed.stride = o.rgbd_stride;
+  if (o.surface_voxel > 0.0)
+    r.surface->voxel_size = static_cast<float>(o.surface_voxel);
+  else
+    r.surface.reset();
+  r.rate_hz = o.epoch_period_s > 0.0 ? 1.0 / o.epoch_period_s : 1e6;
+  return r;
 }
 
 }  // namespace
@@ -58,6 +66,8 @@ Expected<std::unique_ptr<SceneFeed>> SceneFeed::open(const Options& o, SceneStor
     return feed;
   }
 
+  const fs::path& path = *o.scene_path;
+  if (is_rgbd_capture(path)) return open_capture(o, store);
   if (o.rgbd && o.mesh) return Error{"--rgbd and --mesh both give the surface: choose one"};
   SnapshotOptions so;
   so.rate_hz = o.epoch_period_s > 0.0 ? 1.0 / o.epoch_period_s : 1e6;
@@ -71,7 +81,6 @@ Expected<std::unique_ptr<SceneFeed>> SceneFeed::open(const Options& o, SceneStor
     if (!m) return Error{"--mesh: " + m.message()};
   }
   SourceLog quiet_log = [](const std::string&) {};  // lines are printed by the host loop
-  const fs::path& path = *o.scene_path;
   feed->folder_ = is_snapshot_folder(path);
   auto source = feed->folder_ ? open_snapshot_folder(path, so, quiet_log) : open_scene_file(path, so, quiet_log);
   if (!source) return source.error();
@@ -93,15 +102,33 @@ Expected<std::unique_ptr<SceneFeed>> SceneFeed::open(const Options& o, SceneStor
     for (const std::string& line : feed->take_messages()) std::printf("gauss-host: %s\n", line.c_str());
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
-  feed->params_ = fit_codec_params(store.gaussians(), store.sh_degree());
-  if (feed->folder_) {
-    const glm::vec3 extent = feed->params_.box.max - feed->params_.box.min;
-    feed->params_.box.min -= kLiveBoxMargin * extent;
-    feed->params_.box.max += kLiveBoxMargin * extent;
-  }
+  // A followed folder's later snapshots may reach beyond the first one's bounds.
+  feed->params_ = feed->folder_ ? fit_live_codec_params(store.gaussians(), store.sh_degree())
+                                : fit_codec_params(store.gaussians(), store.sh_degree());
   if (o.rgbd)
     if (auto s = feed->fuse_rgbd(o, store); !s) return s.error();
   if (o.mesh) feed->surface_note_ = "surface " + o.mesh->string();
+  return feed;
+}
+
+// An RGB-D capture as the scene: its first frame that gives anything is committed now, the
+// rest one per epoch period. The codec is fitted live, to the first frame: later frames
+// look elsewhere in the room.
+Expected<std::unique_ptr<SceneFeed>> SceneFeed::open_capture(const Options& o, SceneStore& store) {
+  if (o.labels || o.objects || o.rgbd || o.mesh)
+    return Error{"--labels, --objects, --rgbd and --mesh do not apply to an RGB-D capture as the scene (" +
+                 o.scene_path->string() + "): it has no labels and fuses its own surface"};
+  std::unique_ptr<SceneFeed> feed(new SceneFeed());
+  feed->period_s_ = o.epoch_period_s;
+  feed->folder_ = true;  // followed until its frames run out, then exhausted
+  feed->capture_ = true;
+  auto source = open_rgbd_capture(*o.scene_path, capture_options(o), [](const std::string&) {});
+  if (!source) return source.error();
+  feed->source_ = std::move(*source);
+  auto first = feed->source_->next_epoch(store);
+  if (!first) return first.error();
+  if (!*first) return Error{"RGB-D capture " + o.scene_path->string() + " gave no epoch"};
+  feed->params_ = fit_live_codec_params(store.gaussians(), store.sh_degree());
   return feed;
 }
 
@@ -169,7 +196,8 @@ Expected<bool> SceneFeed::step(SceneStore& store, double now) {
   }
   auto r = source_->next_epoch(store);
   if (!r) return r.error();
-  if (!*r && !folder_) exhausted_ = true;  // a file is one epoch; a folder may grow
+  // A file is one epoch and a capture's frames are all listed at the start; a folder may grow.
+  if (!*r && (!folder_ || capture_)) exhausted_ = true;
   return *r;
 }
 

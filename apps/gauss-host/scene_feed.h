@@ -5,7 +5,9 @@
 //   - a scene file (any splat format, one epoch) or a snapshot folder (each new snapshot
 //     an epoch, followed live while a trainer writes it), through engine SceneSources,
 //     with an optional fixed surface (--mesh) or one fused once from an RGB-D capture
-//     (--rgbd).
+//     (--rgbd);
+//   - an RGB-D capture: its frames replayed as epochs, each adding Gaussians seeded from its
+//     pixels and fusing its depth into the surface (engine rgbd_scene.h).
 // open() commits the first epoch (a folder without a snapshot yet is waited for), so the
 // codec can be fitted to real content before any client is served.
 #include <atomic>
@@ -41,6 +43,7 @@ class SceneFeed {
 
  private:
   SceneFeed() = default;
+  static Expected<std::unique_ptr<SceneFeed>> open_capture(const Options& options, SceneStore& store);
   Status fuse_rgbd(const Options& options, SceneStore& store);
   Status synthetic_surface(SceneStore& store);
 
@@ -48,6 +51,7 @@ class SceneFeed {
   std::optional<TsdfVolume> surface_;  // synthetic: fused per epoch
   std::unique_ptr<SceneSource> source_;
   bool folder_{false};
+  bool capture_{false};  // an RGB-D capture: exhausted when its frames run out
   bool exhausted_{false};
   double period_s_{0.1};
   double next_epoch_{0.0};

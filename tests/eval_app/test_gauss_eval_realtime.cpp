@@ -3,8 +3,9 @@
 // figures do not reproduce, so nothing is compared across runs; what must hold every
 // time: it exits 0; at every view measured the client's frame equals the host's render of
 // the set the host's dump says it sent (0 differing pixels), the client published exactly
-// that set, and it is the evaluation's own scene; each semantic query holds exactly
-// min(|G_obj|, floor(rho M)) of its M slots; every view converged; no validation
+// that set, and it is the evaluation's own scene; each semantic query, sent once the client
+// settled without it, holds exactly min(|G_obj|, floor(rho M)) of its M slots, its stages
+// logged in order; every view converged; no validation
 // error; and the gauss-host process it started is gone afterwards. Also the refusals: a
 // contradictory command line (exit 2) and a missing host executable (exit 1, named).
 #include <signal.h>
@@ -126,6 +127,19 @@ TEST(GaussEvalRealtime, HostAndClientAsProcessesOverLoopbackMatchTheSentSet) {
     EXPECT_TRUE(q["settle"]["converged"].get<bool>()) << q["query"];
     EXPECT_GT(q["object_pixels"].get<std::uint64_t>(), 0u) << q["query"];
     expect_exact(q["hs_vs_sent"], m, "query " + q["query"].get<std::string>());
+    // Settled without the query first: the budget was spread over the room, so the query
+    // moved more of it onto the target, and each stage came after the one it needs.
+    EXPECT_TRUE(q["settle_without_query"]["converged"].get<bool>()) << q["query"];
+    EXPECT_LT(q["without_query"]["resident_on_object"].get<std::uint64_t>(), expected) << q["query"];
+    const auto& l = q["latency"];
+    for (const char* stage : {"targets_s", "highlight_s", "first_additional_s", "converged_s"})
+      ASSERT_TRUE(l[stage].is_number()) << stage << " of " << q.dump();
+    EXPECT_GT(l["targets_s"].get<double>(), 0.0);
+    EXPECT_GE(l["highlight_s"].get<double>(), l["targets_s"].get<double>());
+    EXPECT_GE(l["first_additional_s"].get<double>(), l["targets_s"].get<double>());
+    EXPECT_GE(l["converged_s"].get<double>(), l["first_additional_s"].get<double>());
+    EXPECT_EQ(l["initial_residency"].get<std::uint64_t>(), q["without_query"]["resident_on_object"].get<std::uint64_t>())
+        << "the query took effect on the settled set";
   }
   for (const char* check : {"hs_equals_sent_render", "published_equals_sent", "sent_matches_scene",
                             "semantic_shares_match", "all_converged"})

@@ -340,4 +340,12 @@ CodecParams fit_codec_params(std::span<const Gaussian> gaussians, int sh_degree)
   return p;
 }
 
+CodecParams fit_live_codec_params(std::span<const Gaussian> first_epoch, int sh_degree) {
+  CodecParams p = fit_codec_params(first_epoch, sh_degree);
+  const glm::vec3 extent = p.box.max - p.box.min;
+  p.box.min -= kLiveBoxMargin * extent;
+  p.box.max += kLiveBoxMargin * extent;
+  return p;
+}
+
 }  // namespace gauss

@@ -148,6 +148,9 @@ Status ClientState::on_message(const wire::Message& m, double now) {
       // reply and the first batch it causes may arrive before the same frame, and a count
       // taken after that frame's publication would already include the new content.
       t.initial = count_resident(t.targets);
+      // The client learns the targets now: the stage the host logs as Target, on this clock.
+      events_.query(now, client_index_, t.query_id, QueryStage::Target, t.targets.empty() ? kNoObject : t.targets.front(),
+                    t.target_gaussians);
       query_track_ = std::move(t);
     } else if (r->status == msg::QueryStatus::Cleared) {
       query_track_.reset();

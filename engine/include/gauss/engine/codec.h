@@ -155,6 +155,12 @@ constexpr std::size_t record_bytes(int sh_degree) {
 // SH rest cover the 0.05 %..99.95 % quantiles, so a few colour outliers are clamped rather
 // than stretching the steps for everyone. Empty input gives the defaults with the degree.
 CodecParams fit_codec_params(std::span<const Gaussian> gaussians, int sh_degree);
+// A live scene's params (a followed snapshot folder, a capture replayed frame by frame):
+// fitted to its first epoch, the box widened by kLiveBoxMargin of its extent on every side,
+// since later epochs may reach beyond it (positions beyond clamp, and the codec counts them).
+// The host and gauss-eval both use it, so they quantise a live scene alike.
+inline constexpr float kLiveBoxMargin = 0.25f;
+CodecParams fit_live_codec_params(std::span<const Gaussian> first_epoch, int sh_degree);
 
 // Checks params are usable (finite, min < max, degree 0..3).
 Status validate_codec_params(const CodecParams& params);
