@@ -73,9 +73,11 @@ Expected<EvalScene> make_capture_scene(const Options& o) {
     auto committed = (*source)->next_epoch(*s.store);
     if (!committed) return Error{s.source + ": " + committed.message()};
     if (!*committed) break;
-    // As gauss-host: the codec of a scene that arrives epoch by epoch is fitted to the first.
-    if (++s.snapshots == 1) s.codec = fit_live_codec_params(s.store->gaussians(), s.store->sh_degree());
+    ++s.snapshots;
   }
+  auto codec = fit_capture_codec_params(o.scene_file, capture_options(o));  // as gauss-host fits it
+  if (!codec) return Error{s.source + ": " + codec.message()};
+  s.codec = *codec;
   s.appearance = s.store->size() - s.store->carrier_count();
   std::tie(s.region_min, s.region_max) = apps::central_box(appearance_gaussians(*s.store));
 

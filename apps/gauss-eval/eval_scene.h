@@ -65,7 +65,8 @@ Expected<EvalScene> make_scene(const Options& options, int variant);
 // A snapshot folder: every snapshot committed in order (identity tracked as the host
 // does), the codec fitted to the first as the host fits it (fit_live_codec_params), the
 // cameras to the last; errors name the folder or snapshot.
-// An RGB-D capture: every frame committed as the host does, the codec as for a folder; cameras: options.cameras of its
+// An RGB-D capture: every frame committed as the host does, the codec as the host fits it
+// (fit_capture_codec_params); cameras: options.cameras of its
 // frames evenly spread (those that load), at the evaluation size, which must divide the
 // frames' size by one whole factor; up: against the cameras' mean image-down axis (--up is
 // ignored). Errors: the capture, a size it does not divide, a frame without colour.

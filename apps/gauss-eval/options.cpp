@@ -64,7 +64,7 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
                     ->type_name("PATH");
   app.add_option("--labels", o.labels, "per-Gaussian labels of --scene")->check(CLI::ExistingFile)->needs(scene);
   app.add_option("--objects", o.objects, "objects JSON of --scene")->check(CLI::ExistingFile)->needs(scene);
-  app.add_option("--up", o.up, "the up axis of --scene")
+  app.add_option("--up", o.up, "the up axis of --scene (an RGB-D capture's comes from its cameras)")
       ->check(CLI::IsMember({"+x", "-x", "+y", "-y", "+z", "-z"}))
       ->needs(scene);
   app.add_option("--rgbd-stride", o.rgbd_stride,
@@ -179,8 +179,11 @@ std::string canonical_command(const Options& o) {
   c << "gauss-eval";
   if (!o.variants.empty()) c << " --scenes " << join(o.variants);
   if (!o.scene_file.empty()) {
-    c << " --scene '" << o.scene_file.string() << "' --up " << o.up;
-    if (is_rgbd_capture(o.scene_file)) c << " --rgbd-stride " << o.rgbd_stride;
+    c << " --scene '" << o.scene_file.string() << "'";
+    if (is_rgbd_capture(o.scene_file))  // its up comes from its cameras
+      c << " --rgbd-stride " << o.rgbd_stride;
+    else
+      c << " --up " << o.up;
     if (!o.labels.empty()) c << " --labels '" << o.labels.string() << "'";
     if (!o.objects.empty()) c << " --objects '" << o.objects.string() << "'";
   }

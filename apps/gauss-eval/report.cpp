@@ -195,7 +195,11 @@ void temporal_section(std::ostream& md, const Json& report) {
 
 void latency_section(std::ostream& md, const Json& report) {
   bool any = false;
-  for (const Json& s : report["scenes"]) any = any || s.contains("model_latency") || s.contains("semantic");
+  bool queries = false;  // a query row that resolved (scenes without objects have none)
+  for (const Json& s : report["scenes"])
+    for (const Json& r : s.contains("semantic") ? s["semantic"] : Json::array())
+      queries = queries || (!r.contains("error") && r.contains("latency"));
+  for (const Json& s : report["scenes"]) any = any || s.contains("model_latency") || queries;
   if (!any) return;
   md << "## Stage latencies (virtual seconds, from the event logs)\n\n";
   auto p50max = [](const Json& j) {
@@ -204,8 +208,9 @@ void latency_section(std::ostream& md, const Json& report) {
   bool model = false;
   for (const Json& s : report["scenes"]) model = model || s.contains("model_latency");
   if (model) {
-    md << "Model edits: the room produced live, one epoch per period while the client watches camera 0; from "
-          "the epoch's commit on the host (available) to each stage, p50 / max over the epochs.\n\n"
+    md << "Model edits: the room produced live (a snapshot folder's snapshots or a capture's frames replayed), "
+          "the first half of its epochs before the client connects, then one per period while it watches camera 0; "
+          "from the epoch's commit on the host (available) to each stage, p50 / max over the epochs.\n\n"
        << "| scene | epochs | period s | → sent | → received | → published | → visible (first frame) |\n"
        << "|---|---|---|---|---|---|---|\n";
     for (const Json& s : report["scenes"]) {
@@ -217,6 +222,7 @@ void latency_section(std::ostream& md, const Json& report) {
     }
     md << "\n";
   }
+  if (!queries) return;
   md << "Queries: from the client issuing the query to the host resolving it, the first frame showing the "
         "highlight, the first frame with more target content resident (the client's event, and the harness's "
         "own count against the residency before the query), and the target's convergence.\n\n"

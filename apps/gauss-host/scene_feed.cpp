@@ -112,8 +112,8 @@ Expected<std::unique_ptr<SceneFeed>> SceneFeed::open(const Options& o, SceneStor
 }
 
 // An RGB-D capture as the scene: its first frame that gives anything is committed now, the
-// rest one per epoch period. The codec is fitted live, to the first frame: later frames
-// look elsewhere in the room.
+// rest one per epoch period. The codec is fitted to all the Gaussians its frames will seed
+// (a dry run of the seeding), so later frames looking elsewhere in the room do not clamp.
 Expected<std::unique_ptr<SceneFeed>> SceneFeed::open_capture(const Options& o, SceneStore& store) {
   if (o.labels || o.objects || o.rgbd || o.mesh)
     return Error{"--labels, --objects, --rgbd and --mesh do not apply to an RGB-D capture as the scene (" +
@@ -128,7 +128,9 @@ Expected<std::unique_ptr<SceneFeed>> SceneFeed::open_capture(const Options& o, S
   auto first = feed->source_->next_epoch(store);
   if (!first) return first.error();
   if (!*first) return Error{"RGB-D capture " + o.scene_path->string() + " gave no epoch"};
-  feed->params_ = fit_live_codec_params(store.gaussians(), store.sh_degree());
+  auto params = fit_capture_codec_params(*o.scene_path, capture_options(o));
+  if (!params) return params.error();
+  feed->params_ = *params;
   return feed;
 }
 

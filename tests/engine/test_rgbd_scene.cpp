@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "gauss/engine/camera.h"
+#include "gauss/engine/codec.h"
 #include "gauss/engine/image_io.h"
 #include "gauss/engine/rgbd_scene.h"
 #include "gauss/engine/rgbd_source.h"
@@ -239,6 +240,34 @@ TEST(RgbdCaptureSource, EachFrameIsAnEpochAndABadFrameIsSkippedWithALine) {
   ASSERT_TRUE(end);
   EXPECT_FALSE(*end);
   EXPECT_EQ(store.epoch(), Epoch(2));
+}
+
+TEST(RgbdCaptureSource, ItsCodecCoversEveryFrameNotJustTheFirst) {
+  const fs::path dir = write_capture("rgbd_scene_codec");
+  RgbdSceneOptions o;
+  auto params = fit_capture_codec_params(dir, o);
+  ASSERT_TRUE(params) << params.message();
+  auto src = open_rgbd_capture(dir, o, [](const std::string&) {});
+  ASSERT_TRUE(src);
+  SceneStore store;
+  ASSERT_TRUE((*src)->next_epoch(store));
+  const CodecParams first_only = fit_codec_params(store.gaussians(), store.sh_degree());
+  while (true) {
+    auto r = (*src)->next_epoch(store);
+    ASSERT_TRUE(r);
+    if (!*r) break;
+  }
+  std::size_t outside_first = 0;
+  for (const Gaussian& g : store.gaussians()) {
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_GE(g.position[a], params->box.min[a]);
+      EXPECT_LE(g.position[a], params->box.max[a]);
+    }
+    EXPECT_GE(g.log_scale.z, params->log_scale_min);
+    EXPECT_LE(g.log_scale.x, params->log_scale_max);
+    outside_first += g.position.x > first_only.box.max.x || g.position.x < first_only.box.min.x;
+  }
+  EXPECT_GT(outside_first, 0u) << "the later frame sees further right than the first: the test needs that";
 }
 
 TEST(RgbdCaptureSource, ACaptureWithNoUsableFrameIsAnError) {

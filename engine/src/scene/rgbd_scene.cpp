@@ -314,4 +314,19 @@ Expected<std::unique_ptr<SceneSource>> open_rgbd_capture(const fs::path& folder,
                                                                           std::move(surface), std::move(log)));
 }
 
+Expected<CodecParams> fit_capture_codec_params(const fs::path& folder, const RgbdSceneOptions& options) {
+  RgbdSceneOptions dry = options;
+  dry.surface.reset();  // the seeding alone decides the Gaussians
+  auto source = open_rgbd_capture(folder, dry, [](const std::string&) {});
+  if (!source) return source.error();
+  SceneStore store;
+  for (;;) {
+    auto committed = (*source)->next_epoch(store);
+    if (!committed) return committed.error();
+    if (!*committed) break;
+  }
+  if (store.size() == 0) return Error{"RGB-D capture " + folder.string() + ": no frame seeds a Gaussian"};
+  return fit_codec_params(store.gaussians(), store.sh_degree());
+}
+
 }  // namespace gauss

@@ -23,6 +23,7 @@
 
 #include <glm/vec4.hpp>
 
+#include "gauss/engine/codec.h"
 #include "gauss/engine/gaussian.h"
 #include "gauss/engine/scene_source.h"
 #include "gauss/engine/tsdf.h"
@@ -76,5 +77,11 @@ struct RgbdSceneOptions {
 // options, or a capture none of whose frames gave anything (said when it runs out).
 Expected<std::unique_ptr<SceneSource>> open_rgbd_capture(const std::filesystem::path& folder,
                                                          const RgbdSceneOptions& options = {}, SourceLog log = {});
+
+// The codec for a capture served as a scene: fitted to every Gaussian its frames seed (all of
+// them are known at the start, unlike a followed folder's snapshots, so nothing need clamp),
+// found by seeding the frames once without a surface. gauss-host and gauss-eval both use it.
+// Errors: as open_rgbd_capture, or no frame seeds anything.
+Expected<CodecParams> fit_capture_codec_params(const std::filesystem::path& folder, const RgbdSceneOptions& options);
 
 }  // namespace gauss
