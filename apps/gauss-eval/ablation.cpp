@@ -17,18 +17,6 @@ namespace {
 
 constexpr int kIdleFrames = 8;
 
-Camera resized(const Camera& c, std::uint32_t w, std::uint32_t h) {
-  Camera out = c;
-  const double sx = double(w) / c.width, sy = double(h) / c.height;
-  out.fx *= sx;
-  out.cx *= sx;
-  out.fy *= sy;
-  out.cy *= sy;
-  out.width = w;
-  out.height = h;
-  return out;
-}
-
 // The mean of `key` over the cameras' scores at `field`; null when a camera has none (no
 // pixel, or identical images: a mean with +inf says nothing).
 Json mean_of(const Json& cameras, const char* field, const char* key) {
@@ -65,7 +53,7 @@ Expected<Json> measure_ablation(Room& room, std::vector<double>& frame_ms_p50, s
       for (std::size_t k = 0; k < scene.cameras.size(); ++k) {
         room.progress("ablation " + std::to_string(w) + "x" + std::to_string(h) + " M " + std::to_string(m) +
                       " camera " + std::to_string(k + 1) + "/" + std::to_string(scene.cameras.size()));
-        const Camera cam = resized(scene.cameras[k], w, h);
+        const Camera cam = resized_camera(scene.cameras[k], w, h);
         auto cap = capture(at_size, *stream, cam);
         if (!cap) return cap.error();
         EvalSession& session = *stream->session;

@@ -101,14 +101,7 @@ Expected<EvalScene> make_capture_scene(const Options& o) {
                    ": its frames are " + std::to_string(frame->width) + "x" + std::to_string(frame->height) +
                    "; the evaluation size must divide them by one whole factor (e.g. " +
                    std::to_string(frame->width / 2) + "x" + std::to_string(frame->height / 2) + ")"};
-    Camera c = frame_camera(*frame);
-    c.width = o.width;
-    c.height = o.height;
-    c.fx /= factor;
-    c.fy /= factor;
-    c.cx /= factor;  // pixel centres at +0.5 on both sides: the principal point scales alike
-    c.cy /= factor;
-    s.cameras.push_back(c);
+    s.cameras.push_back(resized_camera(frame_camera(*frame), o.width, o.height));
     s.capture_truth.push_back(downsampled_truth(*frame, factor));
     s.capture_frames.push_back(frame->name);
     down += glm::dvec3(frame->camera_to_world[1]);  // the camera's y axis: image down

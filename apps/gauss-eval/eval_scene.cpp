@@ -56,15 +56,8 @@ Expected<EvalScene> make_scene(const Options& o, int variant) {
   // to the evaluation size.
   const std::vector<Camera>& path = s.synthetic->trajectory();
   for (std::uint32_t k = 0; k < o.cameras; ++k) {
-    Camera c = path[static_cast<std::size_t>((k + 0.5) * path.size() / o.cameras)];
-    const double sx = double(o.width) / c.width, sy = double(o.height) / c.height;
-    c.fx *= sx;
-    c.cx *= sx;
-    c.fy *= sy;
-    c.cy *= sy;
-    c.width = o.width;
-    c.height = o.height;
-    s.cameras.push_back(c);
+    s.cameras.push_back(
+        resized_camera(path[static_cast<std::size_t>((k + 0.5) * path.size() / o.cameras)], o.width, o.height));
   }
   return s;
 }

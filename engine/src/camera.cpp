@@ -16,4 +16,16 @@ glm::dmat4 opencv_look_at(const glm::dvec3& eye, const glm::dvec3& target, const
   return T;
 }
 
+Camera resized_camera(const Camera& c, std::uint32_t width, std::uint32_t height) {
+  Camera out = c;
+  const double sx = double(width) / c.width, sy = double(height) / c.height;
+  out.fx *= sx;
+  out.cx *= sx;
+  out.fy *= sy;
+  out.cy *= sy;
+  out.width = width;
+  out.height = height;
+  return out;
+}
+
 }  // namespace gauss

@@ -15,6 +15,7 @@
 
 #include "child_process.h"
 #include "text_file.h"
+#include "gauss/engine/camera.h"
 #include "gauss/engine/image_io.h"
 #include "gauss/engine/synthetic_scene.h"
 #include "gauss/engine/tsdf.h"
@@ -42,14 +43,7 @@ void write_room_capture(const fs::path& dir) {
   fs::create_directories(dir);
   const std::vector<gauss::Camera>& path = scene->trajectory();
   for (int k = 0; k < 3; ++k) {
-    gauss::Camera cam = path[std::size_t(k) * path.size() / 6];
-    const double sx = double(kFrameW) / cam.width, sy = double(kFrameH) / cam.height;
-    cam.fx *= sx;
-    cam.cx *= sx;
-    cam.fy *= sy;
-    cam.cy *= sy;
-    cam.width = kFrameW;
-    cam.height = kFrameH;
+    const gauss::Camera cam = gauss::resized_camera(path[std::size_t(k) * path.size() / 6], kFrameW, kFrameH);
     if (k == 0)
       std::ofstream(dir / "camera-intrinsics.txt")
           << cam.fx << " 0 " << cam.cx << "\n0 " << cam.fy << " " << cam.cy << "\n0 0 1\n";

@@ -23,4 +23,8 @@ struct Camera {
 // forward). `target` must differ from `eye` and not lie straight along `world_up`.
 glm::dmat4 opencv_look_at(const glm::dvec3& eye, const glm::dvec3& target, const glm::dvec3& world_up);
 
+// `c` rendering a width x height image of the same view: focal lengths and principal point
+// scaled per axis (pixel centres sit at +0.5 in both sizes, so cx scales like fx).
+Camera resized_camera(const Camera& c, std::uint32_t width, std::uint32_t height);
+
 }  // namespace gauss
