@@ -175,3 +175,54 @@ TEST(VkCheckDeathTest, FatalCheckNamesCallFileAndResult) {
 }
 
 }  // namespace
+
+namespace {
+
+// An XR runtime creates the instance and device (XR_KHR_vulkan_enable2): the Context hands
+// it the create infos it would use itself, takes the device it names, and works on the
+// result as on its own.
+TEST_F(VkContextTest, AnXrRuntimeCanCreateTheInstanceAndDevice) {
+  int instances = 0, devices = 0, asked = 0;
+  gauss::vk::ContextCreateInfo ci;
+  ci.create_instance = [&](const VkInstanceCreateInfo& info) -> gauss::Expected<VkInstance> {
+    ++instances;
+    EXPECT_EQ(info.pApplicationInfo->apiVersion, VK_API_VERSION_1_3);
+    VkInstance out = VK_NULL_HANDLE;
+    if (vkCreateInstance(&info, nullptr, &out) != VK_SUCCESS) return gauss::Error{"vkCreateInstance"};
+    return out;
+  };
+  ci.required_physical_device = [&](VkInstance instance) -> gauss::Expected<VkPhysicalDevice> {
+    ++asked;
+    std::uint32_t n = 1;
+    VkPhysicalDevice first = VK_NULL_HANDLE;
+    vkEnumeratePhysicalDevices(instance, &n, &first);
+    return first;
+  };
+  ci.create_device = [&](VkPhysicalDevice physical, const VkDeviceCreateInfo& info) -> gauss::Expected<VkDevice> {
+    ++devices;
+    EXPECT_GE(info.enabledExtensionCount, 1u) << "push descriptors at least";
+    VkDevice out = VK_NULL_HANDLE;
+    if (vkCreateDevice(physical, &info, nullptr, &out) != VK_SUCCESS) return gauss::Error{"vkCreateDevice"};
+    return out;
+  };
+  auto ctx = Context::create(ci);
+  ASSERT_TRUE(ctx) << ctx.message();
+  EXPECT_EQ(instances, 1);
+  EXPECT_EQ(asked, 1);
+  EXPECT_EQ(devices, 1);
+  EXPECT_NE((*ctx)->queue(), VK_NULL_HANDLE);
+  auto idle = (*ctx)->wait_idle();
+  EXPECT_TRUE(idle) << idle.message();
+
+  // A runtime that fails is named in the error, and nothing leaks (validation would say).
+  gauss::vk::ContextCreateInfo failing;
+  failing.create_instance = [](const VkInstanceCreateInfo&) -> gauss::Expected<VkInstance> {
+    return gauss::Error{"the headset is asleep"};
+  };
+  auto none = Context::create(failing);
+  ASSERT_FALSE(none);
+  EXPECT_NE(none.message().find("the headset is asleep"), std::string::npos) << none.message();
+  EXPECT_NE(none.message().find("XR runtime"), std::string::npos) << none.message();
+}
+
+}  // namespace

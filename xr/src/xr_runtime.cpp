@@ -5,25 +5,16 @@
 
 #include <openxr/openxr.h>
 
+#include "xr_check.h"
+
 namespace gauss::xr {
 namespace {
 
+using detail::result_text;
+using detail::xr_struct;
+
 // XR_KHR_vulkan_enable2's name, spelled out so this file needs no Vulkan platform headers.
 constexpr const char* kVulkanEnable2 = "XR_KHR_vulkan_enable2";
-
-// OpenXR structs start with a type tag; everything else zero.
-template <class T>
-T xr_struct(XrStructureType type) {
-  T v{};
-  v.type = type;
-  return v;
-}
-
-std::string result_text(XrInstance instance, XrResult r) {
-  char buf[XR_MAX_RESULT_STRING_SIZE] = {};
-  if (instance != XR_NULL_HANDLE && xrResultToString(instance, r, buf) == XR_SUCCESS) return buf;
-  return "XrResult " + std::to_string(int(r));
-}
 
 }  // namespace
 

@@ -80,7 +80,8 @@ struct InstanceResult {
 
 Expected<InstanceResult> create_instance(const std::string& app_name, bool validation, bool sync_validation,
                                          const VkDebugUtilsMessengerCreateInfoEXT* messenger_info,
-                                         const std::vector<std::string>& extra_extensions = {}) {
+                                         const std::vector<std::string>& extra_extensions = {},
+                                         const ContextCreateInfo* hooks = nullptr) {
   if (auto st = init_loader(); !st) return st.error();
   std::uint32_t loader_version = 0;
   if (vkEnumerateInstanceVersion == nullptr || vkEnumerateInstanceVersion(&loader_version) != VK_SUCCESS ||
@@ -147,7 +148,11 @@ Expected<InstanceResult> create_instance(const std::string& app_name, bool valid
   }
 
   InstanceResult out;
-  if (const VkResult r = vkCreateInstance(&ci, nullptr, &out.instance); r != VK_SUCCESS) {
+  if (hooks != nullptr && hooks->create_instance) {
+    auto made = hooks->create_instance(ci);
+    if (!made) return Error{"the XR runtime could not create the Vulkan instance: " + made.message()};
+    out.instance = *made;
+  } else if (const VkResult r = vkCreateInstance(&ci, nullptr, &out.instance); r != VK_SUCCESS) {
     if (r == VK_ERROR_INCOMPATIBLE_DRIVER) {
       return Error{"no Vulkan device: no installed Vulkan driver supports Vulkan 1.3 (vkCreateInstance: "
                    "VK_ERROR_INCOMPATIBLE_DRIVER). For the lavapipe CPU device install mesa-vulkan-drivers; "
@@ -185,7 +190,8 @@ Expected<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info
   const bool validation = info.enable_validation || sync_validation || env_flag("GAUSS_VALIDATION");
 
   const VkDebugUtilsMessengerCreateInfoEXT messenger_info = detail::messenger_create_info(ctx->state_.get());
-  auto inst = create_instance(info.app_name, validation, sync_validation, &messenger_info, info.instance_extensions);
+  auto inst =
+      create_instance(info.app_name, validation, sync_validation, &messenger_info, info.instance_extensions, &info);
   if (!inst) return inst.error();
   ctx->instance_ = inst->instance;
   if (validation) {
@@ -220,7 +226,14 @@ Expected<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info
       source = "GAUSS_DEVICE";
     }
   }
-  auto chosen = detail::choose_device(*candidates, override_value, source);
+  Expected<detail::Candidate> chosen = Error{"no device"};
+  if (info.required_physical_device) {
+    auto required = info.required_physical_device(ctx->instance_);
+    if (!required) return Error{"the XR runtime names no Vulkan device: " + required.message()};
+    chosen = detail::require_device(*candidates, *required);
+  } else {
+    chosen = detail::choose_device(*candidates, override_value, source);
+  }
   if (!chosen) return chosen.error();
   ctx->physical_device_ = chosen->handle;
   ctx->device_info_ = chosen->info;
@@ -282,7 +295,13 @@ Expected<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info
   dci.pQueueCreateInfos = &qci;
   dci.enabledExtensionCount = static_cast<std::uint32_t>(device_extensions.size());
   dci.ppEnabledExtensionNames = device_extensions.data();
-  GAUSS_VK_TRY(vkCreateDevice(ctx->physical_device_, &dci, nullptr, &ctx->device_));
+  if (info.create_device) {
+    auto made = info.create_device(ctx->physical_device_, dci);
+    if (!made) return Error{"the XR runtime could not create the Vulkan device: " + made.message()};
+    ctx->device_ = *made;
+  } else {
+    GAUSS_VK_TRY(vkCreateDevice(ctx->physical_device_, &dci, nullptr, &ctx->device_));
+  }
   ctx->enabled_features_ = enable.f2.features;
   ctx->enabled_features11_ = enable.f11;
   ctx->enabled_features12_ = enable.f12;

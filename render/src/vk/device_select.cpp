@@ -162,6 +162,18 @@ Expected<Candidate> choose_device(const std::vector<Candidate>& candidates, cons
   return *best;
 }
 
+Expected<Candidate> require_device(const std::vector<Candidate>& candidates, VkPhysicalDevice required) {
+  for (const auto& c : candidates) {
+    if (c.handle != required) continue;
+    if (!c.info.unsuitable_reason.empty())
+      return Error{std::string("the XR runtime's Vulkan device '") + c.info.name +
+                   "' is unsuitable: " + c.info.unsuitable_reason};
+    return c;
+  }
+  return Error{"the XR runtime's Vulkan device is not one this instance enumerates; available devices:" +
+               describe(candidates)};
+}
+
 }  // namespace detail
 
 const char* device_type_name(VkPhysicalDeviceType type) noexcept {

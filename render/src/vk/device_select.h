@@ -57,4 +57,8 @@ Expected<std::vector<Candidate>> enumerate(VkInstance instance, const ExtraRequi
 Expected<Candidate> choose_device(const std::vector<Candidate>& candidates, const std::string& override_value,
                                   const char* override_source);
 
+// `required` (an XR runtime's device) among the candidates, when it is suitable; else an
+// error with its reason.
+Expected<Candidate> require_device(const std::vector<Candidate>& candidates, VkPhysicalDevice required);
+
 }  // namespace gauss::vk::detail

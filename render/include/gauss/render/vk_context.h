@@ -63,6 +63,16 @@ struct ContextCreateInfo {
   // surface and destroys it after the device, before the instance. Its error fails
   // create() with the callback's message.
   std::function<Expected<VkSurfaceKHR>(VkInstance)> create_surface{};
+
+  // An OpenXR runtime creates the instance and device itself (XR_KHR_vulkan_enable2:
+  // xrCreateVulkanInstanceKHR, xrGetVulkanGraphicsDevice2KHR, xrCreateVulkanDeviceKHR). The
+  // Context fills the create infos exactly as it would for vkCreate* and hands them over;
+  // it still loads volk from the results and destroys both. Empty = the Context's own calls.
+  std::function<Expected<VkInstance>(const VkInstanceCreateInfo&)> create_instance{};
+  // The physical device the runtime requires: it must be among the suitable ones (an
+  // unsuitable one fails create() with its reason); --device / GAUSS_DEVICE are ignored.
+  std::function<Expected<VkPhysicalDevice>(VkInstance)> required_physical_device{};
+  std::function<Expected<VkDevice>(VkPhysicalDevice, const VkDeviceCreateInfo&)> create_device{};
 };
 
 // One physical device as seen by the instance, for listings and error messages.

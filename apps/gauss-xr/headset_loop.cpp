@@ -1,0 +1,218 @@
+#include "headset_loop.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "eye_copy.h"
+#include "gauss/client/client_runtime.h"
+#include "gauss/client/ray_pick.h"
+#include "gauss/engine/camera_io.h"
+#include "gauss/xr/xr_controls.h"
+#include "gauss/xr/xr_session.h"
+
+namespace gauss::xr_app {
+
+namespace {
+
+using Json = nlohmann::json;
+
+// The queries the controller makes, and what it has sent.
+class QueryControl {
+ public:
+  QueryControl(client::ClientRuntime& runtime, double rho) : runtime_(runtime), rho_(rho) {}
+
+  // Acts on one frame's input (`dt` seconds since the last).
+  void apply(const xr::ControllerInput& in, double dt) {
+    if (in.stick_y != 0.0f) rho_ = std::clamp(rho_ + 0.5 * dt * in.stick_y, 0.0, 1.0);
+    if (in.clear) {
+      runtime_.clear_query();
+      sent_.push_back(Json{{"kind", "clear"}});
+    }
+    if (in.next_class) next_class();
+    if (in.trigger_pulled && in.aim_valid) pick(in.aim);
+  }
+  double rho() const noexcept { return rho_; }
+  const Json& sent() const noexcept { return sent_; }
+
+ private:
+  void send(msg::Query q, Json what) {
+    q.rho = static_cast<float>(rho_);
+    what["query_id"] = runtime_.send_query(q);
+    what["rho"] = rho_;
+    sent_.push_back(std::move(what));
+  }
+  // The next class label (sorted) of the objects the host has described.
+  void next_class() {
+    const std::set<std::string> labels = runtime_.with_state([](const ClientState& s) {
+      std::set<std::string> out;
+      for (const auto& [id, o] : s.objects())
+        if (!o.label.empty()) out.insert(o.label);
+      return out;
+    });
+    if (labels.empty()) return;
+    auto it = labels.upper_bound(last_class_);
+    if (it == labels.end()) it = labels.begin();
+    last_class_ = *it;
+    msg::Query q;
+    q.kind = msg::QueryKind::ClassText;
+    q.text = last_class_;
+    send(q, Json{{"kind", "class"}, {"text", last_class_}});
+  }
+  // An instance query on the object under the aim ray (nothing when it points at none).
+  void pick(const xr::XrPose& aim) {
+    glm::dvec3 origin, direction;
+    xr::aim_ray(aim, origin, direction);
+    const auto hit = runtime_.with_state([&](const ClientState& s) { return client::pick(s.slots(), origin, direction); });
+    if (!hit || hit->object == kNoObject) {
+      sent_.push_back(Json{{"kind", "miss"}, {"distance", hit ? Json(hit->distance) : Json(nullptr)}});
+      return;
+    }
+    msg::Query q;
+    q.kind = msg::QueryKind::Instance;
+    q.instance = hit->object;
+    send(q, Json{{"kind", "instance"}, {"object", to_underlying(hit->object)}, {"distance", hit->distance}});
+  }
+
+  client::ClientRuntime& runtime_;
+  double rho_;
+  std::string last_class_;
+  Json sent_ = Json::array();
+};
+
+// --out: what a test or a user checks afterwards.
+Status write_outputs(const XrOptions& o, client::ClientRuntime& rt, const xr::HeadsetSession& session,
+                     const std::vector<std::string>& phases, const xr::FrameTarget* last, const QueryControl& queries) {
+  std::error_code ec;
+  std::filesystem::create_directories(o.out, ec);
+  if (ec) return Error{"gauss-xr: --out " + o.out.string() + ": " + ec.message()};
+  // The published set in slot order (as gauss-view writes it): a render of the same set in
+  // this order is byte-identical (gauss-render --order).
+  Json slot_ids = Json::array();
+  rt.with_state([&](const ClientState& st) {
+    for (std::uint32_t k = 0; k < st.slots().capacity(); ++k) {
+      GaussianId id{0};
+      if (st.slots().occupant(SlotIndex{k}, id)) slot_ids.push_back(to_underlying(id));
+    }
+    return 0;
+  });
+  std::ofstream(o.out / "final_slot_ids.json") << slot_ids.dump() << '\n';
+  Json summary{{"runtime", session.runtime_name()},
+               {"eye_width", session.eye_width()},
+               {"eye_height", session.eye_height()},
+               {"frames_ended", session.frames_ended()},
+               {"frames_rendered", rt.frames_rendered()},
+               {"phases", phases},
+               {"queries", queries.sent()},
+               {"rho", queries.rho()},
+               {"resident", slot_ids.size()},
+               {"published_checksum", rt.with_state([](const ClientState& s) { return s.published_checksum(); })}};
+  if (last != nullptr) {
+    summary["last_display_time"] = last->display_time;
+    for (std::uint32_t eye = 0; eye < 2; ++eye)
+      if (auto st = write_camera_json(o.out / ("eye" + std::to_string(eye) + ".camera.json"), last->eyes[eye].camera);
+          !st)
+        return st;
+  }
+  std::ofstream(o.out / "summary.json") << summary.dump(2) << '\n';
+  return Ok{};
+}
+
+}  // namespace
+
+int run_headset(const XrOptions& o) {
+  auto fail = [](const std::string& why) {
+    std::fprintf(stderr, "gauss-xr: %s\n", why.c_str());
+    return 1;
+  };
+  xr::HeadsetConfig hc;
+  hc.stage_space = o.stage;
+  auto session = xr::HeadsetSession::create(hc);
+  if (!session) return fail(session.message());
+  xr::HeadsetSession& s = **session;
+  std::fprintf(stderr, "gauss-xr: %s, %ux%u per eye, on %s\n", s.runtime_name().c_str(), s.eye_width(), s.eye_height(),
+               s.context().device_name().c_str());
+
+  client::ClientRuntimeConfig rc;
+  rc.state.capacity = o.budget;
+  rc.state.name = o.name;
+  rc.state.access_token = o.token;
+  rc.state.publisher.mode = o.mode;
+  rc.max_width = s.eye_width();
+  rc.max_height = s.eye_height();
+  rc.highlight_query = o.highlight;
+  auto runtime = client::ClientRuntime::create(s.context(), rc);
+  if (!runtime) return fail(runtime.message());
+  client::ClientRuntime& rt = **runtime;
+  net::NetClientConfig net;
+  net.server = o.host;
+  net.log = [](const std::string& line) { std::fprintf(stderr, "gauss-xr: %s\n", line.c_str()); };
+  if (auto st = rt.connect(net); !st) return fail(st.message());
+  auto controls = xr::Controls::create(s.instance(), s.handle(), s.space());
+  if (!controls) return fail(controls.message());
+  QueryControl queries(rt, o.rho);
+
+  std::vector<std::string> phases;
+  std::optional<xr::FrameTarget> last;
+  XrTime input_time = 0;
+  auto last_frame = std::chrono::steady_clock::now();
+  bool exit_requested = false;
+  for (;;) {
+    auto phase = s.poll();
+    if (!phase) return fail(phase.message());
+    if (phases.empty() || phases.back() != xr::to_string(*phase)) phases.push_back(xr::to_string(*phase));
+    if (*phase == xr::SessionPhase::Exiting) break;
+    if (*phase == xr::SessionPhase::LossPending) {
+      // The runtime is taking the session away (the headset was removed from use, the
+      // runtime restarts): leave cleanly rather than render into a dead session.
+      (void)rt.wait_frames();
+      if (!o.out.empty()) (void)write_outputs(o, rt, s, phases, last ? &*last : nullptr, queries);
+      return fail("the OpenXR session was lost; exiting");
+    }
+    if (*phase != xr::SessionPhase::Running) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));  // idle or stopping: no frames
+      continue;
+    }
+    if (input_time != 0) {
+      auto in = (*controls)->read(input_time);
+      if (!in) return fail(in.message());
+      const auto now = std::chrono::steady_clock::now();
+      queries.apply(*in, std::chrono::duration<double>(now - last_frame).count());
+      last_frame = now;
+    }
+    std::optional<xr::FrameTarget> shown;
+    auto rendered = s.frame([&](const xr::FrameTarget& t) -> Status {
+      const Camera cams[2] = {t.eyes[0].camera, t.eyes[1].camera};
+      render::FrameHooks hooks;
+      hooks.record_after = [&](VkCommandBuffer cmd) { return record_eye_copy(cmd, rt.renderer(), t); };
+      auto fs = rt.frame(std::span<const Camera>(cams, 2), hooks);
+      if (!fs) return fs.error();
+      shown = t;
+      return Ok{};
+    });
+    if (!rendered) return fail(rendered.message());
+    if (shown) {
+      input_time = shown->display_time;
+      last = shown;
+    }
+    if (o.max_frames > 0 && s.frames_ended() >= o.max_frames && !exit_requested) {
+      exit_requested = true;
+      if (auto st = s.request_exit(); !st) return fail(st.message());
+    }
+  }
+  if (auto st = rt.wait_frames(); !st) return fail(st.message());
+  if (!o.out.empty())
+    if (auto st = write_outputs(o, rt, s, phases, last ? &*last : nullptr, queries); !st) return fail(st.message());
+  std::fprintf(stderr, "gauss-xr: session ended after %llu frames\n",
+               static_cast<unsigned long long>(s.frames_ended()));
+  return 0;
+}
+
+}  // namespace gauss::xr_app
