@@ -16,9 +16,11 @@ find_path(STB_INCLUDE_DIR stb_image.h PATH_SUFFIXES stb REQUIRED)
 # CLI11 (command-line options of the programs in apps/): header-only, Debian's
 # libcli11-dev ships its CMake package. Its headers sit in /usr/include, so our
 # warning flags do not apply to them.
-find_package(CLI11 CONFIG REQUIRED)
-add_library(gauss_cli11 INTERFACE)
-target_link_libraries(gauss_cli11 INTERFACE CLI11::CLI11)
+if(NOT GAUSS_LIBRARIES_ONLY)
+  find_package(CLI11 CONFIG REQUIRED)
+  add_library(gauss_cli11 INTERFACE)
+  target_link_libraries(gauss_cli11 INTERFACE CLI11::CLI11)
+endif()
 
 # Dear ImGui for the desktop viewer's panels. Debian's libimgui.a holds the core (imgui,
 # draw, tables, widgets; its font code calls the stb_truetype/stb_rect_pack of libstb).
@@ -27,7 +29,8 @@ target_link_libraries(gauss_cli11 INTERFACE CLI11::CLI11)
 # ships with the same version; our definitions are linked first, so the archive's
 # backend objects are never pulled in. The Vulkan backend then loads its functions
 # through ImGui_ImplVulkan_LoadFunctions (see apps/gauss-view/imgui_layer.cpp).
-if(GAUSS_BUILD_GPU)
+# Desktop only: a libraries-only (cross) build has no viewer to draw panels in.
+if(GAUSS_BUILD_GPU AND NOT GAUSS_LIBRARIES_ONLY)
   find_package(glfw3 3.3 CONFIG REQUIRED)
   find_path(IMGUI_INCLUDE_DIR imgui.h PATH_SUFFIXES imgui REQUIRED)
   find_library(IMGUI_CORE_LIBRARY NAMES libimgui.a imgui REQUIRED)

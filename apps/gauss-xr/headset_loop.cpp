@@ -104,12 +104,33 @@ Status write_outputs(const XrOptions& o, client::ClientRuntime& rt, const xr::He
     return 0;
   });
   std::ofstream(o.out / "final_slot_ids.json") << slot_ids.dump() << '\n';
+  // The active query: its targets, |G_obj| as the host reported it, and how many of the
+  // client's slots hold them (a test checks min(|G_obj|, floor(rho M))).
+  const Json query = rt.with_state([](const ClientState& st) {
+    const std::vector<ObjectId> targets = st.query_targets();
+    if (targets.empty()) return Json{{"active", false}};
+    std::uint64_t resident = 0;
+    for (std::uint32_t k = 0; k < st.slots().capacity(); ++k) {
+      GaussianId id{0};
+      if (st.slots().occupant(SlotIndex{k}, id) &&
+          std::binary_search(targets.begin(), targets.end(), st.slots().records()[k].object))
+        ++resident;
+    }
+    Json ids = Json::array();
+    for (ObjectId t : targets) ids.push_back(to_underlying(t));
+    return Json{{"active", true},
+                {"targets", ids},
+                {"target_members", st.query_target_gaussians()},
+                {"target_resident", resident}};
+  });
   Json summary{{"runtime", session.runtime_name()},
+               {"query", query},
                {"eye_width", session.eye_width()},
                {"eye_height", session.eye_height()},
                {"frames_ended", session.frames_ended()},
                {"frames_rendered", rt.frames_rendered()},
                {"phases", phases},
+               {"session_states", session.states_seen()},
                {"queries", queries.sent()},
                {"rho", queries.rho()},
                {"resident", slot_ids.size()},

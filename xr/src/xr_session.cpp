@@ -56,6 +56,20 @@ Status load(XrInstance instance, VulkanEnable2& out) {
   return Ok{};
 }
 
+const char* state_name(XrSessionState s) {
+  switch (s) {
+    case XR_SESSION_STATE_IDLE: return "IDLE";
+    case XR_SESSION_STATE_READY: return "READY";
+    case XR_SESSION_STATE_SYNCHRONIZED: return "SYNCHRONIZED";
+    case XR_SESSION_STATE_VISIBLE: return "VISIBLE";
+    case XR_SESSION_STATE_FOCUSED: return "FOCUSED";
+    case XR_SESSION_STATE_STOPPING: return "STOPPING";
+    case XR_SESSION_STATE_LOSS_PENDING: return "LOSS_PENDING";
+    case XR_SESSION_STATE_EXITING: return "EXITING";
+    default: return "UNKNOWN";
+  }
+}
+
 XrPose pose_of(const XrPosef& p) {
   XrPose out;
   out.orientation = glm::dquat(p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z);
@@ -250,6 +264,7 @@ Expected<SessionPhase> HeadsetSession::poll() {
     }
     if (ev.type != XR_TYPE_EVENT_DATA_SESSION_STATE_CHANGED) continue;
     state_ = reinterpret_cast<const XrEventDataSessionStateChanged&>(ev).state;
+    states_seen_.push_back(state_name(state_));
     switch (state_) {
       case XR_SESSION_STATE_READY: {
         auto bi = xr_struct<XrSessionBeginInfo>(XR_TYPE_SESSION_BEGIN_INFO);

@@ -83,6 +83,8 @@ class HeadsetSession {
   // ends it when stopping). Errors: a failed xrBeginSession/xrEndSession, instance loss.
   Expected<SessionPhase> poll();
   SessionPhase phase() const noexcept { return phase_; }
+  // Every session state the runtime reported, in order ("READY", "FOCUSED", ...).
+  const std::vector<std::string>& states_seen() const noexcept { return states_seen_; }
   // Asks the runtime to end the session (xrRequestExitSession): poll() then reaches Exiting.
   Status request_exit();
 
@@ -114,6 +116,7 @@ class HeadsetSession {
   SessionPhase phase_{SessionPhase::Idle};
   XrSessionState state_{XR_SESSION_STATE_UNKNOWN};
   std::uint64_t frames_ended_{0};
+  std::vector<std::string> states_seen_;
 };
 
 }  // namespace gauss::xr

@@ -1,0 +1,267 @@
+// gauss-xr end to end against the headless OpenXR runtime (tests/xr/headless_runtime, loaded
+// by the real OpenXR loader through XR_RUNTIME_JSON) and a gauss-host over loopback ENet:
+// a scripted session (a head pose held still, a trigger pull with the right controller
+// aimed at an object, an exit) must show, in the projection layer the runtime read back,
+// exactly the host's own render (gauss-render) of the set it sent, from the cameras
+// gauss-xr made of the runtime's views; the pull must query the object under the ray and
+// that object must get min(|G_obj|, floor(rho M)) of the M slots. And the faults: a lost
+// session ends gauss-xr cleanly with a message, no runtime and a runtime without
+// XR_KHR_vulkan_enable2 are named.
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <glm/geometric.hpp>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "child_process.h"
+#include "text_file.h"
+#include "gauss/engine/camera_io.h"
+#include "gauss/engine/image_io.h"
+#include "gauss/engine/synthetic_scene.h"
+#include "gauss/xr/xr_pose.h"
+
+namespace {
+
+using namespace std::chrono_literals;
+using gauss::test::read_text;
+using Json = nlohmann::json;
+namespace fs = std::filesystem;
+
+constexpr std::uint32_t kBudget = 3000;
+constexpr double kRho = 0.5;
+constexpr int kExitFrame = 600;
+constexpr int kPullFrame = 150;
+
+Json pose_json(const gauss::xr::XrPose& p) {
+  return Json{{"position", {p.position.x, p.position.y, p.position.z}},
+              {"orientation", {p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z}}};
+}
+
+// The scene the host serves (same seed, size and epochs), for the aim's ground truth.
+gauss::SyntheticScene room() {
+  gauss::SyntheticSceneConfig sc;
+  sc.variant = 0;
+  sc.target_gaussians = 10000;
+  sc.epochs = 4;
+  auto s = gauss::SyntheticScene::create(sc);
+  EXPECT_TRUE(s.ok()) << s.message();
+  return std::move(*s);
+}
+
+struct Aim {
+  gauss::xr::XrPose head, hand;
+  gauss::ObjectId object{gauss::kNoObject};  // what the analytic scene shows along the aim
+};
+
+// Head and right hand at a point of the room looking at the robot arm; the hand's ray is the
+// view's centre ray, and the ground truth's object there is what the pull must select.
+Aim aim_at_robot_arm(const gauss::SyntheticScene& scene) {
+  Aim a;
+  const gauss::SyntheticObjectInfo* target = nullptr;  // the arm
+  for (const auto& o : scene.objects())
+    if (o.label == "robot_arm") target = &o;
+  EXPECT_NE(target, nullptr);
+  if (target == nullptr) return a;
+  const glm::dvec3 centre = 0.5 * (glm::dvec3(target->extent_min) + glm::dvec3(target->extent_max));
+  // 1.5 m towards the room's -z side and 0.8 m above the arm's middle: free space in room 0
+  // (the table, nearer the room centre, would hold the controller inside its Gaussians).
+  const glm::dvec3 eye = centre + glm::dvec3(0.3, 0.8, -1.5);
+  // The head looks at the arm's box centre; the hand points through the pixel nearest the
+  // view's centre where the analytic scene shows the arm (a thin arm's box centre is air).
+  gauss::Camera view;
+  view.width = view.height = 33;
+  view.fx = view.fy = 30.0;
+  view.cx = view.cy = 16.5;
+  view.world_to_camera = glm::inverse(gauss::opencv_look_at(eye, centre, glm::dvec3(0, 1, 0)));
+  const gauss::GroundTruthImage gt = scene.render_ground_truth(view);
+  int best = -1;
+  double best_d = 1e9;
+  for (int y = 0; y < 33; ++y)
+    for (int x = 0; x < 33; ++x)
+      if (gt.object[std::size_t(y * 33 + x)] == target->id && std::hypot(x - 16, y - 16) < best_d) {
+        best_d = std::hypot(x - 16, y - 16);
+        best = y * 33 + x;
+      }
+  a.head = gauss::xr::pose_of_camera(view, glm::dmat4(1.0));
+  if (best < 0) return a;
+  a.object = target->id;
+  const glm::dmat4 c2w = glm::inverse(view.world_to_camera);
+  const glm::dvec3 ray = glm::dmat3(c2w) * glm::dvec3((best % 33 + 0.5 - view.cx) / view.fx,
+                                                      (best / 33 + 0.5 - view.cy) / view.fy, 1.0);
+  gauss::Camera hand = view;
+  hand.world_to_camera = glm::inverse(gauss::opencv_look_at(eye, eye + ray, glm::dvec3(0, 1, 0)));
+  a.hand = gauss::xr::pose_of_camera(hand, glm::dmat4(1.0));
+  return a;
+}
+
+std::uint16_t start_host(gauss::test::ChildProcess& host, const fs::path& out) {
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    const std::uint16_t port = gauss::test::free_udp_port();
+    if (port == 0) return 0;
+    const std::string ep = "127.0.0.1:" + std::to_string(port);
+    // No fused surface: the scene is final after its four epochs, so the client's last
+    // frame is of the final scene.
+    if (!host.start({GAUSS_HOST_EXE, "--bind", ep, "--gaussians", "10000", "--epochs", "4", "--epoch-period", "0.05",
+                     "--surface-voxel", "0", "--duration", "400", "--dump-sent", (out / "dump").string(), "--quiet"},
+                    out / "host.log"))
+      return 0;
+    if (!host.wait(700ms)) return port;  // still running: it bound the port
+  }
+  return 0;
+}
+
+// Runs gauss-xr with the runtime's script; returns its exit status (-1: timed out).
+int run_xr(const fs::path& out, const Json& script, std::uint16_t port) {
+  std::ofstream(out / "script.json") << script.dump(2);
+  fs::create_directories(out / "capture");
+  ::setenv("GAUSS_XR_HEADLESS_SCRIPT", (out / "script.json").c_str(), 1);
+  ::setenv("GAUSS_XR_HEADLESS_CAPTURE", (out / "capture").c_str(), 1);
+  gauss::test::ChildProcess xr;
+  EXPECT_TRUE(xr.start({GAUSS_XR_EXE, "--host", "127.0.0.1:" + std::to_string(port), "--budget",
+                        std::to_string(kBudget), "--rho", "0.5", "--no-highlight", "--out", (out / "xr").string()},
+                       out / "xr.log"));
+  const auto rc = xr.wait(300s);
+  if (!rc) xr.stop(SIGKILL);
+  ::unsetenv("GAUSS_XR_HEADLESS_SCRIPT");
+  ::unsetenv("GAUSS_XR_HEADLESS_CAPTURE");
+  return rc.value_or(-1);
+}
+
+std::vector<std::uint8_t> read_bytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::vector<std::uint8_t>(std::istreambuf_iterator<char>(in), {});
+}
+
+TEST(GaussXrLoopback, TheHeadsetShowsTheHostsRenderOfTheSentSetAndThePullQueriesTheObject) {
+  const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "xr_gauss_xr_loopback";
+  fs::remove_all(out);
+  fs::create_directories(out);
+  const gauss::SyntheticScene scene = room();
+  const Aim aim = aim_at_robot_arm(scene);
+  ASSERT_NE(aim.object, gauss::kNoObject) << "the aim must hit the robot arm in the analytic scene";
+
+  gauss::test::ChildProcess host;
+  const std::uint16_t port = start_host(host, out);
+  ASSERT_NE(port, 0) << read_text(out / "host.log");
+
+  Json capture = Json::array();
+  for (int f = kExitFrame - 40; f <= kExitFrame + 2; ++f) capture.push_back(f);
+  const Json script{
+      {"width", 160},
+      {"height", 120},
+      {"ipd", 0.064},
+      {"fov", {{"left", -0.75}, {"right", 0.7}, {"up", 0.6}, {"down", -0.62}}},
+      {"keyframes",
+       {{{"frame", 0}, {"head", pose_json(aim.head)}, {"right", {{"aim", pose_json(aim.hand)}, {"trigger", 0.0}}}},
+        {{"frame", kPullFrame}, {"right", {{"aim", pose_json(aim.hand)}, {"trigger", 1.0}}}},
+        {{"frame", kPullFrame + 5}, {"right", {{"aim", pose_json(aim.hand)}, {"trigger", 0.0}}}}}},
+      {"events", {{{"frame", kExitFrame}, {"type", "exit"}}}},
+      {"capture", capture}};
+  ASSERT_EQ(run_xr(out, script, port), 0) << read_text(out / "xr.log");
+
+  // The host writes the set it sent when the client leaves; then it is stopped.
+  const fs::path dump = out / "dump" / "gauss-xr.ply";
+  for (int i = 0; i < 200 && !fs::exists(dump); ++i) std::this_thread::sleep_for(50ms);
+  EXPECT_EQ(host.stop(SIGINT).value_or(-1), 0) << read_text(out / "host.log");
+  ASSERT_TRUE(fs::exists(dump)) << read_text(out / "host.log");
+
+  const Json summary = Json::parse(read_text(out / "xr" / "summary.json"));
+  // The session went through its states and ended by the runtime's exit.
+  const std::vector<std::string> phases = summary["phases"];
+  EXPECT_EQ(phases.back(), "exiting");
+  EXPECT_NE(std::find(phases.begin(), phases.end(), "running"), phases.end());
+  const std::vector<std::string> states = summary["session_states"];
+  const std::vector<std::string> lifecycle{"IDLE",    "READY",        "SYNCHRONIZED", "VISIBLE", "FOCUSED",
+                                           "VISIBLE", "SYNCHRONIZED", "STOPPING",     "IDLE",    "EXITING"};
+  EXPECT_EQ(states, lifecycle) << summary["session_states"].dump();
+  // The pull queried the object under the ray, and it got its share of the budget.
+  const Json& queries = summary["queries"];
+  ASSERT_EQ(queries.size(), 1u) << summary.dump(2);
+  EXPECT_EQ(queries[0]["kind"], "instance") << queries.dump();
+  EXPECT_EQ(queries[0]["object"].get<std::int64_t>(), gauss::to_underlying(aim.object)) << queries.dump();
+  const Json& q = summary["query"];
+  ASSERT_TRUE(q["active"].get<bool>()) << summary.dump(2);
+  const auto expected = std::min<std::uint64_t>(q["target_members"].get<std::uint64_t>(),
+                                                static_cast<std::uint64_t>(std::floor(kRho * kBudget)));
+  EXPECT_GT(expected, 0u);
+  EXPECT_EQ(q["target_resident"].get<std::uint64_t>(), expected) << summary.dump(2);
+
+  // The last frame gauss-xr showed, as the runtime read it back: find it by display time.
+  const std::int64_t shown_time = summary["last_display_time"].get<std::int64_t>();
+  fs::path frame_json;
+  for (const auto& e : fs::directory_iterator(out / "capture"))
+    if (e.path().extension() == ".json" && e.path().filename().string().rfind("frame-", 0) == 0) {
+      const Json f = Json::parse(read_text(e.path()));
+      if (f.contains("predicted_display_time") && f["predicted_display_time"].get<std::int64_t>() == shown_time)
+        frame_json = e.path();
+    }
+  ASSERT_FALSE(frame_json.empty()) << "no captured frame has gauss-xr's last display time " << shown_time;
+  const std::string stem = frame_json.stem().string();
+  for (int eye = 0; eye < 2; ++eye) {
+    const fs::path cam = out / "xr" / ("eye" + std::to_string(eye) + ".camera.json");
+    gauss::test::ChildProcess render;
+    const fs::path png = out / ("host_eye" + std::to_string(eye) + ".png");
+    ASSERT_TRUE(render.start({GAUSS_RENDER_EXE, "--scene", dump.string(), "--camera", cam.string(), "--order",
+                              (out / "xr" / "final_slot_ids.json").string(), "--out", png.string()},
+                             out / "render.log"));
+    const auto rc = render.wait(120s);
+    if (!rc) render.stop(SIGKILL);
+    ASSERT_EQ(rc.value_or(-1), 0) << read_text(out / "render.log");
+    auto host_img = gauss::read_png_rgba8(png);
+    ASSERT_TRUE(host_img.ok()) << host_img.message();
+    const std::vector<std::uint8_t> shown = read_bytes(out / "capture" / (stem + "-eye" + std::to_string(eye) + ".rgba"));
+    ASSERT_EQ(shown.size(), host_img->pixels.size());
+    std::size_t differ = 0, lit = 0;
+    for (std::size_t i = 0; i + 3 < shown.size(); i += 4) {
+      bool same = true;
+      for (int c = 0; c < 4; ++c) same = same && shown[i + c] == host_img->pixels[i + c];
+      differ += same ? 0 : 1;
+      lit += shown[i] + shown[i + 1] + shown[i + 2] > 30 ? 1 : 0;
+    }
+    EXPECT_EQ(differ, 0u) << "eye " << eye << ": pixels differing between the headset's layer and the host's render";
+    EXPECT_GT(lit, shown.size() / 16) << "eye " << eye << ": the scene is in view";
+  }
+}
+
+TEST(GaussXrLoopback, ALostSessionEndsTheProgramWithAMessage) {
+  const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "xr_gauss_xr_loss";
+  fs::remove_all(out);
+  fs::create_directories(out);
+  gauss::test::ChildProcess host;
+  const std::uint16_t port = start_host(host, out);
+  ASSERT_NE(port, 0) << read_text(out / "host.log");
+  const Json script{{"width", 64}, {"height", 48}, {"events", {{{"frame", 30}, {"type", "loss"}}}}, {"capture", Json::array()}};
+  EXPECT_EQ(run_xr(out, script, port), 1);
+  const std::string log = read_text(out / "xr.log");
+  EXPECT_NE(log.find("session was lost"), std::string::npos) << log;
+  const Json summary = Json::parse(read_text(out / "xr" / "summary.json"));
+  const std::vector<std::string> phases = summary["phases"];
+  EXPECT_EQ(phases.back(), "loss pending");
+  EXPECT_GE(summary["frames_ended"].get<std::uint64_t>(), 25u);
+  EXPECT_EQ(host.stop(SIGINT).value_or(-1), 0);
+}
+
+TEST(GaussXrLoopback, NoRuntimeAndARuntimeWithoutVulkanAreNamed) {
+  const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "xr_gauss_xr_refusals";
+  fs::remove_all(out);
+  fs::create_directories(out);
+  const std::string saved = std::getenv("XR_RUNTIME_JSON") ? std::getenv("XR_RUNTIME_JSON") : "";
+  ::setenv("XR_RUNTIME_JSON", (out / "no-such-runtime.json").c_str(), 1);
+  EXPECT_EQ(run_xr(out, Json::object(), 9), 1);
+  EXPECT_NE(read_text(out / "xr.log").find("no OpenXR runtime"), std::string::npos) << read_text(out / "xr.log");
+  ::setenv("XR_RUNTIME_JSON", saved.c_str(), 1);
+  ::setenv("GAUSS_XR_HEADLESS_NO_VULKAN", "1", 1);
+  EXPECT_EQ(run_xr(out, Json::object(), 9), 1);
+  ::unsetenv("GAUSS_XR_HEADLESS_NO_VULKAN");
+  EXPECT_NE(read_text(out / "xr.log").find("XR_KHR_vulkan_enable2"), std::string::npos) << read_text(out / "xr.log");
+}
+
+}  // namespace
