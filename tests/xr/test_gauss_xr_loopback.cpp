@@ -3,8 +3,9 @@
 // a scripted session (a head pose held still, a trigger pull with the right controller
 // aimed at an object, an exit) must show, in the projection layer the runtime read back,
 // exactly the host's own render (gauss-render) of the set it sent, from the cameras
-// gauss-xr made of the runtime's views; the pull must query the object under the ray and
-// that object must get min(|G_obj|, floor(rho M)) of the M slots. And the faults: a lost
+// gauss-xr made of the runtime's views; A sends the first class query, B clears it, the
+// pull must query the object under the ray and that object must get min(|G_obj|,
+// floor(rho M)) of the M slots. And the faults: a lost
 // session ends gauss-xr cleanly with a message, no runtime and a runtime without
 // XR_KHR_vulkan_enable2 are named.
 #include <algorithm>
@@ -159,10 +160,16 @@ TEST(GaussXrLoopback, TheHeadsetShowsTheHostsRenderOfTheSentSetAndThePullQueries
       {"height", 120},
       {"ipd", 0.064},
       {"fov", {{"left", -0.75}, {"right", 0.7}, {"up", 0.6}, {"down", -0.62}}},
+      // A (the first class query), B (cleared), then the pull, so the pull's query is the one
+      // active at the end.
       {"keyframes",
        {{{"frame", 0}, {"head", pose_json(aim.head)}, {"right", {{"aim", pose_json(aim.hand)}, {"trigger", 0.0}}}},
-        {{"frame", kPullFrame}, {"right", {{"aim", pose_json(aim.hand)}, {"trigger", 1.0}}}},
-        {{"frame", kPullFrame + 5}, {"right", {{"aim", pose_json(aim.hand)}, {"trigger", 0.0}}}}}},
+        {{"frame", kPullFrame - 60}, {"right", {{"a", true}}}},
+        {{"frame", kPullFrame - 55}, {"right", {{"a", false}}}},
+        {{"frame", kPullFrame - 30}, {"right", {{"b", true}}}},
+        {{"frame", kPullFrame - 25}, {"right", {{"b", false}}}},
+        {{"frame", kPullFrame}, {"right", {{"trigger", 1.0}}}},
+        {{"frame", kPullFrame + 5}, {"right", {{"trigger", 0.0}}}}}},
       {"events", {{{"frame", kExitFrame}, {"type", "exit"}}}},
       {"capture", capture}};
   ASSERT_EQ(run_xr(out, script, port), 0) << read_text(out / "xr.log");
@@ -184,9 +191,13 @@ TEST(GaussXrLoopback, TheHeadsetShowsTheHostsRenderOfTheSentSetAndThePullQueries
   EXPECT_EQ(states, lifecycle) << summary["session_states"].dump();
   // The pull queried the object under the ray, and it got its share of the budget.
   const Json& queries = summary["queries"];
-  ASSERT_EQ(queries.size(), 1u) << summary.dump(2);
-  EXPECT_EQ(queries[0]["kind"], "instance") << queries.dump();
-  EXPECT_EQ(queries[0]["object"].get<std::int64_t>(), gauss::to_underlying(aim.object)) << queries.dump();
+  ASSERT_EQ(queries.size(), 3u) << summary.dump(2);
+  EXPECT_EQ(queries[0]["kind"], "class") << queries.dump();
+  EXPECT_EQ(queries[0]["text"], "chair") << "A cycles the class labels in order: 'chair' is the first of room 0's";
+  EXPECT_EQ(queries[1]["kind"], "clear") << queries.dump();
+  EXPECT_EQ(queries[2]["kind"], "instance") << queries.dump();
+  EXPECT_EQ(queries[2]["object"].get<std::int64_t>(), gauss::to_underlying(aim.object)) << queries.dump();
+  EXPECT_DOUBLE_EQ(queries[2]["rho"].get<double>(), kRho) << "the thumbstick did not move";
   const Json& q = summary["query"];
   ASSERT_TRUE(q["active"].get<bool>()) << summary.dump(2);
   const auto expected = std::min<std::uint64_t>(q["target_members"].get<std::uint64_t>(),
