@@ -1,6 +1,8 @@
 #include "headset_loop.h"
 
 #include <algorithm>
+#include <atomic>
+#include <csignal>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
@@ -23,6 +25,10 @@ namespace gauss::xr_app {
 namespace {
 
 using Json = nlohmann::json;
+
+// SIGINT / SIGTERM: leave as the runtime would end the session (outputs written).
+std::atomic<bool> g_stop{false};
+void on_signal(int) { g_stop.store(true); }
 
 // The queries the controller makes, and what it has sent.
 class QueryControl {
@@ -89,7 +95,8 @@ class QueryControl {
 
 // --out: what a test or a user checks afterwards.
 Status write_outputs(const XrOptions& o, client::ClientRuntime& rt, const xr::HeadsetSession& session,
-                     const std::vector<std::string>& phases, const xr::FrameTarget* last, const QueryControl& queries) {
+                     const std::vector<std::string>& phases, const xr::FrameTarget* last, const QueryControl& queries,
+                     std::uint64_t banner_frames) {
   std::error_code ec;
   std::filesystem::create_directories(o.out, ec);
   if (ec) return Error{"gauss-xr: --out " + o.out.string() + ": " + ec.message()};
@@ -131,6 +138,11 @@ Status write_outputs(const XrOptions& o, client::ClientRuntime& rt, const xr::He
                {"frames_rendered", rt.frames_rendered()},
                {"phases", phases},
                {"session_states", session.states_seen()},
+               {"banner_frames", banner_frames},
+               {"connection",
+                Json{{"connects", rt.connection().counters.connects},
+                     {"disconnects", rt.connection().counters.disconnects},
+                     {"welcomes", rt.connection().counters.welcomes}}},
                {"queries", queries.sent()},
                {"rho", queries.rho()},
                {"resident", slot_ids.size()},
@@ -153,6 +165,8 @@ int run_headset(const XrOptions& o) {
     std::fprintf(stderr, "gauss-xr: %s\n", why.c_str());
     return 1;
   };
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
   xr::HeadsetConfig hc;
   hc.stage_space = o.stage;
   auto session = xr::HeadsetSession::create(hc);
@@ -185,6 +199,7 @@ int run_headset(const XrOptions& o) {
   XrTime input_time = 0;
   auto last_frame = std::chrono::steady_clock::now();
   bool exit_requested = false;
+  std::uint64_t banner_frames = 0;  // frames shown with the host-unreachable banner
   for (;;) {
     auto phase = s.poll();
     if (!phase) return fail(phase.message());
@@ -194,10 +209,11 @@ int run_headset(const XrOptions& o) {
       // The runtime is taking the session away (the headset was removed from use, the
       // runtime restarts): leave cleanly rather than render into a dead session.
       (void)rt.wait_frames();
-      if (!o.out.empty()) (void)write_outputs(o, rt, s, phases, last ? &*last : nullptr, queries);
+      if (!o.out.empty()) (void)write_outputs(o, rt, s, phases, last ? &*last : nullptr, queries, banner_frames);
       return fail("the OpenXR session was lost; exiting");
     }
     if (*phase != xr::SessionPhase::Running) {
+      if (g_stop.load() && *phase == xr::SessionPhase::Idle) break;  // never began: nothing to end
       std::this_thread::sleep_for(std::chrono::milliseconds(5));  // idle or stopping: no frames
       continue;
     }
@@ -208,6 +224,9 @@ int run_headset(const XrOptions& o) {
       queries.apply(*in, std::chrono::duration<double>(now - last_frame).count());
       last_frame = now;
     }
+    // No window to print to in a headset: while the host is unreachable (not yet welcomed,
+    // gone, refusing us) the last published scene stays drawn and a banner says so.
+    s.show_banner(rt.connection().status != net::ClientStatus::Connected);
     std::optional<xr::FrameTarget> shown;
     auto rendered = s.frame([&](const xr::FrameTarget& t) -> Status {
       const Camera cams[2] = {t.eyes[0].camera, t.eyes[1].camera};
@@ -222,15 +241,17 @@ int run_headset(const XrOptions& o) {
     if (shown) {
       input_time = shown->display_time;
       last = shown;
+      if (s.banner_shown()) ++banner_frames;
     }
-    if (o.max_frames > 0 && s.frames_ended() >= o.max_frames && !exit_requested) {
+    if (((o.max_frames > 0 && s.frames_ended() >= o.max_frames) || g_stop.load()) && !exit_requested) {
       exit_requested = true;
       if (auto st = s.request_exit(); !st) return fail(st.message());
     }
   }
   if (auto st = rt.wait_frames(); !st) return fail(st.message());
   if (!o.out.empty())
-    if (auto st = write_outputs(o, rt, s, phases, last ? &*last : nullptr, queries); !st) return fail(st.message());
+    if (auto st = write_outputs(o, rt, s, phases, last ? &*last : nullptr, queries, banner_frames); !st)
+      return fail(st.message());
   std::fprintf(stderr, "gauss-xr: session ended after %llu frames\n",
                static_cast<unsigned long long>(s.frames_ended()));
   return 0;

@@ -12,8 +12,9 @@ std::optional<int> parse_options(int argc, char** argv, XrOptions& o) {
       "active OpenXR runtime (XR_KHR_vulkan_enable2; XR_RUNTIME_JSON selects one). Right controller:\n"
       "point and pull the trigger to query the object under the ray, A for the next object class,\n"
       "B to clear the query, thumbstick up/down to change the query's share of the budget.\n"
-      "Exit status: 0 when the runtime or --max-frames ended the session, 1 on an error (no runtime,\n"
-      "no headset, a lost session), 2 on a bad command line.",
+      "While the host is unreachable the last published scene stays drawn under an amber banner.\n"
+      "Exit status: 0 when the runtime, --max-frames or SIGINT/SIGTERM ended the session, 1 on an\n"
+      "error (no runtime, no headset, a lost session), 2 on a bad command line.",
       "gauss-xr"};
   apps::configure(app);
   std::string host, mode = "progressive";

@@ -276,3 +276,71 @@ TEST(GaussXrLoopback, NoRuntimeAndARuntimeWithoutVulkanAreNamed) {
 }
 
 }  // namespace
+
+namespace {
+
+// Lines of `text` containing `needle`.
+std::size_t count_lines_with(const std::string& text, const std::string& needle) {
+  std::size_t n = 0;
+  for (std::size_t at = text.find(needle); at != std::string::npos; at = text.find(needle, at + 1)) ++n;
+  return n;
+}
+
+// The host stops while the headset runs: the headset keeps drawing the published scene with
+// the amber banner (a quad layer the runtime sees), reconnects to the host started again on
+// the same port, and the banner goes; SIGINT then ends gauss-xr cleanly with its outputs.
+TEST(GaussXrLoopback, TheHostGoingAwayShowsABannerUntilItIsBack) {
+  const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "xr_gauss_xr_host_away";
+  fs::remove_all(out);
+  fs::create_directories(out);
+  gauss::test::ChildProcess host;
+  const std::uint16_t port = start_host(host, out);
+  ASSERT_NE(port, 0) << read_text(out / "host.log");
+  const Json script{{"width", 64}, {"height", 48}, {"capture", Json::array()}};
+  std::ofstream(out / "script.json") << script.dump(2);
+  fs::create_directories(out / "capture");
+  ::setenv("GAUSS_XR_HEADLESS_SCRIPT", (out / "script.json").c_str(), 1);
+  ::setenv("GAUSS_XR_HEADLESS_CAPTURE", (out / "capture").c_str(), 1);
+  gauss::test::ChildProcess xr;
+  ASSERT_TRUE(xr.start({GAUSS_XR_EXE, "--host", "127.0.0.1:" + std::to_string(port), "--budget", "2000", "--out",
+                        (out / "xr").string()},
+                       out / "xr.log"));
+  ::unsetenv("GAUSS_XR_HEADLESS_SCRIPT");
+  ::unsetenv("GAUSS_XR_HEADLESS_CAPTURE");
+  const auto wait_for = [&](std::size_t connects, std::chrono::seconds limit) {
+    const auto until = std::chrono::steady_clock::now() + limit;
+    while (std::chrono::steady_clock::now() < until) {
+      if (count_lines_with(read_text(out / "xr.log"), "connected to") >= connects) return true;
+      std::this_thread::sleep_for(100ms);
+    }
+    return false;
+  };
+  ASSERT_TRUE(wait_for(1, 60s)) << read_text(out / "xr.log");
+  std::this_thread::sleep_for(1s);  // the stream arrives and is drawn
+  EXPECT_EQ(host.stop(SIGINT).value_or(-1), 0);
+  std::this_thread::sleep_for(1s);  // frames without a host
+  gauss::test::ChildProcess again;  // the same port: the client retries it
+  ASSERT_TRUE(again.start({GAUSS_HOST_EXE, "--bind", "127.0.0.1:" + std::to_string(port), "--gaussians", "10000",
+                           "--epochs", "4", "--epoch-period", "0.05", "--surface-voxel", "0", "--duration", "400",
+                           "--quiet"},
+                          out / "host2.log"));
+  const bool back = wait_for(2, 60s);
+  std::this_thread::sleep_for(1s);  // frames after the reconnect
+  EXPECT_EQ(xr.stop(SIGINT).value_or(-1), 0) << read_text(out / "xr.log");
+  EXPECT_EQ(again.stop(SIGINT).value_or(-1), 0);
+  ASSERT_TRUE(back) << "gauss-xr did not reconnect:\n" << read_text(out / "xr.log");
+
+  const Json summary = Json::parse(read_text(out / "xr" / "summary.json"));
+  EXPECT_GE(summary["connection"]["disconnects"].get<std::uint64_t>(), 1u) << summary.dump(2);
+  EXPECT_GE(summary["connection"]["welcomes"].get<std::uint64_t>(), 2u) << summary.dump(2);
+  EXPECT_GT(summary["banner_frames"].get<std::uint64_t>(), 0u) << summary.dump(2);
+  EXPECT_GT(summary["resident"].get<std::uint64_t>(), 0u) << "the scene stayed and came back";
+  const Json session = Json::parse(read_text(out / "capture" / "session.json"));
+  const std::vector<std::uint64_t> quads = session["quad_frames"];
+  ASSERT_FALSE(quads.empty()) << "the runtime saw no banner";
+  const std::uint64_t frames = session["frame_count"].get<std::uint64_t>();
+  EXPECT_LT(quads.back() + 10, frames) << "the banner must be gone once the host is back";
+  EXPECT_LT(quads.size(), frames) << "not every frame had the banner";
+}
+
+}  // namespace

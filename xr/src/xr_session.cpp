@@ -36,6 +36,9 @@ namespace {
 // comes second. BGRA would need a swizzle the copy does not do.
 constexpr VkFormat kFormatPreference[] = {VK_FORMAT_R8G8B8A8_SRGB, VK_FORMAT_R8G8B8A8_UNORM};
 
+// The status banner: a 64 x 16 image shown 24 x 6 cm, 0.6 m ahead and 12 cm up in view.
+constexpr std::uint32_t kBannerWidth = 64, kBannerHeight = 16;
+
 // XR_KHR_vulkan_enable2's entry points (not exported by the loader: asked of the instance).
 struct VulkanEnable2 {
   PFN_xrGetVulkanGraphicsRequirements2KHR requirements{nullptr};
@@ -207,7 +210,68 @@ Expected<std::unique_ptr<HeadsetSession>> HeadsetSession::create(const HeadsetCo
   if (r = xrCreateReferenceSpace(s->session_, &rsci, &s->space_); XR_FAILED(r))
     return xr_error(inst, "xrCreateReferenceSpace", r);
   if (auto st = s->create_swapchains(); !st) return st.error();
+  rsci.referenceSpaceType = XR_REFERENCE_SPACE_TYPE_VIEW;  // the banner stays in view
+  if (r = xrCreateReferenceSpace(s->session_, &rsci, &s->view_space_); XR_FAILED(r))
+    return xr_error(inst, "xrCreateReferenceSpace(VIEW)", r);
   return s;
+}
+
+// Fills the banner's image once (amber) and releases it: a layer may show a swapchain's
+// last released image on every later frame without acquiring it again.
+Status HeadsetSession::prepare_banner() {
+  std::uint32_t index = 0;
+  auto ai = xr_struct<XrSwapchainImageAcquireInfo>(XR_TYPE_SWAPCHAIN_IMAGE_ACQUIRE_INFO);
+  if (const XrResult r = xrAcquireSwapchainImage(banner_, &ai, &index); XR_FAILED(r))
+    return xr_error(instance_, "xrAcquireSwapchainImage(banner)", r);
+  auto wi = xr_struct<XrSwapchainImageWaitInfo>(XR_TYPE_SWAPCHAIN_IMAGE_WAIT_INFO);
+  wi.timeout = XR_INFINITE_DURATION;
+  if (const XrResult r = xrWaitSwapchainImage(banner_, &wi); XR_FAILED(r))
+    return xr_error(instance_, "xrWaitSwapchainImage(banner)", r);
+  std::uint32_t n = 0;
+  if (const XrResult r = xrEnumerateSwapchainImages(banner_, 0, &n, nullptr); XR_FAILED(r))
+    return xr_error(instance_, "xrEnumerateSwapchainImages(banner)", r);
+  std::vector<XrSwapchainImageVulkan2KHR> imgs(n, xr_struct<XrSwapchainImageVulkan2KHR>(XR_TYPE_SWAPCHAIN_IMAGE_VULKAN2_KHR));
+  if (const XrResult r = xrEnumerateSwapchainImages(banner_, n, &n, reinterpret_cast<XrSwapchainImageBaseHeader*>(imgs.data()));
+      XR_FAILED(r))
+    return xr_error(instance_, "xrEnumerateSwapchainImages(banner)", r);
+  const VkImage image = imgs.at(index).image;
+  Status filled = context_->submit_and_wait([&](VkCommandBuffer cmd) {
+    VkImageMemoryBarrier2 b{};
+    b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
+    b.srcStageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
+    b.dstStageMask = VK_PIPELINE_STAGE_2_TRANSFER_BIT;
+    b.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+    b.oldLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.image = image;
+    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    VkDependencyInfo dep{};
+    dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+    dep.imageMemoryBarrierCount = 1;
+    dep.pImageMemoryBarriers = &b;
+    vkCmdPipelineBarrier2(cmd, &dep);
+    VkClearColorValue amber{};
+    amber.float32[0] = 1.0f;
+    amber.float32[1] = 0.62f;
+    amber.float32[2] = 0.0f;
+    amber.float32[3] = 1.0f;
+    const VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    vkCmdClearColorImage(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &amber, 1, &range);
+    b.srcStageMask = VK_PIPELINE_STAGE_2_TRANSFER_BIT;
+    b.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+    b.dstStageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
+    b.dstAccessMask = VK_ACCESS_2_MEMORY_READ_BIT;
+    b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    b.newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    vkCmdPipelineBarrier2(cmd, &dep);
+  });
+  auto ri = xr_struct<XrSwapchainImageReleaseInfo>(XR_TYPE_SWAPCHAIN_IMAGE_RELEASE_INFO);
+  if (const XrResult r = xrReleaseSwapchainImage(banner_, &ri); XR_FAILED(r))
+    return xr_error(instance_, "xrReleaseSwapchainImage(banner)", r);
+  if (!filled) return filled.error();
+  banner_ready_ = true;
+  return Ok{};
 }
 
 Status HeadsetSession::create_swapchains() {
@@ -249,6 +313,16 @@ Status HeadsetSession::create_swapchains() {
     if (XR_FAILED(r)) return xr_error(instance_, "xrEnumerateSwapchainImages", r);
     for (const auto& img : imgs) images_[eye].push_back(img.image);
   }
+  auto bc = xr_struct<XrSwapchainCreateInfo>(XR_TYPE_SWAPCHAIN_CREATE_INFO);
+  bc.usageFlags = XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT | XR_SWAPCHAIN_USAGE_TRANSFER_DST_BIT;
+  bc.format = format_;
+  bc.sampleCount = 1;
+  bc.width = kBannerWidth;
+  bc.height = kBannerHeight;
+  bc.faceCount = 1;
+  bc.arraySize = 1;
+  bc.mipCount = 1;
+  if (r = xrCreateSwapchain(session_, &bc, &banner_); XR_FAILED(r)) return xr_error(instance_, "xrCreateSwapchain(banner)", r);
   return Ok{};
 }
 
@@ -362,6 +436,8 @@ Expected<bool> HeadsetSession::frame(const std::function<Status(const FrameTarge
       return xr_error(instance_, "xrReleaseSwapchainImage", r);
   }
   if (!rendered) return rendered.error();
+  if (banner_on_ && !banner_ready_)
+    if (auto st = prepare_banner(); !st) return st.error();
   if (auto st = end_frame(fs.predictedDisplayTime, true, &target); !st) return st.error();
   return true;
 }
@@ -371,7 +447,19 @@ Status HeadsetSession::end_frame(XrTime display_time, bool with_layer, const Fra
       xr_struct<XrCompositionLayerProjectionView>(XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW),
       xr_struct<XrCompositionLayerProjectionView>(XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW)};
   auto layer = xr_struct<XrCompositionLayerProjection>(XR_TYPE_COMPOSITION_LAYER_PROJECTION);
-  const XrCompositionLayerBaseHeader* layers[1] = {reinterpret_cast<const XrCompositionLayerBaseHeader*>(&layer)};
+  auto quad = xr_struct<XrCompositionLayerQuad>(XR_TYPE_COMPOSITION_LAYER_QUAD);
+  const XrCompositionLayerBaseHeader* layers[2] = {reinterpret_cast<const XrCompositionLayerBaseHeader*>(&layer),
+                                                   reinterpret_cast<const XrCompositionLayerBaseHeader*>(&quad)};
+  const bool with_banner = with_layer && banner_on_ && banner_ready_;
+  if (with_banner) {
+    quad.space = view_space_;
+    quad.eyeVisibility = XR_EYE_VISIBILITY_BOTH;
+    quad.subImage.swapchain = banner_;
+    quad.subImage.imageRect.extent = {std::int32_t(kBannerWidth), std::int32_t(kBannerHeight)};
+    quad.pose.orientation.w = 1.0f;
+    quad.pose.position = {0.0f, 0.12f, -0.6f};
+    quad.size = {0.24f, 0.06f};
+  }
   if (with_layer) {
     for (std::size_t eye = 0; eye < 2; ++eye) {
       pv[eye].pose = target->eyes[eye].pose;
@@ -388,7 +476,7 @@ Status HeadsetSession::end_frame(XrTime display_time, bool with_layer, const Fra
   auto ei = xr_struct<XrFrameEndInfo>(XR_TYPE_FRAME_END_INFO);
   ei.displayTime = display_time;
   ei.environmentBlendMode = XR_ENVIRONMENT_BLEND_MODE_OPAQUE;
-  ei.layerCount = with_layer ? 1 : 0;
+  ei.layerCount = with_layer ? (with_banner ? 2 : 1) : 0;
   ei.layers = with_layer ? layers : nullptr;
   const XrResult r = xrEndFrame(session_, &ei);
   if (r == XR_ERROR_SESSION_LOST) {
@@ -401,6 +489,10 @@ Status HeadsetSession::end_frame(XrTime display_time, bool with_layer, const Fra
 }
 
 void HeadsetSession::destroy_session() {
+  if (banner_ != XR_NULL_HANDLE) xrDestroySwapchain(banner_);
+  banner_ = XR_NULL_HANDLE;
+  if (view_space_ != XR_NULL_HANDLE) xrDestroySpace(view_space_);
+  view_space_ = XR_NULL_HANDLE;
   for (XrSwapchain& sc : swapchains_)
     if (sc != XR_NULL_HANDLE) {
       xrDestroySwapchain(sc);

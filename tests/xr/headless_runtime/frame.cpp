@@ -197,7 +197,7 @@ XrResult xrEndFrame(XrSession session, const XrFrameEndInfo* end_info) {
   const std::uint64_t index = s->frames_begun - 1;
 
   CapturedFrame frame;
-  bool have_projection = false;
+  bool have_projection = false, have_quad = false;
   for (std::uint32_t i = 0; i < end_info->layerCount; ++i) {
     const XrCompositionLayerBaseHeader* layer = end_info->layers[i];
     const std::string where = "layers[" + std::to_string(i) + "]";
@@ -212,6 +212,7 @@ XrResult xrEndFrame(XrSession session, const XrFrameEndInfo* end_info) {
       }
     } else if (layer->type == XR_TYPE_COMPOSITION_LAYER_QUAD) {
       r = check_quad(id, *reinterpret_cast<const XrCompositionLayerQuad*>(layer), where);
+      have_quad = true;
     } else {
       r = fail(XR_ERROR_LAYER_INVALID, fn, where + " is neither a projection nor a quad layer");
     }
@@ -220,6 +221,7 @@ XrResult xrEndFrame(XrSession session, const XrFrameEndInfo* end_info) {
 
   s->frame_open = false;
   ++s->frames_ended;
+  if (have_quad) s->quad_frames.push_back(index);
   if (have_projection && !inst.capture_dir.empty() && inst.script.captures(index)) {
     frame.index = index;
     frame.predicted_display_time = display_time(inst, index);

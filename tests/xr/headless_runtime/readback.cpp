@@ -210,7 +210,8 @@ Status write_session_summary(const Session& session, const std::filesystem::path
   const json doc = {{"states", states},
                     {"frame_count", session.frames_begun},
                     {"frames_submitted", session.frames_ended},
-                    {"captured_frames", session.captured_frames}};
+                    {"captured_frames", session.captured_frames},
+                    {"quad_frames", session.quad_frames}};
   const std::string text = doc.dump(2) + "\n";
   return write_file(dir / "session.json", text.data(), text.size());
 }

@@ -97,6 +97,7 @@ struct Session {
   std::uint64_t frames_ended{0};
   bool frame_open{false};  // begun and not yet ended
   std::vector<std::uint64_t> captured_frames;
+  std::vector<std::uint64_t> quad_frames;  // frames ended with a quad layer (e.g. a status banner)
   // Actions.
   bool actions_attached{false};
   std::vector<std::uint64_t> attached_sets;

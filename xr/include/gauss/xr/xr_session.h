@@ -94,11 +94,17 @@ class HeadsetSession {
   // none). Returns whether `render` ran. Errors: any failing call, named; a lost session
   // (XR_ERROR_SESSION_LOST) is reported as phase LossPending by the next poll().
   Expected<bool> frame(const std::function<Status(const FrameTarget&)>& render);
+  // A status banner (a small amber quad layer fixed in view, above the line of sight) on
+  // every rendered frame from now on, or none: what the headset shows while the host is
+  // unreachable, since there is no window to print to.
+  void show_banner(bool on) noexcept { banner_on_ = on; }
+  bool banner_shown() const noexcept { return banner_on_; }
   std::uint64_t frames_ended() const noexcept { return frames_ended_; }
 
  private:
   HeadsetSession() = default;
   Status create_swapchains();
+  Status prepare_banner();
   Status end_frame(XrTime display_time, bool with_layer, const FrameTarget* target);
   void destroy_session();
 
@@ -117,6 +123,10 @@ class HeadsetSession {
   XrSessionState state_{XR_SESSION_STATE_UNKNOWN};
   std::uint64_t frames_ended_{0};
   std::vector<std::string> states_seen_;
+  XrSwapchain banner_{XR_NULL_HANDLE};
+  XrSpace view_space_{XR_NULL_HANDLE};
+  bool banner_on_{false};
+  bool banner_ready_{false};  // its one image was filled and released
 };
 
 }  // namespace gauss::xr
