@@ -29,7 +29,8 @@ void barrier(VkCommandBuffer cmd, VkImage image, VkImageLayout from, VkImageLayo
 
 }  // namespace
 
-Status record_eye_copy(VkCommandBuffer cmd, render::SplatRenderer& renderer, const xr::FrameTarget& target) {
+Status record_eye_copy(VkCommandBuffer cmd, render::SplatRenderer& renderer, const xr::FrameTarget& target,
+                       render::DepthProjection* depth) {
   for (std::uint32_t eye = 0; eye < 2; ++eye) {
     vk::Image& src = renderer.target(eye).color();
     if (src.width() != target.extent.width || src.height() != target.extent.height)
@@ -54,6 +55,13 @@ Status record_eye_copy(VkCommandBuffer cmd, render::SplatRenderer& renderer, con
             VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
             VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
             VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT);
+    if (depth != nullptr && target.depth_images[eye] != VK_NULL_HANDLE) {
+      vk::Image* drawn = renderer.has_mesh() ? &renderer.target(eye).depth() : nullptr;
+      if (auto st = depth->record(cmd, eye, drawn, target.extent, target.depth_images[eye],
+                                  VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL, target.near_z, target.far_z);
+          !st)
+        return st;
+    }
   }
   return Ok{};
 }

@@ -131,6 +131,7 @@ Status write_outputs(const XrOptions& o, client::ClientRuntime& rt, const xr::He
                 {"target_resident", resident}};
   });
   Json summary{{"runtime", session.runtime_name()},
+               {"depth_layer", session.depth_layer()},
                {"query", query},
                {"eye_width", session.eye_width()},
                {"eye_height", session.eye_height()},
@@ -190,6 +191,12 @@ int run_headset(const XrOptions& o) {
   net.server = o.host;
   net.log = [](const std::string& line) { std::fprintf(stderr, "gauss-xr: %s\n", line.c_str()); };
   if (auto st = rt.connect(net); !st) return fail(st.message());
+  std::optional<render::DepthProjection> depth;
+  if (s.depth_layer()) {
+    auto d = render::DepthProjection::create(s.context(), s.eye_width(), s.eye_height());
+    if (!d) return fail(d.message());
+    depth.emplace(std::move(*d));
+  }
   auto controls = xr::Controls::create(s.instance(), s.handle(), s.space());
   if (!controls) return fail(controls.message());
   QueryControl queries(rt, o.rho);
@@ -231,7 +238,9 @@ int run_headset(const XrOptions& o) {
     auto rendered = s.frame([&](const xr::FrameTarget& t) -> Status {
       const Camera cams[2] = {t.eyes[0].camera, t.eyes[1].camera};
       render::FrameHooks hooks;
-      hooks.record_after = [&](VkCommandBuffer cmd) { return record_eye_copy(cmd, rt.renderer(), t); };
+      hooks.record_after = [&](VkCommandBuffer cmd) {
+        return record_eye_copy(cmd, rt.renderer(), t, depth ? &*depth : nullptr);
+      };
       auto fs = rt.frame(std::span<const Camera>(cams, 2), hooks);
       if (!fs) return fs.error();
       shown = t;

@@ -133,6 +133,8 @@ int run_xr(const fs::path& out, const Json& script, std::uint16_t port) {
   if (!rc) xr.stop(SIGKILL);
   ::unsetenv("GAUSS_XR_HEADLESS_SCRIPT");
   ::unsetenv("GAUSS_XR_HEADLESS_CAPTURE");
+  // CTest turns Vulkan validation on (GAUSS_VALIDATION=1), and the child inherits it.
+  EXPECT_EQ(read_text(out / "xr.log").find("validation ERROR"), std::string::npos) << read_text(out / "xr.log");
   return rc.value_or(-1);
 }
 
@@ -216,6 +218,16 @@ TEST(GaussXrLoopback, TheHeadsetShowsTheHostsRenderOfTheSentSetAndThePullQueries
     }
   ASSERT_FALSE(frame_json.empty()) << "no captured frame has gauss-xr's last display time " << shown_time;
   const std::string stem = frame_json.stem().string();
+  // The depth layer rides with each projection view: the renderer's depth as projected depth
+  // for the eye cameras' planes (render::DepthProjection, unit-tested on its values).
+  EXPECT_TRUE(summary["depth_layer"].get<bool>()) << "the runtime offers XR_KHR_composition_layer_depth";
+  const Json shown_frame = Json::parse(read_text(frame_json));
+  for (const Json& v : shown_frame["views"]) {
+    ASSERT_TRUE(v.contains("depth")) << v.dump();
+    EXPECT_EQ(v["depth"]["format"], "VK_FORMAT_D32_SFLOAT") << v.dump();
+    EXPECT_FLOAT_EQ(v["depth"]["near_z"].get<float>(), 0.05f);
+    EXPECT_FLOAT_EQ(v["depth"]["far_z"].get<float>(), 1000.0f);
+  }
   for (int eye = 0; eye < 2; ++eye) {
     const fs::path cam = out / "xr" / ("eye" + std::to_string(eye) + ".camera.json");
     gauss::test::ChildProcess render;
@@ -329,6 +341,7 @@ TEST(GaussXrLoopback, TheHostGoingAwayShowsABannerUntilItIsBack) {
   EXPECT_EQ(xr.stop(SIGINT).value_or(-1), 0) << read_text(out / "xr.log");
   EXPECT_EQ(again.stop(SIGINT).value_or(-1), 0);
   ASSERT_TRUE(back) << "gauss-xr did not reconnect:\n" << read_text(out / "xr.log");
+  EXPECT_EQ(read_text(out / "xr.log").find("validation ERROR"), std::string::npos) << read_text(out / "xr.log");
 
   const Json summary = Json::parse(read_text(out / "xr" / "summary.json"));
   EXPECT_GE(summary["connection"]["disconnects"].get<std::uint64_t>(), 1u) << summary.dump(2);

@@ -101,12 +101,17 @@ Expected<std::unique_ptr<HeadsetSession>> HeadsetSession::create(const HeadsetCo
   if (!vulkan2)
     return Error{std::string("the OpenXR runtime does not offer ") + XR_KHR_VULKAN_ENABLE2_EXTENSION_NAME +
                  ", which this Vulkan renderer needs"};
-  const char* enabled[] = {XR_KHR_VULKAN_ENABLE2_EXTENSION_NAME};
+  // The depth layer lets the compositor reproject with depth; taken when offered.
+  const bool depth_ext = std::any_of(exts.begin(), exts.end(), [](const XrExtensionProperties& e) {
+    return std::strcmp(e.extensionName, XR_KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME) == 0;
+  });
+  const char* enabled[] = {XR_KHR_VULKAN_ENABLE2_EXTENSION_NAME, XR_KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME};
+  s->depth_layer_ = depth_ext;
   auto ci = xr_struct<XrInstanceCreateInfo>(XR_TYPE_INSTANCE_CREATE_INFO);
   std::strncpy(ci.applicationInfo.applicationName, config.app_name.c_str(), XR_MAX_APPLICATION_NAME_SIZE - 1);
   std::strncpy(ci.applicationInfo.engineName, "GaussAnything", XR_MAX_ENGINE_NAME_SIZE - 1);
   ci.applicationInfo.apiVersion = XR_CURRENT_API_VERSION;
-  ci.enabledExtensionCount = 1;
+  ci.enabledExtensionCount = depth_ext ? 2 : 1;
   ci.enabledExtensionNames = enabled;
   if (r = xrCreateInstance(&ci, &s->instance_); XR_FAILED(r)) return xr_error(XR_NULL_HANDLE, "xrCreateInstance", r);
   const XrInstance inst = s->instance_;
@@ -313,6 +318,30 @@ Status HeadsetSession::create_swapchains() {
     if (XR_FAILED(r)) return xr_error(instance_, "xrEnumerateSwapchainImages", r);
     for (const auto& img : imgs) images_[eye].push_back(img.image);
   }
+  // Depth swapchains for the depth layer, when the runtime takes D32_SFLOAT (the renderer's).
+  depth_layer_ = depth_layer_ &&
+                 std::find(formats.begin(), formats.end(), std::int64_t(VK_FORMAT_D32_SFLOAT)) != formats.end();
+  for (std::size_t eye = 0; depth_layer_ && eye < 2; ++eye) {
+    auto sc = xr_struct<XrSwapchainCreateInfo>(XR_TYPE_SWAPCHAIN_CREATE_INFO);
+    sc.usageFlags = XR_SWAPCHAIN_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | XR_SWAPCHAIN_USAGE_TRANSFER_DST_BIT;
+    sc.format = VK_FORMAT_D32_SFLOAT;
+    sc.sampleCount = 1;
+    sc.width = width_;
+    sc.height = height_;
+    sc.faceCount = 1;
+    sc.arraySize = 1;
+    sc.mipCount = 1;
+    if (r = xrCreateSwapchain(session_, &sc, &depth_swapchains_[eye]); XR_FAILED(r))
+      return xr_error(instance_, "xrCreateSwapchain(depth)", r);
+    std::uint32_t n = 0;
+    if (r = xrEnumerateSwapchainImages(depth_swapchains_[eye], 0, &n, nullptr); XR_FAILED(r))
+      return xr_error(instance_, "xrEnumerateSwapchainImages(depth)", r);
+    std::vector<XrSwapchainImageVulkan2KHR> imgs(n, xr_struct<XrSwapchainImageVulkan2KHR>(XR_TYPE_SWAPCHAIN_IMAGE_VULKAN2_KHR));
+    r = xrEnumerateSwapchainImages(depth_swapchains_[eye], n, &n,
+                                   reinterpret_cast<XrSwapchainImageBaseHeader*>(imgs.data()));
+    if (XR_FAILED(r)) return xr_error(instance_, "xrEnumerateSwapchainImages(depth)", r);
+    for (const auto& img : imgs) depth_images_[eye].push_back(img.image);
+  }
   auto bc = xr_struct<XrSwapchainCreateInfo>(XR_TYPE_SWAPCHAIN_CREATE_INFO);
   bc.usageFlags = XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT | XR_SWAPCHAIN_USAGE_TRANSFER_DST_BIT;
   bc.format = format_;
@@ -412,29 +441,39 @@ Expected<bool> HeadsetSession::frame(const std::function<Status(const FrameTarge
     target.eyes[eye].fov = views[eye].fov;
     usable = eye_camera(pose_of(views[eye].pose), fov, width_, height_, glm::dmat4(1.0), target.eyes[eye].camera);
     target.eyes[eye].camera.near_plane = config_.near_plane;
+    target.eyes[eye].camera.far_plane = config_.far_plane;
   }
+  target.near_z = config_.near_plane;
+  target.far_z = config_.far_plane;
   if (!usable) {  // no tracking (or a degenerate view): show nothing rather than a wrong pose
     if (auto st = end_frame(fs.predictedDisplayTime, false, nullptr); !st) return st.error();
     return false;
   }
-  for (std::size_t eye = 0; eye < 2; ++eye) {
+  const auto acquire = [&](XrSwapchain sc, const std::vector<VkImage>& images, VkImage& out) -> Status {
     std::uint32_t index = 0;
     auto ai = xr_struct<XrSwapchainImageAcquireInfo>(XR_TYPE_SWAPCHAIN_IMAGE_ACQUIRE_INFO);
-    if (r = xrAcquireSwapchainImage(swapchains_[eye], &ai, &index); XR_FAILED(r))
-      return xr_error(instance_, "xrAcquireSwapchainImage", r);
+    if (const XrResult a = xrAcquireSwapchainImage(sc, &ai, &index); XR_FAILED(a))
+      return xr_error(instance_, "xrAcquireSwapchainImage", a);
     auto wi = xr_struct<XrSwapchainImageWaitInfo>(XR_TYPE_SWAPCHAIN_IMAGE_WAIT_INFO);
     wi.timeout = XR_INFINITE_DURATION;
-    if (r = xrWaitSwapchainImage(swapchains_[eye], &wi); XR_FAILED(r))
-      return xr_error(instance_, "xrWaitSwapchainImage", r);
-    target.images[eye] = images_[eye].at(index);
+    if (const XrResult w = xrWaitSwapchainImage(sc, &wi); XR_FAILED(w)) return xr_error(instance_, "xrWaitSwapchainImage", w);
+    out = images.at(index);
+    return Ok{};
+  };
+  for (std::size_t eye = 0; eye < 2; ++eye) {
+    if (auto st = acquire(swapchains_[eye], images_[eye], target.images[eye]); !st) return st.error();
+    if (depth_layer_)
+      if (auto st = acquire(depth_swapchains_[eye], depth_images_[eye], target.depth_images[eye]); !st)
+        return st.error();
   }
   const Status rendered = render(target);
   // Released whatever happened: an acquired image held back would fail every later frame.
-  for (std::size_t eye = 0; eye < 2; ++eye) {
-    auto ri = xr_struct<XrSwapchainImageReleaseInfo>(XR_TYPE_SWAPCHAIN_IMAGE_RELEASE_INFO);
-    if (r = xrReleaseSwapchainImage(swapchains_[eye], &ri); XR_FAILED(r))
-      return xr_error(instance_, "xrReleaseSwapchainImage", r);
-  }
+  for (std::size_t eye = 0; eye < 2; ++eye)
+    for (XrSwapchain sc : {swapchains_[eye], depth_layer_ ? depth_swapchains_[eye] : XrSwapchain{XR_NULL_HANDLE}}) {
+      if (sc == XR_NULL_HANDLE) continue;
+      auto ri = xr_struct<XrSwapchainImageReleaseInfo>(XR_TYPE_SWAPCHAIN_IMAGE_RELEASE_INFO);
+      if (r = xrReleaseSwapchainImage(sc, &ri); XR_FAILED(r)) return xr_error(instance_, "xrReleaseSwapchainImage", r);
+    }
   if (!rendered) return rendered.error();
   if (banner_on_ && !banner_ready_)
     if (auto st = prepare_banner(); !st) return st.error();
@@ -446,6 +485,9 @@ Status HeadsetSession::end_frame(XrTime display_time, bool with_layer, const Fra
   XrCompositionLayerProjectionView pv[2] = {
       xr_struct<XrCompositionLayerProjectionView>(XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW),
       xr_struct<XrCompositionLayerProjectionView>(XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW)};
+  XrCompositionLayerDepthInfoKHR depth[2] = {
+      xr_struct<XrCompositionLayerDepthInfoKHR>(XR_TYPE_COMPOSITION_LAYER_DEPTH_INFO_KHR),
+      xr_struct<XrCompositionLayerDepthInfoKHR>(XR_TYPE_COMPOSITION_LAYER_DEPTH_INFO_KHR)};
   auto layer = xr_struct<XrCompositionLayerProjection>(XR_TYPE_COMPOSITION_LAYER_PROJECTION);
   auto quad = xr_struct<XrCompositionLayerQuad>(XR_TYPE_COMPOSITION_LAYER_QUAD);
   const XrCompositionLayerBaseHeader* layers[2] = {reinterpret_cast<const XrCompositionLayerBaseHeader*>(&layer),
@@ -468,6 +510,15 @@ Status HeadsetSession::end_frame(XrTime display_time, bool with_layer, const Fra
       pv[eye].subImage.imageRect.offset = {0, 0};
       pv[eye].subImage.imageRect.extent = {std::int32_t(width_), std::int32_t(height_)};
       pv[eye].subImage.imageArrayIndex = 0;
+      if (depth_layer_) {
+        depth[eye].subImage.swapchain = depth_swapchains_[eye];
+        depth[eye].subImage.imageRect = pv[eye].subImage.imageRect;
+        depth[eye].minDepth = 0.0f;
+        depth[eye].maxDepth = 1.0f;
+        depth[eye].nearZ = float(target->near_z);
+        depth[eye].farZ = float(target->far_z);
+        pv[eye].next = &depth[eye];
+      }
     }
     layer.space = space_;
     layer.viewCount = 2;
@@ -489,6 +540,11 @@ Status HeadsetSession::end_frame(XrTime display_time, bool with_layer, const Fra
 }
 
 void HeadsetSession::destroy_session() {
+  for (XrSwapchain& sc : depth_swapchains_)
+    if (sc != XR_NULL_HANDLE) {
+      xrDestroySwapchain(sc);
+      sc = XR_NULL_HANDLE;
+    }
   if (banner_ != XR_NULL_HANDLE) xrDestroySwapchain(banner_);
   banner_ = XR_NULL_HANDLE;
   if (view_space_ != XR_NULL_HANDLE) xrDestroySpace(view_space_);

@@ -28,6 +28,7 @@ struct HeadsetConfig {
   std::string app_name{"gauss-xr"};
   bool stage_space{false};      // STAGE reference space (floor origin) instead of LOCAL
   double near_plane{0.05};      // metres: the eye cameras' near plane
+  double far_plane{1000.0};     // metres: their far plane (the depth layer's farZ)
   bool enable_validation{false};  // Vulkan validation (also GAUSS_VALIDATION=1)
 };
 
@@ -57,6 +58,11 @@ struct FrameTarget {
   std::array<VkImage, 2> images{};
   VkExtent2D extent{};
   VkFormat format{VK_FORMAT_UNDEFINED};
+  // With XR_KHR_composition_layer_depth: each eye's D32_SFLOAT depth image (in
+  // DEPTH_STENCIL_ATTACHMENT_OPTIMAL, to be left so), filled with the projected depth for
+  // near_z / far_z (render::DepthProjection). VK_NULL_HANDLE without the extension.
+  std::array<VkImage, 2> depth_images{VK_NULL_HANDLE, VK_NULL_HANDLE};
+  double near_z{0.0}, far_z{0.0};
 };
 
 class HeadsetSession {
@@ -77,6 +83,7 @@ class HeadsetSession {
   XrSpace space() const noexcept { return space_; }
   std::uint32_t eye_width() const noexcept { return width_; }
   std::uint32_t eye_height() const noexcept { return height_; }
+  bool depth_layer() const noexcept { return depth_layer_; }
   const std::string& runtime_name() const noexcept { return runtime_name_; }
 
   // Drains the runtime's events and acts on state changes (begins the session when ready,
@@ -116,6 +123,9 @@ class HeadsetSession {
   XrSpace space_{XR_NULL_HANDLE};
   std::array<XrSwapchain, 2> swapchains_{XR_NULL_HANDLE, XR_NULL_HANDLE};
   std::array<std::vector<VkImage>, 2> images_;
+  bool depth_layer_{false};  // XR_KHR_composition_layer_depth enabled and D32_SFLOAT offered
+  std::array<XrSwapchain, 2> depth_swapchains_{XR_NULL_HANDLE, XR_NULL_HANDLE};
+  std::array<std::vector<VkImage>, 2> depth_images_;
   VkFormat format_{VK_FORMAT_UNDEFINED};
   std::uint32_t width_{0}, height_{0};
   std::string runtime_name_;
