@@ -4,8 +4,10 @@
 #include <atomic>
 #include <csignal>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <string>
 #include <thread>
@@ -35,11 +37,16 @@ class QueryControl {
  public:
   QueryControl(client::ClientRuntime& runtime, double rho) : runtime_(runtime), rho_(rho) {}
 
-  // Acts on one frame's input (`dt` seconds since the last).
-  void apply(const xr::ControllerInput& in, double dt) {
-    if (in.stick_y != 0.0f) rho_ = std::clamp(rho_ + 0.5 * dt * in.stick_y, 0.0, 1.0);
+  // Acts on one frame's input. A thumbstick push steps rho by 0.05 (kept on the 0.05 grid, so
+  // a share is exactly what the user saw) and re-sends the active query with it.
+  void apply(const xr::ControllerInput& in) {
+    if (in.stick_steps != 0) {
+      rho_ = std::clamp(std::round(rho_ * 20.0 + in.stick_steps) / 20.0, 0.0, 1.0);
+      if (active_) send(*active_, Json{{"kind", "rho"}});
+    }
     if (in.clear) {
       runtime_.clear_query();
+      active_.reset();
       sent_.push_back(Json{{"kind", "clear"}});
     }
     if (in.next_class) next_class();
@@ -51,6 +58,7 @@ class QueryControl {
  private:
   void send(msg::Query q, Json what) {
     q.rho = static_cast<float>(rho_);
+    active_ = q;
     what["query_id"] = runtime_.send_query(q);
     what["rho"] = rho_;
     sent_.push_back(std::move(what));
@@ -89,6 +97,7 @@ class QueryControl {
 
   client::ClientRuntime& runtime_;
   double rho_;
+  std::optional<msg::Query> active_;  // the last query sent, until cleared
   std::string last_class_;
   Json sent_ = Json::array();
 };
@@ -204,7 +213,6 @@ int run_headset(const XrOptions& o) {
   std::vector<std::string> phases;
   std::optional<xr::FrameTarget> last;
   XrTime input_time = 0;
-  auto last_frame = std::chrono::steady_clock::now();
   bool exit_requested = false;
   std::uint64_t banner_frames = 0;  // frames shown with the host-unreachable banner
   for (;;) {
@@ -227,9 +235,7 @@ int run_headset(const XrOptions& o) {
     if (input_time != 0) {
       auto in = (*controls)->read(input_time);
       if (!in) return fail(in.message());
-      const auto now = std::chrono::steady_clock::now();
-      queries.apply(*in, std::chrono::duration<double>(now - last_frame).count());
-      last_frame = now;
+      queries.apply(*in);
     }
     // No window to print to in a headset: while the host is unreachable (not yet welcomed,
     // gone, refusing us) the last published scene stays drawn and a banner says so.

@@ -168,6 +168,8 @@ TEST(GaussXrLoopback, TheHeadsetShowsTheHostsRenderOfTheSentSetAndThePullQueries
        {{{"frame", 0}, {"head", pose_json(aim.head)}, {"right", {{"aim", pose_json(aim.hand)}, {"trigger", 0.0}}}},
         {{"frame", kPullFrame - 60}, {"right", {{"a", true}}}},
         {{"frame", kPullFrame - 55}, {"right", {{"a", false}}}},
+        {{"frame", kPullFrame - 40}, {"right", {{"thumbstick", {0.0, -1.0}}}}},  // rho down a step: re-sent
+        {{"frame", kPullFrame - 35}, {"right", {{"thumbstick", {0.0, 0.0}}}}},
         {{"frame", kPullFrame - 30}, {"right", {{"b", true}}}},
         {{"frame", kPullFrame - 25}, {"right", {{"b", false}}}},
         {{"frame", kPullFrame}, {"right", {{"trigger", 1.0}}}},
@@ -193,17 +195,20 @@ TEST(GaussXrLoopback, TheHeadsetShowsTheHostsRenderOfTheSentSetAndThePullQueries
   EXPECT_EQ(states, lifecycle) << summary["session_states"].dump();
   // The pull queried the object under the ray, and it got its share of the budget.
   const Json& queries = summary["queries"];
-  ASSERT_EQ(queries.size(), 3u) << summary.dump(2);
+  ASSERT_EQ(queries.size(), 4u) << summary.dump(2);
   EXPECT_EQ(queries[0]["kind"], "class") << queries.dump();
   EXPECT_EQ(queries[0]["text"], "chair") << "A cycles the class labels in order: 'chair' is the first of room 0's";
-  EXPECT_EQ(queries[1]["kind"], "clear") << queries.dump();
-  EXPECT_EQ(queries[2]["kind"], "instance") << queries.dump();
-  EXPECT_EQ(queries[2]["object"].get<std::int64_t>(), gauss::to_underlying(aim.object)) << queries.dump();
-  EXPECT_DOUBLE_EQ(queries[2]["rho"].get<double>(), kRho) << "the thumbstick did not move";
+  EXPECT_DOUBLE_EQ(queries[0]["rho"].get<double>(), kRho);
+  EXPECT_EQ(queries[1]["kind"], "rho") << "the thumbstick re-sends the active query";
+  EXPECT_DOUBLE_EQ(queries[1]["rho"].get<double>(), kRho - 0.05);
+  EXPECT_EQ(queries[2]["kind"], "clear") << queries.dump();
+  EXPECT_EQ(queries[3]["kind"], "instance") << queries.dump();
+  EXPECT_EQ(queries[3]["object"].get<std::int64_t>(), gauss::to_underlying(aim.object)) << queries.dump();
+  EXPECT_DOUBLE_EQ(queries[3]["rho"].get<double>(), kRho - 0.05) << "the pull keeps the stepped rho";
   const Json& q = summary["query"];
   ASSERT_TRUE(q["active"].get<bool>()) << summary.dump(2);
   const auto expected = std::min<std::uint64_t>(q["target_members"].get<std::uint64_t>(),
-                                                static_cast<std::uint64_t>(std::floor(kRho * kBudget)));
+                                                static_cast<std::uint64_t>(std::floor((kRho - 0.05) * kBudget)));
   EXPECT_GT(expected, 0u);
   EXPECT_EQ(q["target_resident"].get<std::uint64_t>(), expected) << summary.dump(2);
 

@@ -119,6 +119,7 @@ Expected<ControllerInput> Controls::read(XrTime time) {
   const XrResult r = xrSyncActions(session_, &sync);
   if (r == XR_SESSION_NOT_FOCUSED) {
     last_trigger_ = 0.0f;
+    last_stick_y_ = 0.0f;
     return in;
   }
   if (XR_FAILED(r)) return xr_error(instance_, "xrSyncActions", r);
@@ -142,6 +143,8 @@ Expected<ControllerInput> Controls::read(XrTime time) {
   if (const XrResult e = xrGetActionStateVector2f(session_, &get, &v); XR_FAILED(e))
     return xr_error(instance_, "xrGetActionStateVector2f", e);
   in.stick_y = v.isActive ? v.currentState.y : 0.0f;
+  in.stick_steps = (in.stick_y > 0.5f && last_stick_y_ <= 0.5f) ? 1 : (in.stick_y < -0.5f && last_stick_y_ >= -0.5f) ? -1 : 0;
+  last_stick_y_ = in.stick_y;
   auto loc = xr_struct<XrSpaceLocation>(XR_TYPE_SPACE_LOCATION);
   if (const XrResult e = xrLocateSpace(aim_space_, space_, time, &loc); XR_FAILED(e))
     return xr_error(instance_, "xrLocateSpace", e);

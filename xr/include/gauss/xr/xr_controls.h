@@ -2,8 +2,8 @@
 // The headset's controls, as OpenXR actions bound for the Oculus Touch controller (Quest)
 // and the KHR simple controller (any runtime): the right hand's aim pose and trigger
 // (point and pull: an instance query on the object under the ray), A (next class query),
-// B (clear the query) and the thumbstick (up/down changes rho). Edges are reported once,
-// on the frame the button went down.
+// B (clear the query) and the thumbstick (each push up or down steps rho). Edges are
+// reported once, on the frame the button went down or the stick passed half way.
 #include <memory>
 
 #include <openxr/openxr.h>
@@ -21,6 +21,7 @@ struct ControllerInput {
   bool next_class{false};    // A went down this frame
   bool clear{false};         // B went down this frame
   float stick_y{0.0f};       // -1..1
+  int stick_steps{0};        // +1: pushed up past half way this frame, -1: down (one step per push)
 };
 
 class Controls {
@@ -46,6 +47,7 @@ class Controls {
       stick_{XR_NULL_HANDLE};
   XrSpace aim_space_{XR_NULL_HANDLE};
   float last_trigger_{0.0f};
+  float last_stick_y_{0.0f};
 };
 
 // The ray of an aim pose in the engine's world (the reference space: T_scene_space is the
