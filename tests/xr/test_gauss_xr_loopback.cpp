@@ -277,7 +277,7 @@ TEST(GaussXrLoopback, ALostSessionEndsTheProgramWithAMessage) {
   EXPECT_EQ(host.stop(SIGINT).value_or(-1), 0);
 }
 
-TEST(GaussXrLoopback, NoRuntimeAndARuntimeWithoutVulkanAreNamed) {
+TEST(GaussXrLoopback, NoRuntimeARuntimeWithoutVulkanAndUnusableFormatsAreNamed) {
   const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "xr_gauss_xr_refusals";
   fs::remove_all(out);
   fs::create_directories(out);
@@ -290,6 +290,14 @@ TEST(GaussXrLoopback, NoRuntimeAndARuntimeWithoutVulkanAreNamed) {
   EXPECT_EQ(run_xr(out, Json::object(), 9), 1);
   ::unsetenv("GAUSS_XR_HEADLESS_NO_VULKAN");
   EXPECT_NE(read_text(out / "xr.log").find("XR_KHR_vulkan_enable2"), std::string::npos) << read_text(out / "xr.log");
+  // Only BGRA swapchains: the byte copy cannot swizzle, so gauss-xr says which formats it
+  // needs and which were offered (VkFormat 44 = B8G8R8A8_UNORM).
+  ::setenv("GAUSS_XR_HEADLESS_ONLY_BGRA", "1", 1);
+  EXPECT_EQ(run_xr(out, Json::object(), 9), 1);
+  ::unsetenv("GAUSS_XR_HEADLESS_ONLY_BGRA");
+  const std::string log = read_text(out / "xr.log");
+  EXPECT_NE(log.find("no swapchain format"), std::string::npos) << log;
+  EXPECT_NE(log.find("offers 44"), std::string::npos) << log;
 }
 
 }  // namespace

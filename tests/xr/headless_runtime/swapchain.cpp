@@ -6,6 +6,10 @@
 // app returns it in that layout. New images are UNDEFINED, so the runtime moves them there
 // once, at the swapchain's first xrAcquireSwapchainImage: that is one of the few functions
 // allowed to use the app's queue (xrCreateSwapchain is not).
+#include <cstdlib>
+#include <string>
+#include <vector>
+
 #include "entry_points.h"
 #include "runtime.h"
 #include "xr_util.h"
@@ -15,6 +19,13 @@ namespace {
 
 constexpr VkFormat kFormats[] = {VK_FORMAT_R8G8B8A8_UNORM, VK_FORMAT_R8G8B8A8_SRGB, VK_FORMAT_B8G8R8A8_UNORM,
                                  VK_FORMAT_D32_SFLOAT};
+// GAUSS_XR_HEADLESS_ONLY_BGRA=1 plays a runtime whose only colour format is B8G8R8A8_UNORM
+// (read at each call), so an app's handling of a format it cannot use can be tested.
+std::vector<VkFormat> offered_formats() {
+  const char* env = std::getenv("GAUSS_XR_HEADLESS_ONLY_BGRA");
+  if (env != nullptr && std::string(env) == "1") return {VK_FORMAT_B8G8R8A8_UNORM, VK_FORMAT_D32_SFLOAT};
+  return std::vector<VkFormat>(std::begin(kFormats), std::end(kFormats));
+}
 
 VkImageLayout attachment_layout(const Swapchain& sc) {
   return sc.depth ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL : VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
@@ -58,9 +69,10 @@ XrResult xrEnumerateSwapchainFormats(XrSession session, uint32_t capacity, uint3
   Session* s = find(session);
   if (s == nullptr) return XR_ERROR_HANDLE_INVALID;
   if (const XrResult h = session_health(*s); XR_FAILED(h)) return h;
+  const std::vector<VkFormat> offered = offered_formats();
   const XrResult r = two_call("xrEnumerateSwapchainFormats", capacity, count, formats == nullptr,
-                              static_cast<std::uint32_t>(std::size(kFormats)), [&](std::uint32_t i) {
-                                formats[i] = kFormats[i];
+                              static_cast<std::uint32_t>(offered.size()), [&](std::uint32_t i) {
+                                formats[i] = offered[i];
                                 return XR_SUCCESS;
                               });
   return XR_FAILED(r) ? r : with_health(*s, r);
@@ -78,7 +90,8 @@ XrResult xrCreateSwapchain(XrSession session, const XrSwapchainCreateInfo* creat
   if (ci.createFlags != 0)
     return fail(XR_ERROR_FEATURE_UNSUPPORTED, fn, "protected-content and static-image swapchains are not supported");
   const auto format = static_cast<VkFormat>(ci.format);
-  if (std::find(std::begin(kFormats), std::end(kFormats), format) == std::end(kFormats) || ci.format != int64_t(format))
+  const std::vector<VkFormat> offered = offered_formats();
+  if (std::find(offered.begin(), offered.end(), format) == offered.end() || ci.format != int64_t(format))
     return fail(XR_ERROR_SWAPCHAIN_FORMAT_UNSUPPORTED, fn, "format " + std::to_string(ci.format) + " is not offered");
   if (ci.sampleCount != 1) return fail(XR_ERROR_FEATURE_UNSUPPORTED, fn, "only sampleCount 1 is supported");
   if (ci.faceCount != 1) return fail(XR_ERROR_FEATURE_UNSUPPORTED, fn, "only faceCount 1 is supported");
