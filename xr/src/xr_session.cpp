@@ -8,6 +8,7 @@
 #define XR_USE_GRAPHICS_API_VULKAN
 #include <openxr/openxr_platform.h>
 
+#include "gauss/render/vk_commands.h"
 #include "gauss/xr/xr_pose.h"
 #include "xr_check.h"
 
@@ -232,30 +233,15 @@ Status HeadsetSession::prepare_banner() {
   wi.timeout = XR_INFINITE_DURATION;
   if (const XrResult r = xrWaitSwapchainImage(banner_, &wi); XR_FAILED(r))
     return xr_error(instance_, "xrWaitSwapchainImage(banner)", r);
-  std::uint32_t n = 0;
-  if (const XrResult r = xrEnumerateSwapchainImages(banner_, 0, &n, nullptr); XR_FAILED(r))
-    return xr_error(instance_, "xrEnumerateSwapchainImages(banner)", r);
-  std::vector<XrSwapchainImageVulkan2KHR> imgs(n, xr_struct<XrSwapchainImageVulkan2KHR>(XR_TYPE_SWAPCHAIN_IMAGE_VULKAN2_KHR));
-  if (const XrResult r = xrEnumerateSwapchainImages(banner_, n, &n, reinterpret_cast<XrSwapchainImageBaseHeader*>(imgs.data()));
-      XR_FAILED(r))
-    return xr_error(instance_, "xrEnumerateSwapchainImages(banner)", r);
-  const VkImage image = imgs.at(index).image;
+  auto images = swapchain_images(banner_);
+  if (!images) return images.error();
+  const VkImage image = images->at(index);
   Status filled = context_->submit_and_wait([&](VkCommandBuffer cmd) {
-    VkImageMemoryBarrier2 b{};
-    b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
-    b.srcStageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
-    b.dstStageMask = VK_PIPELINE_STAGE_2_TRANSFER_BIT;
-    b.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    b.oldLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-    b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.image = image;
-    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    VkDependencyInfo dep{};
-    dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
-    dep.imageMemoryBarrierCount = 1;
-    dep.pImageMemoryBarriers = &b;
-    vkCmdPipelineBarrier2(cmd, &dep);
+    vk::record_image_barrier(cmd, vk::image_barrier(image, VK_IMAGE_ASPECT_COLOR_BIT,
+                                                    VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                                                    VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                                    VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, 0,
+                                                    VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT));
     VkClearColorValue amber{};
     amber.float32[0] = 1.0f;
     amber.float32[1] = 0.62f;
@@ -263,13 +249,11 @@ Status HeadsetSession::prepare_banner() {
     amber.float32[3] = 1.0f;
     const VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
     vkCmdClearColorImage(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &amber, 1, &range);
-    b.srcStageMask = VK_PIPELINE_STAGE_2_TRANSFER_BIT;
-    b.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    b.dstStageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
-    b.dstAccessMask = VK_ACCESS_2_MEMORY_READ_BIT;
-    b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-    b.newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    vkCmdPipelineBarrier2(cmd, &dep);
+    vk::record_image_barrier(cmd, vk::image_barrier(image, VK_IMAGE_ASPECT_COLOR_BIT,
+                                                    VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                                    VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                                                    VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                                                    VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_READ_BIT));
   });
   auto ri = xr_struct<XrSwapchainImageReleaseInfo>(XR_TYPE_SWAPCHAIN_IMAGE_RELEASE_INFO);
   if (const XrResult r = xrReleaseSwapchainImage(banner_, &ri); XR_FAILED(r))
@@ -298,61 +282,55 @@ Status HeadsetSession::create_swapchains() {
                  std::to_string(VK_FORMAT_R8G8B8A8_SRGB) + " or " + std::to_string(VK_FORMAT_R8G8B8A8_UNORM) +
                  "; the runtime offers " + (offered.empty() ? std::string("none") : offered) + ")"};
   }
-  for (std::size_t eye = 0; eye < 2; ++eye) {
-    auto sc = xr_struct<XrSwapchainCreateInfo>(XR_TYPE_SWAPCHAIN_CREATE_INFO);
-    sc.usageFlags = XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT | XR_SWAPCHAIN_USAGE_TRANSFER_DST_BIT;
-    sc.format = format_;
-    sc.sampleCount = 1;
-    sc.width = width_;
-    sc.height = height_;
-    sc.faceCount = 1;
-    sc.arraySize = 1;
-    sc.mipCount = 1;
-    if (r = xrCreateSwapchain(session_, &sc, &swapchains_[eye]); XR_FAILED(r))
-      return xr_error(instance_, "xrCreateSwapchain", r);
-    std::uint32_t n = 0;
-    if (r = xrEnumerateSwapchainImages(swapchains_[eye], 0, &n, nullptr); XR_FAILED(r))
-      return xr_error(instance_, "xrEnumerateSwapchainImages", r);
-    std::vector<XrSwapchainImageVulkan2KHR> imgs(n, xr_struct<XrSwapchainImageVulkan2KHR>(XR_TYPE_SWAPCHAIN_IMAGE_VULKAN2_KHR));
-    r = xrEnumerateSwapchainImages(swapchains_[eye], n, &n, reinterpret_cast<XrSwapchainImageBaseHeader*>(imgs.data()));
-    if (XR_FAILED(r)) return xr_error(instance_, "xrEnumerateSwapchainImages", r);
-    for (const auto& img : imgs) images_[eye].push_back(img.image);
-  }
+  for (std::size_t eye = 0; eye < 2; ++eye)
+    if (auto st = make_swapchain(format_, XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT, width_, height_, swapchains_[eye],
+                                 &images_[eye]);
+        !st)
+      return st;
   // Depth swapchains for the depth layer, when the runtime takes D32_SFLOAT (the renderer's).
   depth_layer_ = depth_layer_ &&
                  std::find(formats.begin(), formats.end(), std::int64_t(VK_FORMAT_D32_SFLOAT)) != formats.end();
-  for (std::size_t eye = 0; depth_layer_ && eye < 2; ++eye) {
-    auto sc = xr_struct<XrSwapchainCreateInfo>(XR_TYPE_SWAPCHAIN_CREATE_INFO);
-    sc.usageFlags = XR_SWAPCHAIN_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | XR_SWAPCHAIN_USAGE_TRANSFER_DST_BIT;
-    sc.format = VK_FORMAT_D32_SFLOAT;
-    sc.sampleCount = 1;
-    sc.width = width_;
-    sc.height = height_;
-    sc.faceCount = 1;
-    sc.arraySize = 1;
-    sc.mipCount = 1;
-    if (r = xrCreateSwapchain(session_, &sc, &depth_swapchains_[eye]); XR_FAILED(r))
-      return xr_error(instance_, "xrCreateSwapchain(depth)", r);
-    std::uint32_t n = 0;
-    if (r = xrEnumerateSwapchainImages(depth_swapchains_[eye], 0, &n, nullptr); XR_FAILED(r))
-      return xr_error(instance_, "xrEnumerateSwapchainImages(depth)", r);
-    std::vector<XrSwapchainImageVulkan2KHR> imgs(n, xr_struct<XrSwapchainImageVulkan2KHR>(XR_TYPE_SWAPCHAIN_IMAGE_VULKAN2_KHR));
-    r = xrEnumerateSwapchainImages(depth_swapchains_[eye], n, &n,
-                                   reinterpret_cast<XrSwapchainImageBaseHeader*>(imgs.data()));
-    if (XR_FAILED(r)) return xr_error(instance_, "xrEnumerateSwapchainImages(depth)", r);
-    for (const auto& img : imgs) depth_images_[eye].push_back(img.image);
-  }
-  auto bc = xr_struct<XrSwapchainCreateInfo>(XR_TYPE_SWAPCHAIN_CREATE_INFO);
-  bc.usageFlags = XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT | XR_SWAPCHAIN_USAGE_TRANSFER_DST_BIT;
-  bc.format = format_;
-  bc.sampleCount = 1;
-  bc.width = kBannerWidth;
-  bc.height = kBannerHeight;
-  bc.faceCount = 1;
-  bc.arraySize = 1;
-  bc.mipCount = 1;
-  if (r = xrCreateSwapchain(session_, &bc, &banner_); XR_FAILED(r)) return xr_error(instance_, "xrCreateSwapchain(banner)", r);
+  for (std::size_t eye = 0; depth_layer_ && eye < 2; ++eye)
+    if (auto st = make_swapchain(VK_FORMAT_D32_SFLOAT, XR_SWAPCHAIN_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, width_,
+                                 height_, depth_swapchains_[eye], &depth_images_[eye]);
+        !st)
+      return st;
+  return make_swapchain(format_, XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT, kBannerWidth, kBannerHeight, banner_,
+                        nullptr);
+}
+
+Status HeadsetSession::make_swapchain(VkFormat format, XrSwapchainUsageFlags usage, std::uint32_t width,
+                                      std::uint32_t height, XrSwapchain& out, std::vector<VkImage>* images) {
+  auto sc = xr_struct<XrSwapchainCreateInfo>(XR_TYPE_SWAPCHAIN_CREATE_INFO);
+  sc.usageFlags = usage | XR_SWAPCHAIN_USAGE_TRANSFER_DST_BIT;  // filled by copies and clears
+  sc.format = format;
+  sc.sampleCount = 1;
+  sc.width = width;
+  sc.height = height;
+  sc.faceCount = 1;
+  sc.arraySize = 1;
+  sc.mipCount = 1;
+  if (const XrResult r = xrCreateSwapchain(session_, &sc, &out); XR_FAILED(r))
+    return xr_error(instance_, "xrCreateSwapchain", r);
+  if (images == nullptr) return Ok{};
+  auto listed = swapchain_images(out);
+  if (!listed) return listed.error();
+  *images = std::move(*listed);
   return Ok{};
+}
+
+Expected<std::vector<VkImage>> HeadsetSession::swapchain_images(XrSwapchain swapchain) const {
+  std::uint32_t n = 0;
+  if (const XrResult r = xrEnumerateSwapchainImages(swapchain, 0, &n, nullptr); XR_FAILED(r))
+    return xr_error(instance_, "xrEnumerateSwapchainImages", r);
+  std::vector<XrSwapchainImageVulkan2KHR> imgs(n, xr_struct<XrSwapchainImageVulkan2KHR>(XR_TYPE_SWAPCHAIN_IMAGE_VULKAN2_KHR));
+  if (const XrResult r =
+          xrEnumerateSwapchainImages(swapchain, n, &n, reinterpret_cast<XrSwapchainImageBaseHeader*>(imgs.data()));
+      XR_FAILED(r))
+    return xr_error(instance_, "xrEnumerateSwapchainImages", r);
+  std::vector<VkImage> out;
+  for (const auto& img : imgs) out.push_back(img.image);
+  return out;
 }
 
 Expected<SessionPhase> HeadsetSession::poll() {

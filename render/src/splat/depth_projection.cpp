@@ -5,6 +5,7 @@
 #include <string>
 
 #include "depth_projection_layout.h"
+#include "gauss/render/vk_commands.h"
 #include "gauss/render/vk_context.h"
 #include "gauss/render/vk_image.h"
 #include "gauss/shaders/depth_projection.comp.spv.h"
@@ -44,43 +45,12 @@ Expected<DepthProjection> DepthProjection::create(vk::Context& context, std::uin
 
 namespace {
 
-void buffer_barrier(VkCommandBuffer cmd, VkBuffer buffer, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
-                    VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access) {
-  VkBufferMemoryBarrier2 b{};
-  b.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2;
-  b.srcStageMask = src_stage;
-  b.srcAccessMask = src_access;
-  b.dstStageMask = dst_stage;
-  b.dstAccessMask = dst_access;
-  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.buffer = buffer;
-  b.size = VK_WHOLE_SIZE;
-  VkDependencyInfo dep{};
-  dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
-  dep.bufferMemoryBarrierCount = 1;
-  dep.pBufferMemoryBarriers = &b;
-  vkCmdPipelineBarrier2(cmd, &dep);
-}
-
-void image_barrier(VkCommandBuffer cmd, VkImage image, VkImageLayout from, VkImageLayout to,
+// A barrier on the layer's depth image (mip 0, layer 0, depth aspect).
+void depth_barrier(VkCommandBuffer cmd, VkImage image, VkImageLayout from, VkImageLayout to,
                    VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access, VkPipelineStageFlags2 dst_stage,
                    VkAccessFlags2 dst_access) {
-  VkImageMemoryBarrier2 b{};
-  b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
-  b.srcStageMask = src_stage;
-  b.srcAccessMask = src_access;
-  b.dstStageMask = dst_stage;
-  b.dstAccessMask = dst_access;
-  b.oldLayout = from;
-  b.newLayout = to;
-  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image;
-  b.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, 1};
-  VkDependencyInfo dep{};
-  dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &b;
-  vkCmdPipelineBarrier2(cmd, &dep);
+  vk::record_image_barrier(cmd, vk::image_barrier(image, VK_IMAGE_ASPECT_DEPTH_BIT, from, to, src_stage, src_access,
+                                                  dst_stage, dst_access));
 }
 
 }  // namespace
@@ -101,13 +71,13 @@ Status DepthProjection::record(VkCommandBuffer cmd, std::uint32_t view, vk::Imag
   const VkPipelineStageFlags2 depth_stages =
       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
   if (depth == nullptr) {  // no mesh drawn: everything is at the far plane
-    image_barrier(cmd, dst, dst_layout, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, depth_stages | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+    depth_barrier(cmd, dst, dst_layout, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, depth_stages | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
                   VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT,
                   VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
     const VkClearDepthStencilValue far{1.0f, 0};
     const VkImageSubresourceRange range{VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, 1};
     vkCmdClearDepthStencilImage(cmd, dst, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &far, 1, &range);
-    image_barrier(cmd, dst, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, dst_layout, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+    depth_barrier(cmd, dst, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, dst_layout, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
                   VK_ACCESS_2_TRANSFER_WRITE_BIT, depth_stages | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
                   VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT);
     return Ok{};
@@ -115,20 +85,17 @@ Status DepthProjection::record(VkCommandBuffer cmd, std::uint32_t view, vk::Imag
   const vk::Buffer& buf = buffers_[view];
   const VkDeviceSize bytes = VkDeviceSize(w) * h * 4;
   // An earlier frame's conversion may still read or write this buffer (write after read/write).
-  buffer_barrier(cmd, buf.handle(), VK_PIPELINE_STAGE_2_TRANSFER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                 VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
-                 VK_ACCESS_2_TRANSFER_WRITE_BIT);
+  vk::memory_barrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                     VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
   if (auto st = depth->record_copy_to_buffer(cmd, buf.handle(), buf.size()); !st) return st;
-  buffer_barrier(cmd, buf.handle(), VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                 VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                 VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+  vk::transfer_to_compute_barrier(cmd);
   if (auto st = pipeline_.bind(cmd, {{gpu::DEPTH_PROJECTION_BINDING_DEPTH, &buf, 0, bytes}}); !st) return st;
   const gpu::DepthProjectionPush push{w * h, float(gpu::SPLAT_MESH_DEPTH_SCALE), float(near_z), float(far_z)};
   pipeline_.push_constants(cmd, push);
   vkCmdDispatch(cmd, (w * h + gpu::DEPTH_PROJECTION_WORKGROUP - 1) / gpu::DEPTH_PROJECTION_WORKGROUP, 1, 1);
-  buffer_barrier(cmd, buf.handle(), VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                 VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
-  image_barrier(cmd, dst, dst_layout, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+  vk::compute_to_transfer_barrier(cmd);
+  depth_barrier(cmd, dst, dst_layout, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
                 depth_stages | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
                 VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_TRANSFER_READ_BIT,
                 VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
@@ -136,7 +103,7 @@ Status DepthProjection::record(VkCommandBuffer cmd, std::uint32_t view, vk::Imag
   region.imageSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 0, 1};
   region.imageExtent = {w, h, 1};
   vkCmdCopyBufferToImage(cmd, buf.handle(), dst, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
-  image_barrier(cmd, dst, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, dst_layout, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+  depth_barrier(cmd, dst, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, dst_layout, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
                 VK_ACCESS_2_TRANSFER_WRITE_BIT, depth_stages | VK_PIPELINE_STAGE_2_TRANSFER_BIT,
                 VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT);
   return Ok{};

@@ -111,6 +111,14 @@ VkImageMemoryBarrier2 image_barrier(VkImage image, VkImageAspectFlags aspect, Vk
   return b;
 }
 
+void record_image_barrier(VkCommandBuffer cmd, const VkImageMemoryBarrier2& barrier) {
+  VkDependencyInfo di{};
+  di.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+  di.imageMemoryBarrierCount = 1;
+  di.pImageMemoryBarriers = &barrier;
+  vkCmdPipelineBarrier2(cmd, &di);
+}
+
 void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
                     VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access) {
   VkMemoryBarrier2 mb{};

@@ -52,6 +52,10 @@ VkImageMemoryBarrier2 image_barrier(VkImage image, VkImageAspectFlags aspect, Vk
                                     VkImageLayout new_layout, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
                                     VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access);
 
+// Records one image barrier (e.g. of image_barrier()) for an image the caller tracks itself
+// (an OpenXR swapchain image, which is not a vk::Image).
+void record_image_barrier(VkCommandBuffer cmd, const VkImageMemoryBarrier2& barrier);
+
 // Global memory barrier (synchronization2).
 void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
                     VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access);

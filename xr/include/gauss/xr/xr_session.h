@@ -111,6 +111,10 @@ class HeadsetSession {
  private:
   HeadsetSession() = default;
   Status create_swapchains();
+  // One swapchain of `format` (usage plus TRANSFER_DST), its images into `images` if given.
+  Status make_swapchain(VkFormat format, XrSwapchainUsageFlags usage, std::uint32_t width, std::uint32_t height,
+                        XrSwapchain& out, std::vector<VkImage>* images);
+  Expected<std::vector<VkImage>> swapchain_images(XrSwapchain swapchain) const;
   Status prepare_banner();
   Status end_frame(XrTime display_time, bool with_layer, const FrameTarget* target);
   void destroy_session();
