@@ -344,9 +344,9 @@ Expected<SessionPhase> HeadsetSession::poll() {
       continue;
     }
     if (ev.type != XR_TYPE_EVENT_DATA_SESSION_STATE_CHANGED) continue;
-    state_ = reinterpret_cast<const XrEventDataSessionStateChanged&>(ev).state;
-    states_seen_.push_back(state_name(state_));
-    switch (state_) {
+    const XrSessionState state = reinterpret_cast<const XrEventDataSessionStateChanged&>(ev).state;
+    states_seen_.push_back(state_name(state));
+    switch (state) {
       case XR_SESSION_STATE_READY: {
         auto bi = xr_struct<XrSessionBeginInfo>(XR_TYPE_SESSION_BEGIN_INFO);
         bi.primaryViewConfigurationType = XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO;

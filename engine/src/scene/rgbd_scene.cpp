@@ -113,7 +113,6 @@ Expected<std::vector<Gaussian>> RgbdSeeder::seed(const RgbdFrame& f) {
   }
 
   std::vector<Gaussian> out;
-  std::vector<glm::vec4> added;
   for (std::int64_t by = 0; by * s < std::int64_t(f.height); ++by)
     for (std::int64_t bx = 0; bx * s < std::int64_t(f.width); ++bx) {
       const std::int64_t x = std::min(bx * s + half, std::int64_t(f.width) - 1);
@@ -189,9 +188,8 @@ Expected<std::vector<Gaussian>> RgbdSeeder::seed(const RgbdFrame& f) {
       g.sh_dc = (glm::vec3(colour) - 0.5f) / kShC0;
       g.support = 1;
       out.push_back(g);
-      added.emplace_back(g.position, float(sigma));
+      seeds_.emplace_back(g.position, float(sigma));  // `explained` above is already built
     }
-  seeds_.insert(seeds_.end(), added.begin(), added.end());
   return out;
 }
 

@@ -193,16 +193,17 @@ XrResult xrGetActionStatePose(XrSession session, const XrActionStateGetInfo* inf
   return with_health(*s, XR_SUCCESS);
 }
 
-// The headless controllers have no motors: haptic requests are checked as the spec asks
-// and then have no effect, as on a controller without a haptic actuator.
-XrResult xrApplyHapticFeedback(XrSession session, const XrHapticActionInfo* info, const XrHapticBaseHeader* feedback) {
-  const char* fn = "xrApplyHapticFeedback";
-  const auto lock = lock_runtime();
+namespace {
+
+// What xrApplyHapticFeedback and xrStopHapticFeedback both check, as the spec asks; the
+// headless controllers have no motors, so a request that passes has no effect.
+// `feedback_ok` is false for an apply whose feedback is not an XrHapticVibration.
+XrResult check_haptic(const char* fn, XrSession session, const XrHapticActionInfo* info, bool feedback_ok) {
   Session* s = find(session);
   if (s == nullptr) return XR_ERROR_HANDLE_INVALID;
   if (const XrResult h = session_health(*s); XR_FAILED(h)) return h;
-  if (!typed(info, XR_TYPE_HAPTIC_ACTION_INFO) || !typed(feedback, XR_TYPE_HAPTIC_VIBRATION))
-    return fail(XR_ERROR_VALIDATION_FAILURE, fn, "hapticActionInfo and hapticFeedback (XrHapticVibration) are required");
+  if (!typed(info, XR_TYPE_HAPTIC_ACTION_INFO) || !feedback_ok)
+    return fail(XR_ERROR_VALIDATION_FAILURE, fn, "hapticActionInfo (and for an apply an XrHapticVibration) is required");
   const Action* action = find(info->action);
   if (action == nullptr) return XR_ERROR_HANDLE_INVALID;
   if (action->type != XR_ACTION_TYPE_VIBRATION_OUTPUT) return fail(XR_ERROR_ACTION_TYPE_MISMATCH, fn, "not a vibration action");
@@ -212,20 +213,16 @@ XrResult xrApplyHapticFeedback(XrSession session, const XrHapticActionInfo* info
   return with_health(*s, s->state == XR_SESSION_STATE_FOCUSED ? XR_SUCCESS : XR_SESSION_NOT_FOCUSED);
 }
 
-XrResult xrStopHapticFeedback(XrSession session, const XrHapticActionInfo* info) {
-  const char* fn = "xrStopHapticFeedback";
+}  // namespace
+
+XrResult xrApplyHapticFeedback(XrSession session, const XrHapticActionInfo* info, const XrHapticBaseHeader* feedback) {
   const auto lock = lock_runtime();
-  Session* s = find(session);
-  if (s == nullptr) return XR_ERROR_HANDLE_INVALID;
-  if (const XrResult h = session_health(*s); XR_FAILED(h)) return h;
-  if (!typed(info, XR_TYPE_HAPTIC_ACTION_INFO)) return fail(XR_ERROR_VALIDATION_FAILURE, fn, "hapticActionInfo is required");
-  const Action* action = find(info->action);
-  if (action == nullptr) return XR_ERROR_HANDLE_INVALID;
-  if (action->type != XR_ACTION_TYPE_VIBRATION_OUTPUT) return fail(XR_ERROR_ACTION_TYPE_MISMATCH, fn, "not a vibration action");
-  if (!attached_to(*s, *action)) return fail(XR_ERROR_ACTIONSET_NOT_ATTACHED, fn, "the action's set is not attached");
-  if (subaction_slot(*runtime().instances.find(s->instance_id), *action, info->subactionPath) < 0)
-    return fail(XR_ERROR_PATH_UNSUPPORTED, fn, "subactionPath is not one of the action's subaction paths");
-  return with_health(*s, s->state == XR_SESSION_STATE_FOCUSED ? XR_SUCCESS : XR_SESSION_NOT_FOCUSED);
+  return check_haptic("xrApplyHapticFeedback", session, info, typed(feedback, XR_TYPE_HAPTIC_VIBRATION));
+}
+
+XrResult xrStopHapticFeedback(XrSession session, const XrHapticActionInfo* info) {
+  const auto lock = lock_runtime();
+  return check_haptic("xrStopHapticFeedback", session, info, true);
 }
 
 }  // namespace gauss::xr_headless

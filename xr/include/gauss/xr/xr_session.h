@@ -134,7 +134,6 @@ class HeadsetSession {
   std::uint32_t width_{0}, height_{0};
   std::string runtime_name_;
   SessionPhase phase_{SessionPhase::Idle};
-  XrSessionState state_{XR_SESSION_STATE_UNKNOWN};
   std::uint64_t frames_ended_{0};
   std::vector<std::string> states_seen_;
   XrSwapchain banner_{XR_NULL_HANDLE};
