@@ -78,7 +78,6 @@ class HeadsetSession {
 
   vk::Context& context() noexcept { return *context_; }
   XrInstance instance() const noexcept { return instance_; }
-  XrSystemId system() const noexcept { return system_; }
   ::XrSession handle() const noexcept { return session_; }
   XrSpace space() const noexcept { return space_; }
   std::uint32_t eye_width() const noexcept { return width_; }
@@ -89,7 +88,6 @@ class HeadsetSession {
   // Drains the runtime's events and acts on state changes (begins the session when ready,
   // ends it when stopping). Errors: a failed xrBeginSession/xrEndSession, instance loss.
   Expected<SessionPhase> poll();
-  SessionPhase phase() const noexcept { return phase_; }
   // Every session state the runtime reported, in order ("READY", "FOCUSED", ...).
   const std::vector<std::string>& states_seen() const noexcept { return states_seen_; }
   // Asks the runtime to end the session (xrRequestExitSession): poll() then reaches Exiting.
