@@ -1,6 +1,8 @@
 # Compiles GLSL to SPIR-V at build time and embeds it as a generated C++ header
 # (a uint32_t array named gauss_spv_<file>_<stage>). glslangValidator writes a
 # depfile, so editing an #included layout header recompiles the shaders that use it.
+# --quiet: it would otherwise print each file's name, which reads like a list of errors in
+# a newcomer's first build.
 find_program(GLSLANG_VALIDATOR glslangValidator REQUIRED)
 
 function(gauss_compile_shaders out_target)
@@ -14,7 +16,7 @@ function(gauss_compile_shaders out_target)
     add_custom_command(
       OUTPUT ${out}
       COMMAND ${CMAKE_COMMAND} -E make_directory ${gen_dir}/gauss/shaders
-      COMMAND ${GLSLANG_VALIDATOR} --target-env vulkan1.2 -I${CMAKE_CURRENT_SOURCE_DIR}/shared
+      COMMAND ${GLSLANG_VALIDATOR} --quiet --target-env vulkan1.2 -I${CMAKE_CURRENT_SOURCE_DIR}/shared
               --vn gauss_spv_${var} --depfile ${out}.d -o ${out} ${abs}
       DEPENDS ${abs}
       DEPFILE ${out}.d

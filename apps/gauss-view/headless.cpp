@@ -376,7 +376,8 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
       // Seconds from sending each query to its stages on this client.
       for (const auto& [id, sent] : queries_sent) {
         json stages = json::object();
-        for (QueryStage stage : {QueryStage::Highlight, QueryStage::FirstAdditional, QueryStage::Converged})
+        for (QueryStage stage :
+             {QueryStage::Target, QueryStage::Highlight, QueryStage::FirstAdditional, QueryStage::Converged})
           if (const StageEvent* ev = st.events().find_query(0, id, stage)) stages[to_string(stage)] = ev->t - sent;
         latency[std::to_string(id)] = std::move(stages);
       }

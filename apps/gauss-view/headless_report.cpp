@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
+#include <utility>
 #include <vector>
 
 #include "gauss/engine/image_io.h"
@@ -96,7 +97,17 @@ Status write_report(const fs::path& out, const nlohmann::json& s) {
     if (s.contains("query_latency_s"))
       for (const auto& [id, stages] : s["query_latency_s"].items()) {
         md << "- query " << id << ":";
-        for (const auto& [stage, t] : stages.items()) md << " " << stage << " " << num(t, 2) << " s;";
+        // In the order they happen (a JSON object lists its keys alphabetically).
+        const std::pair<const char*, const char*> order[] = {{"target", "targets known"},
+                                                             {"highlight", "highlight"},
+                                                             {"first_additional", "first additional content"},
+                                                             {"converged", "converged"}};
+        const char* sep = " ";
+        for (const auto& [key, label] : order)
+          if (stages.contains(key)) {
+            md << sep << label << " " << num(stages[key], 2) << " s";
+            sep = "; ";
+          }
         if (stages.empty()) md << " no stage recorded under this id (a query re-sent after a reconnect takes a new id)";
         md << "\n";
       }
