@@ -156,7 +156,10 @@ Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, 
   out.serial = *serial;
   out.render_ms = ms_since(t2);
   gpu_stats_.submitted(*serial, frame_index_, static_cast<std::uint32_t>(views.size()));
-  sink_->with_state([&](ClientState& s) { s.frame_rendered(out.now, frame_index_); });
+  // Stamped when the frame was submitted, not when it began: a query's resolution or a batch
+  // that arrived while this frame was being prepared is in it, and its "shown" stage must not
+  // come out earlier than its arrival. (A simulation's clock stands still within a frame.)
+  sink_->with_state([&](ClientState& s) { s.frame_rendered(now(), frame_index_); });
   gpu_stats_.collect(*renderer_);
   out.cpu_ms = ms_since(t0);
   // The display slack the allowance follows: the frame costs whichever of the CPU work
