@@ -25,6 +25,7 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <zlib.h>
 
 #include "bench_registry.h"
 #include "bench_util.h"
@@ -441,6 +442,22 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
   out["pair_overflow"] = last.overflow;
   if (base > 0) out["wall_vs_baseline"] = wall_med / base;
 
+  // CRC-32 of each view's last image: a renderer change that must leave the images
+  // byte-identical is checked by comparing this column before and after.
+  std::string digest;
+  for (int v = 0; v < (c.stereo ? 2 : 1); ++v) {
+    auto image = r.read_image(std::uint32_t(v));
+    if (!image) {
+      std::fprintf(stderr, "gauss-bench render: %s\n", image.message().c_str());
+      return 1;
+    }
+    const uLong crc = crc32(crc32(0L, Z_NULL, 0), image->pixels.data(), uInt(image->pixels.size()));
+    char hex[16];
+    std::snprintf(hex, sizeof hex, "%08lx", static_cast<unsigned long>(crc));
+    digest += (v ? "/" : "") + std::string(hex);
+  }
+  out["image_crc32"] = digest;
+
   std::string err_text = "reference skipped";
   if (o.reference) {
     const auto [row_begin, row_end] = reference_rows(o, c);
@@ -488,9 +505,10 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
   const double blend_ms = out["gpu_ms_median"]["blend"];
   char ratio[32] = "    -";
   if (base > 0) std::snprintf(ratio, sizeof ratio, "%5.2f", wall_med / base);
-  std::printf("%-22s %8.1f %8.1f %8.1f %5s %8.1f %8.1f %8.1f %8.1f %9u %10u %7.0f %s | %s%s\n", c.label.c_str(),
-              wall_med, wall_min, cpu_med, load_average().c_str(), gpu_total, double(out["gpu_ms_median"]["preprocess"]), sort_ms, blend_ms, last.visible,
-              last.pairs, base, ratio, err_text.c_str(), last.overflow ? " PAIR OVERFLOW" : "");
+  std::printf("%-22s %8.1f %8.1f %8.1f %5s %8.1f %8.1f %8.1f %8.1f %9u %10u %7.0f %s %17s | %s%s\n",
+              c.label.c_str(), wall_med, wall_min, cpu_med, load_average().c_str(), gpu_total,
+              double(out["gpu_ms_median"]["preprocess"]), sort_ms, blend_ms, last.visible, last.pairs, base, ratio,
+              digest.c_str(), err_text.c_str(), last.overflow ? " PAIR OVERFLOW" : "");
   std::fflush(stdout);
   return 0;
 }
@@ -514,12 +532,12 @@ int bench_render_main(const Options& o) {
   std::printf("gauss-bench render | device %s | box scene SH3, %ld Gaussians generated in %.0f ms | %d frames after "
               "1 warm-up\nwall = render call incl. submit + wait (no readback); cpu = process CPU time "
               "(all lavapipe threads) per frame; load = 1-min load average;\ngpu = timestamps; all medians; stereo rows "
-              "sum both eyes; ratio = wall_med / base_ms (base_ms: %s); times taken on a shared machine (under "
+              "sum both eyes; image crc32 = last frame's pixels (left/right); ratio = wall_med / base_ms (base_ms: %s); times taken on a shared machine (under "
               "load)\n\n",
               (*ctx)->device_name().c_str(), max_n, gen_ms, o.frames, kBaselineLabel);
-  std::printf("%-22s %8s %8s %8s %5s %8s %8s %8s %8s %9s %10s %7s %5s | %s\n", "size", "wall_med", "wall_min",
-              "cpu_med", "load", "gpu_tot",
-              "preproc", "sorts", "blend", "visible", "pairs", "base_ms", "ratio", "vs CPU reference (PSNR, max err)");
+  std::printf("%-22s %8s %8s %8s %5s %8s %8s %8s %8s %9s %10s %7s %5s %17s | %s\n", "size", "wall_med", "wall_min",
+              "cpu_med", "load", "gpu_tot", "preproc", "sorts", "blend", "visible", "pairs", "base_ms", "ratio",
+              "image crc32", "vs CPU reference (PSNR, max err)");
   nlohmann::json results = nlohmann::json::array();
   int rc = 0;
   for (const Config& c : o.configs) {

@@ -22,9 +22,9 @@ uint sat_add(uint a, uint b) {
 
 // Exact culling. A fragment at offset d from the centre is blended only if
 // opacity * exp(-q/2) >= 1/255 with q = A dx^2 + 2 B dx dy + C dy^2, i.e.
-// q <= q_max = 2 ln(255 opacity). tile_reachable() says whether some pixel sample of the
-// tile can pass, from the minimum of q over the rectangle spanned by the tile's pixel
-// centres (clipped to the image): a lower bound of q at every sample, so skipping a tile
+// q <= q_max = 2 ln(255 opacity). rect_reachable() says whether some pixel sample of a
+// rectangle can pass (tile_reachable: a screen tile's pixel centres, clipped to the image),
+// from the minimum of q over the rectangle: a lower bound of q at every sample, so skipping a tile
 // for which it returns false never changes the image. The slack (a relative 1e-4 of
 // the terms plus 0.02 in q, i.e. 1 % in alpha) covers float rounding of this test and
 // of the blend's own evaluation. A non positive-definite conic (only possible through
@@ -53,12 +53,9 @@ float edge_min_y(vec3 conic, float ye, float x0, float x1, inout float q_abs) {
   return conic_q(conic, x, ye);
 }
 
-bool tile_reachable(vec3 conic, vec2 centre, float q_max, uint tx, uint ty, uint width, uint height) {
+// Whether some pixel centre of [px0, px1] x [py0, py1] (pixel-centre coordinates) can pass.
+bool rect_reachable(vec3 conic, vec2 centre, float q_max, float px0, float px1, float py0, float py1) {
   if (!(conic.x > 0.0 && conic.z > 0.0 && conic.x * conic.z - conic.y * conic.y > 0.0)) return true;
-  const float px0 = float(tx * SPLAT_TILE) + 0.5;
-  const float px1 = float(min(tx * SPLAT_TILE + SPLAT_TILE, width) - 1u) + 0.5;
-  const float py0 = float(ty * SPLAT_TILE) + 0.5;
-  const float py1 = float(min(ty * SPLAT_TILE + SPLAT_TILE, height) - 1u) + 0.5;
   const float x0 = px0 - centre.x, x1 = px1 - centre.x;
   const float y0 = py0 - centre.y, y1 = py1 - centre.y;
   if (x0 <= 0.0 && x1 >= 0.0 && y0 <= 0.0 && y1 >= 0.0) return true;  // centre inside
@@ -70,6 +67,13 @@ bool tile_reachable(vec3 conic, vec2 centre, float q_max, uint tx, uint ty, uint
   const float q = min(min(q0, q1), min(q2, q3));
   const float q_abs = max(max(a0, a1), max(a2, a3));
   return q <= q_max + 1e-4 * q_abs;
+}
+
+// rect_reachable over the pixels of screen tile (tx, ty), clipped to the image.
+bool tile_reachable(vec3 conic, vec2 centre, float q_max, uint tx, uint ty, uint width, uint height) {
+  return rect_reachable(conic, centre, q_max, float(tx * SPLAT_TILE) + 0.5,
+                        float(min(tx * SPLAT_TILE + SPLAT_TILE, width) - 1u) + 0.5, float(ty * SPLAT_TILE) + 0.5,
+                        float(min(ty * SPLAT_TILE + SPLAT_TILE, height) - 1u) + 0.5);
 }
 
 #endif  // GAUSS_SHADERS_SHARED_SPLAT_COMMON_GLSL

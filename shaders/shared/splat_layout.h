@@ -24,9 +24,11 @@ GAUSS_SHARED_BEGIN
 GAUSS_CONST(uint, SPLAT_WORKGROUP, 256u)
 // Screen tile edge; the blend runs one SPLAT_TILE x SPLAT_TILE workgroup per tile.
 GAUSS_CONST(uint, SPLAT_TILE, 16u)
-// Blend: a 16 x SPLAT_BLEND_ROWS workgroup per tile, SPLAT_BLEND_PIXELS pixels per thread.
-GAUSS_CONST(uint, SPLAT_BLEND_ROWS, 2u)
-GAUSS_CONST(uint, SPLAT_BLEND_PIXELS, 8u)  // SPLAT_TILE / SPLAT_BLEND_ROWS
+// Blend: the tile is four SPLAT_BLEND_QUAD x SPLAT_BLEND_QUAD quadrants; a workgroup of
+// SPLAT_BLEND_THREADS invocations, SPLAT_BLEND_QUAD of them per quadrant, each blending one
+// column of SPLAT_BLEND_QUAD pixels.
+GAUSS_CONST(uint, SPLAT_BLEND_QUAD, 8u)
+GAUSS_CONST(uint, SPLAT_BLEND_THREADS, 32u)  // 4 * SPLAT_BLEND_QUAD
 // Radix sort: 4-bit digits (16 bins), every thread owns SORT_ITEMS consecutive keys, so
 // one workgroup sorts a block of SORT_BLOCK keys. No subgroup operation is used: the
 // per-block ranking goes through shared memory, correct at any subgroup size.
