@@ -142,6 +142,7 @@ GAUSS_CONST(uint, SPLAT_SPEC_TINT, 1u)        // highlight / edit tint active
 GAUSS_CONST(uint, SPLAT_SPEC_MESH, 2u)        // mesh layer present
 GAUSS_CONST(uint, SPLAT_SPEC_SH_STRIDE, 3u)   // floats per slot of the bands 1-2 SH buffer
 GAUSS_CONST(uint, SPLAT_SPEC_EXACT_CULL, 4u)  // bin only into tiles alpha >= 1/255 can reach
+GAUSS_CONST(uint, SPLAT_SPEC_BALLOT_WORDS, 5u)  // splat_blend.comp: ceil(max subgroup size / 32), 1..4
 GAUSS_CONST(uint, SPLAT_SPEC_SCAN_MODE, 0u)   // splat_scan.comp: SPLAT_SCAN_*
 GAUSS_CONST(uint, SPLAT_SCAN_VISIBLE, 0u)     // flags tile_count[i] > 0 over the slots
 GAUSS_CONST(uint, SPLAT_SCAN_PAIRS, 1u)       // tile_count[vals[i]] over the visible list

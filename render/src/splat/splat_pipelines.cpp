@@ -2,6 +2,7 @@
 // the specialization constants of splat_layout.h.
 #include "splat_pipelines.h"
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -69,9 +70,22 @@ std::vector<vk::DescriptorBinding> scan_bindings() {
           {gpu::SPLAT_BINDING_HIST, SB},       {gpu::SPLAT_BINDING_COUNTERS, SB}};
 }
 
+// splat_blend.comp's ballot words: one per 32 invocations of the largest subgroup.
+std::uint32_t ballot_words(const vk::Context& context) {
+  return std::clamp((context.max_subgroup_size() + 31u) / 32u, 1u, 4u);
+}
+
+// The blend culls and broadcasts splats within a subgroup (compute stage).
+constexpr VkSubgroupFeatureFlags kBlendSubgroupOps = VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_VOTE_BIT |
+                                                     VK_SUBGROUP_FEATURE_ARITHMETIC_BIT |
+                                                     VK_SUBGROUP_FEATURE_BALLOT_BIT;
+
 }  // namespace
 
 Expected<SplatPipelines> SplatPipelines::create(vk::Context& context) {
+  if ((context.subgroup_operations() & kBlendSubgroupOps) != kBlendSubgroupOps)
+    return Error{"splat renderer: the device lacks compute subgroup basic, vote, arithmetic and ballot operations "
+                 "(device " + context.device_name() + ")"};
   SplatPipelines p;
   p.context_ = &context;
   struct Fixed {
@@ -176,7 +190,7 @@ Expected<const vk::ComputePipeline*> SplatPipelines::blend(bool mesh) {
                     {gpu::SPLAT_BINDING_OUTPUT, SB},
                     {gpu::SPLAT_BINDING_MESH_COLOUR, DescriptorKind::StorageImage},
                     {gpu::SPLAT_BINDING_MESH_DEPTH, DescriptorKind::SampledImage}},
-                   {{gpu::SPLAT_SPEC_MESH, key}});
+                   {{gpu::SPLAT_SPEC_MESH, key}, {gpu::SPLAT_SPEC_BALLOT_WORDS, ballot_words(*context_)}});
   if (!pipe) return pipe.error();
   return &blend_.emplace(key, std::move(*pipe)).first->second;
 }

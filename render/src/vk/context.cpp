@@ -238,14 +238,18 @@ Expected<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info
   ctx->physical_device_ = chosen->handle;
   ctx->device_info_ = chosen->info;
 
+  VkPhysicalDeviceSubgroupSizeControlProperties size_control{};  // core in Vulkan 1.3
+  size_control.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_SIZE_CONTROL_PROPERTIES;
   VkPhysicalDeviceSubgroupProperties subgroup{};
   subgroup.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES;
+  subgroup.pNext = &size_control;
   VkPhysicalDeviceProperties2 props2{};
   props2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
   props2.pNext = &subgroup;
   vkGetPhysicalDeviceProperties2(ctx->physical_device_, &props2);
   ctx->properties_ = props2.properties;
   ctx->subgroup_size_ = subgroup.subgroupSize;
+  ctx->max_subgroup_size_ = std::max(subgroup.subgroupSize, size_control.maxSubgroupSize);
   ctx->subgroup_operations_ = (subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) ? subgroup.supportedOperations : 0;
   vkGetPhysicalDeviceMemoryProperties(ctx->physical_device_, &ctx->memory_properties_);
   ctx->queue_family_ = detail::pick_queue_family(ctx->physical_device_, &ctx->timestamp_valid_bits_, &extra);

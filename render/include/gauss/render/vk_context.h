@@ -130,6 +130,9 @@ class Context {
   // 4 with LP_NATIVE_VECTOR_WIDTH=128, 16 with 512) and the operations supported there.
   std::uint32_t subgroup_size() const noexcept { return subgroup_size_; }
   VkSubgroupFeatureFlags subgroup_operations() const noexcept { return subgroup_operations_; }
+  // The largest subgroup a compute shader may run with (maxSubgroupSize where the device
+  // varies it, else subgroup_size()).
+  std::uint32_t max_subgroup_size() const noexcept { return max_subgroup_size_; }
   // Nanoseconds per timestamp tick (VkPhysicalDeviceLimits::timestampPeriod).
   double timestamp_period_ns() const noexcept { return properties_.limits.timestampPeriod; }
   // Bits of a timestamp value that are valid on our queue (64 on lavapipe).
@@ -199,6 +202,7 @@ class Context {
   VkPhysicalDeviceProperties properties_{};
   VkPhysicalDeviceMemoryProperties memory_properties_{};
   std::uint32_t subgroup_size_{0};
+  std::uint32_t max_subgroup_size_{0};
   VkSubgroupFeatureFlags subgroup_operations_{0};
   std::uint32_t timestamp_valid_bits_{0};
   VkPhysicalDeviceFeatures enabled_features_{};
