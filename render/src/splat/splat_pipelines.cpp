@@ -30,8 +30,8 @@ constexpr auto SB = DescriptorKind::StorageBuffer;
 static_assert(gpu::SPLAT_TILE == static_cast<std::uint32_t>(kTileSize));
 static_assert(gpu::SORT_BLOCK == gpu::SPLAT_WORKGROUP * gpu::SORT_ITEMS);
 static_assert(gpu::SORT_BINS == (1u << gpu::SORT_RADIX_BITS));
-static_assert(2 * gpu::SPLAT_BLEND_QUAD == gpu::SPLAT_TILE);
-static_assert(gpu::SPLAT_BLEND_THREADS == 4 * gpu::SPLAT_BLEND_QUAD);
+static_assert(gpu::SPLAT_BLEND_THREADS * gpu::SPLAT_BLEND_PIXELS == gpu::SPLAT_TILE * gpu::SPLAT_TILE);
+static_assert(gpu::SPLAT_BLEND_PIXELS * 2 == gpu::SPLAT_TILE);  // two invocations per column
 static_assert(gpu::SPLAT_WORKGROUP % gpu::SPLAT_BLEND_THREADS == 0);
 static_assert(gpu::SPLAT_DILATION == static_cast<float>(kDilation));
 static_assert(gpu::SPLAT_FRUSTUM_CLAMP == static_cast<float>(kFrustumClamp));
