@@ -92,8 +92,9 @@ void main() {
     const uint idx = base + rank;
     vec4 cdo_mine = vec4(0.0), conic_mine = vec4(0.0), colour_mine = vec4(0.0);
     bool reach = false;
-    if (idx < range.y) {
-      const GpuProjected pr = projected[vals[idx]];
+    const uint slot = idx < range.y ? vals[idx] : SPLAT_SENTINEL_SLOT;
+    if (slot != SPLAT_SENTINEL_SLOT) {
+      const GpuProjected pr = projected[slot];
       cdo_mine = pr.centre_depth_opacity;
       conic_mine = pr.conic;
       colour_mine = pr.colour;

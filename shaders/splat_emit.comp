@@ -6,8 +6,10 @@
 // are the farthest splats' (the offsets follow depth order), deterministically, and the
 // frame reports the overflow (counters[PAIRS_NEEDED] > capacity).
 // A splat never writes outside its own range: should the repeated test pass fewer tiles
-// than preprocess counted (it cannot with identical arithmetic), the remaining entries get
-// the sentinel tile id tiles_x * tiles_y, which sorts last and no tile range includes.
+// than preprocess counted (it cannot with identical arithmetic, but two shaders may be
+// compiled differently), the remaining entries name no splat (SPLAT_SENTINEL_SLOT) in the
+// last tile, which the blend skips. Tile ids thus stay below tiles_x * tiles_y, and the
+// tile sort needs no extra bit for a sentinel id (1024x1024: 12 bits, 3 passes, not 4).
 #extension GL_GOOGLE_include_directive : require
 
 #define SPLAT_USE_VIEW
@@ -52,7 +54,7 @@ void main() {
     }
   }
   for (; at < end; ++at) {
-    keys_out[at] = view.size.z * view.size.w;
-    vals_out[at] = slot;
+    keys_out[at] = view.size.z * view.size.w - 1u;
+    vals_out[at] = SPLAT_SENTINEL_SLOT;
   }
 }

@@ -2,7 +2,7 @@
 // Tile ranges, one thread per emitted pair of the tile-sorted list: a pair whose tile
 // differs from its predecessor's starts that tile's run, one that differs from its
 // successor's ends it. ranges[] is cleared to (0, 0) before, so untouched tiles are empty.
-// Sentinel tile ids (>= tiles_x * tiles_y, see splat_emit.comp) are ignored.
+// Every tile id is below tiles_x * tiles_y (see splat_emit.comp); a larger one is ignored.
 #extension GL_GOOGLE_include_directive : require
 
 #define SPLAT_USE_VIEW

@@ -105,6 +105,9 @@ struct GpuView {
   uvec4 frame;           // unused, display frame, highlight count, unused
 };
 
+// A (tile, slot) pair whose slot is this names no splat; the blend skips it (splat_emit.comp).
+GAUSS_CONST(uint, SPLAT_SENTINEL_SLOT, 0xFFFFFFFFu)
+
 // ---- Counters (per view, uint[SPLAT_COUNTER_WORDS]) -----------------------------------------
 GAUSS_CONST(uint, SPLAT_COUNTER_VISIBLE, 0u)       // N: splats touching >= 1 tile
 GAUSS_CONST(uint, SPLAT_COUNTER_PAIRS_NEEDED, 1u)  // P: (tile, splat) pairs wanted (saturating)

@@ -209,8 +209,8 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
   src = 1 - src;
   ts(5);
 
-  // ---- Tile sort: only the bits of the tile id (the sentinel id `tiles` included) ----
-  const std::uint32_t tile_bits = static_cast<std::uint32_t>(std::bit_width(tiles));
+  // ---- Tile sort: only the bits of the tile ids, 0 .. tiles - 1 ----
+  const std::uint32_t tile_bits = static_cast<std::uint32_t>(std::bit_width(tiles - 1));
   for (std::uint32_t shift = 0; shift < tile_bits; shift += gpu::SORT_RADIX_BITS) {
     if (auto st = radix_pass(src, shift, gpu::SPLAT_COUNTER_PAIRS, gpu::SPLAT_ARGS_PAIR_BLOCKS); !st) return st;
     src = 1 - src;
