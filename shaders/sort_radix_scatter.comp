@@ -4,7 +4,9 @@
 // = scanned hist[d][b] (keys of smaller digits everywhere + digit d in earlier blocks)
 // + keys with digit d of threads t' < t in this block (shared-memory scan of per-thread
 // counts) + keys with digit d earlier in its own run. Every term follows input order,
-// so the pass is stable; nothing depends on the subgroup size.
+// so the pass is stable; nothing depends on the subgroup size. With a single block the
+// count pass and histogram scan are not dispatched (a small scene's frame is mostly fixed
+// cost per dispatch): the first term is then the block's own keys of smaller digits.
 #extension GL_GOOGLE_include_directive : require
 
 #include "splat_common.glsl"
@@ -22,6 +24,7 @@ layout(push_constant) uniform Push { GpuSplatPush pc; };
 // 16 digits x 256 threads of counts (16 KiB), scanned per digit in 16 segments of 16.
 shared uint s_count[SORT_BINS * SPLAT_WORKGROUP];
 shared uint s_segment[SORT_BINS * 16u];
+shared uint s_total[SORT_BINS];  // keys of each digit in the block
 
 void main() {
   const uint n = counters[pc.count_index];
@@ -55,10 +58,14 @@ void main() {
       s_segment[lid * 16u + j] = run;
       run += v;
     }
+    s_total[lid] = run;
   }
   barrier();
+  uint smaller = 0u;  // single block: keys of smaller digits
   for (uint d = 0u; d < SORT_BINS; ++d) {
-    offset[d] = hist[d * blocks + block] + s_segment[d * 16u + lid / 16u] + s_count[d * SPLAT_WORKGROUP + lid];
+    const uint before = blocks == 1u ? smaller : hist[d * blocks + block];
+    offset[d] = before + s_segment[d * 16u + lid / 16u] + s_count[d * SPLAT_WORKGROUP + lid];
+    smaller += s_total[d];
   }
   for (uint i = base; i < end; ++i) {
     const uint key = keys_in[i];

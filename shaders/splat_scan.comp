@@ -9,7 +9,8 @@
 //   SPLAT_SCAN_PAIRS:   n = counters[VISIBLE], value = tile_count[vals[i]] (vals: slots in
 //                       depth order), out offsets[i]; total -> counters[PAIRS_NEEDED],
 //                       min(total, pair capacity) -> counters[PAIRS], pair arguments.
-//   SPLAT_SCAN_HIST:    n = 16 * blocks(counters[count_index]), in place on hist.
+//   SPLAT_SCAN_HIST:    n = 16 * blocks(counters[count_index]), in place on hist (dispatched
+//                       only for two blocks or more).
 #extension GL_GOOGLE_include_directive : require
 
 #include "splat_common.glsl"
@@ -49,6 +50,15 @@ void write_args(uint at, uint groups) {
   counters[at + 2u] = 1u;
 }
 
+// A radix pass's dispatches: the scatter gets every block; the count and the histogram
+// scan get nothing when there is a single block (the scatter then needs no histogram).
+void write_sort_args(uint keys, uint blocks_at, uint count_at, uint hist_at) {
+  const uint blocks = (keys + SORT_BLOCK - 1u) / SORT_BLOCK;
+  write_args(blocks_at, blocks);
+  write_args(count_at, blocks > 1u ? blocks : 0u);
+  write_args(hist_at, blocks > 1u ? 1u : 0u);
+}
+
 void main() {
   const uint lid = gl_LocalInvocationID.x;
   const uint n = item_count();
@@ -70,13 +80,13 @@ void main() {
     if (MODE == SPLAT_SCAN_VISIBLE) {
       counters[SPLAT_COUNTER_VISIBLE] = run;
       write_args(SPLAT_ARGS_VISIBLE_ITEMS, (run + SPLAT_WORKGROUP - 1u) / SPLAT_WORKGROUP);
-      write_args(SPLAT_ARGS_VISIBLE_BLOCKS, (run + SORT_BLOCK - 1u) / SORT_BLOCK);
+      write_sort_args(run, SPLAT_ARGS_VISIBLE_BLOCKS, SPLAT_ARGS_VISIBLE_COUNT, SPLAT_ARGS_VISIBLE_HIST);
     } else if (MODE == SPLAT_SCAN_PAIRS) {
       const uint used = min(run, pc.pair_capacity);
       counters[SPLAT_COUNTER_PAIRS_NEEDED] = run;
       counters[SPLAT_COUNTER_PAIRS] = used;
       write_args(SPLAT_ARGS_PAIR_ITEMS, (used + SPLAT_WORKGROUP - 1u) / SPLAT_WORKGROUP);
-      write_args(SPLAT_ARGS_PAIR_BLOCKS, (used + SORT_BLOCK - 1u) / SORT_BLOCK);
+      write_sort_args(used, SPLAT_ARGS_PAIR_BLOCKS, SPLAT_ARGS_PAIR_COUNT, SPLAT_ARGS_PAIR_HIST);
     }
   }
   barrier();

@@ -116,7 +116,13 @@ GAUSS_CONST(uint, SPLAT_ARGS_VISIBLE_ITEMS, 4u)    // VkDispatchIndirectCommand 
 GAUSS_CONST(uint, SPLAT_ARGS_VISIBLE_BLOCKS, 8u)
 GAUSS_CONST(uint, SPLAT_ARGS_PAIR_ITEMS, 12u)
 GAUSS_CONST(uint, SPLAT_ARGS_PAIR_BLOCKS, 16u)
-GAUSS_CONST(uint, SPLAT_COUNTER_WORDS, 20u)
+// Radix count and histogram scan: empty when the keys fit one block (the scatter then ranks
+// them alone, see sort_radix_scatter.comp).
+GAUSS_CONST(uint, SPLAT_ARGS_VISIBLE_COUNT, 20u)
+GAUSS_CONST(uint, SPLAT_ARGS_VISIBLE_HIST, 24u)
+GAUSS_CONST(uint, SPLAT_ARGS_PAIR_COUNT, 28u)
+GAUSS_CONST(uint, SPLAT_ARGS_PAIR_HIST, 32u)
+GAUSS_CONST(uint, SPLAT_COUNTER_WORDS, 36u)
 
 // ---- Bindings (each pipeline declares the ones it uses) -----------------------------------
 GAUSS_BINDING(SPLAT_BINDING_VIEW, 0u)

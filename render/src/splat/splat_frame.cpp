@@ -143,7 +143,7 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
 
   // One stable radix pass: keys/vals[src] -> keys/vals[1 - src] on digit `shift`.
   auto radix_pass = [&](std::uint32_t src, std::uint32_t shift, std::uint32_t count_index,
-                        std::uint32_t blocks_args) -> Status {
+                        std::uint32_t blocks_args, std::uint32_t count_args, std::uint32_t hist_args) -> Status {
     const std::uint32_t dst = 1 - src;
     if (auto st = pipelines.radix_count().bind(c, {{gpu::SPLAT_BINDING_KEYS_IN, &keys[src]},
                                                    {gpu::SPLAT_BINDING_HIST, &hist},
@@ -151,11 +151,11 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
         !st)
       return st;
     push(pipelines.radix_count(), 0, count_index, shift);
-    indirect(blocks_args);
+    indirect(count_args);
     vk::compute_to_compute_barrier(c);
     if (auto st = pipelines.scan_hist().bind(c, scan_res); !st) return st;
     push(pipelines.scan_hist(), 0, count_index, shift);
-    vkCmdDispatch(c, 1, 1, 1);
+    indirect(hist_args);
     vk::compute_to_compute_barrier(c);
     if (auto st = pipelines.radix_scatter().bind(c, {{gpu::SPLAT_BINDING_KEYS_IN, &keys[src]},
                                                      {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
@@ -174,7 +174,10 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
   // ---- Depth sort: all 32 bits of the float key (8 passes: the result is back in [0]) ----
   std::uint32_t src = 0;
   for (std::uint32_t shift = 0; shift < 32; shift += gpu::SORT_RADIX_BITS) {
-    if (auto st = radix_pass(src, shift, gpu::SPLAT_COUNTER_VISIBLE, gpu::SPLAT_ARGS_VISIBLE_BLOCKS); !st) return st;
+    if (auto st = radix_pass(src, shift, gpu::SPLAT_COUNTER_VISIBLE, gpu::SPLAT_ARGS_VISIBLE_BLOCKS,
+                             gpu::SPLAT_ARGS_VISIBLE_COUNT, gpu::SPLAT_ARGS_VISIBLE_HIST);
+        !st)
+      return st;
     src = 1 - src;
   }
   ts(4);
@@ -212,7 +215,10 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
   // ---- Tile sort: only the bits of the tile ids, 0 .. tiles - 1 ----
   const std::uint32_t tile_bits = static_cast<std::uint32_t>(std::bit_width(tiles - 1));
   for (std::uint32_t shift = 0; shift < tile_bits; shift += gpu::SORT_RADIX_BITS) {
-    if (auto st = radix_pass(src, shift, gpu::SPLAT_COUNTER_PAIRS, gpu::SPLAT_ARGS_PAIR_BLOCKS); !st) return st;
+    if (auto st = radix_pass(src, shift, gpu::SPLAT_COUNTER_PAIRS, gpu::SPLAT_ARGS_PAIR_BLOCKS,
+                             gpu::SPLAT_ARGS_PAIR_COUNT, gpu::SPLAT_ARGS_PAIR_HIST);
+        !st)
+      return st;
     src = 1 - src;
   }
   ts(6);
