@@ -99,6 +99,40 @@ TEST_F(SplatReference, ExactCullingNeverChangesTheImage) {
   EXPECT_EQ(s1->visible, s2->visible);
 }
 
+// The radix sorts take one block of SORT_BLOCK (8192) keys alone (no count or histogram
+// pass) and several blocks otherwise: visible counts on both sides of each boundary, with
+// many exact depth ties (equal depths blend in slot order), must match the reference.
+TEST_F(SplatReference, SortBlockBoundariesMatchReference) {
+  const Camera cam = forward_camera(160, 120);
+  std::uint64_t state = 0x9E3779B97F4A7C15ull;
+  auto rnd = [&state] {  // xorshift64, uniform in [0, 1)
+    state ^= state << 13;
+    state ^= state >> 7;
+    state ^= state << 17;
+    return double(state >> 11) * (1.0 / 9007199254740992.0);
+  };
+  for (const std::uint32_t n : {1u, 4000u, 8191u, 8192u, 8193u, 20000u}) {
+    std::vector<Gaussian> scene(n);
+    for (Gaussian& g : scene) {
+      const float z = 2.0f + float(int(rnd() * 64.0)) / 16.0f;  // 64 exact depths: ties
+      g.position = {float((rnd() - 0.5) * 0.9 * z), float((rnd() - 0.5) * 0.65 * z), z};
+      g.log_scale = glm::vec3(float(-4.5 + rnd()));
+      g.opacity_logit = float(rnd() * 4.0 - 1.0);
+      g.sh_dc = {float(rnd() * 3.0 - 1.5), float(rnd() * 3.0 - 1.5), float(rnd() * 3.0 - 1.5)};
+    }
+    auto r = make(n, 0, 160, 120);
+    ASSERT_TRUE(r);
+    ASSERT_TRUE(r->write_slots(0, scene).ok());
+    auto stats = r->render(cam);
+    ASSERT_TRUE(stats.ok()) << stats.message();
+    EXPECT_EQ(stats->visible, n);
+    std::printf("n %u: %u visible, %u pairs\n", n, stats->visible, stats->pairs);
+    auto gpu = r->read_image();
+    ASSERT_TRUE(gpu.ok());
+    EXPECT_TRUE(close_to_reference(ref_render(scene, 0, cam), *gpu, "splat_sort_blocks_" + std::to_string(n)));
+  }
+}
+
 TEST_F(SplatReference, DeterministicAndHostRenderEqualsClientRender) {
   const auto scene = procedural_scene(2000, 1, 3);
   const Camera cam = forward_camera(256, 192);
