@@ -104,21 +104,15 @@ TEST_F(SplatReference, ExactCullingNeverChangesTheImage) {
 // many exact depth ties (equal depths blend in slot order), must match the reference.
 TEST_F(SplatReference, SortBlockBoundariesMatchReference) {
   const Camera cam = forward_camera(160, 120);
-  std::uint64_t state = 0x9E3779B97F4A7C15ull;
-  auto rnd = [&state] {  // xorshift64, uniform in [0, 1)
-    state ^= state << 13;
-    state ^= state >> 7;
-    state ^= state << 17;
-    return double(state >> 11) * (1.0 / 9007199254740992.0);
-  };
+  Rng rng;
   for (const std::uint32_t n : {1u, 4000u, 8191u, 8192u, 8193u, 20000u}) {
     std::vector<Gaussian> scene(n);
     for (Gaussian& g : scene) {
-      const float z = 2.0f + float(int(rnd() * 64.0)) / 16.0f;  // 64 exact depths: ties
-      g.position = {float((rnd() - 0.5) * 0.9 * z), float((rnd() - 0.5) * 0.65 * z), z};
-      g.log_scale = glm::vec3(float(-4.5 + rnd()));
-      g.opacity_logit = float(rnd() * 4.0 - 1.0);
-      g.sh_dc = {float(rnd() * 3.0 - 1.5), float(rnd() * 3.0 - 1.5), float(rnd() * 3.0 - 1.5)};
+      const float z = 2.0f + float(int(rng.next() * 64.0)) / 16.0f;  // 64 exact depths: ties
+      g.position = {rng.uniform(-0.45 * z, 0.45 * z), rng.uniform(-0.32 * z, 0.32 * z), z};
+      g.log_scale = glm::vec3(rng.uniform(-4.5, -3.5));
+      g.opacity_logit = rng.uniform(-1.0, 3.0);
+      g.sh_dc = {rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5)};
     }
     auto r = make(n, 0, 160, 120);
     ASSERT_TRUE(r);

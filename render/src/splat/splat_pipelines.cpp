@@ -32,7 +32,6 @@ static_assert(gpu::SORT_BLOCK == gpu::SPLAT_WORKGROUP * gpu::SORT_ITEMS);
 static_assert(gpu::SORT_BINS == (1u << gpu::SORT_RADIX_BITS));
 static_assert(gpu::SPLAT_BLEND_THREADS * gpu::SPLAT_BLEND_PIXELS == gpu::SPLAT_TILE * gpu::SPLAT_TILE);
 static_assert(gpu::SPLAT_BLEND_PIXELS * 2 == gpu::SPLAT_TILE);  // two invocations per column
-static_assert(gpu::SPLAT_WORKGROUP % gpu::SPLAT_BLEND_THREADS == 0);
 static_assert(gpu::SPLAT_DILATION == static_cast<float>(kDilation));
 static_assert(gpu::SPLAT_FRUSTUM_CLAMP == static_cast<float>(kFrustumClamp));
 static_assert(gpu::SPLAT_NEAR_CULL == static_cast<float>(kNearCull));
