@@ -1,7 +1,6 @@
 #include "gauss/xr/xr_session.h"
 
 #include <algorithm>
-#include <cstring>
 #include <utility>
 #include <vector>
 
@@ -11,6 +10,7 @@
 #include "gauss/render/vk_commands.h"
 #include "gauss/xr/xr_pose.h"
 #include "xr_check.h"
+#include "xr_instance.h"
 
 namespace gauss::xr {
 
@@ -88,34 +88,12 @@ Expected<std::unique_ptr<HeadsetSession>> HeadsetSession::create(const HeadsetCo
   s->config_ = config;
 
   // Instance: XR_KHR_vulkan_enable2 is required (the renderer is Vulkan only).
-  std::uint32_t count = 0;
-  XrResult r = xrEnumerateInstanceExtensionProperties(nullptr, 0, &count, nullptr);
-  if (XR_FAILED(r))
-    return Error{"no OpenXR runtime available (" + result_text(XR_NULL_HANDLE, r) +
-                 "): install one and make it active, or point XR_RUNTIME_JSON at its manifest"};
-  std::vector<XrExtensionProperties> exts(count, xr_struct<XrExtensionProperties>(XR_TYPE_EXTENSION_PROPERTIES));
-  if (r = xrEnumerateInstanceExtensionProperties(nullptr, count, &count, exts.data()); XR_FAILED(r))
-    return xr_error(XR_NULL_HANDLE, "xrEnumerateInstanceExtensionProperties", r);
-  const bool vulkan2 = std::any_of(exts.begin(), exts.end(), [](const XrExtensionProperties& e) {
-    return std::strcmp(e.extensionName, XR_KHR_VULKAN_ENABLE2_EXTENSION_NAME) == 0;
-  });
-  if (!vulkan2)
-    return Error{std::string("the OpenXR runtime does not offer ") + XR_KHR_VULKAN_ENABLE2_EXTENSION_NAME +
-                 ", which this Vulkan renderer needs"};
-  // The depth layer lets the compositor reproject with depth; taken when offered.
-  const bool depth_ext = std::any_of(exts.begin(), exts.end(), [](const XrExtensionProperties& e) {
-    return std::strcmp(e.extensionName, XR_KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME) == 0;
-  });
-  const char* enabled[] = {XR_KHR_VULKAN_ENABLE2_EXTENSION_NAME, XR_KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME};
-  s->depth_layer_ = depth_ext;
-  auto ci = xr_struct<XrInstanceCreateInfo>(XR_TYPE_INSTANCE_CREATE_INFO);
-  std::strncpy(ci.applicationInfo.applicationName, config.app_name.c_str(), XR_MAX_APPLICATION_NAME_SIZE - 1);
-  std::strncpy(ci.applicationInfo.engineName, "GaussAnything", XR_MAX_ENGINE_NAME_SIZE - 1);
-  ci.applicationInfo.apiVersion = XR_CURRENT_API_VERSION;
-  ci.enabledExtensionCount = depth_ext ? 2 : 1;
-  ci.enabledExtensionNames = enabled;
-  if (r = xrCreateInstance(&ci, &s->instance_); XR_FAILED(r)) return xr_error(XR_NULL_HANDLE, "xrCreateInstance", r);
+  auto opened = detail::open_instance(config.app_name, true);
+  if (!opened) return opened.error();
+  s->instance_ = opened->instance;
+  s->depth_layer_ = opened->depth_layer;
   const XrInstance inst = s->instance_;
+  XrResult r = XR_SUCCESS;
   auto props = xr_struct<XrInstanceProperties>(XR_TYPE_INSTANCE_PROPERTIES);
   if (XR_SUCCEEDED(xrGetInstanceProperties(inst, &props))) s->runtime_name_ = props.runtimeName;
 
