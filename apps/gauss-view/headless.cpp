@@ -39,10 +39,16 @@ client::CameraIntrinsics default_intrinsics(const ViewOptions& o) {
 
 json epoch_json(const std::optional<Epoch>& e) { return e ? json(to_underlying(*e)) : json(nullptr); }
 
+// The pass times in kGpuPasses order.
+std::array<double, std::size(kGpuPasses)> pass_values(const render::SplatPassTimings& t) {
+  return {t.mesh_ms, t.preprocess_ms, t.compact_ms, t.depth_sort_ms, t.emit_ms, t.tile_sort_ms, t.ranges_ms, t.blend_ms};
+}
+
 json passes_json(const render::SplatPassTimings& t) {
-  return json{{"mesh", t.mesh_ms},          {"preprocess", t.preprocess_ms}, {"compact", t.compact_ms},
-              {"depth_sort", t.depth_sort_ms}, {"emit", t.emit_ms},         {"tile_sort", t.tile_sort_ms},
-              {"ranges", t.ranges_ms},      {"blend", t.blend_ms},         {"total", t.total_ms}};
+  json out{{"total", t.total_ms}};
+  const auto values = pass_values(t);
+  for (std::size_t i = 0; i < values.size(); ++i) out[kGpuPasses[i]] = values[i];
+  return out;
 }
 
 // Frames whose CPU figures are known and whose GPU figures are not yet.
@@ -63,10 +69,8 @@ class FrameLog {
                            {"pair_overflow", g.view[v].pair_overflow}});
     line["views"] = std::move(views);
     gpu_ms_.push_back(g.total_ms);
-    const render::SplatPassTimings& t = g.view[0].gpu;
-    const double passes[] = {t.mesh_ms, t.preprocess_ms, t.compact_ms, t.depth_sort_ms, t.emit_ms,
-                             t.tile_sort_ms, t.ranges_ms, t.blend_ms};
-    for (std::size_t i = 0; i < std::size(passes); ++i) pass_ms_[i].push_back(passes[i]);
+    const auto passes = pass_values(g.view[0].gpu);
+    for (std::size_t i = 0; i < passes.size(); ++i) pass_ms_[i].push_back(passes[i]);
     flush_ready();
   }
   void flush_all() {
@@ -74,7 +78,7 @@ class FrameLog {
     pending_.clear();
   }
   std::vector<double> gpu_ms_;
-  std::array<std::vector<double>, 8> pass_ms_;  // view 0, in SplatPassTimings order
+  std::array<std::vector<double>, std::size(kGpuPasses)> pass_ms_;  // view 0, in kGpuPasses order
 
  private:
   void flush_ready() {
@@ -386,9 +390,8 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
     summary["query_latency_s"] = std::move(latency);
   }
   {
-    const char* names[] = {"mesh", "preprocess", "compact", "depth_sort", "emit", "tile_sort", "ranges", "blend"};
     json passes = json::object();
-    for (std::size_t i = 0; i < std::size(names); ++i) passes[names[i]] = percentile(log.pass_ms_[i], 0.5);
+    for (std::size_t i = 0; i < std::size(kGpuPasses); ++i) passes[kGpuPasses[i]] = percentile(log.pass_ms_[i], 0.5);
     summary["gpu_pass_ms_p50"] = std::move(passes);
   }
   std::ofstream(opts.out / "summary.json") << summary.dump(2) << '\n';
