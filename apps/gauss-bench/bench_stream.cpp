@@ -268,11 +268,7 @@ json bench_teleport(const Options& o, PublishMode mode) {
   log.frames.clear();
   auto published_ids = [&sim]() {
     std::vector<std::uint64_t> ids;
-    const SlotTable& t = sim->client(0)->slots();
-    for (std::uint32_t s = 0; s < t.capacity(); ++s) {
-      GaussianId id{0};
-      if (t.occupant(SlotIndex{s}, id)) ids.push_back(to_underlying(id));
-    }
+    for (GaussianId id : sim->client(0)->slots().occupants()) ids.push_back(to_underlying(id));
     std::sort(ids.begin(), ids.end());
     return ids;
   };

@@ -166,17 +166,7 @@ Expected<SettleResult> EvalSession::settle_views(std::span<const Camera> views, 
 }
 
 std::uint64_t EvalSession::resident_on(std::span<const ObjectId> targets) {
-  return client_->with_state([&](const ClientState& s) {
-    std::uint64_t n = 0;
-    const SlotTable& slots = s.slots();
-    for (std::uint32_t k = 0; k < slots.capacity(); ++k) {
-      GaussianId id{0};
-      if (slots.occupant(SlotIndex{k}, id) &&
-          std::binary_search(targets.begin(), targets.end(), slots.records()[k].object))
-        ++n;
-    }
-    return n;
-  });
+  return client_->with_state([&](const ClientState& s) { return s.count_resident(targets); });
 }
 
 std::vector<std::pair<std::uint32_t, GaussianId>> EvalSession::slot_ids() {

@@ -365,13 +365,8 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
     // The published set in slot order: equal depths blend in slot order, so a render of
     // the same set must load it in this order to be byte-identical (gauss-render --order).
     json slot_ids = json::array();
-    rt->with_state([&](const ClientState& st) {
-      for (std::uint32_t k = 0; k < st.slots().capacity(); ++k) {
-        GaussianId id{0};
-        if (st.slots().occupant(SlotIndex{k}, id)) slot_ids.push_back(to_underlying(id));
-      }
-      return 0;
-    });
+    for (GaussianId id : rt->with_state([](const ClientState& st) { return st.slots().occupants(); }))
+      slot_ids.push_back(to_underlying(id));
     std::ofstream(opts.out / "final_slot_ids.json") << slot_ids.dump() << '\n';
     std::ofstream events(opts.out / "events.jsonl");
     json latency = json::object();

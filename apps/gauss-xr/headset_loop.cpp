@@ -112,26 +112,15 @@ Status write_outputs(const XrOptions& o, client::ClientRuntime& rt, const xr::He
   // The published set in slot order (as gauss-view writes it): a render of the same set in
   // this order is byte-identical (gauss-render --order).
   Json slot_ids = Json::array();
-  rt.with_state([&](const ClientState& st) {
-    for (std::uint32_t k = 0; k < st.slots().capacity(); ++k) {
-      GaussianId id{0};
-      if (st.slots().occupant(SlotIndex{k}, id)) slot_ids.push_back(to_underlying(id));
-    }
-    return 0;
-  });
+  for (GaussianId id : rt.with_state([](const ClientState& st) { return st.slots().occupants(); }))
+    slot_ids.push_back(to_underlying(id));
   std::ofstream(o.out / "final_slot_ids.json") << slot_ids.dump() << '\n';
   // The active query: its targets, |G_obj| as the host reported it, and how many of the
   // client's slots hold them (a test checks min(|G_obj|, floor(rho M))).
   const Json query = rt.with_state([](const ClientState& st) {
     const std::vector<ObjectId> targets = st.query_targets();
     if (targets.empty()) return Json{{"active", false}};
-    std::uint64_t resident = 0;
-    for (std::uint32_t k = 0; k < st.slots().capacity(); ++k) {
-      GaussianId id{0};
-      if (st.slots().occupant(SlotIndex{k}, id) &&
-          std::binary_search(targets.begin(), targets.end(), st.slots().records()[k].object))
-        ++resident;
-    }
+    const std::uint64_t resident = st.count_resident(targets);
     Json ids = Json::array();
     for (ObjectId t : targets) ids.push_back(to_underlying(t));
     return Json{{"active", true},

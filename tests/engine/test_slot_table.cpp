@@ -42,6 +42,9 @@ TEST(SlotTable, InsertRemoveReusesSlotsLowestFirst) {
   EXPECT_EQ(who, GaussianId{13});
   EXPECT_FALSE(t.occupant(SlotIndex{3}, who));
   EXPECT_FALSE(t.occupant(SlotIndex{99}, who));
+  ASSERT_TRUE(t.remove(GaussianId{10}).ok());
+  // Slot order, the free slots 0 and 3 skipped.
+  EXPECT_EQ(t.occupants(), (std::vector<GaussianId>{GaussianId{13}, GaussianId{12}}));
   EXPECT_TRUE(t.check().ok());
 }
 

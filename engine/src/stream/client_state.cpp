@@ -160,7 +160,7 @@ Status ClientState::on_message(const wire::Message& m, double now) {
   return Ok{};
 }
 
-std::uint64_t ClientState::count_resident(const std::vector<ObjectId>& targets) const {
+std::uint64_t ClientState::count_resident(std::span<const ObjectId> targets) const {
   std::uint64_t n = 0;
   for (std::uint32_t s = 0; s < slots_.capacity(); ++s) {
     GaussianId id{0};

@@ -120,6 +120,14 @@ bool SlotTable::occupant(SlotIndex slot, GaussianId& out_id) const {
   return true;
 }
 
+std::vector<GaussianId> SlotTable::occupants() const {
+  std::vector<GaussianId> out;
+  out.reserve(size());
+  for (const auto id : slot_ids_)
+    if (id != kEmpty) out.push_back(GaussianId{id});
+  return out;
+}
+
 std::vector<SlotRange> SlotTable::take_dirty_ranges(std::uint32_t max_gap) {
   std::sort(dirty_list_.begin(), dirty_list_.end());
   std::vector<SlotRange> ranges;

@@ -20,6 +20,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -106,6 +107,8 @@ class ClientState {
   }
   // Gaussians the targets held on the host when it resolved the query (0 without one).
   std::uint64_t query_target_gaussians() const { return query_track_ ? query_track_->target_gaussians : 0; }
+  // Published slots whose Gaussian belongs to one of `targets` (sorted). O(M).
+  std::uint64_t count_resident(std::span<const ObjectId> targets) const;
   // Order-independent checksum of the published (id, record) pairs.
   std::uint64_t published_checksum() const;
   // Every invariant: slot table bijection, desired-state consistency, published total
@@ -118,8 +121,6 @@ class ClientState {
   Status on_batch(const msg::EditBatchMsg& b, double now);
   // `slots_written`: this frame's publication wrote slots (target residency may differ).
   void track_query(double now, std::uint64_t frame_index, bool rendered, bool slots_written);
-  // Published slots whose Gaussian belongs to one of `targets` (sorted). O(M).
-  std::uint64_t count_resident(const std::vector<ObjectId>& targets) const;
 
   std::uint32_t client_index_;
   ClientConfig config_;

@@ -52,6 +52,9 @@ class SlotTable {
   bool contains(GaussianId id) const { return index_.count(id) != 0; }
   // Writes the id resident in `slot` to out_id; false when the slot is free or out of range.
   bool occupant(SlotIndex slot, GaussianId& out_id) const;
+  // The resident ids in slot order (free slots skipped): the order a renderer blends equal
+  // depths in, which a second render of the same set must reproduce (gauss-render --order).
+  std::vector<GaussianId> occupants() const;
   const std::vector<Gaussian>& records() const noexcept { return records_; }
 
   // Dirty slots since the last call, sorted and merged: adjacent slots form one range;
