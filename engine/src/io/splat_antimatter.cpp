@@ -80,7 +80,7 @@ Expected<SplatScene> parse_antimatter_splat(std::span<const std::uint8_t> bytes,
         return fail(name, "splat " + std::to_string(i) + ": scale " + ply::format_double(s) + " at byte offset " +
                               std::to_string(at + 12 + 4 * std::size_t(k)) + " is not positive and finite");
       g.log_scale[k] = static_cast<float>(std::log(double(s)));
-      g.sh_dc[k] = static_cast<float>((double(r[24 + k]) / 255.0 - 0.5) / io::kShC0);
+      g.sh_dc[k] = static_cast<float>((double(r[24 + k]) / 255.0 - 0.5) / kShC0);
     }
     g.opacity_logit = io::alpha_to_logit(double(r[27]) / 255.0);
     g.rotation = glm::vec4((float(r[28]) - 128.0f) / 128.0f, (float(r[29]) - 128.0f) / 128.0f,

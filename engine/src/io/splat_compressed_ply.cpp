@@ -269,7 +269,7 @@ Expected<SplatScene> parse_compressed_ply(std::span<const std::uint8_t> bytes, s
                                          "' (byte offset " + std::to_string(at) + "): value is " +
                                          (std::isnan(v) ? "NaN" : v > 0 ? "+Inf" : "-Inf") + " (bounds must be finite)");
       // A colour bound becomes f_dc = (bound - 0.5) / SH_C0, 3.5x larger: keep that a float.
-      if (k >= kChunkRequired && std::abs((double(v) - 0.5) / io::kShC0) > double(std::numeric_limits<float>::max()))
+      if (k >= kChunkRequired && std::abs((double(v) - 0.5) / kShC0) > double(std::numeric_limits<float>::max()))
         return ply::make_error(name, "chunk " + std::to_string(c) + ", property '" + std::string(kChunkProps[k]) +
                                          "' (byte offset " + std::to_string(at) + "): colour bound " +
                                          ply::format_double(v) + " gives an f_dc beyond the float range");
@@ -305,7 +305,7 @@ Expected<SplatScene> parse_compressed_ply(std::span<const std::uint8_t> bytes, s
     for (int a = 0; a < 3; ++a) {
       const double t = unorm(col >> (24 - 8 * a), 8);
       const double colour = has_colour_bounds ? lerp(b[12 + a], b[15 + a], t) : t;
-      g.sh_dc[a] = static_cast<float>((colour - 0.5) / io::kShC0);
+      g.sh_dc[a] = static_cast<float>((colour - 0.5) / kShC0);
     }
     g.opacity_logit = io::alpha_to_logit(unorm(col, 8));
 

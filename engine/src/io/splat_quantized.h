@@ -11,8 +11,6 @@
 
 namespace gauss::io {
 
-// Degree-0 SH basis constant: colour = 0.5 + kShC0 * f_dc.
-inline constexpr double kShC0 = 0.28209479177387814;
 
 // An 8-bit alpha of 0 or 255 has no finite logit. Decoded alphas are clamped to
 // [0.5/255, 1 - 0.5/255], i.e. logits within +-ln(509) = +-6.2324: the clamped value is still

@@ -19,7 +19,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr float kShC0 = 0.28209479177387814f;
 // An earlier Gaussian explains the blocks its centre projects into and those within its
 // in-plane sigma, up to this many blocks away (a huge close-up disc is not a wall).
 constexpr std::int64_t kMaxCoverBlocks = 4;
@@ -185,7 +184,7 @@ Expected<std::vector<Gaussian>> RgbdSeeder::seed(const RgbdFrame& f) {
       g.log_scale = glm::vec3(float(std::log(sigma)), float(std::log(sigma)), float(std::log(0.1 * sigma)));
       g.rotation = glm::vec4(rot.w, rot.x, rot.y, rot.z);
       g.opacity_logit = std::log(c.opacity / (1.0f - c.opacity));
-      g.sh_dc = (glm::vec3(colour) - 0.5f) / kShC0;
+      g.sh_dc = (glm::vec3(colour) - 0.5f) / float(kShC0);
       g.support = 1;
       out.push_back(g);
       seeds_.emplace_back(g.position, float(sigma));  // `explained` above is already built

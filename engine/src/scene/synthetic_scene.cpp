@@ -20,7 +20,6 @@ using scene::signed_unit3;
 using scene::unit;
 
 constexpr float kPi = std::numbers::pi_v<float>;
-constexpr float kShC0 = 0.28209479177387814f;
 constexpr std::int16_t kNever = 32767;
 
 // Stream tags so that independent random quantities never share a key.
@@ -274,7 +273,7 @@ Gaussian SyntheticScene::Impl::gaussian_of(std::size_t i, int epoch) const {
   g.position = s.position + f * (ju * j.x * s.tangent + jv * j.y * bitangent + jn * j.z * s.normal);
   const glm::vec3 colour = glm::clamp(s.colour + f * 0.25f * signed_unit3(hash(key, kColourNoise)),
                                       glm::vec3(0.0f), glm::vec3(1.0f));
-  g.sh_dc = (colour - 0.5f) / kShC0;
+  g.sh_dc = (colour - 0.5f) / float(kShC0);
   // Degree 1: a small term that brightens the surface seen head-on (see SH1 basis signs).
   const float spec = 0.06f;
   g.sh_rest[0] = glm::vec3(spec * s.normal.y);

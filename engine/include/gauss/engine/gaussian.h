@@ -14,6 +14,9 @@ namespace gauss {
 
 inline constexpr int kMaxShDegree = 3;
 // Non-DC SH coefficients per colour channel for degree d: (d+1)^2 - 1.
+// Degree-0 real SH basis constant: a Gaussian's base colour is 0.5 + kShC0 * sh_dc.
+inline constexpr double kShC0 = 0.28209479177387814;
+
 constexpr int sh_rest_count(int degree) { return (degree + 1) * (degree + 1) - 1; }
 inline constexpr int kMaxShRest = sh_rest_count(kMaxShDegree);  // 15
 

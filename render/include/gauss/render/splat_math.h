@@ -92,6 +92,7 @@
 #include <glm/vec3.hpp>
 
 #include "gauss/engine/camera.h"
+#include "gauss/engine/gaussian.h"  // kShC0
 
 namespace gauss::render {
 
@@ -117,8 +118,7 @@ inline constexpr double kTransmittanceStop = 1e-4;
 // surface are never cut by their own coarse proxy.
 inline constexpr double kDefaultMeshMargin = 0.02;
 
-// Real SH basis constants (computeColorFromSH), sh[0] .. sh[15].
-inline constexpr double kShC0 = 0.28209479177387814;
+// Real SH basis constants (computeColorFromSH), sh[0] .. sh[15] (kShC0: gaussian.h).
 inline constexpr double kShC1 = 0.4886025119029199;
 inline constexpr std::array<double, 5> kShC2 = {1.0925484305920792, -1.0925484305920792, 0.31539156525252005,
                                                 -1.0925484305920792, 0.5462742152960396};
