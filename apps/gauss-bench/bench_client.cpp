@@ -97,6 +97,13 @@ json pct(const std::vector<double>& v) {
   return json{{"p50", percentile(v, 0.5)}, {"p95", percentile(v, 0.95)}, {"p99", percentile(v, 0.99)}, {"n", v.size()}};
 }
 
+// Percentiles and the maximum (a bound is about the worst frame).
+json pct_max(const std::vector<double>& v) {
+  json j = pct(v);
+  j["max"] = v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
+  return j;
+}
+
 // The in-process host: the synthetic room, fully produced, served on a loopback port by
 // its own thread.
 class LoopbackHost {
@@ -190,7 +197,12 @@ struct Settle {
   // Display-thread CPU per frame until converged: ClientState::frame (publication policy)
   // and packing into the staging ring.
   std::vector<double> publish_ms, upload_ms, lock_wait_ms;
+  // The display thread's CPU time in the same two stages (lock wait excluded).
+  std::vector<double> publish_cpu_ms, upload_cpu_ms;
   std::vector<std::uint32_t> slot_writes;  // slots written or cleared per frame
+  // Work per frame: arrivals ranked, ranked candidates touched by the upkeep, slots the
+  // upload wrote or cleared, buffer copy regions recorded.
+  std::vector<double> ranked, touched, slots_uploaded, copy_regions;
   // GPU side, per finished frame (in frame order): the view's whole GPU time, its blend
   // pass, and the splats it binned and the (tile, splat) pairs it blended.
   std::vector<double> gpu_ms, blend_ms;
@@ -222,7 +234,13 @@ Settle run_until_settled(client::ClientRuntime& rt, const Camera& cam, double ti
     s.publish_ms.push_back(f->publish_ms);
     s.upload_ms.push_back(f->upload_ms);
     s.lock_wait_ms.push_back(f->lock_wait_ms);
+    s.publish_cpu_ms.push_back(f->publish_cpu_ms);
+    s.upload_cpu_ms.push_back(f->upload_cpu_ms);
     s.slot_writes.push_back(f->publish.slot_writes());
+    s.ranked.push_back(f->publish.ranked);
+    s.touched.push_back(f->publish.touched);
+    s.slots_uploaded.push_back(f->uploaded.slots_written + f->uploaded.slots_cleared);
+    s.copy_regions.push_back(f->copy_regions);
     const std::uint64_t edits = rt.with_state([](const ClientState& st) { return st.stats().edits_received; });
     const double t = 1e-3 * ms_since(t0);
     const bool idle = f->pending == 0 && f->publish.slot_writes() == 0 && f->desired > 0;
@@ -285,6 +303,7 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
   // Far teleports A -> B -> A ...: the streaming frames of all of them are pooled, and so
   // are the idle frames after each, so a p99 rests on more than a few dozen frames.
   std::vector<double> streaming, idle_after, publish, upload, lock_wait, convergence, net_cpu;
+  std::vector<double> publish_cpu, upload_cpu, ranked, touched, slots_uploaded, copy_regions;
   json series = json::array();
   for (std::uint32_t t = 0; t < o.teleports; ++t) {
     const Camera& to = t % 2 == 0 ? b : a;
@@ -297,8 +316,16 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
     publish.insert(publish.end(), tele.publish_ms.begin(), tele.publish_ms.end());
     upload.insert(upload.end(), tele.upload_ms.begin(), tele.upload_ms.end());
     lock_wait.insert(lock_wait.end(), tele.lock_wait_ms.begin(), tele.lock_wait_ms.end());
+    publish_cpu.insert(publish_cpu.end(), tele.publish_cpu_ms.begin(), tele.publish_cpu_ms.end());
+    upload_cpu.insert(upload_cpu.end(), tele.upload_cpu_ms.begin(), tele.upload_cpu_ms.end());
+    ranked.insert(ranked.end(), tele.ranked.begin(), tele.ranked.end());
+    touched.insert(touched.end(), tele.touched.begin(), tele.touched.end());
+    slots_uploaded.insert(slots_uploaded.end(), tele.slots_uploaded.begin(), tele.slots_uploaded.end());
+    copy_regions.insert(copy_regions.end(), tele.copy_regions.begin(), tele.copy_regions.end());
     series.push_back(json{{"frame_ms", tele.frame_ms}, {"publish_ms", tele.publish_ms}, {"upload_ms", tele.upload_ms},
-                          {"lock_wait_ms", tele.lock_wait_ms},
+                          {"lock_wait_ms", tele.lock_wait_ms}, {"publish_thread_cpu_ms", tele.publish_cpu_ms},
+                          {"upload_thread_cpu_ms", tele.upload_cpu_ms}, {"ranked", tele.ranked},
+                          {"touched", tele.touched}, {"copy_regions", tele.copy_regions},
                           {"slot_writes", tele.slot_writes}, {"gpu_ms", tele.gpu_ms}, {"blend_ms", tele.blend_ms},
                           {"visible", tele.visible}, {"pairs", tele.pairs}});
     const std::vector<double> idle = idle_frames(**rt, to, o.idle_frames);
@@ -306,11 +333,19 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
   }
   const std::uint32_t resident = (*rt)->with_state([](const ClientState& s) { return s.slots().size(); });
   const auto ss = (*rt)->publication().stats();
-  std::printf("   %-12s %8.2f %8zu %9.1f %9.1f %9.1f   %9.1f %9.1f %9.1f  %8u  %6.1f/%6.1f  %6.1f/%6.1f  %8.0f\n", name,
+  std::printf("   %-12s %8.2f %8zu %9.1f %9.1f %9.1f   %9.1f %9.1f %9.1f  %8u  %6.2f/%6.2f  %6.2f/%6.2f  %8.0f\n", name,
               median(convergence), streaming.size(), percentile(streaming, 0.5), percentile(streaming, 0.95),
               percentile(streaming, 0.99), percentile(idle_after, 0.5), percentile(idle_after, 0.95),
-              percentile(idle_after, 0.99), resident, percentile(publish, 0.5), percentile(publish, 0.99),
-              percentile(upload, 0.5), percentile(upload, 0.99), median(net_cpu));
+              percentile(idle_after, 0.99), resident, percentile(publish_cpu, 0.5), percentile(publish_cpu, 0.99),
+              percentile(upload_cpu, 0.5), percentile(upload_cpu, 0.99), median(net_cpu));
+  auto worst = [](const std::vector<double>& v) { return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end()); };
+  std::printf("   %-12s work per frame p99/max: ranked %.0f/%.0f, touched %.0f/%.0f, slots uploaded %.0f/%.0f, "
+              "copy regions %.0f/%.0f\n", "", percentile(ranked, 0.99), worst(ranked), percentile(touched, 0.99),
+              worst(touched), percentile(slots_uploaded, 0.99), worst(slots_uploaded), percentile(copy_regions, 0.99),
+              worst(copy_regions));
+  std::printf("   %-12s wall ms p99/max: publish %.2f/%.2f (lock wait %.2f/%.2f), upload %.2f/%.2f\n", "",
+              percentile(publish, 0.99), worst(publish), percentile(lock_wait, 0.99), worst(lock_wait),
+              percentile(upload, 0.99), worst(upload));
   return json{{"mode", name},
               {"display_period_ms", period_s * 1e3},
               {"teleports", o.teleports},
@@ -321,9 +356,19 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
               {"frame_ms_idle_before", pct(idle_before)},
               {"frame_ms_idle_after", pct(idle_after)},
               {"idle_frames_after", idle_after.size()},
+              // Wall times (these two keys were named before thread CPU was measured).
               {"publish_cpu_ms_streaming", pct(publish)},
               {"upload_cpu_ms_streaming", pct(upload)},
-              {"lock_wait_ms_streaming", pct(lock_wait)},
+              {"publish_wall_ms_streaming", pct_max(publish)},
+              {"upload_wall_ms_streaming", pct_max(upload)},
+              {"publish_thread_cpu_ms_streaming", pct_max(publish_cpu)},
+              {"upload_thread_cpu_ms_streaming", pct_max(upload_cpu)},
+              {"work_per_frame_streaming",
+               {{"arrivals_ranked", pct_max(ranked)},
+                {"backlog_items_touched", pct_max(touched)},
+                {"slots_written", pct_max(slots_uploaded)},
+                {"copy_regions", pct_max(copy_regions)}}},
+              {"lock_wait_ms_streaming", pct_max(lock_wait)},
               {"network_thread_cpu_ms_each", net_cpu},
               {"p99_over_idle_p99", percentile(streaming, 0.99) / std::max(1e-9, percentile(idle_after, 0.99))},
               {"resident", resident},
@@ -365,7 +410,10 @@ json bench_calibration(vk::Context& ctx, const Options& o, LoopbackHost& host, s
   if (!rt) return json{{"error", rt.message()}};
   const Camera a = room_camera(host, w, h, false);
   if (!run_until_settled(**rt, a, o.timeout_s).converged) return json{{"error", "did not converge"}};
-  std::vector<Gaussian> records = (*rt)->with_state([](const ClientState& s) { return s.slots().records(); });
+  std::vector<Gaussian> records = (*rt)->with_state([](const ClientState& s) {
+    const auto r = s.slots().records();
+    return std::vector<Gaussian>(r.begin(), r.end());
+  });
   render::SplatRenderer& r = (*rt)->renderer();
   std::vector<double> idle_wall;
   for (int k = 0; k < 7; ++k) {
@@ -532,6 +580,7 @@ int bench_client_main(const Options& o) {
     std::printf("   %-12s %8s %8s %9s %9s %9s   %9s %9s %9s  %8s  %13s  %13s  %8s\n", "mode", "conv s", "frames",
                 "p50 ms", "p95 ms", "p99 ms", "idle p50", "idle p95", "idle p99", "resident", "publish p50/99",
                 "upload p50/99", "net cpu");
+    std::printf("   (publish, upload: the display thread's CPU ms in each, CLOCK_THREAD_CPUTIME_ID; wall ms below)\n");
     if (!o.isolate_host)
       std::printf("   (the host runs in this process, on the same cores: its select + diff + encode after the\n"
                   "    teleport competes with the client's frames, which a headset's would not; see --isolate-host)\n");

@@ -1,11 +1,14 @@
 // ClientRuntime: transport -> ClientState -> GPU publication -> renderer, per display frame.
 #include "gauss/client/client_runtime.h"
 
+#include <time.h>
+
 #include <algorithm>
 #include <chrono>
 
 #include "gauss/engine/host_session.h"
 #include "gauss/render/vk_frame_ring.h"
+#include "gauss/render/vk_staged_uploads.h"
 
 namespace gauss::client {
 
@@ -13,6 +16,13 @@ namespace {
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// CPU time of the calling thread, ms.
+double thread_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
 }
 
 ViewState view_state_of(const Camera& camera) {
@@ -96,6 +106,7 @@ std::vector<wire::Message> ClientRuntime::take_outgoing() { return sink_->take_o
 
 Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, const render::FrameHooks& hooks) {
   const auto t0 = std::chrono::steady_clock::now();
+  const double c0 = thread_cpu_ms();
   if (views.empty() || views.size() > 2)
     return Error{"ClientRuntime::frame: 1 or 2 views, not " + std::to_string(views.size())};
   DisplayFrameStats out;
@@ -123,6 +134,8 @@ Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, 
   });
   if (!fr) return fr.error();
   out.publish_ms = ms_since(t0);
+  const double c1 = thread_cpu_ms();
+  out.publish_cpu_ms = c1 - c0;
   out.publish = fr->publish;
   out.ranges = static_cast<std::uint32_t>(fr->ranges.size());
   out.published_epoch = fr->published_epoch;
@@ -148,11 +161,14 @@ Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, 
   }
   out.resident = state_->slots().size();
   out.upload_ms = ms_since(t1);
+  out.upload_cpu_ms = thread_cpu_ms() - c1;
 
   // --- render ---
   const auto t2 = std::chrono::steady_clock::now();
+  const std::uint64_t regions_before = renderer_->uploads().stats().copy_regions;
   auto serial = renderer_->render_frame(views, config_.render, hooks);
   if (!serial) return serial.error();
+  out.copy_regions = static_cast<std::uint32_t>(renderer_->uploads().stats().copy_regions - regions_before);
   out.serial = *serial;
   out.render_ms = ms_since(t2);
   gpu_stats_.submitted(*serial, frame_index_, static_cast<std::uint32_t>(views.size()));

@@ -336,21 +336,50 @@ TEST(DesiredState, IdIndexMatchesAReferenceMap) {
 TEST(DesiredState, PendingArrivalsListNewAndChangedEntriesOnce) {
   DesiredState d(4);
   ASSERT_TRUE(d.apply(batch(1, {ins(1, 0.0f), ins(2, 1.0f)}), 0.0).ok());
-  std::vector<std::uint32_t> got;
-  bool overflowed = true;
-  d.take_pending_arrivals(got, overflowed);
-  EXPECT_FALSE(overflowed);
-  ASSERT_EQ(got.size(), 2u);
-  EXPECT_EQ(d.entry(got[0]).id, GaussianId{1});
-  EXPECT_EQ(d.entry(got[1]).id, GaussianId{2});
-  d.take_pending_arrivals(got, overflowed);
-  EXPECT_TRUE(got.empty()) << "taken arrivals are not listed again";
+  PendingArrivals got;
+  got.overflowed = true;
+  d.take_pending_arrivals(got);
+  EXPECT_FALSE(got.overflowed);
+  EXPECT_TRUE(got.removes.empty());
+  ASSERT_EQ(got.others.size(), 2u);
+  EXPECT_EQ(got.others[0].id, GaussianId{1});
+  EXPECT_EQ(d.entry(got.others[0].index).id, GaussianId{1});
+  EXPECT_EQ(got.others[0].kind, PendingKind::Insert);
+  EXPECT_EQ(got.others[0].slot, kNoSlot);
+  EXPECT_FALSE(got.others[0].changed);
+  EXPECT_EQ(got.others[1].id, GaussianId{2});
+  EXPECT_EQ(got.others[1].position, d.entry(got.others[1].index).value.position);
+  d.take_pending_arrivals(got);
+  EXPECT_EQ(got.size(), 0u) << "taken arrivals are not listed again";
   // A pending entry that changes is listed as changed; cancelling lists nothing.
   ASSERT_TRUE(d.apply(batch(2, {upd(1, 5.0f), rem(2)}), 1.0).ok());
-  d.take_pending_arrivals(got, overflowed);
-  ASSERT_EQ(got.size(), 1u);
-  EXPECT_NE(got[0] & DesiredState::kArrivalChanged, 0u);
-  EXPECT_EQ(d.entry(got[0] & ~DesiredState::kArrivalChanged).id, GaussianId{1});
+  d.take_pending_arrivals(got);
+  ASSERT_EQ(got.others.size(), 1u);
+  EXPECT_TRUE(got.removes.empty());
+  EXPECT_TRUE(got.others[0].changed);
+  EXPECT_EQ(got.others[0].id, GaussianId{1});
+  EXPECT_EQ(got.others[0].since, 0.0) << "pending since its first edit";
+}
+
+TEST(DesiredState, PendingArrivalsListRemovesApartWithTheirSlot) {
+  DesiredState d(4);
+  ASSERT_TRUE(d.apply(batch(1, {ins(1, 2.0f)}), 0.0).ok());
+  d.mark_published(static_cast<std::uint32_t>(d.find(GaussianId{1}) - &d.entry(0)), SlotIndex{3});
+  PendingArrivals got;
+  d.take_pending_arrivals(got);
+  ASSERT_TRUE(d.apply(batch(2, {rem(1), ins(5, 1.0f)}), 1.0).ok());
+  d.take_pending_arrivals(got);
+  ASSERT_EQ(got.removes.size(), 1u);
+  ASSERT_EQ(got.others.size(), 1u);
+  EXPECT_EQ(got.removes[0].kind, PendingKind::Remove);
+  EXPECT_EQ(got.removes[0].slot, SlotIndex{3});
+  EXPECT_EQ(got.removes[0].position, d.find(GaussianId{1})->published_position);
+  EXPECT_EQ(got.removes[0].support, 0u);
+  EXPECT_EQ(got.others[0].id, GaussianId{5});
+  // arrival_of describes a pending entry the same way.
+  const PendingArrival again = d.arrival_of(got.removes[0].index);
+  EXPECT_EQ(again.kind, PendingKind::Remove);
+  EXPECT_EQ(again.slot, SlotIndex{3});
 }
 
 TEST(DesiredState, PendingArrivalsOverflowInsteadOfGrowingWithoutBound) {
@@ -361,13 +390,12 @@ TEST(DesiredState, PendingArrivalsOverflowInsteadOfGrowingWithoutBound) {
     ASSERT_TRUE(d.apply(batch(epoch++, {ins(10 + round, 0.0f)}), 0.0).ok());
     ASSERT_TRUE(d.apply(batch(epoch++, {rem(10 + round)}), 0.0).ok());
   }
-  std::vector<std::uint32_t> got;
-  bool overflowed = false;
-  d.take_pending_arrivals(got, overflowed);
-  EXPECT_TRUE(overflowed);
-  EXPECT_TRUE(got.empty());
+  PendingArrivals got;
+  d.take_pending_arrivals(got);
+  EXPECT_TRUE(got.overflowed);
+  EXPECT_EQ(got.size(), 0u);
   ASSERT_TRUE(d.apply(batch(epoch++, {ins(1, 0.0f)}), 0.0).ok());
-  d.take_pending_arrivals(got, overflowed);
-  EXPECT_FALSE(overflowed) << "the overflow is reported once";
+  d.take_pending_arrivals(got);
+  EXPECT_FALSE(got.overflowed) << "the overflow is reported once";
   EXPECT_EQ(got.size(), 1u);
 }

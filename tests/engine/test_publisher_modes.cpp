@@ -34,7 +34,7 @@ TEST(Publisher, ImmediatePublishesEverything) {
   auto r = p.publish(f.desired, f.slots, {}, 0.0);
   ASSERT_TRUE(r.ok());
   EXPECT_EQ(r->inserted, 1000u);
-  EXPECT_EQ(r->allowance, 0u);
+  EXPECT_EQ(r->allowance, PublisherConfig{}.immediate_allowance);
   EXPECT_EQ(f.desired.pending_count(), 0u);
   EXPECT_EQ(f.slots.size(), 1000u);
 }

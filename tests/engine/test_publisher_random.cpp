@@ -90,7 +90,7 @@ void run_seed(std::uint32_t seed) {
   cfg.age_escape_s = std::uniform_real_distribution<double>(0.02, 0.5)(rng);
   cfg.escape_quota = std::uniform_int_distribution<std::uint32_t>(0, 30)(rng);
   cfg.rescore_per_frame = std::uniform_int_distribution<std::uint32_t>(1, 64)(rng);
-  cfg.head_allowances = std::uniform_int_distribution<std::uint32_t>(1, 4)(rng);
+  cfg.rank_allowances = std::uniform_int_distribution<std::uint32_t>(0, 3)(rng);
   Publisher p(cfg);
   double now = 0.0;
   Epoch epoch{0};

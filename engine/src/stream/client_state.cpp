@@ -39,11 +39,13 @@ Status ClientState::reject(std::string reason) {
   return Error{"client " + config_.name + ": " + std::move(reason)};
 }
 
-Status ClientState::on_batch(const msg::EditBatchMsg& b, double now) {
+Status ClientState::on_batch(const msg::EditBatchMsg& b, std::optional<DecodedBatch>& decoded, double now) {
   if (!codec_) return reject("edit batch " + std::to_string(b.batch_id) + " before SceneInfo (no codec parameters)");
   if (b.batch_id <= last_batch_id_)
     return reject("edit batch " + std::to_string(b.batch_id) + " not newer than batch " + std::to_string(last_batch_id_));
-  auto batch = decode_edit_batch(b.payload, *codec_);
+  // Decoded before the lock was taken, unless the codec changed in between.
+  if (!decoded || !(decoded->codec == *codec_)) decoded = DecodedBatch{*codec_, decode_edit_batch(b.payload, *codec_)};
+  auto& batch = decoded->batch;
   if (!batch) return reject("edit batch " + std::to_string(b.batch_id) + ": " + batch.message());
   if (batch->epoch != b.epoch || batch->edits.size() != b.edit_count)
     return reject("edit batch " + std::to_string(b.batch_id) + ": payload says epoch " +
@@ -79,6 +81,18 @@ Status ClientState::on_batch(const msg::EditBatchMsg& b, double now) {
 }
 
 Status ClientState::on_message(const wire::Message& m, double now) {
+  // An edit batch is decoded before the lock is taken: the display thread takes that lock
+  // every frame, and decoding a teleport's batch takes milliseconds. The codec is read
+  // under the lock and compared again once it is held.
+  std::optional<DecodedBatch> decoded;
+  if (const auto* b = std::get_if<msg::EditBatchMsg>(&m)) {
+    std::optional<CodecParams> codec;
+    {
+      std::lock_guard<std::mutex> lock(*mutex_);
+      codec = codec_;
+    }
+    if (codec) decoded = DecodedBatch{*codec, decode_edit_batch(b->payload, *codec)};
+  }
   std::lock_guard<std::mutex> lock(*mutex_);
   const msg::MessageType type = wire::type_of(m);
   if (msg::direction_of(type) != msg::Direction::HostToClient)
@@ -125,7 +139,7 @@ Status ClientState::on_message(const wire::Message& m, double now) {
     for (const auto& o : info->objects) objects_[to_underlying(o.id)] = o;
     return Ok{};
   }
-  if (const auto* b = std::get_if<msg::EditBatchMsg>(&m)) return on_batch(*b, now);
+  if (const auto* b = std::get_if<msg::EditBatchMsg>(&m)) return on_batch(*b, decoded, now);
   if (const auto* p = std::get_if<msg::SurfacePatch>(&m)) {
     StagedChunk c{p->chunk_id, p->epoch, p->mesh};
     Status s = surface_.offer(std::move(c));

@@ -182,25 +182,43 @@ void DesiredState::refresh_pending(std::uint32_t index, Epoch old_epoch, bool wa
     entries_[moved].pending_pos = pos;
     pending_.pop_back();
     e.pending_pos = DesiredEntry::kNotPending;
+    // The next removal moves the new last entry: fetch its line while this one finishes.
+    if (!pending_.empty()) __builtin_prefetch(&entries_[pending_.back()], 1, 1);
   } else if (!was_pending && now_pending) {
     e.pending_pos = static_cast<std::uint32_t>(pending_.size());
     pending_.push_back(index);
   }
-  if (!now_pending || arrivals_overflowed_) return;
+  if (!now_pending || arrivals_.overflowed) return;
   // Bounded: a consumer that stops taking arrivals costs a few entries per slot at most.
   if (arrivals_.size() >= 2 * static_cast<std::size_t>(capacity_) + 1024) {
-    arrivals_overflowed_ = true;
     arrivals_.clear();
+    arrivals_.overflowed = true;
     return;
   }
-  arrivals_.push_back(was_pending ? (index | kArrivalChanged) : index);
+  PendingArrival a = arrival_of(index);
+  a.changed = was_pending;
+  (a.kind == PendingKind::Remove ? arrivals_.removes : arrivals_.others).push_back(a);
 }
 
-void DesiredState::take_pending_arrivals(std::vector<std::uint32_t>& out, bool& overflowed) {
+PendingArrival DesiredState::arrival_of(std::uint32_t index) const {
+  const DesiredEntry& e = entries_[index];
+  PendingArrival a;
+  a.kind = e.pending_kind();
+  a.position = a.kind == PendingKind::Remove ? e.published_position : e.value.position;
+  a.magnitude = e.magnitude;
+  a.since = e.pending_since;
+  a.id = e.id;
+  a.index = index;
+  a.support = a.kind == PendingKind::Remove ? 0u : e.value.support;
+  a.slot = a.kind == PendingKind::Insert ? kNoSlot : e.slot;
+  return a;
+}
+
+void DesiredState::take_pending_arrivals(PendingArrivals& out) {
   out.clear();
-  out.swap(arrivals_);
-  overflowed = arrivals_overflowed_;
-  arrivals_overflowed_ = false;
+  std::swap(out, arrivals_);
+  out.complete = !arrivals_taken_ && !out.overflowed;
+  arrivals_taken_ = true;
 }
 
 std::string DesiredState::apply_one(Op op, GaussianId id, const Gaussian* value, Epoch epoch, double now,

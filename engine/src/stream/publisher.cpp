@@ -2,17 +2,71 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 
 #include <glm/geometric.hpp>
 
 namespace gauss {
 
+namespace {
+
+// The lines of an entry that checking and publishing it read: the bookkeeping and the record.
+void prefetch_entry(const DesiredState& desired, std::uint32_t index) {
+  const char* line = reinterpret_cast<const char*>(&desired.entry(index));
+  for (std::size_t off = 0; off < sizeof(DesiredEntry); off += 64) __builtin_prefetch(line + off, 0, 1);
+}
+
+constexpr int kInsertQueue = 0, kUpdateQueue = 1, kRemoveQueue = 2;
+
+int queue_of(PendingKind kind) {
+  return kind == PendingKind::Remove ? kRemoveQueue : kind == PendingKind::Update ? kUpdateQueue : kInsertQueue;
+}
+
+// Takes up to `budget` arrivals from the front chunks of `chunks` (position `pos` in the
+// first) and returns how many. A finished chunk keeps its memory in `spare` for
+// DesiredState's next list: a teleport's list is megabytes, and freeing and faulting it
+// in again every batch cost more than ranking it.
+template <class F>
+std::uint32_t drain(std::deque<std::vector<PendingArrival>>& chunks, std::size_t& pos, std::uint32_t budget,
+                    std::vector<std::vector<PendingArrival>>& spare, F&& f) {
+  std::uint32_t n = 0;
+  auto retire = [&] {
+    if (spare.size() < 4) {
+      chunks.front().clear();
+      spare.push_back(std::move(chunks.front()));
+    }
+    chunks.pop_front();
+    pos = 0;
+  };
+  while (n < budget && !chunks.empty()) {
+    auto& front = chunks.front();
+    if (pos >= front.size()) {
+      retire();
+      continue;
+    }
+    f(front[pos++]);
+    ++n;
+  }
+  if (!chunks.empty() && pos >= chunks.front().size()) retire();
+  return n;
+}
+
+}  // namespace
+
 Publisher::Publisher(PublisherConfig config) : config_(config) {
   // A config with min > max would make the clamp ill-defined: order the bounds.
   if (config_.allowance_min == 0) config_.allowance_min = 1;
   if (config_.allowance_max < config_.allowance_min) config_.allowance_max = config_.allowance_min;
+  if (config_.immediate_allowance == 0) config_.immediate_allowance = 1;
+  if (config_.rescore_per_frame == 0) config_.rescore_per_frame = 1;
   allowance_ = std::clamp(config_.allowance_initial, config_.allowance_min, config_.allowance_max);
+  const float total = config_.w_support + config_.w_view + config_.w_magnitude + config_.w_age;
+  priority_scale_ = static_cast<float>(detail::BucketQueue::kBuckets) / std::max(total, 1e-6f);
+  // The support term for supports below its saturation, exactly as the formula gives it
+  // (a log per arrival is a measurable share of ranking one).
+  const float ref = std::max(config_.support_reference, 1.0f);
+  const auto lut = static_cast<std::uint32_t>(std::min(ref, 4096.0f)) + 1;
+  support_lut_.resize(lut);
+  for (std::uint32_t s = 0; s < lut; ++s) support_lut_[s] = std::min(1.0f, std::log1p(static_cast<float>(s)) / std::log1p(ref));
 }
 
 bool Publisher::in_view_cone(const glm::vec3& position, const ViewState& view) const {
@@ -21,10 +75,8 @@ bool Publisher::in_view_cone(const glm::vec3& position, const ViewState& view) c
   return dist <= 1e-6f || glm::dot(d, view.forward) >= config_.view_cos_half_fov * dist;
 }
 
-float Publisher::view_relevance(const DesiredEntry& e, const ViewState& view) const {
-  // A remove matters where the published Gaussian is; anything else where it will be.
-  const glm::vec3 pos = e.pending_kind() == PendingKind::Remove ? e.published_position : e.value.position;
-  const glm::vec3 d = pos - view.eye;
+float Publisher::view_relevance(const glm::vec3& position, const ViewState& view) const {
+  const glm::vec3 d = position - view.eye;
   const float dist = glm::length(d);
   const float c = dist > 1e-6f ? glm::dot(d, view.forward) / dist : 1.0f;
   const float in_view = c >= config_.view_cos_half_fov ? 1.0f : std::max(0.0f, c) * 0.5f;
@@ -32,19 +84,71 @@ float Publisher::view_relevance(const DesiredEntry& e, const ViewState& view) co
   return std::isfinite(r) ? r : 0.0f;
 }
 
-float Publisher::priority(const DesiredEntry& e, const ViewState& view, double now) const {
-  // A leaving Gaussian's support says nothing about how urgently it should go, and one
-  // outside the view cone is not seen: removes out of view tie (same age, same
-  // magnitude), and ties go in slot order (publish()), so they vacate whole runs of slots.
-  const bool remove = e.pending_kind() == PendingKind::Remove;
-  const float support = remove ? 0.0f
-                               : std::min(1.0f, std::log1p(static_cast<float>(e.value.support)) /
-                                                    std::log1p(std::max(config_.support_reference, 1.0f)));
-  const float relevance = remove && !in_view_cone(e.published_position, view) ? 0.0f : view_relevance(e, view);
-  const float age = std::min(1.0f, static_cast<float>(now - e.pending_since) / std::max(config_.age_reference_s, 1e-3f));
-  const float p = config_.w_support * support + config_.w_view * relevance + config_.w_magnitude * e.magnitude +
-                  config_.w_age * std::max(0.0f, age);
+float Publisher::support_term(std::uint32_t support) const {
+  if (support < support_lut_.size()) return support_lut_[support];
+  const float ref = std::max(config_.support_reference, 1.0f);
+  return std::min(1.0f, std::log1p(static_cast<float>(support)) / std::log1p(ref));
+}
+
+// Priority: w_support * support + w_view * relevance + w_magnitude * magnitude + w_age * age,
+// each term in [0, 1]. A leaving Gaussian's support says nothing about how urgently it
+// should go, and one outside the view cone is not seen: removes out of view differ only
+// by magnitude and age (and go in slot order as room for inserts).
+float Publisher::score(const Candidate& c) const {
+  float relevance = 0.0f;
+  if (c.kind != PendingKind::Remove || in_view_cone(c.position, view_)) relevance = view_relevance(c.position, view_);
+  const float age = std::min(1.0f, static_cast<float>(now_ - c.since) / std::max(config_.age_reference_s, 1e-3f));
+  const float p = c.base + config_.w_view * relevance + config_.w_age * std::max(0.0f, age);
   return std::isfinite(p) ? p : 0.0f;
+}
+
+int Publisher::bucket_of(float priority) const {
+  const float b = priority * priority_scale_;
+  if (!(b > 0.0f)) return 0;
+  return std::min(detail::BucketQueue::kBuckets - 1, static_cast<int>(b));
+}
+
+// Removes as room for inserts: outside the view cone all alike (class 0: none of them is
+// seen), inside it by relevance in 1/16 steps.
+int Publisher::remove_class(const glm::vec3& position) const {
+  if (!in_view_cone(position, view_)) return 0;
+  return 1 + static_cast<int>(std::min(15.0f, view_relevance(position, view_) * 16.0f));
+}
+
+Publisher::Candidate Publisher::candidate_of(const PendingArrival& a) {
+  Candidate c;
+  c.position = a.position;
+  c.since = a.since;
+  c.id = a.id;
+  c.index = a.index;
+  c.slot = a.slot;
+  c.kind = a.kind;
+  const float support = a.kind == PendingKind::Remove ? 0.0f : support_term(a.support);
+  c.base = config_.w_support * support + config_.w_magnitude * a.magnitude;
+  if (!std::isfinite(c.base)) c.base = 0.0f;
+  if (++next_seq_ == 0) next_seq_ = 1;  // 0 marks "none"; a wrap needs 2^32 rankings in between
+  c.seq = next_seq_;
+  if (seq_.size() <= a.index) seq_.resize(std::size_t{a.index} + 1, 0);
+  seq_[a.index] = c.seq;
+  return c;
+}
+
+void Publisher::push_candidate(Candidate c) {
+  if (c.kind == PendingKind::Remove) {
+    c.remove_class = static_cast<std::uint8_t>(remove_class(c.position));
+    if (c.slot != kNoSlot) removes_.set(to_underlying(c.slot), c.remove_class, c.index);
+  }
+  queues_[static_cast<std::size_t>(queue_of(c.kind))].push(c, bucket_of(score(c)));
+}
+
+bool Publisher::still_pending(const DesiredState& desired, std::uint32_t index, GaussianId id) {
+  const DesiredEntry& e = desired.entry(index);
+  return e.id == id && e.pending_kind() != PendingKind::None;
+}
+
+void Publisher::forget(std::uint32_t index, SlotIndex slot) {
+  if (index < seq_.size()) seq_[index] = 0;
+  if (slot != kNoSlot) removes_.clear(to_underlying(slot));
 }
 
 double Publisher::charged_work(const PublishReport& rep) const {
@@ -52,10 +156,13 @@ double Publisher::charged_work(const PublishReport& rep) const {
          static_cast<double>(config_.range_cost) * static_cast<double>(rep.new_ranges - escaped_ranges_);
 }
 
-bool Publisher::over_budget(const PublishReport& rep) const { return budget_ > 0.0 && charged_work(rep) >= budget_; }
+bool Publisher::over_budget(const PublishReport& rep) const {
+  if (config_.max_new_ranges > 0 && rep.new_ranges >= config_.max_new_ranges) return true;
+  return budget_ > 0.0 && charged_work(rep) >= budget_;
+}
 
 void Publisher::count_range(const SlotTable& slots, SlotIndex slot, PublishReport& rep) const {
-  if (!(config_.range_cost > 0.0f)) return;
+  if (!(config_.range_cost > 0.0f) && config_.max_new_ranges == 0) return;
   const std::uint32_t s = to_underlying(slot);
   const std::uint32_t reach = config_.range_gap + 1;
   for (std::uint32_t d = 1; d <= reach; ++d)
@@ -74,13 +181,16 @@ Status Publisher::publish_entry(DesiredState& desired, SlotTable& slots, std::ui
       if (!s) return s;
       ++rep.removed;
       count_range(slots, slot, rep);
+      forget(index, slot);
       break;
     }
     case PendingKind::Update: {
+      const SlotIndex slot = held();
       Status s = slots.update(e.id, e.value);
       if (!s) return s;
       ++rep.updated;
-      count_range(slots, held(), rep);
+      count_range(slots, slot, rep);
+      forget(index, slot);
       break;
     }
     case PendingKind::Insert: {
@@ -88,6 +198,7 @@ Status Publisher::publish_entry(DesiredState& desired, SlotTable& slots, std::ui
       if (!s) return s.error();
       ++rep.inserted;
       count_range(slots, *s, rep);
+      forget(index, *s);
       desired.mark_published(index, *s);
       return Ok{};
     }
@@ -97,254 +208,245 @@ Status Publisher::publish_entry(DesiredState& desired, SlotTable& slots, std::ui
   return Ok{};
 }
 
-namespace {
+// --- ranking upkeep --------------------------------------------------------------------
 
-// Priorities are finite and >= 0, so their float bits order like the values; inverted,
-// ascending keys are descending priorities.
-std::uint64_t selection_key(float priority, SlotIndex slot) {
-  std::uint32_t bits = 0;
-  static_assert(sizeof(bits) == sizeof(priority));
-  std::memcpy(&bits, &priority, sizeof(bits));
-  return (static_cast<std::uint64_t>(~bits) << 32) | to_underlying(slot);
-}
-
-}  // namespace
-
-Publisher::Ranked Publisher::rank(const DesiredState& desired, const SlotTable& slots, std::uint32_t index,
-                                  double now) const {
-  const DesiredEntry& e = desired.entry(index);
-  Ranked r;
-  r.index = index;
-  r.kind = e.pending_kind();
-  r.id = e.id;
-  r.key = selection_key(priority(e, view_, now), e.slot);
-  if (r.kind == PendingKind::Remove) {
-    // Removes as room for inserts: outside the view cone all alike (bucket 0: none of
-    // them is seen), inside it by relevance in 1/16 steps; then by slot.
-    const auto bucket = in_view_cone(e.published_position, view_)
-                            ? 1 + static_cast<std::uint64_t>(std::min(15.0f, view_relevance(e, view_) * 16.0f))
-                            : std::uint64_t{0};
-    const SlotIndex slot = e.slot != kNoSlot ? e.slot : slots.slot_of(e.id);
-    r.spare_key = (bucket << 32) | to_underlying(slot);
-  } else {
-    r.spare_key = r.key;
+void Publisher::take_arrivals(DesiredState& desired) {
+  // Empty lists with memory go back to DesiredState in the swap.
+  if (!spare_chunks_.empty()) {
+    taken_.removes = std::move(spare_chunks_.back());
+    spare_chunks_.pop_back();
   }
-  return r;
-}
-
-bool Publisher::still_pending(const DesiredState& desired, std::uint32_t index, GaussianId id) const {
-  const DesiredEntry& e = desired.entry(index);
-  return e.id == id && e.pending_kind() != PendingKind::None;
-}
-
-// Everything pending goes to the backlog (the head refills from it on first use), and
-// into the age queue in pending_since order.
-void Publisher::rebuild_ranking(const DesiredState& desired, const SlotTable& slots, double now) {
-  head_.clear();
-  head_pos_ = 0;
-  backlog_.clear();
-  spare_removes_.clear();
-  spare_inserts_.clear();
-  by_age_.clear();
-  rescore_cursor_ = 0;
-  std::vector<Aged> aged;
-  aged.reserve(desired.pending().size());
-  backlog_.reserve(desired.pending().size());
-  for (std::uint32_t i : desired.pending()) {
-    backlog_.push_back(rank(desired, slots, i, now));
-    aged.push_back({desired.entry(i).pending_since, i, desired.entry(i).id});
+  if (!spare_chunks_.empty()) {
+    taken_.others = std::move(spare_chunks_.back());
+    spare_chunks_.pop_back();
   }
-  std::sort(aged.begin(), aged.end(), [](const Aged& a, const Aged& b) {
-    return a.since != b.since ? a.since < b.since : a.index < b.index;
+  desired.take_pending_arrivals(taken_);
+  // A Publisher's first frame ranks whatever was pending before it, unless its lists are
+  // the DesiredState's first (another consumer may have taken the arrivals that named it).
+  const bool first = !started_;
+  started_ = true;
+  if (taken_.overflowed || (first && !taken_.complete)) {
+    // More arrived than the lists hold: what they named is lost, so every pending entry
+    // is ranked again, a slice per frame, from its entry (the lists' chunks still held
+    // stay valid). Copying the indices is the one step that follows the backlog.
+    rescan_.assign(desired.pending().begin(), desired.pending().end());
+    rescan_pos_ = 0;
+  }
+  auto keep = [&](std::vector<PendingArrival>& list, ArrivalChunks& into) {
+    if (!list.empty()) {
+      into.push_back(std::move(list));
+    } else if (list.capacity() > 0 && spare_chunks_.size() < 4) {
+      spare_chunks_.push_back(std::move(list));
+    }
+    list = {};
+  };
+  keep(taken_.removes, incoming_removes_);
+  keep(taken_.others, incoming_others_);
+  taken_.clear();
+}
+
+bool Publisher::has_unranked() const {
+  auto left = [](const ArrivalChunks& q, std::size_t pos) { return !q.empty() && (q.size() > 1 || pos < q.front().size()); };
+  return left(incoming_removes_, removes_pos_) || left(incoming_others_, others_pos_) || rescan_pos_ < rescan_.size();
+}
+
+void Publisher::rank_entry(const DesiredState& desired, std::uint32_t index) {
+  const PendingArrival a = desired.arrival_of(index);
+  if (a.kind == PendingKind::None) return;
+  const Candidate c = candidate_of(a);
+  (a.kind == PendingKind::Remove ? aged_removes_ : aged_others_).push_back({c.since, c.index, c.seq});
+  push_candidate(c);
+}
+
+void Publisher::rank_arrivals(const DesiredState& desired, std::uint32_t budget, bool lists, PublishReport& rep) {
+  if (lists) rep.ranked += drain(incoming_removes_, removes_pos_, budget, spare_chunks_, [&](const PendingArrival& a) {
+    const Candidate c = candidate_of(a);
+    aged_removes_.push_back({c.since, c.index, c.seq});
+    push_candidate(c);
   });
-  by_age_.assign(aged.begin(), aged.end());
-  ranked_ = true;
+  if (lists) rep.ranked += drain(incoming_others_, others_pos_, budget, spare_chunks_, [&](const PendingArrival& a) {
+    const Candidate c = candidate_of(a);
+    aged_others_.push_back({c.since, c.index, c.seq});
+    push_candidate(c);
+  });
+  // After an overflow: pending entries from the entries themselves.
+  for (std::uint32_t n = 0; n < budget && rescan_pos_ < rescan_.size(); ++n, ++rep.ranked)
+    rank_entry(desired, rescan_[rescan_pos_++]);
+  if (rescan_pos_ >= rescan_.size()) {
+    rescan_.clear();
+    rescan_pos_ = 0;
+  }
 }
 
-void Publisher::update_ranking(DesiredState& desired, const SlotTable& slots, double now) {
-  bool overflowed = false;
-  desired.take_pending_arrivals(arrivals_, overflowed);
-  if (!ranked_ || overflowed) {
-    rebuild_ranking(desired, slots, now);
-    return;
-  }
-  // A changed entry is ranked again beside its old item (the old one is skipped or
-  // dropped once the entry is published); only a new one joins the age queue.
-  for (const std::uint32_t a : arrivals_) {
-    const std::uint32_t i = a & ~DesiredState::kArrivalChanged;
-    const DesiredEntry& e = desired.entry(i);
-    if (e.pending_kind() == PendingKind::None) continue;
-    backlog_.push_back(rank(desired, slots, i, now));
-    if (!(a & DesiredState::kArrivalChanged)) by_age_.push_back({e.pending_since, i, e.id});
-  }
-  // The head, what gets published next, follows the view: re-scored when the view moved.
-  const bool moved = glm::distance(view_.eye, head_view_.eye) > 0.01f || glm::dot(view_.forward, head_view_.forward) < 0.99996f;
-  if (moved) rescore_head(desired, slots, now);
-  // A slice of the backlog is re-scored (and cleared of what stopped being pending).
-  const std::size_t slice = std::min<std::size_t>(config_.rescore_per_frame, backlog_.size());
-  for (std::size_t n = 0; n < slice && !backlog_.empty(); ++n) {
-    if (rescore_cursor_ >= backlog_.size()) rescore_cursor_ = 0;
-    Ranked& r = backlog_[rescore_cursor_];
-    if (!still_pending(desired, r.index, r.id)) {
-      r = backlog_.back();
-      backlog_.pop_back();
+// A slice of the ranked candidates is scored again for this frame's view and time (and
+// cleared of candidates whose pending period ended), walking the queues from the best
+// bucket down and round again.
+void Publisher::rescore_slice(PublishReport& rep) {
+  std::size_t total = 0;
+  for (const auto& q : queues_) total += q.size();
+  const std::size_t steps = std::min<std::size_t>(config_.rescore_per_frame, total);
+  for (std::size_t n = 0; n < steps;) {
+    detail::BucketQueue& q = queues_[static_cast<std::size_t>(rescore_queue_)];
+    if (rescore_bucket_ < 0 || rescore_item_ >= q.bucket(rescore_bucket_).size()) {
+      // The next nonempty bucket below, else the next queue from its top.
+      const int next = rescore_bucket_ < 0 ? -1 : q.highest(rescore_bucket_ - 1);
+      rescore_item_ = 0;
+      if (next >= 0) {
+        rescore_bucket_ = next;
+      } else {
+        rescore_queue_ = (rescore_queue_ + 1) % static_cast<int>(queues_.size());
+        rescore_bucket_ = queues_[static_cast<std::size_t>(rescore_queue_)].highest();
+        if (rescore_bucket_ < 0) rescore_bucket_ = -1;
+        // Empty queues are passed over without counting; `total` > 0 ends the search.
+      }
       continue;
     }
-    r = rank(desired, slots, r.index, now);
-    ++rescore_cursor_;
-  }
-  // The age queue holds dead items only until they reach its front; keep it near the
-  // pending count so a long stream of short-lived edits cannot grow it without bound.
-  if (by_age_.size() > 2 * desired.pending_count() + 4096)
-    std::erase_if(by_age_, [&](const Aged& a) { return !still_pending(desired, a.index, a.id); });
-}
-
-void Publisher::rescore_head(const DesiredState& desired, const SlotTable& slots, double now) {
-  std::size_t live = head_pos_;
-  for (std::size_t k = head_pos_; k < head_.size(); ++k)
-    if (still_pending(desired, head_[k].index, head_[k].id)) head_[live++] = rank(desired, slots, head_[k].index, now);
-  head_.resize(live);
-  std::sort(head_.begin() + static_cast<std::ptrdiff_t>(head_pos_), head_.end(), before);
-  head_view_ = view_;
-}
-
-// Moves the best of the backlog (by its possibly stale keys) into the head, sorted.
-bool Publisher::refill_head(const DesiredState& desired) {
-  head_.erase(head_.begin(), head_.begin() + static_cast<std::ptrdiff_t>(head_pos_));
-  head_pos_ = 0;
-  const std::size_t want = std::max<std::size_t>(1024, static_cast<std::size_t>(allowance_) * std::max(1u, config_.head_allowances));
-  // Spare removes (moved out of the backlog as room for inserts) compete again once the
-  // backlog cannot fill the head: when no insert is left to need them, nothing else would
-  // ever take them. (Returned only then: each return costs the next refill_spares a pass.)
-  if (backlog_.size() < want && !spare_removes_.empty()) {
-    backlog_.insert(backlog_.end(), spare_removes_.begin(), spare_removes_.end());
-    spare_removes_.clear();
-  }
-  auto later = [](const Ranked& a, const Ranked& b) { return before(b, a); };
-  while (head_.size() < want && !backlog_.empty()) {
-    const std::size_t take = std::min(want - head_.size(), backlog_.size());
-    // The `take` best at the back of the backlog, then moved over.
-    if (take < backlog_.size())
-      std::nth_element(backlog_.begin(), backlog_.end() - static_cast<std::ptrdiff_t>(take), backlog_.end(), later);
-    for (std::size_t k = backlog_.size() - take; k < backlog_.size(); ++k)
-      if (still_pending(desired, backlog_[k].index, backlog_[k].id)) head_.push_back(backlog_[k]);
-    backlog_.resize(backlog_.size() - take);
-  }
-  rescore_cursor_ = 0;
-  std::sort(head_.begin(), head_.end(), before);
-  return !head_.empty();
-}
-
-// Lists spare removes (room for inserts) or spare inserts (partners for removes): the
-// `need` best, at least a head's worth, the best at the back. Spare removes move out of
-// the backlog (the unused ones go back at the next refill), so ones used up as room never
-// come round again; spare inserts, needed only when chosen removes outnumber chosen
-// inserts, are copies of the best pending inserts, checked as they are listed.
-void Publisher::refill_spares(const DesiredState& desired, PendingKind kind, std::size_t need) {
-  const std::size_t keep = std::max<std::size_t>(need, static_cast<std::size_t>(allowance_) * std::max(1u, config_.head_allowances));
-  auto better = [](const Ranked& a, const Ranked& b) {
-    return a.spare_key != b.spare_key ? a.spare_key < b.spare_key : a.index < b.index;
-  };
-  std::vector<Ranked>& out = kind == PendingKind::Remove ? spare_removes_ : spare_inserts_;
-  auto gather = [&](const std::vector<Ranked>& from, std::size_t begin) {
-    for (std::size_t k = begin; k < from.size(); ++k)
-      if (from[k].kind == kind && still_pending(desired, from[k].index, from[k].id) &&
-          desired.entry(from[k].index).pending_kind() == kind)
-        out.push_back(from[k]);
-  };
-  if (kind == PendingKind::Remove) {
-    backlog_.insert(backlog_.end(), out.begin(), out.end());
-    out.clear();
-    // Only live removes may compete: the backlog also holds items that stopped being
-    // pending (published, or their entry re-ranked as another kind), and these, picked by
-    // their keys among the best, would crowd the live ones out of the `take` selected and
-    // leave an insert with no room although removes are pending. Dead items go for good.
-    std::erase_if(backlog_, [&](const Ranked& r) { return !still_pending(desired, r.index, r.id); });
-    const auto first = std::partition(backlog_.begin(), backlog_.end(), [&](const Ranked& r) {
-      return r.kind != PendingKind::Remove || desired.entry(r.index).pending_kind() != PendingKind::Remove;
-    });
-    const std::size_t removes = static_cast<std::size_t>(backlog_.end() - first);
-    const std::size_t take = std::min(keep, removes);
-    if (take < removes)
-      std::nth_element(first, backlog_.end() - static_cast<std::ptrdiff_t>(take), backlog_.end(),
-                       [&](const Ranked& a, const Ranked& b) { return better(b, a); });
-    out.assign(backlog_.end() - static_cast<std::ptrdiff_t>(take), backlog_.end());
-    backlog_.resize(backlog_.size() - take);
-    rescore_cursor_ = 0;
-    std::erase_if(out, [&](const Ranked& r) {
-      return !still_pending(desired, r.index, r.id) || desired.entry(r.index).pending_kind() != kind;
-    });
-    // The backlog had none left: what is pending is in the head (copies; the head skips
-    // them once published).
-    if (out.empty()) gather(head_, head_pos_);
-  } else {
-    out.clear();
-    gather(head_, head_pos_);
-    gather(backlog_, 0);
-  }
-  if (out.size() > keep) {
-    std::nth_element(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(keep), out.end(), better);
-    out.resize(keep);
-  }
-  std::sort(out.begin(), out.end(), [&](const Ranked& a, const Ranked& b) { return better(b, a); });
-}
-
-// The next spare of `kind` still pending as that kind, or kNotPending when none is left.
-std::uint32_t Publisher::next_spare(const DesiredState& desired, PendingKind kind, std::size_t need) {
-  std::vector<Ranked>& list = kind == PendingKind::Remove ? spare_removes_ : spare_inserts_;
-  for (int pass = 0; pass < 2; ++pass) {
-    while (!list.empty()) {
-      const Ranked r = list.back();
-      list.pop_back();
-      if (still_pending(desired, r.index, r.id) && desired.entry(r.index).pending_kind() == kind) return r.index;
+    ++n;
+    ++rep.touched;
+    std::vector<Candidate>& items = q.bucket(rescore_bucket_);
+    Candidate& c = items[rescore_item_];
+    if (!live(c.index, c.seq)) {
+      q.remove_at(rescore_bucket_, rescore_item_);
+      continue;
     }
-    if (pass == 0) refill_spares(desired, kind, need);
+    if (c.kind == PendingKind::Remove) {
+      const auto cls = static_cast<std::uint8_t>(remove_class(c.position));
+      if (cls != c.remove_class && c.slot != kNoSlot) removes_.set(to_underlying(c.slot), cls, c.index);
+      c.remove_class = cls;
+    }
+    const int b = bucket_of(score(c));
+    if (b == rescore_bucket_) {
+      ++rescore_item_;
+      continue;
+    }
+    const Candidate moved = c;
+    q.remove_at(rescore_bucket_, rescore_item_);
+    q.push(moved, b);
   }
-  return DesiredEntry::kNotPending;
+}
+
+// The best candidate still pending: from the queue with the highest bucket (ties: removes,
+// then updates, then inserts, so equal priorities free slots before filling them). A
+// candidate whose priority fell below its bucket since it was scored goes back down
+// (up to rescore_per_frame such per frame). An invisible remove stands for any invisible
+// remove: the one in the lowest slot goes (they are all alike to the viewer, and slot
+// order makes a frame's writes few long ranges).
+bool Publisher::pop_best(const DesiredState& desired, std::uint32_t& index, PublishReport& rep) {
+  while (pops_left_ > 0) {
+    --pops_left_;
+    int best_q = -1, best_b = -1;
+    for (int q : {kRemoveQueue, kUpdateQueue, kInsertQueue}) {
+      const int b = queues_[static_cast<std::size_t>(q)].highest();
+      if (b > best_b) {
+        best_b = b;
+        best_q = q;
+      }
+    }
+    if (best_q < 0) return false;
+    detail::BucketQueue& q = queues_[static_cast<std::size_t>(best_q)];
+    Candidate c = q.pop(best_b);
+    ++rep.touched;
+    // The next candidate's entry is a cache miss away in a pool of hundreds of megabytes:
+    // ask for it now, so it overlaps this one's checks and publication.
+    if (const Candidate* next = q.peek(best_b)) prefetch_entry(desired, next->index);
+    if (!live(c.index, c.seq)) continue;
+    if (reevaluations_ < config_.rescore_per_frame) {
+      const int b = bucket_of(score(c));
+      if (b < best_b) {
+        ++reevaluations_;
+        q.push(c, b);
+        continue;
+      }
+    }
+    if (!still_pending(desired, c.index, c.id)) {
+      seq_[c.index] = 0;
+      continue;
+    }
+    if (chosen_stamp_[c.index] == round_) continue;  // chosen in this round already
+    if (c.kind == PendingKind::Remove && c.remove_class == 0) {
+      std::uint32_t slot = 0, other = 0;
+      if (removes_.lowest_in(0, slot, other) && other != c.index) {
+        // c stays ranked; the lowest invisible remove goes in its place (checked as a spare).
+        q.push(c, best_b);
+        removes_.clear(slot);
+        const DesiredEntry& e = desired.entry(other);
+        ++rep.touched;
+        if (e.pending_kind() != PendingKind::Remove || e.slot != SlotIndex{slot} || chosen_stamp_[other] == round_) continue;
+        index = other;
+        return true;
+      }
+    }
+    if (c.kind == PendingKind::Remove && c.slot != kNoSlot) removes_.clear(to_underlying(c.slot));
+    index = c.index;
+    return true;
+  }
+  return false;  // the frame's pops are spent (dead candidates crowding the top)
+}
+
+void Publisher::collect_escapes(const DesiredState& desired, PublishReport& rep) {
+  // Dead items at the fronts are dropped as they come, at most a ranking slice per frame.
+  std::uint32_t pops = 0;
+  const std::uint32_t max_pops = config_.rescore_per_frame + config_.escape_quota;
+  while (chosen_.size() < config_.escape_quota && pops < max_pops) {
+    detail::Ring<Aged>* q = nullptr;
+    if (!aged_removes_.empty()) q = &aged_removes_;
+    if (!aged_others_.empty() && (!q || aged_others_.front().since < q->front().since)) q = &aged_others_;
+    if (!q) break;
+    const Aged a = q->front();
+    if (live(a.index, a.seq) && now_ - a.since < config_.age_escape_s) break;
+    q->pop_front();
+    ++pops;
+    ++rep.touched;
+    if (!live(a.index, a.seq) || chosen_stamp_[a.index] == round_) continue;
+    if (desired.entry(a.index).pending_kind() == PendingKind::None) continue;
+    chosen_stamp_[a.index] = round_;
+    chosen_.push_back(a.index);
+  }
+}
+
+void Publisher::rerank_leftovers(const DesiredState& desired, PublishReport& rep) {
+  for (const std::uint32_t i : chosen_) {
+    if (desired.entry(i).pending_kind() == PendingKind::None) continue;
+    ++rep.touched;
+    rank_entry(desired, i);
+  }
 }
 
 Expected<PublishReport> Publisher::publish(DesiredState& desired, SlotTable& slots, const ViewState& view, double now) {
   PublishReport rep;
   view_ = view;
-  if (config_.mode == PublishMode::Immediate) {
-    // Everything is chosen: no unchosen candidate is ever ranked, so no priorities.
-    ranked_ = false;  // rebuilt if progressive publication resumes
-    bool overflowed = false;
-    desired.take_pending_arrivals(arrivals_, overflowed);
-    spare_removes_.clear();
-    spare_inserts_.clear();
-    budget_ = 0.0;
-    chosen_.assign(desired.pending().begin(), desired.pending().end());
-    Status s = apply_chosen(desired, slots, chosen_, rep);
-    if (!s) return s.error();
-    rep.pending_after = static_cast<std::uint32_t>(desired.pending_count());
-    return rep;
-  }
-  rep.allowance = allowance_;
-  update_ranking(desired, slots, now);
+  now_ = now;
+  blocked_ = false;
+  reevaluations_ = 0;
+  const bool immediate = config_.mode == PublishMode::Immediate;
+  const std::uint32_t allowance = immediate ? config_.immediate_allowance : allowance_;
+  // Candidates popped this frame, dead ones included: the allowance's worth a few times
+  // over, plus the re-evaluations.
+  pops_left_ = std::uint64_t{4} * allowance + 2ull * config_.rescore_per_frame + 64;
+  rep.allowance = allowance;
+  if (removes_.capacity() != slots.capacity()) removes_.reset(slots.capacity());
   if (chosen_stamp_.size() < desired.entry_slots()) chosen_stamp_.resize(desired.entry_slots(), 0);
+  if (seq_.size() < desired.entry_slots()) seq_.resize(desired.entry_slots(), 0);
+
+  take_arrivals(desired);
+  const std::uint32_t rank_budget = static_cast<std::uint32_t>(std::max<std::uint64_t>(
+      config_.rescore_per_frame, std::uint64_t{config_.rank_allowances} * allowance));
+  // Immediate publication serves the lists in arrival order, unscored (only entries
+  // rescanned after an overflow are ranked).
+  rank_arrivals(desired, rank_budget, !immediate, rep);
+  if (!immediate) rescore_slice(rep);
+
   auto next_round = [&] {
     if (++round_ == 0) {  // wrapped: old stamps could collide
       std::fill(chosen_stamp_.begin(), chosen_stamp_.end(), 0);
       round_ = 1;
     }
   };
-  // Age escape first: the oldest edits past the limit, up to the quota, on top of the allowance.
+  // Age escape first (progressive): the oldest edits past the limit, up to the quota, on
+  // top of the allowance.
   next_round();
   chosen_.clear();
-  while (!by_age_.empty() && chosen_.size() < config_.escape_quota) {
-    const Aged a = by_age_.front();
-    const DesiredEntry& e = desired.entry(a.index);
-    // Published since, or pending again (queued again then), or listed twice.
-    if (!still_pending(desired, a.index, a.id) || e.pending_since != a.since || chosen_stamp_[a.index] == round_) {
-      by_age_.pop_front();
-      continue;
-    }
-    if (now - a.since < config_.age_escape_s) break;
-    by_age_.pop_front();
-    chosen_stamp_[a.index] = round_;
-    chosen_.push_back(a.index);
-  }
+  if (!immediate) collect_escapes(desired, rep);
   escaped_ranges_ = 0;
   budget_ = 0.0;  // the escape is on top of the allowance
   if (!chosen_.empty()) {
@@ -352,50 +454,169 @@ Expected<PublishReport> Publisher::publish(DesiredState& desired, SlotTable& slo
     if (!s) return s.error();
     rep.escaped = rep.slot_writes();
     escaped_ranges_ = rep.new_ranges;
+    rerank_leftovers(desired, rep);
+    blocked_ = false;  // an escaped insert that found no room yet does not stop the rest
   }
   const std::uint32_t escaped_ranges = escaped_ranges_;
   auto charged = [&] { return charged_work(rep); };
   // apply_chosen stops at the allowance, even inside a round: a round sized on a guess
   // of how scattered its writes are cannot overrun the frame.
-  budget_ = static_cast<double>(allowance_);
+  budget_ = static_cast<double>(allowance);
   // Then the best ranked, up to the allowance. Paired edits (an insert into a leaving
   // Gaussian's slot) cost one write for two edits, and writes next to each other share
   // a range, so a round can leave allowance over; the next round takes the next-best of
   // what is still pending. A round is sized by the share of writes that opened a range
   // (this frame's so far; for the first round the last busy frame's, pessimistic 1
   // before any) so it cannot overrun much.
-  while (charged() < static_cast<double>(allowance_)) {
+  auto ranges_full = [&] { return config_.max_new_ranges > 0 && rep.new_ranges >= config_.max_new_ranges; };
+  while (!blocked_ && !ranges_full() && charged() < static_cast<double>(allowance)) {
     const std::uint32_t writes = rep.slot_writes() - rep.escaped;
     const double fraction = writes ? static_cast<double>(rep.new_ranges - escaped_ranges) / writes : range_fraction_;
     const double per_write = 1.0 + static_cast<double>(config_.range_cost) * fraction;
-    const auto room = static_cast<std::size_t>(std::max(1.0, (static_cast<double>(allowance_) - charged()) / per_write));
+    // Rounds of at most kRound: the entries a round pops are still in cache when it
+    // publishes them (a round of a whole allowance had them evicted by then).
+    constexpr std::size_t kRound = 256;
+    const auto room = std::min(kRound, static_cast<std::size_t>(std::max(1.0, (static_cast<double>(allowance) - charged()) / per_write)));
     next_round();
     chosen_.clear();
-    while (chosen_.size() < room) {
-      if (head_pos_ == head_.size() && !refill_head(desired)) break;
-      const Ranked& r = head_[head_pos_++];
-      if (!still_pending(desired, r.index, r.id) || chosen_stamp_[r.index] == round_) continue;
-      chosen_stamp_[r.index] = round_;
-      chosen_.push_back(r.index);
+    std::uint32_t index = 0;
+    while (chosen_.size() < room && pop_best(desired, index, rep)) {
+      chosen_stamp_[index] = round_;
+      chosen_.push_back(index);
     }
     if (chosen_.empty()) break;
     Status s = apply_chosen(desired, slots, chosen_, rep);
     if (!s) return s.error();
+    // What the allowance cut off (or found no room for) is ranked again for later frames.
+    rerank_leftovers(desired, rep);
   }
-  // What the allowance cut off this frame stays at the front of the head.
-  {
-    std::vector<Ranked> left;
-    for (std::uint32_t i : chosen_)
-      if (still_pending(desired, i, desired.entry(i).id)) left.push_back(rank(desired, slots, i, now));
-    if (!left.empty()) {
-      std::sort(left.begin(), left.end(), before);
-      head_.insert(head_.begin() + static_cast<std::ptrdiff_t>(head_pos_), left.begin(), left.end());
-    }
+  if (immediate && !blocked_ && !ranges_full()) {
+    if (Status s = publish_in_arrival_order(desired, slots, rep); !s) return s.error();
   }
   rep.pending_after = static_cast<std::uint32_t>(desired.pending_count());
-  saturated_ = charged() >= static_cast<double>(allowance_);
+  for (const auto& q : queues_) rep.backlog += static_cast<std::uint32_t>(q.size());
+  if (!immediate) saturated_ = charged() >= static_cast<double>(allowance);
   if (rep.slot_writes() > 0) range_fraction_ = static_cast<double>(rep.new_ranges) / rep.slot_writes();
   return rep;
+}
+
+// --- publication -----------------------------------------------------------------------
+
+Status Publisher::publish_pair(DesiredState& desired, SlotTable& slots, std::uint32_t leaving, std::uint32_t entering,
+                               PublishReport& rep) {
+  const DesiredEntry& e = desired.entry(entering);
+  auto s = slots.replace(desired.entry(leaving).id, e.id, e.value);
+  if (!s) return s.error();
+  forget(leaving, *s);
+  forget(entering, *s);
+  desired.mark_published(leaving);
+  desired.mark_published(entering, *s);
+  ++rep.replaced;
+  count_range(slots, *s, rep);
+  return Ok{};
+}
+
+const PendingArrival* Publisher::front_arrival(ArrivalChunks& chunks, std::size_t& pos) {
+  while (!chunks.empty()) {
+    if (pos < chunks.front().size()) return &chunks.front()[pos];
+    retire_chunk(chunks, pos);
+  }
+  return nullptr;
+}
+
+void Publisher::retire_chunk(ArrivalChunks& chunks, std::size_t& pos) {
+  if (spare_chunks_.size() < 4) {
+    chunks.front().clear();
+    spare_chunks_.push_back(std::move(chunks.front()));
+  }
+  chunks.pop_front();
+  pos = 0;
+}
+
+// Immediate: what arrived, straight from the arrival lists in their order, without scoring
+// (ranking is for choosing, and immediate publication chooses everything): each insert or
+// update as it comes, an insert into a full table taking the slot of the next pending remove
+// of the removes list, then the removes left. Every arrival is checked against its entry.
+Status Publisher::publish_in_arrival_order(DesiredState& desired, SlotTable& slots, PublishReport& rep) {
+  constexpr std::size_t kAhead = 8;  // arrivals whose entries are requested ahead of use
+  auto prefetch_ahead = [&](const ArrivalChunks& chunks, std::size_t pos) {
+    if (!chunks.empty() && pos + kAhead < chunks.front().size()) prefetch_entry(desired, chunks.front()[pos + kAhead].index);
+  };
+  // The next pending remove of the removes list, consumed; then ranked ones (earlier
+  // progressive frames).
+  auto next_remove = [&]() -> std::uint32_t {
+    while (pops_left_ > 0) {
+      const PendingArrival* r = front_arrival(incoming_removes_, removes_pos_);
+      if (!r) break;
+      --pops_left_;
+      ++rep.touched;
+      prefetch_ahead(incoming_removes_, removes_pos_);
+      const std::uint32_t index = r->index;
+      const GaussianId id = r->id;
+      ++removes_pos_;
+      const DesiredEntry& e = desired.entry(index);
+      if (e.id == id && e.pending_kind() == PendingKind::Remove) return index;
+    }
+    return next_spare_remove(desired, rep);
+  };
+  while (!over_budget(rep) && pops_left_ > 0) {
+    const PendingArrival* a = front_arrival(incoming_others_, others_pos_);
+    if (!a) break;
+    --pops_left_;
+    ++rep.touched;
+    prefetch_ahead(incoming_others_, others_pos_);
+    const std::uint32_t index = a->index;
+    const DesiredEntry& e = desired.entry(index);
+    const PendingKind kind = e.id == a->id ? e.pending_kind() : PendingKind::None;
+    if (kind == PendingKind::Insert && slots.free_count() == 0) {
+      const std::uint32_t r = next_remove();
+      if (r == DesiredEntry::kNotPending) {
+        if (has_unranked()) {
+          blocked_ = true;
+          return Ok{};
+        }
+        return Error{"publisher: slot table full and no pending remove to make room"};
+      }
+      if (Status st = publish_pair(desired, slots, r, index, rep); !st) return st;
+    } else if (kind == PendingKind::Insert || kind == PendingKind::Update) {
+      if (Status st = publish_entry(desired, slots, index, rep); !st) return st;
+    }
+    // A remove listed among the others cannot happen (kinds are listed apart); a changed
+    // entry listed again is published once and found settled the second time.
+    ++others_pos_;
+  }
+  while (!over_budget(rep) && pops_left_ > 0) {
+    const std::uint32_t r = next_remove();
+    if (r == DesiredEntry::kNotPending) break;
+    if (Status st = publish_entry(desired, slots, r, rep); !st) return st;
+  }
+  return Ok{};
+}
+
+// The lowest-class, lowest-slot pending remove not chosen this round, or kNotPending.
+std::uint32_t Publisher::next_spare_remove(const DesiredState& desired, PublishReport& rep) {
+  std::uint32_t slot = 0, index = 0;
+  while (removes_.lowest(slot, index)) {
+    removes_.clear(slot);
+    ++rep.touched;
+    const DesiredEntry& e = desired.entry(index);
+    if (e.pending_kind() == PendingKind::Remove && e.slot == SlotIndex{slot} && chosen_stamp_[index] != round_) return index;
+  }
+  return DesiredEntry::kNotPending;
+}
+
+// The best ranked pending insert not chosen this round, or kNotPending.
+std::uint32_t Publisher::next_spare_insert(const DesiredState& desired, PublishReport& rep) {
+  detail::BucketQueue& q = queues_[kInsertQueue];
+  for (int b = q.highest(); b >= 0; b = q.highest()) {
+    const Candidate c = q.pop(b);
+    ++rep.touched;
+    if (!live(c.index, c.seq)) continue;
+    if (desired.entry(c.index).id != c.id || desired.entry(c.index).pending_kind() != PendingKind::Insert) continue;
+    if (chosen_stamp_[c.index] == round_) continue;
+    return c.index;
+  }
+  return DesiredEntry::kNotPending;
 }
 
 // Publishes `chosen`. Chosen inserts pair with chosen removes first (one slot write
@@ -404,16 +625,16 @@ Expected<PublishReport> Publisher::publish(DesiredState& desired, SlotTable& slo
 // among equally visible ones in slot order, so that a frame's inserts land in
 // consecutive slots and upload as a few long ranges, not thousands of copy commands);
 // a chosen remove left over takes an unchosen insert (most relevant first) rather than
-// leaving a hole a later frame refills. In immediate mode everything is chosen, so no
-// unchosen spare exists: spares come from the progressive ranking only.
+// leaving a hole a later frame refills. With the table full and no remove ranked yet
+// while arrivals still wait to be ranked, the insert waits for a later frame (blocked_).
 Status Publisher::apply_chosen(DesiredState& desired, SlotTable& slots, const std::vector<std::uint32_t>& chosen,
                                PublishReport& rep) {
-  const bool spares = config_.mode == PublishMode::Progressive;
-  std::vector<std::uint32_t> inserts, removes;
+  inserts_.clear();
+  removes_chosen_.clear();
   for (const std::uint32_t i : chosen) {
     switch (desired.entry(i).pending_kind()) {
-      case PendingKind::Insert: inserts.push_back(i); break;
-      case PendingKind::Remove: removes.push_back(i); break;
+      case PendingKind::Insert: inserts_.push_back(i); break;
+      case PendingKind::Remove: removes_chosen_.push_back(i); break;
       case PendingKind::Update: {
         if (over_budget(rep)) return Ok{};
         Status s = publish_entry(desired, slots, i, rep);
@@ -423,21 +644,12 @@ Status Publisher::apply_chosen(DesiredState& desired, SlotTable& slots, const st
       case PendingKind::None: break;
     }
   }
-  auto pair = [&](std::uint32_t leaving, std::uint32_t entering) -> Status {
-    const DesiredEntry& e = desired.entry(entering);
-    auto s = slots.replace(desired.entry(leaving).id, e.id, e.value);
-    if (!s) return s.error();
-    desired.mark_published(leaving);
-    desired.mark_published(entering, *s);
-    ++rep.replaced;
-    count_range(slots, *s, rep);
-    return Ok{};
-  };
-  for (std::size_t n = 0; n < inserts.size(); ++n) {
-    const std::uint32_t ins = inserts[n];
-    if (!removes.empty()) {
-      const std::uint32_t r = removes.back();
-      removes.pop_back();
+  auto pair = [&](std::uint32_t leaving, std::uint32_t entering) { return publish_pair(desired, slots, leaving, entering, rep); };
+  for (std::size_t n = 0; n < inserts_.size(); ++n) {
+    const std::uint32_t ins = inserts_[n];
+    if (!removes_chosen_.empty()) {
+      const std::uint32_t r = removes_chosen_.back();
+      removes_chosen_.pop_back();
       if (over_budget(rep)) return Ok{};
       Status s = pair(r, ins);
       if (!s) return s;
@@ -445,8 +657,14 @@ Status Publisher::apply_chosen(DesiredState& desired, SlotTable& slots, const st
     }
     if (slots.free_count() == 0) {
       if (over_budget(rep)) return Ok{};
-      const std::uint32_t r = spares ? next_spare(desired, PendingKind::Remove, inserts.size() - n) : DesiredEntry::kNotPending;
-      if (r == DesiredEntry::kNotPending) return Error{"publisher: slot table full and no pending remove to make room"};
+      const std::uint32_t r = next_spare_remove(desired, rep);
+      if (r == DesiredEntry::kNotPending) {
+        if (has_unranked()) {
+          blocked_ = true;
+          return Ok{};
+        }
+        return Error{"publisher: slot table full and no pending remove to make room"};
+      }
       Status s = pair(r, ins);
       if (!s) return s;
       continue;
@@ -455,10 +673,10 @@ Status Publisher::apply_chosen(DesiredState& desired, SlotTable& slots, const st
     Status s = publish_entry(desired, slots, ins, rep);
     if (!s) return s;
   }
-  for (std::size_t n = 0; n < removes.size(); ++n) {
-    const std::uint32_t r = removes[n];
+  for (std::size_t n = 0; n < removes_chosen_.size(); ++n) {
+    const std::uint32_t r = removes_chosen_[n];
     if (over_budget(rep)) return Ok{};
-    const std::uint32_t ins = spares ? next_spare(desired, PendingKind::Insert, removes.size() - n) : DesiredEntry::kNotPending;
+    const std::uint32_t ins = next_spare_insert(desired, rep);
     Status s = ins != DesiredEntry::kNotPending ? pair(r, ins) : publish_entry(desired, slots, r, rep);
     if (!s) return s;
   }

@@ -58,12 +58,13 @@ void SlotTable::mark_dirty(std::uint32_t slot) {
 }
 
 Expected<SlotIndex> SlotTable::insert(GaussianId id, const Gaussian& value) {
+  if (to_underlying(id) == kEmpty) return Error{"slot table: id " + id_str(id) + " is reserved"};
   if (free_.empty()) return Error{"slot table: full (" + std::to_string(capacity()) + " slots) inserting id " + id_str(id)};
-  auto [it, inserted] = index_.try_emplace(id, 0u);
-  if (!inserted) return Error{"slot table: id " + id_str(id) + " already holds slot " + std::to_string(it->second)};
+  if (const std::uint32_t* held = index_.find(to_underlying(id)))
+    return Error{"slot table: id " + id_str(id) + " already holds slot " + std::to_string(*held)};
   const std::uint32_t slot = free_.back();
   free_.pop_back();
-  it->second = slot;
+  index_.set(to_underlying(id), slot);
   slot_ids_[slot] = to_underlying(id);
   records_[slot] = value;
   mark_dirty(slot);
@@ -71,18 +72,18 @@ Expected<SlotIndex> SlotTable::insert(GaussianId id, const Gaussian& value) {
 }
 
 Status SlotTable::update(GaussianId id, const Gaussian& value) {
-  auto it = index_.find(id);
-  if (it == index_.end()) return Error{"slot table: update of non-resident id " + id_str(id)};
-  records_[it->second] = value;
-  mark_dirty(it->second);
+  const std::uint32_t* slot = index_.find(to_underlying(id));
+  if (!slot) return Error{"slot table: update of non-resident id " + id_str(id)};
+  records_[*slot] = value;
+  mark_dirty(*slot);
   return Ok{};
 }
 
 Status SlotTable::remove(GaussianId id) {
-  auto it = index_.find(id);
-  if (it == index_.end()) return Error{"slot table: remove of non-resident id " + id_str(id)};
-  const std::uint32_t slot = it->second;
-  index_.erase(it);
+  const std::uint32_t* found = index_.find(to_underlying(id));
+  if (!found) return Error{"slot table: remove of non-resident id " + id_str(id)};
+  const std::uint32_t slot = *found;
+  index_.erase(to_underlying(id));
   slot_ids_[slot] = kEmpty;
   // An empty record (opacity logit -inf would be NaN-prone on GPUs; zero scale and the
   // renderer's empty-slot check are what skip it).
@@ -95,13 +96,14 @@ Status SlotTable::remove(GaussianId id) {
 }
 
 Expected<SlotIndex> SlotTable::replace(GaussianId leaving, GaussianId entering, const Gaussian& value) {
-  auto it = index_.find(leaving);
-  if (it == index_.end()) return Error{"slot table: replace of non-resident id " + id_str(leaving)};
-  if (leaving != entering && index_.count(entering) != 0)
+  const std::uint32_t* found = index_.find(to_underlying(leaving));
+  if (!found) return Error{"slot table: replace of non-resident id " + id_str(leaving)};
+  if (to_underlying(entering) == kEmpty) return Error{"slot table: id " + id_str(entering) + " is reserved"};
+  if (leaving != entering && index_.find(to_underlying(entering)) != nullptr)
     return Error{"slot table: replace into id " + id_str(entering) + " that is already resident"};
-  const std::uint32_t slot = it->second;
-  index_.erase(it);
-  index_.emplace(entering, slot);
+  const std::uint32_t slot = *found;
+  index_.erase(to_underlying(leaving));
+  index_.set(to_underlying(entering), slot);
   slot_ids_[slot] = to_underlying(entering);
   records_[slot] = value;
   mark_dirty(slot);
@@ -109,8 +111,8 @@ Expected<SlotIndex> SlotTable::replace(GaussianId leaving, GaussianId entering, 
 }
 
 SlotIndex SlotTable::slot_of(GaussianId id) const {
-  auto it = index_.find(id);
-  return it == index_.end() ? kNoSlot : SlotIndex{it->second};
+  const std::uint32_t* slot = index_.find(to_underlying(id));
+  return slot ? SlotIndex{*slot} : kNoSlot;
 }
 
 bool SlotTable::occupant(SlotIndex slot, GaussianId& out_id) const {
@@ -149,13 +151,20 @@ std::vector<SlotRange> SlotTable::take_dirty_ranges(std::uint32_t max_gap) {
 
 Status SlotTable::check() const {
   std::vector<std::uint8_t> seen(capacity(), 0);
-  for (const auto& [id, slot] : index_) {
-    if (slot >= capacity()) return Error{"slot table: id " + id_str(id) + " maps to slot " + std::to_string(slot) + " beyond capacity"};
-    if (seen[slot]) return Error{"slot table: slot " + std::to_string(slot) + " used twice"};
-    seen[slot] = 1;
-    if (slot_ids_[slot] != to_underlying(id))
-      return Error{"slot table: slot " + std::to_string(slot) + " records a different id than id " + id_str(id)};
-  }
+  std::string problem;
+  index_.for_each([&](std::uint64_t key, std::uint32_t slot) {
+    if (!problem.empty()) return;
+    const GaussianId id{key};
+    if (slot >= capacity()) {
+      problem = "slot table: id " + id_str(id) + " maps to slot " + std::to_string(slot) + " beyond capacity";
+    } else if (seen[slot]) {
+      problem = "slot table: slot " + std::to_string(slot) + " used twice";
+    } else if (slot_ids_[slot] != key) {
+      problem = "slot table: slot " + std::to_string(slot) + " records a different id than id " + id_str(id);
+    }
+    if (slot < capacity()) seen[slot] = 1;
+  });
+  if (!problem.empty()) return Error{problem};
   for (std::uint32_t s : free_) {
     if (s >= capacity()) return Error{"slot table: free slot " + std::to_string(s) + " beyond capacity"};
     if (seen[s] == 1) return Error{"slot table: slot " + std::to_string(s) + " is both used and free"};

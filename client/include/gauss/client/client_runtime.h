@@ -69,6 +69,12 @@ struct DisplayFrameStats {
   double publish_ms{0.0};           // ClientState::frame: policy, slot table (lock_wait_ms included)
   double lock_wait_ms{0.0};         // of which waiting for ClientState's lock (the network thread applying)
   double upload_ms{0.0};            // packing slots and chunks into the staging ring
+  // The display thread's CPU time (CLOCK_THREAD_CPUTIME_ID) in publication (lock wait
+  // excluded: a thread waiting for the lock uses none) and in the upload packing: what the
+  // two stages take from the display core, beside their wall time above.
+  double publish_cpu_ms{0.0};
+  double upload_cpu_ms{0.0};
+  std::uint32_t copy_regions{0};    // buffer copy regions this frame's upload pass recorded
   double render_ms{0.0};            // recording + submission (includes waiting for frame k - N)
   PublishReport publish;
   PublicationResult uploaded;

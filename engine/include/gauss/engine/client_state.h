@@ -118,7 +118,11 @@ class ClientState {
  private:
   ClientState(std::uint32_t client_index, ClientConfig config, SlotTable slots);
   Status reject(std::string reason);
-  Status on_batch(const msg::EditBatchMsg& b, double now);
+  struct DecodedBatch {
+    CodecParams codec;  // the parameters it was decoded with
+    Expected<EditBatch> batch;
+  };
+  Status on_batch(const msg::EditBatchMsg& b, std::optional<DecodedBatch>& decoded, double now);
   // `slots_written`: this frame's publication wrote slots (target residency may differ).
   void track_query(double now, std::uint64_t frame_index, bool rendered, bool slots_written);
 

@@ -78,6 +78,7 @@ namespace gauss {
 struct CodecBox {
   glm::vec3 min{-10.0f};
   glm::vec3 max{10.0f};
+  bool operator==(const CodecBox&) const = default;
 };
 
 struct CodecParams {
@@ -92,6 +93,7 @@ struct CodecParams {
   float dc_max{1.8f};
   // SH rest coefficients are quantised symmetrically in [-abs_max, abs_max].
   float sh_rest_abs_max{1.0f};
+  bool operator==(const CodecParams&) const = default;
 };
 
 // Counts of values the encoder could not represent exactly (clamped or replaced).

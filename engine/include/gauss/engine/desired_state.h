@@ -28,140 +28,12 @@
 
 #include "gauss/engine/edit.h"
 #include "gauss/engine/gaussian.h"
+#include "gauss/engine/id_index.h"
 #include "gauss/engine/ids.h"
 #include "gauss/engine/result.h"
 
 namespace gauss {
 
-namespace detail {
-
-// Allocator for the coalescing tables (id index, entry pool): blocks of 4 MiB and more
-// are 2 MiB aligned and, on Linux, advised onto transparent huge pages. Coalescing
-// touches one random index cell and one random entry per edit; over hundreds of
-// megabytes of 4 KiB pages nearly every touch also misses the TLB, and the page walk
-// costs about as much as the miss itself.
-void* alloc_table(std::size_t bytes, std::size_t align);
-void free_table(void* p, std::size_t bytes, std::size_t align) noexcept;
-
-template <class T>
-struct TableAllocator {
-  using value_type = T;
-  TableAllocator() noexcept = default;
-  template <class U>
-  TableAllocator(const TableAllocator<U>&) noexcept {}
-  T* allocate(std::size_t n) { return static_cast<T*>(alloc_table(n * sizeof(T), alignof(T))); }
-  void deallocate(T* p, std::size_t n) noexcept { free_table(p, n * sizeof(T), alignof(T)); }
-  template <class U>
-  bool operator==(const TableAllocator<U>&) const noexcept { return true; }
-};
-
-// IdIndex: GaussianId -> entry index, an open-addressing hash table with linear
-// probing and backward-shift deletion. The client's coalescing does one lookup per
-// received edit into a table of up to M ids; std::unordered_map costs a node (a second
-// cache miss) per lookup, this costs one probe run in one flat array of (key, value)
-// cells (key and value side by side: one cache miss per lookup, not two).
-// The id 2^64 - 1 marks an empty cell and cannot be stored (DesiredState rejects it).
-
-class IdIndex {
- public:
-  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
-
-  std::size_t size() const noexcept { return count_; }
-
-  // Pointer to the value of key, or nullptr.
-  std::uint32_t* find(std::uint64_t key) {
-    if (cells_.empty()) return nullptr;
-    for (std::size_t i = slot(key);; i = (i + 1) & mask_) {
-      if (cells_[i].key == key) return &cells_[i].value;
-      if (cells_[i].key == kEmpty) return nullptr;
-    }
-  }
-  const std::uint32_t* find(std::uint64_t key) const { return const_cast<IdIndex*>(this)->find(key); }
-
-  // Asks the cache for the cell where a lookup of key starts (batched lookups issue
-  // this a few edits ahead so the miss overlaps other work).
-  // Unconditional on purpose: GCC drops a prefetch guarded by a branch that does
-  // nothing else. On an empty table this prefetches data() + 0, which never faults.
-  void prefetch(std::uint64_t key) const { __builtin_prefetch(cells_.data() + slot(key), 0, 3); }
-
-  // Inserts or overwrites.
-  void set(std::uint64_t key, std::uint32_t value) {
-    if ((count_ + 1) * 2 > cells_.size()) grow();
-    for (std::size_t i = slot(key);; i = (i + 1) & mask_) {
-      if (cells_[i].key == key) {
-        cells_[i].value = value;
-        return;
-      }
-      if (cells_[i].key == kEmpty) {
-        cells_[i] = Cell{key, value};
-        ++count_;
-        return;
-      }
-    }
-  }
-
-  // Removes key if present. Backward shift keeps every probe run unbroken.
-  void erase(std::uint64_t key) {
-    if (cells_.empty()) return;
-    std::size_t i = slot(key);
-    while (cells_[i].key != key) {
-      if (cells_[i].key == kEmpty) return;
-      i = (i + 1) & mask_;
-    }
-    for (std::size_t j = (i + 1) & mask_;; j = (j + 1) & mask_) {
-      if (cells_[j].key == kEmpty) break;
-      const std::size_t home = slot(cells_[j].key);
-      // Move j back to i when i lies cyclically in [home, j).
-      if (((j - home) & mask_) >= ((j - i) & mask_)) {
-        cells_[i] = cells_[j];
-        i = j;
-      }
-    }
-    cells_[i].key = kEmpty;
-    --count_;
-  }
-
-  void reserve(std::size_t n) {
-    while (n * 2 > cells_.size()) grow();
-  }
-
-  template <class F>
-  void for_each(F&& f) const {
-    for (const Cell& c : cells_)
-      if (c.key != kEmpty) f(c.key, c.value);
-  }
-
- private:
-  struct Cell {
-    std::uint64_t key{kEmpty};
-    std::uint32_t value{0};
-  };
-
-  std::size_t slot(std::uint64_t key) const {
-    // Fibonacci hashing: host ids are often dense runs; multiply-shift spreads them.
-    return static_cast<std::size_t>((key * 0x9e3779b97f4a7c15ull) >> shift_) & mask_;
-  }
-  void grow() {
-    std::vector<Cell, TableAllocator<Cell>> old;
-    old.swap(cells_);
-    const std::size_t cap = old.empty() ? 64 : old.size() * 2;
-    cells_.assign(cap, Cell{});
-    mask_ = cap - 1;
-    int bits = 0;
-    while ((std::size_t{1} << bits) < cap) ++bits;
-    shift_ = 64 - bits;
-    count_ = 0;
-    for (const Cell& c : old)
-      if (c.key != kEmpty) set(c.key, c.value);
-  }
-
-  std::vector<Cell, TableAllocator<Cell>> cells_;
-  std::size_t count_{0};
-  std::size_t mask_{0};
-  int shift_{63};  // with mask_ 0 every key maps to cell 0 (and the shift stays defined)
-};
-
-}  // namespace detail
 
 enum class PendingKind : std::uint8_t { None = 0, Insert, Update, Remove };
 
@@ -215,6 +87,36 @@ struct alignas(64) DesiredEntry {
   }
 };
 
+// An entry that became pending (or whose pending edit changed), as DesiredState lists it
+// for the Publisher: everything its priority reads, so scoring it never touches the entry.
+struct PendingArrival {
+  glm::vec3 position{0.0f};  // where the edit shows: the new record's, or a remove's published one
+  float magnitude{0.0f};     // DesiredEntry::magnitude
+  double since{0.0};         // DesiredEntry::pending_since
+  GaussianId id{0};
+  std::uint32_t index{0};    // entry index
+  std::uint32_t support{0};  // of the new record (0 for a remove)
+  SlotIndex slot{kNoSlot};   // the slot a remove or update rewrites (kNoSlot for an insert)
+  PendingKind kind{PendingKind::None};
+  bool changed{false};       // it was pending already: its pending edit changed
+};
+
+struct PendingArrivals {
+  std::vector<PendingArrival> removes;
+  std::vector<PendingArrival> others;  // inserts and updates
+  bool overflowed{false};
+  // The first take from this DesiredState: the lists hold everything that became pending
+  // since it was made (a later consumer would have to rescan pending() instead).
+  bool complete{false};
+  std::size_t size() const noexcept { return removes.size() + others.size(); }
+  void clear() noexcept {
+    removes.clear();
+    others.clear();
+    overflowed = false;
+    complete = false;
+  }
+};
+
 class DesiredState {
  public:
   // capacity = the client's budget M (validated by SlotTable::create beforehand).
@@ -251,12 +153,17 @@ class DesiredState {
   std::size_t entry_slots() const noexcept { return entries_.size(); }
   const DesiredEntry* find(GaussianId id) const;
   // Entries that became pending, or whose pending edit changed, since the last call, in
-  // the order that happened, moved into `out`. A changed one carries kArrivalChanged; the
-  // others' pending_since ascends. `overflowed` says more than twice capacity() arrived
-  // between calls and the list was dropped: the caller must rescan pending(). Lets the
-  // Publisher keep its ranking current without scanning every pending entry per frame.
-  static constexpr std::uint32_t kArrivalChanged = 0x80000000u;
-  void take_pending_arrivals(std::vector<std::uint32_t>& out, bool& overflowed);
+  // the order that happened, moved into `out`: removes and the rest in two lists (a
+  // consumer that works through them a slice per frame reaches the inserts of a large
+  // batch without first wading through its removes). Each carries what the Publisher
+  // scores it by, copied while apply() had the entry in cache; within a list the new
+  // ones' `since` ascends. `out.overflowed` says more than twice capacity() arrived
+  // between calls and the lists were dropped: the caller must rescan pending(). Lets the
+  // Publisher keep its ranking current without reading every pending entry per frame.
+  void take_pending_arrivals(PendingArrivals& out);
+  // The entry as an arrival (kind None when nothing is pending): what a consumer that
+  // lost the lists (an overflow) ranks pending entries by.
+  PendingArrival arrival_of(std::uint32_t index) const;
 
   // Highest epoch whose batch has arrived (nullopt before the first).
   std::optional<Epoch> received_epoch() const noexcept { return received_; }
@@ -294,8 +201,8 @@ class DesiredState {
   std::vector<DesiredEntry, detail::TableAllocator<DesiredEntry>> entries_;
   std::vector<std::uint32_t> free_entries_;
   std::vector<std::uint32_t> pending_;
-  std::vector<std::uint32_t> arrivals_;  // became pending since take_pending_arrivals()
-  bool arrivals_overflowed_{false};
+  PendingArrivals arrivals_;  // became pending since take_pending_arrivals()
+  bool arrivals_taken_{false};
   // Pending entries per epoch, ascending by epoch: the oldest pending epoch bounds the
   // barrier. Few distinct epochs are pending at once and nearly every edit counts into
   // the newest, so a flat vector searched from the back beats a map (two tree walks per

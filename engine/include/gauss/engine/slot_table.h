@@ -7,10 +7,10 @@
 #include <cstdint>
 #include <span>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 #include "gauss/engine/gaussian.h"
+#include "gauss/engine/id_index.h"
 #include "gauss/engine/ids.h"
 #include "gauss/engine/result.h"
 
@@ -49,13 +49,13 @@ class SlotTable {
   Expected<SlotIndex> replace(GaussianId leaving, GaussianId entering, const Gaussian& value);
 
   SlotIndex slot_of(GaussianId id) const;            // kNoSlot when not resident
-  bool contains(GaussianId id) const { return index_.count(id) != 0; }
+  bool contains(GaussianId id) const { return index_.find(to_underlying(id)) != nullptr; }
   // Writes the id resident in `slot` to out_id; false when the slot is free or out of range.
   bool occupant(SlotIndex slot, GaussianId& out_id) const;
   // The resident ids in slot order (free slots skipped): the order a renderer blends equal
   // depths in, which a second render of the same set must reproduce (gauss-render --order).
   std::vector<GaussianId> occupants() const;
-  const std::vector<Gaussian>& records() const noexcept { return records_; }
+  std::span<const Gaussian> records() const noexcept { return records_; }
 
   // Dirty slots since the last call, sorted and merged: adjacent slots form one range;
   // with max_gap > 0, ranges separated by at most max_gap clean slots are merged too
@@ -73,10 +73,14 @@ class SlotTable {
   explicit SlotTable(std::uint32_t capacity);
   void mark_dirty(std::uint32_t slot);
 
-  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
-  std::unordered_map<GaussianId, std::uint32_t> index_;  // id -> slot
+  static constexpr std::uint64_t kEmpty = detail::IdIndex::kEmpty;
+  // id -> slot: a flat table (an unordered_map cost a node allocation and a second cache
+  // miss per publication), reserved for the capacity at creation.
+  detail::IdIndex index_;
   std::vector<std::uint64_t> slot_ids_;                    // slot -> id, kEmpty when free
-  std::vector<Gaussian> records_;                          // CPU mirror of the GPU buffer
+  // CPU mirror of the GPU buffer, on huge pages like DesiredState's entries: publication
+  // writes records at random slots of a table of tens of megabytes.
+  std::vector<Gaussian, detail::TableAllocator<Gaussian>> records_;
   std::vector<std::uint32_t> free_;                        // LIFO; lowest slots handed out first
   std::vector<std::uint8_t> dirty_;
   std::vector<std::uint32_t> dirty_list_;
