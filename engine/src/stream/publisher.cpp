@@ -21,35 +21,6 @@ int queue_of(PendingKind kind) {
   return kind == PendingKind::Remove ? kRemoveQueue : kind == PendingKind::Update ? kUpdateQueue : kInsertQueue;
 }
 
-// Takes up to `budget` arrivals from the front chunks of `chunks` (position `pos` in the
-// first) and returns how many. A finished chunk keeps its memory in `spare` for
-// DesiredState's next list: a teleport's list is megabytes, and freeing and faulting it
-// in again every batch cost more than ranking it.
-template <class F>
-std::uint32_t drain(std::deque<std::vector<PendingArrival>>& chunks, std::size_t& pos, std::uint32_t budget,
-                    std::vector<std::vector<PendingArrival>>& spare, F&& f) {
-  std::uint32_t n = 0;
-  auto retire = [&] {
-    if (spare.size() < 4) {
-      chunks.front().clear();
-      spare.push_back(std::move(chunks.front()));
-    }
-    chunks.pop_front();
-    pos = 0;
-  };
-  while (n < budget && !chunks.empty()) {
-    auto& front = chunks.front();
-    if (pos >= front.size()) {
-      retire();
-      continue;
-    }
-    f(front[pos++]);
-    ++n;
-  }
-  if (!chunks.empty() && pos >= chunks.front().size()) retire();
-  return n;
-}
-
 }  // namespace
 
 Publisher::Publisher(PublisherConfig config) : config_(config) {
@@ -259,16 +230,19 @@ void Publisher::rank_entry(const DesiredState& desired, std::uint32_t index) {
 }
 
 void Publisher::rank_arrivals(const DesiredState& desired, std::uint32_t budget, bool lists, PublishReport& rep) {
-  if (lists) rep.ranked += drain(incoming_removes_, removes_pos_, budget, spare_chunks_, [&](const PendingArrival& a) {
-    const Candidate c = candidate_of(a);
-    aged_removes_.push_back({c.since, c.index, c.seq});
-    push_candidate(c);
-  });
-  if (lists) rep.ranked += drain(incoming_others_, others_pos_, budget, spare_chunks_, [&](const PendingArrival& a) {
-    const Candidate c = candidate_of(a);
-    aged_others_.push_back({c.since, c.index, c.seq});
-    push_candidate(c);
-  });
+  auto rank_list = [&](ArrivalChunks& chunks, std::size_t& pos, detail::Ring<Aged>& aged) {
+    for (std::uint32_t n = 0; n < budget; ++n, ++pos, ++rep.ranked) {
+      const PendingArrival* a = front_arrival(chunks, pos);
+      if (!a) break;
+      const Candidate c = candidate_of(*a);
+      aged.push_back({c.since, c.index, c.seq});
+      push_candidate(c);
+    }
+  };
+  if (lists) {
+    rank_list(incoming_removes_, removes_pos_, aged_removes_);
+    rank_list(incoming_others_, others_pos_, aged_others_);
+  }
   // After an overflow: pending entries from the entries themselves.
   for (std::uint32_t n = 0; n < budget && rescan_pos_ < rescan_.size(); ++n, ++rep.ranked)
     rank_entry(desired, rescan_[rescan_pos_++]);
@@ -539,18 +513,20 @@ void Publisher::retire_chunk(ArrivalChunks& chunks, std::size_t& pos) {
 // of the removes list, then the removes left. Every arrival is checked against its entry.
 Status Publisher::publish_in_arrival_order(DesiredState& desired, SlotTable& slots, PublishReport& rep) {
   constexpr std::size_t kAhead = 8;  // arrivals whose entries are requested ahead of use
-  auto prefetch_ahead = [&](const ArrivalChunks& chunks, std::size_t pos) {
-    if (!chunks.empty() && pos + kAhead < chunks.front().size()) prefetch_entry(desired, chunks.front()[pos + kAhead].index);
+  // The next arrival of a list, counted as read; its entry's successors are fetched ahead.
+  auto next_of = [&](ArrivalChunks& chunks, std::size_t& pos) -> const PendingArrival* {
+    if (pops_left_ == 0) return nullptr;
+    const PendingArrival* a = front_arrival(chunks, pos);
+    if (!a) return nullptr;
+    --pops_left_;
+    ++rep.touched;
+    if (pos + kAhead < chunks.front().size()) prefetch_entry(desired, chunks.front()[pos + kAhead].index);
+    return a;
   };
   // The next pending remove of the removes list, consumed; then ranked ones (earlier
   // progressive frames).
   auto next_remove = [&]() -> std::uint32_t {
-    while (pops_left_ > 0) {
-      const PendingArrival* r = front_arrival(incoming_removes_, removes_pos_);
-      if (!r) break;
-      --pops_left_;
-      ++rep.touched;
-      prefetch_ahead(incoming_removes_, removes_pos_);
+    while (const PendingArrival* r = next_of(incoming_removes_, removes_pos_)) {
       const std::uint32_t index = r->index;
       const GaussianId id = r->id;
       ++removes_pos_;
@@ -559,12 +535,9 @@ Status Publisher::publish_in_arrival_order(DesiredState& desired, SlotTable& slo
     }
     return next_spare_remove(desired, rep);
   };
-  while (!over_budget(rep) && pops_left_ > 0) {
-    const PendingArrival* a = front_arrival(incoming_others_, others_pos_);
+  while (!over_budget(rep)) {
+    const PendingArrival* a = next_of(incoming_others_, others_pos_);
     if (!a) break;
-    --pops_left_;
-    ++rep.touched;
-    prefetch_ahead(incoming_others_, others_pos_);
     const std::uint32_t index = a->index;
     const DesiredEntry& e = desired.entry(index);
     const PendingKind kind = e.id == a->id ? e.pending_kind() : PendingKind::None;
@@ -585,7 +558,7 @@ Status Publisher::publish_in_arrival_order(DesiredState& desired, SlotTable& slo
     // entry listed again is published once and found settled the second time.
     ++others_pos_;
   }
-  while (!over_budget(rep) && pops_left_ > 0) {
+  while (!over_budget(rep)) {
     const std::uint32_t r = next_remove();
     if (r == DesiredEntry::kNotPending) break;
     if (Status st = publish_entry(desired, slots, r, rep); !st) return st;
