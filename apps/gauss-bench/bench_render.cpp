@@ -358,6 +358,14 @@ double median_of(const std::vector<FrameTimes>& v, F f) {
   return median(x);
 }
 
+// The renderer of one row: the box scene is SH degree 3.
+render::SplatRendererCreateInfo renderer_info(const Config& c) {
+  return {.capacity = static_cast<std::uint32_t>(std::clamp<long>(c.n, 1, 0xFFFFFFFFl)),
+          .sh_degree = 3,
+          .max_width = c.width,
+          .max_height = c.height};
+}
+
 int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<const Gaussian> scene,
                nlohmann::json& out) {
   out = {{"size", c.label}, {"n", c.n}, {"width", c.width}, {"height", c.height}, {"stereo", c.stereo}};
@@ -366,10 +374,9 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
     out["baseline_wall_ms"] = base;
     out["baseline"] = kBaselineLabel;
   }
-  if (c.n > long(render::kMaxSplatCapacity)) {
-    std::printf("%-22s skipped: %ld Gaussians exceed the renderer capacity %u\n", c.label.c_str(), c.n,
-                render::kMaxSplatCapacity);
-    out["skipped"] = "exceeds renderer capacity " + std::to_string(render::kMaxSplatCapacity);
+  if (auto plan = render::plan_splat_memory(ctx, renderer_info(c)); !plan) {
+    std::printf("%-22s skipped: %s\n", c.label.c_str(), plan.message().c_str());
+    out["skipped"] = plan.message();
     return 0;
   }
   auto cam = box_camera(o.bench_dir, c.width, c.height);
@@ -378,8 +385,7 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
     return 1;
   }
   const std::uint32_t n = std::uint32_t(c.n);
-  auto renderer = render::SplatRenderer::create(
-      ctx, {.capacity = n, .sh_degree = 3, .max_width = c.width, .max_height = c.height, .max_pairs = 0});
+  auto renderer = render::SplatRenderer::create(ctx, renderer_info(c));
   if (!renderer) {
     std::fprintf(stderr, "gauss-bench render: %s: %s\n", c.label.c_str(), renderer.message().c_str());
     return 1;
@@ -524,7 +530,7 @@ int bench_render_main(const Options& o) {
   }
   long max_n = 0;
   for (const Config& c : o.configs)
-    if (c.n <= long(render::kMaxSplatCapacity)) max_n = std::max(max_n, c.n);
+    if (render::plan_splat_memory(**ctx, renderer_info(c)).ok()) max_n = std::max(max_n, c.n);
   // The box scene for N is the first N Gaussians of the scene for any larger N.
   const auto t0 = std::chrono::steady_clock::now();
   const std::vector<Gaussian> scene = box_gaussians(max_n);
