@@ -74,8 +74,9 @@ TEST_F(SplatReference, ProceduralSh3SceneMatchesReference) {
   ASSERT_TRUE(r);
   ASSERT_TRUE(r->write_slots(0, scene).ok());
   const ImageRGBA8 gpu = gpu_render(*r, cam);
-  EXPECT_TRUE(close_to_reference(ref_render(scene, 3, cam), gpu, "splat_procedural_sh3"));
-  EXPECT_GOLDEN(gpu, "splat_procedural_sh3");
+  const ImageRGBA8 ref = ref_render(scene, 3, cam);
+  EXPECT_TRUE(close_to_reference(ref, gpu, "splat_procedural_sh3"));
+  EXPECT_GOLDEN(context(), gpu, "splat_procedural_sh3", ref);
 }
 
 TEST_F(SplatReference, ExactCullingNeverChangesTheImage) {

@@ -179,7 +179,7 @@ TEST_P(SplatStability, FiniteDeterministicAndEqualToReference) {
   for (char& ch : name)
     if (ch == '.') ch = '_';
   EXPECT_TRUE(close_to_reference(ref->rgba8, *a, name, tc.min_psnr, tc.max_err));
-  EXPECT_GOLDEN(*a, name);
+  EXPECT_GOLDEN(context(), *a, name, ref->rgba8);
 }
 
 INSTANTIATE_TEST_SUITE_P(Cases, SplatStability, ::testing::Range<std::size_t>(0, 10),
