@@ -26,6 +26,7 @@
 
 #define SPLAT_USE_VIEW
 #include "splat_common.glsl"
+#include "splat_projected.glsl"
 
 layout(local_size_x = SPLAT_BLEND_THREADS) in;
 layout(constant_id = SPLAT_SPEC_MESH) const bool MESH = false;
@@ -33,7 +34,6 @@ layout(constant_id = SPLAT_SPEC_MESH) const bool MESH = false;
 // over them folds away instead of costing a pass per chunk (gl_SubgroupSize is not folded).
 layout(constant_id = SPLAT_SPEC_BALLOT_WORDS) const uint BALLOT_WORDS = 1u;
 
-layout(std430, binding = SPLAT_BINDING_PROJECTED) readonly buffer ProjBuf { GpuProjected projected[]; };
 layout(std430, binding = SPLAT_BINDING_VALS_IN) readonly buffer ValsBuf { uint vals[]; };
 layout(std430, binding = SPLAT_BINDING_RANGES) readonly buffer RangesBuf { uvec2 ranges[]; };
 layout(std430, binding = SPLAT_BINDING_OUTPUT) writeonly buffer OutBuf { uint out_pixels[]; };
@@ -94,7 +94,7 @@ void main() {
     bool reach = false;
     const uint slot = idx < range.y ? vals[idx] : SPLAT_SENTINEL_SLOT;
     if (slot != SPLAT_SENTINEL_SLOT) {
-      const GpuProjected pr = projected[slot];
+      const GpuProjected pr = load_projected(slot);
       cdo_mine = pr.centre_depth_opacity;
       conic_mine = pr.conic;
       colour_mine = pr.colour;

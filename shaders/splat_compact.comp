@@ -4,6 +4,7 @@
 // order (the stable depth sort that follows then breaks depth ties by slot).
 // The key is the float32 view depth's bit pattern: depths here are > 0.2, and positive
 // IEEE floats order like their bits as unsigned integers.
+// One dispatch per slot chunk, as preprocess: the projected binding holds that chunk only.
 #extension GL_GOOGLE_include_directive : require
 
 #include "splat_common.glsl"
@@ -18,9 +19,11 @@ layout(std430, binding = SPLAT_BINDING_VALS_OUT) writeonly buffer ValsBuf { uint
 layout(push_constant) uniform Push { GpuSplatPush pc; };
 
 void main() {
-  const uint slot = gl_GlobalInvocationID.x;
-  if (slot >= pc.item_count || tile_count[slot] == 0u) return;
+  const uint in_chunk = gl_GlobalInvocationID.x;
+  if (in_chunk >= pc.item_count) return;
+  const uint slot = pc.first_slot + in_chunk;
+  if (tile_count[slot] == 0u) return;
   const uint at = offsets[slot];
-  keys_out[at] = floatBitsToUint(projected[slot].centre_depth_opacity.z);
+  keys_out[at] = floatBitsToUint(projected[in_chunk].centre_depth_opacity.z);
   vals_out[at] = slot;
 }

@@ -14,12 +14,12 @@
 
 #define SPLAT_USE_VIEW
 #include "splat_common.glsl"
+#include "splat_projected.glsl"
 
 layout(local_size_x = SPLAT_WORKGROUP) in;
 layout(constant_id = SPLAT_SPEC_MESH) const bool MESH = false;
 layout(constant_id = SPLAT_SPEC_EXACT_CULL) const bool EXACT_CULL = true;
 
-layout(std430, binding = SPLAT_BINDING_PROJECTED) readonly buffer ProjBuf { GpuProjected projected[]; };
 layout(std430, binding = SPLAT_BINDING_TILE_COUNT) readonly buffer TileCountBuf { uint tile_count[]; };
 layout(std430, binding = SPLAT_BINDING_OFFSETS) readonly buffer OffsetsBuf { uint offsets[]; };
 layout(std430, binding = SPLAT_BINDING_VALS_IN) readonly buffer ValsInBuf { uint vals_in[]; };
@@ -38,7 +38,7 @@ void main() {
   if (at >= pc.pair_capacity) return;
   const uint end = min(pc.pair_capacity, sat_add(at, count));
 
-  const GpuProjected pr = projected[slot];
+  const GpuProjected pr = load_projected(slot);
   const vec2 centre = pr.centre_depth_opacity.xy;
   const float depth = pr.centre_depth_opacity.z;
   const vec3 conic = pr.conic.xyz;

@@ -3,6 +3,9 @@
 // projects the slot, computes conic, radius, tile rectangle, colour and opacity, and the
 // number of tiles it will be binned into (0 = not drawn). Writes tile_count for every
 // slot it covers (0 for empty / culled ones) so the following scan needs no clearing.
+// One dispatch per slot chunk (splat_layout.h "Slot chunks"): the core, SH and projected
+// bindings hold that chunk only, indexed from pc.first_slot; tile_count and the edit
+// words cover every slot.
 #extension GL_GOOGLE_include_directive : require
 
 #define SPLAT_USE_VIEW
@@ -35,36 +38,37 @@ const float SH_C3[7] = float[7](-0.5900435899266435, 2.890611442640554, -0.45704
                                 -0.5900435899266435);
 
 // k = 1..15; k is a constant at every call, so each call reads one buffer only.
-vec3 sh_coeff(uint slot, uint k) {
+// `at`: the slot's index in the bound chunk.
+vec3 sh_coeff(uint at, uint k) {
   if (k <= SPLAT_SH_LOW_COEFFS) {
-    const uint base = slot * SH_STRIDE + (k - 1u) * 3u;
+    const uint base = at * SH_STRIDE + (k - 1u) * 3u;
     return vec3(sh_rest[base], sh_rest[base + 1u], sh_rest[base + 2u]);
   }
-  const uint base = slot * SPLAT_SH_HIGH_STRIDE + (k - 1u - SPLAT_SH_LOW_COEFFS) * 3u;
+  const uint base = at * SPLAT_SH_HIGH_STRIDE + (k - 1u - SPLAT_SH_LOW_COEFFS) * 3u;
   return vec3(sh_rest_high[base], sh_rest_high[base + 1u], sh_rest_high[base + 2u]);
 }
 
 // computeColorFromSH of the reference, before +0.5 and the clamp.
-vec3 eval_sh(uint slot, vec3 dc, vec3 dir) {
+vec3 eval_sh(uint at, vec3 dc, vec3 dir) {
   vec3 result = SH_C0 * dc;
   if (SH_DEGREE > 0u) {
     const float x = dir.x, y = dir.y, z = dir.z;
-    result = result - SH_C1 * y * sh_coeff(slot, 1u) + SH_C1 * z * sh_coeff(slot, 2u) -
-             SH_C1 * x * sh_coeff(slot, 3u);
+    result = result - SH_C1 * y * sh_coeff(at, 1u) + SH_C1 * z * sh_coeff(at, 2u) -
+             SH_C1 * x * sh_coeff(at, 3u);
     if (SH_DEGREE > 1u) {
       const float xx = x * x, yy = y * y, zz = z * z;
       const float xy = x * y, yz = y * z, xz = x * z;
-      result = result + SH_C2[0] * xy * sh_coeff(slot, 4u) + SH_C2[1] * yz * sh_coeff(slot, 5u) +
-               SH_C2[2] * (2.0 * zz - xx - yy) * sh_coeff(slot, 6u) + SH_C2[3] * xz * sh_coeff(slot, 7u) +
-               SH_C2[4] * (xx - yy) * sh_coeff(slot, 8u);
+      result = result + SH_C2[0] * xy * sh_coeff(at, 4u) + SH_C2[1] * yz * sh_coeff(at, 5u) +
+               SH_C2[2] * (2.0 * zz - xx - yy) * sh_coeff(at, 6u) + SH_C2[3] * xz * sh_coeff(at, 7u) +
+               SH_C2[4] * (xx - yy) * sh_coeff(at, 8u);
       if (SH_DEGREE > 2u) {
-        result = result + SH_C3[0] * y * (3.0 * xx - yy) * sh_coeff(slot, 9u) +
-                 SH_C3[1] * xy * z * sh_coeff(slot, 10u) +
-                 SH_C3[2] * y * (4.0 * zz - xx - yy) * sh_coeff(slot, 11u) +
-                 SH_C3[3] * z * (2.0 * zz - 3.0 * xx - 3.0 * yy) * sh_coeff(slot, 12u) +
-                 SH_C3[4] * x * (4.0 * zz - xx - yy) * sh_coeff(slot, 13u) +
-                 SH_C3[5] * z * (xx - yy) * sh_coeff(slot, 14u) +
-                 SH_C3[6] * x * (xx - 3.0 * yy) * sh_coeff(slot, 15u);
+        result = result + SH_C3[0] * y * (3.0 * xx - yy) * sh_coeff(at, 9u) +
+                 SH_C3[1] * xy * z * sh_coeff(at, 10u) +
+                 SH_C3[2] * y * (4.0 * zz - xx - yy) * sh_coeff(at, 11u) +
+                 SH_C3[3] * z * (2.0 * zz - 3.0 * xx - 3.0 * yy) * sh_coeff(at, 12u) +
+                 SH_C3[4] * x * (4.0 * zz - xx - yy) * sh_coeff(at, 13u) +
+                 SH_C3[5] * z * (xx - yy) * sh_coeff(at, 14u) +
+                 SH_C3[6] * x * (xx - 3.0 * yy) * sh_coeff(at, 15u);
       }
     }
   }
@@ -86,11 +90,12 @@ bool highlighted(int object) {
 vec3 mix_toward(vec3 c, vec3 target, float s) { return c + s * (target - c); }
 
 void main() {
-  const uint slot = gl_GlobalInvocationID.x;
-  if (slot >= pc.item_count) return;
+  const uint at = gl_GlobalInvocationID.x;  // index in this dispatch's slot chunk
+  if (at >= pc.item_count) return;
+  const uint slot = pc.first_slot + at;
   tile_count[slot] = 0u;
 
-  const GpuSplatCore g = cores[slot];
+  const GpuSplatCore g = cores[at];
   if ((g.flags & SPLAT_FLAG_OCCUPIED) == 0u) return;
 
   uint edit_kind = 0u, edit_age = 0u;
@@ -157,7 +162,7 @@ void main() {
   // 9-10. Colour and opacity.
   const vec3 dir = normalize(p - view.camera_centre.xyz);
   const vec3 dc = vec3(g.log_scale_dc_r.w, g.dc_gb);
-  vec3 colour = max(eval_sh(slot, dc, dir) + 0.5, vec3(0.0));
+  vec3 colour = max(eval_sh(at, dc, dir) + 0.5, vec3(0.0));
   float opacity = 1.0 / (1.0 + exp(-g.position_opacity.w));
 
   // 11. Tints: highlight first, then the edit visualisation.
@@ -194,9 +199,9 @@ void main() {
   }
   if (n == 0u) return;
 
-  projected[slot].centre_depth_opacity = vec4(centre, t.z, opacity);
-  projected[slot].conic = vec4(conic, 0.0);
-  projected[slot].colour = vec4(colour, 0.0);
-  projected[slot].rect = rect;
+  projected[at].centre_depth_opacity = vec4(centre, t.z, opacity);
+  projected[at].conic = vec4(conic, 0.0);
+  projected[at].colour = vec4(colour, 0.0);
+  projected[at].rect = rect;
   tile_count[slot] = n;
 }

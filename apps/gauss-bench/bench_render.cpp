@@ -27,6 +27,8 @@
 #include <nlohmann/json.hpp>
 #include <zlib.h>
 
+#include "bench_box.h"
+#include "bench_peer.h"
 #include "bench_registry.h"
 #include "bench_util.h"
 #include "gauss_cli.h"
@@ -43,122 +45,6 @@ using namespace gauss::bench;
 
 using namespace gauss;
 namespace fs = std::filesystem;
-
-// ---- The box scene: a port of box_scene.c (same xorshift, same order of draws) ----------
-
-constexpr int kBoxFloats = 62;  // x y z nx ny nz f_dc(3) f_rest(45) opacity scale(3) rot(4)
-
-class BoxRng {
- public:
-  double rnd() {
-    s_ ^= s_ << 13;
-    s_ ^= s_ >> 7;
-    s_ ^= s_ << 17;
-    return double(s_ >> 11) * (1.0 / 9007199254740992.0);
-  }
-  double uniform(double a, double b) { return a + (b - a) * rnd(); }
-
- private:
-  std::uint64_t s_{88172645463325252ULL};
-};
-
-// One vertex's 62 floats, exactly as box_scene.c writes them.
-void box_vertex(BoxRng& rng, float v[kBoxFloats]) {
-  std::fill(v, v + kBoxFloats, 0.0f);
-  v[0] = float(rng.uniform(-4, 4));
-  v[1] = float(rng.uniform(-2.5, 2.5));
-  v[2] = float(rng.uniform(-12, -3));
-  for (int i = 0; i < 3; ++i) v[6 + i] = float(rng.uniform(-1.5, 1.5));
-  for (int i = 0; i < 45; ++i) v[9 + i] = float(rng.uniform(-0.1, 0.1));
-  v[54] = float(rng.uniform(-2, 3));
-  for (int i = 0; i < 3; ++i) v[55 + i] = float(rng.uniform(-4.5, -3.0));
-  double q[4], nn = 0;
-  for (int i = 0; i < 4; ++i) {
-    q[i] = rng.uniform(-1, 1);
-    nn += q[i] * q[i];
-  }
-  nn = std::sqrt(nn);
-  for (int i = 0; i < 4; ++i) v[58 + i] = float(q[i] / nn);
-}
-
-// The PLY file box_scene.c writes for n (header + little-endian floats), byte for byte.
-std::vector<std::uint8_t> box_ply_bytes(long n) {
-  std::string h = "ply\nformat binary_little_endian 1.0\nelement vertex " + std::to_string(n) + "\n";
-  for (const char* p : {"x", "y", "z", "nx", "ny", "nz"}) h += std::string("property float ") + p + "\n";
-  for (int i = 0; i < 3; ++i) h += "property float f_dc_" + std::to_string(i) + "\n";
-  for (int i = 0; i < 45; ++i) h += "property float f_rest_" + std::to_string(i) + "\n";
-  h += "property float opacity\n";
-  for (int i = 0; i < 3; ++i) h += "property float scale_" + std::to_string(i) + "\n";
-  for (int i = 0; i < 4; ++i) h += "property float rot_" + std::to_string(i) + "\n";
-  h += "end_header\n";
-  std::vector<std::uint8_t> out(h.begin(), h.end());
-  BoxRng rng;
-  float v[kBoxFloats];
-  for (long k = 0; k < n; ++k) {
-    box_vertex(rng, v);
-    const auto* b = reinterpret_cast<const std::uint8_t*>(v);  // x86/ARM: little endian
-    out.insert(out.end(), b, b + sizeof v);
-  }
-  return out;
-}
-
-// The same Gaussians as read_gaussian_ply would produce from that file, without the file:
-// f_rest transposed to coefficient-major, quaternions kept bit for bit when within the
-// loader's unit tolerance (they are: box_scene.c normalises them) else normalised.
-std::vector<Gaussian> box_gaussians(long n) {
-  std::vector<Gaussian> out(static_cast<std::size_t>(n));
-  BoxRng rng;
-  float v[kBoxFloats];
-  for (auto& g : out) {
-    box_vertex(rng, v);
-    g.position = {v[0], v[1], v[2]};
-    g.sh_dc = {v[6], v[7], v[8]};
-    for (int k = 0; k < 15; ++k) g.sh_rest[std::size_t(k)] = {v[9 + k], v[9 + 15 + k], v[9 + 30 + k]};
-    g.opacity_logit = v[54];
-    g.log_scale = {v[55], v[56], v[57]};
-    g.rotation = {v[58], v[59], v[60], v[61]};
-    const double len = std::sqrt(double(v[58]) * v[58] + double(v[59]) * v[59] + double(v[60]) * v[60] +
-                                 double(v[61]) * v[61]);
-    if (std::abs(len - 1.0) > kQuaternionUnitTolerance) g.rotation = g.rotation / float(len);
-  }
-  return out;
-}
-
-// Checks the port against box_scene.c's own output for the same N: the file bytes, then the
-// Gaussians (the loader's reading of the file vs box_gaussians).
-bool verify_box(const fs::path& c_output) {
-  std::ifstream f(c_output, std::ios::binary);
-  if (!f) {
-    std::fprintf(stderr, "gauss-bench render: cannot read %s\n", c_output.c_str());
-    return false;
-  }
-  const std::vector<std::uint8_t> file((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  auto scene = parse_gaussian_ply(file, c_output.string());
-  if (!scene) {
-    std::fprintf(stderr, "gauss-bench render: %s\n", scene.message().c_str());
-    return false;
-  }
-  const long n = long(scene->cloud.gaussians.size());
-  if (box_ply_bytes(n) != file) {
-    std::fprintf(stderr, "gauss-bench render: box scene port differs from %s (N=%ld)\n", c_output.c_str(), n);
-    return false;
-  }
-  const std::vector<Gaussian> mine = box_gaussians(n);
-  for (long k = 0; k < n; ++k) {
-    const Gaussian& a = mine[std::size_t(k)];
-    const Gaussian& b = scene->cloud.gaussians[std::size_t(k)];
-    bool same = a.position == b.position && a.log_scale == b.log_scale && a.rotation == b.rotation &&
-                a.opacity_logit == b.opacity_logit && a.sh_dc == b.sh_dc && a.sh_rest == b.sh_rest;
-    if (!same) {
-      std::fprintf(stderr, "gauss-bench render: box Gaussian %ld differs from the loader's reading of %s\n", k,
-                   c_output.c_str());
-      return false;
-    }
-  }
-  std::printf("box scene port: %ld Gaussians bit-identical to %s (file bytes and loaded values)\n", n,
-              c_output.c_str());
-  return true;
-}
 
 // ---- Configurations ------------------------------------------------------------------------
 
@@ -266,6 +152,9 @@ struct Options {
   fs::path json_out;
   fs::path bench_dir{default_bench_dir()};
   fs::path verify_box_file;
+  fs::path peer;  // empty: the stored lavapipe baseline column
+  int peer_rounds{2};
+  int peer_timeout_s{600};
   int frames{5};
   std::string device;
   bool reference{true};
@@ -327,6 +216,16 @@ void add_options(CLI::App& cmd, Options& o, std::vector<std::string>& sizes) {
                  "first check that the in-process box scene equals this output of box_scene.c (N=1000)")
       ->check(CLI::ExistingFile)
       ->type_name("PLY");
+  cmd.add_option("--peer", o.peer,
+                 "run this peer renderer (shg8/3DGS.cpp built with ../shared/gpu/peer/3dgs_bench.patch) on the same "
+                 "box scenes, alternating with ours, and print ours/peer per size instead of the stored baseline")
+      ->type_name("BIN");
+  cmd.add_option("--peer-rounds", o.peer_rounds, "alternating rounds (peer, then ours) per size with --peer")
+      ->check(gauss::apps::in_range(1, 20))
+      ->type_name("R");
+  cmd.add_option("--peer-timeout", o.peer_timeout_s, "seconds one peer run may take with --peer")
+      ->check(gauss::apps::in_range(1, 86400))
+      ->type_name("S");
 }
 
 // Per-pass GPU ms of one frame, summed over the views of the frame.
@@ -358,18 +257,22 @@ double median_of(const std::vector<FrameTimes>& v, F f) {
   return median(x);
 }
 
-int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<const Gaussian> scene,
-               nlohmann::json& out) {
+// The renderer of one row: the box scene is SH degree 3.
+render::SplatRendererCreateInfo renderer_info(const Config& c) {
+  return {.capacity = static_cast<std::uint32_t>(std::clamp<long>(c.n, 1, 0xFFFFFFFFl)),
+          .sh_degree = 3,
+          .max_width = c.width,
+          .max_height = c.height};
+}
+
+// Measures one row and prints it. `base` is the row's baseline ms (the stored lavapipe table,
+// or this round's peer run; 0 = none), shown with the ratio wall_med / base.
+int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<const Gaussian> scene, double base,
+               bool reference, nlohmann::json& out) {
   out = {{"size", c.label}, {"n", c.n}, {"width", c.width}, {"height", c.height}, {"stereo", c.stereo}};
-  const double base = baseline_ms(c);
-  if (base > 0) {
-    out["baseline_wall_ms"] = base;
-    out["baseline"] = kBaselineLabel;
-  }
-  if (c.n > long(render::kMaxSplatCapacity)) {
-    std::printf("%-22s skipped: %ld Gaussians exceed the renderer capacity %u\n", c.label.c_str(), c.n,
-                render::kMaxSplatCapacity);
-    out["skipped"] = "exceeds renderer capacity " + std::to_string(render::kMaxSplatCapacity);
+  if (auto plan = render::plan_splat_memory(ctx, renderer_info(c)); !plan) {
+    std::printf("%-22s skipped: %s\n", c.label.c_str(), plan.message().c_str());
+    out["skipped"] = plan.message();
     return 0;
   }
   auto cam = box_camera(o.bench_dir, c.width, c.height);
@@ -378,8 +281,7 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
     return 1;
   }
   const std::uint32_t n = std::uint32_t(c.n);
-  auto renderer = render::SplatRenderer::create(
-      ctx, {.capacity = n, .sh_degree = 3, .max_width = c.width, .max_height = c.height, .max_pairs = 0});
+  auto renderer = render::SplatRenderer::create(ctx, renderer_info(c));
   if (!renderer) {
     std::fprintf(stderr, "gauss-bench render: %s: %s\n", c.label.c_str(), renderer.message().c_str());
     return 1;
@@ -440,7 +342,6 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
   out["visible"] = last.visible;
   out["pairs"] = last.pairs;
   out["pair_overflow"] = last.overflow;
-  if (base > 0) out["wall_vs_baseline"] = wall_med / base;
 
   // CRC-32 of each view's last image: a renderer change that must leave the images
   // byte-identical is checked by comparing this column before and after.
@@ -459,7 +360,7 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
   out["image_crc32"] = digest;
 
   std::string err_text = "reference skipped";
-  if (o.reference) {
+  if (reference) {
     const auto [row_begin, row_end] = reference_rows(o, c);
     double worst_psnr = std::numeric_limits<double>::infinity(), ref_ms = 0.0;
     int worst_err = 0;
@@ -513,10 +414,69 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
   return 0;
 }
 
+// One size against the peer: o.peer_rounds rounds, each the peer on the box scene PLY then
+// ours (alternating, so a change in the machine's load falls on both), each round printed as
+// a row whose base_ms is that round's peer run. An error means the peer gave no time: that
+// ends the run, since a table with holes would read as a comparison. Else the value is our
+// rows' exit code. Stereo sizes have no peer (it renders one view): ours runs once.
+Expected<int> run_config_with_peer(vk::Context& ctx, const Options& o, const Config& c, std::span<const Gaussian> scene,
+                                   const fs::path& work_dir, nlohmann::json& results, PeerRow& summary) {
+  summary.size = c.label;
+  int rc = 0;
+  if (c.stereo) {
+    nlohmann::json row;
+    rc = run_config(ctx, o, c, scene, 0.0, o.reference, row);
+    summary.ours_ms = row.value("wall_ms_median", 0.0);
+    summary.note = "no peer figure: the peer renders one view";
+    results.push_back(row);
+    return rc;
+  }
+  auto cam = box_camera(o.bench_dir, c.width, c.height);
+  if (!cam) return Error{cam.message()};
+  const fs::path ply = work_dir / ("box" + std::to_string(c.n) + ".ply");
+  if (auto st = write_box_ply(ply, c.n); !st) return Error{st.message()};
+  std::vector<double> peer_ms, ours_ms;
+  for (int round = 1; round <= o.peer_rounds; ++round) {
+    auto p = run_peer({.binary = o.peer,
+                       .scene = ply,
+                       .width = c.width,
+                       .height = c.height,
+                       .fov_deg = horizontal_fov_deg(cam->width, cam->fx),
+                       .frames = o.frames,
+                       .timeout_s = o.peer_timeout_s});
+    if (!p) return Error{c.label + ", round " + std::to_string(round) + ": " + p.message()};
+    peer_ms.push_back(*p);
+    nlohmann::json row;
+    if (run_config(ctx, o, c, scene, *p, o.reference && round == 1, row) != 0) {
+      rc = 1;
+      row["error"] = true;
+    }
+    row["round"] = round;
+    row["peer_wall_ms"] = *p;
+    if (row.contains("wall_ms_median")) {
+      ours_ms.push_back(row["wall_ms_median"]);
+      row["wall_vs_peer"] = ours_ms.back() / *p;
+    }
+    results.push_back(row);
+  }
+  std::error_code ec;
+  fs::remove(ply, ec);
+  summary.peer_ms = median(peer_ms);
+  summary.ours_ms = median(ours_ms);
+  if (ours_ms.empty()) summary.note = "ours skipped (see its rows)";
+  return rc;
+}
+
 }  // namespace
 
 int bench_render_main(const Options& o) {
   if (!o.verify_box_file.empty() && !verify_box(o.verify_box_file)) return 1;
+  if (!o.peer.empty()) {
+    if (auto st = check_peer_binary(o.peer); !st) {
+      std::fprintf(stderr, "gauss-bench render: --peer: %s\n", st.message().c_str());
+      return 1;
+    }
+  }
   auto ctx = vk::Context::create({.app_name = "gauss-bench render", .device_override = o.device});
   if (!ctx) {
     std::fprintf(stderr, "gauss-bench render: no usable Vulkan device: %s\n", ctx.message().c_str());
@@ -524,36 +484,63 @@ int bench_render_main(const Options& o) {
   }
   long max_n = 0;
   for (const Config& c : o.configs)
-    if (c.n <= long(render::kMaxSplatCapacity)) max_n = std::max(max_n, c.n);
+    if (render::plan_splat_memory(**ctx, renderer_info(c)).ok()) max_n = std::max(max_n, c.n);
   // The box scene for N is the first N Gaussians of the scene for any larger N.
   const auto t0 = std::chrono::steady_clock::now();
   const std::vector<Gaussian> scene = box_gaussians(max_n);
   const double gen_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const std::string base_label =
+      o.peer.empty() ? std::string(kBaselineLabel)
+                     : "this round's run of the peer " + o.peer.string() + ", just before ours, same scene and camera";
   std::printf("gauss-bench render | device %s | box scene SH3, %ld Gaussians generated in %.0f ms | %d frames after "
               "1 warm-up\nwall = render call incl. submit + wait (no readback); cpu = process CPU time "
               "(all lavapipe threads) per frame; load = 1-min load average;\ngpu = timestamps; all medians; stereo rows "
-              "sum both eyes; image crc32 = last frame's pixels (left/right); ratio = wall_med / base_ms (base_ms: %s); times taken on a shared machine (under "
-              "load)\n\n",
-              (*ctx)->device_name().c_str(), max_n, gen_ms, o.frames, kBaselineLabel);
+              "sum both eyes; image crc32 = last frame's pixels (left/right); ratio = wall_med / base_ms (base_ms: %s); "
+              "times taken on a shared machine (under load)\n\n",
+              (*ctx)->device_name().c_str(), max_n, gen_ms, o.frames, base_label.c_str());
   std::printf("%-22s %8s %8s %8s %5s %8s %8s %8s %8s %9s %10s %7s %5s %17s | %s\n", "size", "wall_med", "wall_min",
               "cpu_med", "load", "gpu_tot", "preproc", "sorts", "blend", "visible", "pairs", "base_ms", "ratio",
               "image crc32", "vs CPU reference (PSNR, max err)");
   nlohmann::json results = nlohmann::json::array();
+  std::vector<PeerRow> peer_rows;
+  std::optional<PeerWorkDir> work_dir;
+  if (!o.peer.empty()) work_dir.emplace();
   int rc = 0;
   for (const Config& c : o.configs) {
+    if (work_dir) {
+      PeerRow summary;
+      auto st = run_config_with_peer(**ctx, o, c, scene, work_dir->path, results, summary);
+      if (!st) {
+        std::fflush(stdout);
+        std::fprintf(stderr, "gauss-bench render: --peer %s gave no time: %s\n", o.peer.string().c_str(),
+                     st.message().c_str());
+        return 1;
+      }
+      rc = std::max(rc, *st);
+      peer_rows.push_back(summary);
+      continue;
+    }
     nlohmann::json row;
-    if (run_config(**ctx, o, c, scene, row) != 0) {
+    const double base = baseline_ms(c);
+    if (run_config(**ctx, o, c, scene, base, o.reference, row) != 0) {
       rc = 1;
       row["error"] = true;
     }
+    if (base > 0) {
+      row["baseline_wall_ms"] = base;
+      row["baseline"] = kBaselineLabel;
+      if (row.contains("wall_ms_median")) row["wall_vs_baseline"] = double(row["wall_ms_median"]) / base;
+    }
     results.push_back(row);
   }
+  if (work_dir) print_peer_summary(peer_rows, o.peer, o.peer_rounds, o.frames);
   if (!o.json_out.empty()) {
     nlohmann::json doc = {{"bench", "render"},
                           {"device", (*ctx)->device_name()},
                           {"frames", o.frames},
                           {"note", "wall and gpu ms are medians over the measured frames on a shared, loaded machine"},
                           {"results", results}};
+    if (work_dir) doc["peer"] = peer_summary_json(peer_rows, o.peer, o.peer_rounds);
     if (!write_json(o.json_out, doc, "render")) return 1;
   }
   return rc;

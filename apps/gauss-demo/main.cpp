@@ -5,6 +5,7 @@
 // budget M, and the same budget with a semantic query that reserves most of it for the
 // queried objects (highlighted). Each image is written as a PNG and the figures behind
 // it are printed.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -87,7 +88,7 @@ int main(int argc, char** argv) {
   auto ctx = vk::Context::create(ci);
   if (!ctx) return fail(ctx.message());
   render::SplatRendererCreateInfo ri;
-  ri.capacity = std::uint32_t(std::min<std::size_t>(store.size(), render::kMaxSplatCapacity));
+  ri.capacity = std::uint32_t(std::clamp<std::size_t>(store.size(), 1, 0xFFFFFFFFu));
   ri.sh_degree = store.sh_degree();
   ri.max_width = o.width;
   ri.max_height = o.height;

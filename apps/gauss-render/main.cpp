@@ -92,9 +92,8 @@ int run_gpu(const Args& a, const SplatScene& scene, const TriangleMesh* mesh, co
   ci.sh_degree = scene.cloud.sh_degree;
   ci.max_width = cam.width;
   ci.max_height = cam.height;
-  if (gs.size() > render::kMaxSplatCapacity) {
-    std::fprintf(stderr, "gauss-render: %zu Gaussians exceed the renderer capacity %u\n", gs.size(),
-                 render::kMaxSplatCapacity);
+  if (gs.size() > 0xFFFFFFFFu) {
+    std::fprintf(stderr, "gauss-render: %zu Gaussians, more than 2^32 - 1 slots\n", gs.size());
     return 1;
   }
   auto renderer = render::SplatRenderer::create(**ctx, ci);

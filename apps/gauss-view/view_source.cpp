@@ -103,9 +103,9 @@ Expected<std::unique_ptr<ViewSource>> make_local(vk::Context& context, const Vie
   if (!scene) return scene.error();
   const auto& gs = scene->cloud.gaussians;
   if (gs.empty()) return Error{o.scene.string() + ": the scene holds no Gaussians"};
-  if (gs.size() > render::kMaxSplatCapacity)
-    return Error{o.scene.string() + ": " + std::to_string(gs.size()) + " Gaussians, more than the renderer's " +
-                 std::to_string(render::kMaxSplatCapacity)};
+  if (gs.size() > 0xFFFFFFFFu)
+    return Error{o.scene.string() + ": " + std::to_string(gs.size()) + " Gaussians, more than 2^32 - 1 slots"};
+  // A scene the device cannot hold is refused by create, with the numbers.
   auto r = render::SplatRenderer::create(context, {.capacity = static_cast<std::uint32_t>(gs.size()),
                                                    .sh_degree = scene->cloud.sh_degree,
                                                    .max_width = max_w,

@@ -61,12 +61,22 @@ GAUSS_CONST(float, SPLAT_MESH_DEPTH_SCALE, 65536.0)
 
 // ---- Per-slot data ----------------------------------------------------------------------
 // Core attributes of one slot (64 bytes; 1M slots = 64 MB). SH rest lives in two buffers of
-// its own, split by band so that each binding stays within the 128 MiB storage range even
-// at 1M slots of SH degree 3 (one 180-byte-per-slot buffer would need 180 MB):
+// its own, split by band so that no array needs more than 96 bytes per slot (one
+// 180-byte-per-slot buffer would fill a 128 MiB binding at ~745k slots):
 //   SPLAT_BINDING_SH       coefficients 1..8 (bands 1-2), 3 * min(sh_rest_count, 8) floats/slot
 //   SPLAT_BINDING_SH_HIGH  coefficients 9..15 (band 3), SPLAT_SH_HIGH_STRIDE floats/slot,
 //                          bound and read only at degree 3
 // Both are coefficient-major RGB per slot.
+//
+// Slot chunks: when one of the wide per-slot arrays (core, SH, SH band 3, projected) would
+// exceed the device's maxStorageBufferRange, each of them is split into up to
+// SPLAT_MAX_SLOT_CHUNKS buffers of 2^SLOT_CHUNK_SHIFT slots (render/src/splat/
+// splat_memory_plan.cpp chooses). Passes over slots in order (preprocess, compact) are
+// dispatched once per chunk with that chunk's buffers bound (GpuSplatPush::first_slot);
+// passes that read projected splats by slot (emit, blend) bind every chunk and select with
+// splat_projected.glsl. With one chunk (every scene that fits one binding) the selection is
+// specialised away: the shaders are those of the unsplit layout.
+GAUSS_CONST(uint, SPLAT_MAX_SLOT_CHUNKS, 4u)
 struct GpuSplatCore {
   vec4 position_opacity;  // xyz position (m), w opacity logit
   vec4 rotation;          // unit quaternion w, x, y, z
@@ -145,6 +155,10 @@ GAUSS_BINDING(SPLAT_BINDING_MESH_COLOUR, 16u)
 GAUSS_BINDING(SPLAT_BINDING_MESH_DEPTH, 17u)
 GAUSS_BINDING(SPLAT_BINDING_TILE_DEPTH, 18u)
 GAUSS_BINDING(SPLAT_BINDING_SH_HIGH, 19u)
+// Projected splats of slot chunks 1..3 (chunk 0 is SPLAT_BINDING_PROJECTED).
+GAUSS_BINDING(SPLAT_BINDING_PROJECTED_1, 20u)
+GAUSS_BINDING(SPLAT_BINDING_PROJECTED_2, 21u)
+GAUSS_BINDING(SPLAT_BINDING_PROJECTED_3, 22u)
 
 // ---- Specialization constant ids ------------------------------------------------------------
 GAUSS_CONST(uint, SPLAT_SPEC_SH_DEGREE, 0u)   // scene SH degree 0..3 (0: SH rest never read)
@@ -153,6 +167,8 @@ GAUSS_CONST(uint, SPLAT_SPEC_MESH, 2u)        // mesh layer present
 GAUSS_CONST(uint, SPLAT_SPEC_SH_STRIDE, 3u)   // floats per slot of the bands 1-2 SH buffer
 GAUSS_CONST(uint, SPLAT_SPEC_EXACT_CULL, 4u)  // bin only into tiles alpha >= 1/255 can reach
 GAUSS_CONST(uint, SPLAT_SPEC_BALLOT_WORDS, 5u)  // splat_blend.comp: ceil(max subgroup size / 32), 1..4
+GAUSS_CONST(uint, SPLAT_SPEC_SLOT_CHUNKS, 6u)   // emit / blend: projected slot chunks, 1..SPLAT_MAX_SLOT_CHUNKS
+GAUSS_CONST(uint, SPLAT_SPEC_SLOT_CHUNK_SHIFT, 7u)  // emit / blend: log2(slots per chunk) when chunks > 1
 GAUSS_CONST(uint, SPLAT_SPEC_SCAN_MODE, 0u)   // splat_scan.comp: SPLAT_SCAN_*
 GAUSS_CONST(uint, SPLAT_SCAN_VISIBLE, 0u)     // flags tile_count[i] > 0 over the slots
 GAUSS_CONST(uint, SPLAT_SCAN_PAIRS, 1u)       // tile_count[vals[i]] over the visible list
@@ -165,6 +181,7 @@ struct GpuSplatPush {
   uint count_index;   // radix passes and the histogram scan: counter holding the key count
   uint shift;         // radix pass: first key bit of the digit
   uint pair_capacity; // pair scan / emit: pairs the key buffers hold
+  uint first_slot;    // preprocess / compact: slot of the bound chunk's first element
 };
 
 // Mesh pass push constants (vertex shader).
@@ -181,7 +198,7 @@ GAUSS_SHARED_END
 GAUSS_STATIC_ASSERT(sizeof(gauss::gpu::GpuSplatCore) == 64, "GpuSplatCore must be 64 bytes (std430)");
 GAUSS_STATIC_ASSERT(sizeof(gauss::gpu::GpuProjected) == 64, "GpuProjected must be 64 bytes (std430)");
 GAUSS_STATIC_ASSERT(sizeof(gauss::gpu::GpuView) == 144, "GpuView must be 144 bytes (std140)");
-GAUSS_STATIC_ASSERT(sizeof(gauss::gpu::GpuSplatPush) == 16, "GpuSplatPush must be 16 bytes");
+GAUSS_STATIC_ASSERT(sizeof(gauss::gpu::GpuSplatPush) == 20, "GpuSplatPush must be 20 bytes");
 GAUSS_STATIC_ASSERT(sizeof(gauss::gpu::GpuMeshPush) == 80, "GpuMeshPush must be 80 bytes");
 
 #endif  // GAUSS_SHADERS_SHARED_SPLAT_LAYOUT_H

@@ -1,6 +1,7 @@
 #pragma once
 // Helpers of the splat renderer tests (tests/render/test_splat_*.cpp): cameras, small
-// deterministic procedural scenes, and the GPU-vs-reference comparison.
+// deterministic procedural scenes (the GPU-vs-reference comparison, close_to_reference, is in
+// golden.h: golden checks off lavapipe use it too).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -17,6 +18,7 @@
 #include "gauss/render/image_metrics.h"
 #include "gauss/render/reference_rasterizer.h"
 #include "gauss/render/splat_renderer.h"
+#include "golden.h"
 #include "test_data.h"
 
 namespace gauss::test {
@@ -105,26 +107,6 @@ inline Camera scene_camera(const std::vector<Gaussian>& gs, std::uint32_t w, std
   const glm::dvec3 c(median(xs), median(ys), median(zs));
   const double s = std::max({spread(xs), spread(ys), spread(zs)});
   return look_at_camera(w, h, c + glm::dvec3(0.0, 0.0, -distance_scale * s), c);
-}
-
-// GPU image vs the reference image: PSNR >= min_psnr and max error <= max_err, plus a
-// printout of both figures (they go into the report).
-inline ::testing::AssertionResult close_to_reference(const ImageRGBA8& ref, const ImageRGBA8& gpu,
-                                                     const std::string& what, double min_psnr = 60.0,
-                                                     int max_err = 2) {
-  auto d = render::compare_images(ref, gpu);
-  if (!d) return ::testing::AssertionFailure() << what << ": " << d.message();
-  std::printf("[%s] PSNR %.2f dB, max error %d/255, %llu of %llu pixels differ\n", what.c_str(), d->psnr_db,
-              d->max_abs_error, static_cast<unsigned long long>(d->pixels_differing),
-              static_cast<unsigned long long>(d->pixels));
-  if (d->psnr_db < min_psnr || d->max_abs_error > max_err) {
-    (void)write_png(output_dir() / (what + ".gpu.png"), gpu);
-    (void)write_png(output_dir() / (what + ".ref.png"), ref);
-    return ::testing::AssertionFailure() << what << ": PSNR " << d->psnr_db << " dB (need >= " << min_psnr
-                                         << "), max error " << d->max_abs_error << " (need <= " << max_err
-                                         << "); images in " << output_dir().string();
-  }
-  return ::testing::AssertionSuccess();
 }
 
 inline bool all_finite_bytes(const ImageRGBA8& img) {

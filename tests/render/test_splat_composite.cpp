@@ -72,7 +72,7 @@ TEST_F(SplatComposite, MeshAndGaussiansMatchReference) {
               stats->visible, static_cast<unsigned long long>(ref->stats.visible),
               static_cast<unsigned long long>(ref->stats.culled_mesh));
   EXPECT_TRUE(close_to_reference(ref->rgba8, gpu, "splat_mesh_composite"));
-  EXPECT_GOLDEN(gpu, "splat_mesh_composite");
+  EXPECT_GOLDEN(context(), gpu, "splat_mesh_composite", ref->rgba8);
 
   // Clearing the mesh brings back the plain splat image.
   r->clear_mesh();
@@ -122,8 +122,8 @@ TEST_F(SplatComposite, StereoEqualsTwoMonoRendersAndTheReference) {
   ASSERT_TRUE(ref_l.ok() && ref_r.ok());
   EXPECT_TRUE(close_to_reference(ref_l->rgba8, *l, "splat_stereo_left"));
   EXPECT_TRUE(close_to_reference(ref_r->rgba8, *rr, "splat_stereo_right"));
-  EXPECT_GOLDEN(*l, "splat_stereo_left");
-  EXPECT_GOLDEN(*rr, "splat_stereo_right");
+  EXPECT_GOLDEN(context(), *l, "splat_stereo_left", ref_l->rgba8);
+  EXPECT_GOLDEN(context(), *rr, "splat_stereo_right", ref_r->rgba8);
 }
 
 TEST_F(SplatComposite, HighlightAndEditTintsMatchReference) {
@@ -159,7 +159,7 @@ TEST_F(SplatComposite, HighlightAndEditTintsMatchReference) {
   auto ref = render::render_reference(scene, {}, 0, cam, ro);
   ASSERT_TRUE(ref.ok()) << ref.message();
   EXPECT_TRUE(close_to_reference(ref->rgba8, gpu, "splat_tints"));
-  EXPECT_GOLDEN(gpu, "splat_tints");
+  EXPECT_GOLDEN(context(), gpu, "splat_tints", ref->rgba8);
 
   // Every frame ages the tints by one: the next frame equals the reference with age + 1.
   for (auto& t : tints) ++t.age;
@@ -197,7 +197,7 @@ TEST_F(SplatComposite, RealSceneGuitarMatchesReference) {
   ASSERT_TRUE(ref.ok()) << ref.message();
   const ImageRGBA8 gpu = image(*r);
   EXPECT_TRUE(close_to_reference(ref->rgba8, gpu, "splat_real_guitar"));
-  EXPECT_GOLDEN(gpu, "splat_real_guitar");
+  EXPECT_GOLDEN(context(), gpu, "splat_real_guitar", ref->rgba8);
 }
 
 TEST_F(SplatComposite, RealSceneFruitDropsSh3MatchesReference) {
@@ -216,7 +216,7 @@ TEST_F(SplatComposite, RealSceneFruitDropsSh3MatchesReference) {
   ASSERT_TRUE(ref.ok()) << ref.message();
   const ImageRGBA8 gpu = image(*r);
   EXPECT_TRUE(close_to_reference(ref->rgba8, gpu, "splat_real_fruit_drops"));
-  EXPECT_GOLDEN(gpu, "splat_real_fruit_drops");
+  EXPECT_GOLDEN(context(), gpu, "splat_real_fruit_drops", ref->rgba8);
 }
 
 }  // namespace

@@ -58,7 +58,7 @@ TEST_F(SplatSyntheticRoom, MatchesReferenceAndGolden) {
   auto ref = render::render_reference(room.gaussians, {}, room.sh_degree, room.camera, {});
   ASSERT_TRUE(ref) << ref.message();
   EXPECT_TRUE(close_to_reference(ref->rgba8, *gpu, "splat_synthetic_room"));
-  EXPECT_GOLDEN(*gpu, "splat_synthetic_room");
+  EXPECT_GOLDEN(context(), *gpu, "splat_synthetic_room", ref->rgba8);
 
   // The same slots and camera on a second renderer (the host's "server render" and
   // the client's) give the same bytes.

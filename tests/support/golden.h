@@ -1,8 +1,13 @@
 #pragma once
-// Golden-image checks, pixel exact (our goldens are exact on lavapipe).
+// Golden-image checks: pixel exact on lavapipe, the reference tolerance on any other device.
 //
-//   EXPECT_GOLDEN(image, "compute_pattern");   compares with golden/compute_pattern.png
+//   EXPECT_GOLDEN(context(), image, "compute_pattern", reference);  golden/compute_pattern.png
 //   EXPECT_TRUE(gauss::test::images_equal(expected, actual, "name"));  two images in memory
+//   EXPECT_TRUE(gauss::test::close_to_reference(reference, actual, "name"));  the tolerance
+//
+// Which of the two a golden check is, is decided in one place, golden_check_for() (why is
+// written there). `reference` is the image the CPU reference (or, for the test pattern, the
+// CPU copy of the shader) gives for the same input: on lavapipe it is not used.
 //
 // On a mismatch the test fails with the number of differing pixels, the largest channel
 // difference and the first differing pixel, and writes <build>/test-output/<name>.actual.png
@@ -11,6 +16,7 @@
 // with scripts/approve-goldens, which is the one deliberate way to change goldens.
 #include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -18,6 +24,8 @@
 #include <gtest/gtest.h>
 
 #include "gauss/engine/image_io.h"
+#include "gauss/render/image_metrics.h"
+#include "gauss/render/vk_context.h"
 #include "test_data.h"
 
 namespace gauss::test {
@@ -122,7 +130,80 @@ inline ::testing::AssertionResult matches_golden(const ImageRGBA8& actual, const
   return result;
 }
 
+// The tolerance the renderer promises against the CPU reference on every device (issue 24):
+// PSNR at least 60 dB and no channel off by more than 2/255.
+inline constexpr double kReferenceMinPsnrDb = 60.0;
+inline constexpr int kReferenceMaxError = 2;
+
+// Image vs the reference image: PSNR >= min_psnr and max error <= max_err, plus a printout of
+// both figures (they go into the report). On failure both images go to the output folder.
+inline ::testing::AssertionResult close_to_reference(const ImageRGBA8& ref, const ImageRGBA8& actual,
+                                                     const std::string& what, double min_psnr = kReferenceMinPsnrDb,
+                                                     int max_err = kReferenceMaxError) {
+  auto d = render::compare_images(ref, actual);
+  if (!d) return ::testing::AssertionFailure() << what << ": " << d.message();
+  std::printf("[%s] PSNR %.2f dB, max error %d/255, %llu of %llu pixels differ\n", what.c_str(), d->psnr_db,
+              d->max_abs_error, static_cast<unsigned long long>(d->pixels_differing),
+              static_cast<unsigned long long>(d->pixels));
+  if (d->psnr_db < min_psnr || d->max_abs_error > max_err) {
+    (void)write_png(output_dir() / (what + ".gpu.png"), actual);
+    (void)write_png(output_dir() / (what + ".ref.png"), ref);
+    return ::testing::AssertionFailure() << what << ": PSNR " << d->psnr_db << " dB (need >= " << min_psnr
+                                         << "), max error " << d->max_abs_error << " (need <= " << max_err
+                                         << "); images in " << output_dir().string();
+  }
+  return ::testing::AssertionSuccess();
+}
+
+enum class GoldenCheck {
+  Exact,               // equal to golden/<name>.png, byte for byte
+  ReferenceTolerance,  // the golden must exist; the image is held to close_to_reference()
+};
+
+// THE place that decides how golden checks run on a device. The goldens are lavapipe's
+// images (Mesa 22.3.6, the device every session and CI run has), and there they stay exact:
+// any change that moves one pixel by 1/255 is seen and must be approved on purpose. Another
+// driver rounds differently (fused multiply-adds, exp and rsqrt precision, reductions
+// reordered by other subgroup sizes): on an H100 ten golden checks failed because 1-5 pixels
+// were 1/255 off lavapipe's, while every image was 88-97 dB from the CPU reference (issue
+// 24). So elsewhere a golden check holds the image to what the renderer promises on every
+// device, the reference tolerance. Decided by the driver ID, not the device name, so a
+// lavapipe whose name reads differently (another LLVM, LP_NATIVE_VECTOR_WIDTH) stays exact.
+inline GoldenCheck golden_check_for(const vk::Context& ctx) {
+  VkPhysicalDeviceDriverProperties driver{};
+  driver.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES;
+  VkPhysicalDeviceProperties2 props{};
+  props.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+  props.pNext = &driver;
+  vkGetPhysicalDeviceProperties2(ctx.physical_device(), &props);
+  return driver.driverID == VK_DRIVER_ID_MESA_LLVMPIPE ? GoldenCheck::Exact : GoldenCheck::ReferenceTolerance;
+}
+
+// A golden check as `check` says: Exact is matches_golden(); ReferenceTolerance requires the
+// golden to exist and `actual` to be close_to_reference(reference), and prints how far the
+// image is from the golden (information, not a failure).
+inline ::testing::AssertionResult matches_golden(GoldenCheck check, const ImageRGBA8& actual, const std::string& name,
+                                                 const ImageRGBA8& reference) {
+  if (check == GoldenCheck::Exact) return matches_golden(actual, name);
+  if (!detail::valid_golden_name(name)) {
+    return ::testing::AssertionFailure() << "golden name '" << name << "' must be non-empty [a-z0-9_-]";
+  }
+  const auto golden_path = golden_dir() / (name + ".png");
+  auto golden = read_png_rgba8(golden_path);
+  if (!golden) {
+    return ::testing::AssertionFailure() << "golden " << golden_path.string() << ": " << golden.message()
+                                         << " (create it on lavapipe with scripts/approve-goldens)";
+  }
+  if (auto d = render::compare_images(*golden, actual); d) {
+    std::printf("[%s] golden checked to the reference tolerance (off lavapipe); %llu pixels differ from the "
+                "golden, max %d/255\n",
+                name.c_str(), static_cast<unsigned long long>(d->pixels_differing), d->max_abs_error);
+  }
+  return close_to_reference(reference, actual, name);
+}
+
 }  // namespace gauss::test
 
-#define EXPECT_GOLDEN(image, name) EXPECT_TRUE(::gauss::test::matches_golden((image), (name)))
-#define ASSERT_GOLDEN(image, name) ASSERT_TRUE(::gauss::test::matches_golden((image), (name)))
+// The golden check of a test on the device of `ctx` (a vk::Context): see golden_check_for().
+#define EXPECT_GOLDEN(ctx, image, name, reference)                                                             \
+  EXPECT_TRUE(::gauss::test::matches_golden(::gauss::test::golden_check_for(ctx), (image), (name), (reference)))

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "gauss/render/reference_rasterizer.h"
+#include "gauss/render/splat_memory_plan.h"
 #include "gauss/render/vk_context.h"
 #include "gauss/render/vk_staged_uploads.h"
 #include "splat_layout.h"
@@ -48,39 +49,46 @@ Expected<SlotBuffer> SlotBuffer::create(vk::Context& context, const SlotBufferCr
   s.sh_stride_ = 3u * std::min(coeffs, gpu::SPLAT_SH_LOW_COEFFS);
   s.sh_high_stride_ = coeffs > gpu::SPLAT_SH_LOW_COEFFS ? gpu::SPLAT_SH_HIGH_STRIDE : 0u;
   const VkDeviceSize range = context.max_storage_buffer_range();
-  const VkDeviceSize core_bytes = VkDeviceSize{info.capacity} * sizeof(gpu::GpuSplatCore);
-  const VkDeviceSize sh_bytes = VkDeviceSize{info.capacity} * s.sh_stride_ * sizeof(float);
-  const VkDeviceSize sh_high_bytes = VkDeviceSize{info.capacity} * s.sh_high_stride_ * sizeof(float);
-  const VkDeviceSize per_slot = std::max<VkDeviceSize>(sizeof(gpu::GpuSplatCore), s.sh_stride_ * sizeof(float));
-  if (core_bytes > range || sh_bytes > range || sh_high_bytes > range)
+  s.chunk_slots_ = info.chunk_slots != 0 ? std::min(info.chunk_slots, info.capacity)
+                                         : slot_chunk_slots(range, info.capacity, info.sh_degree);
+  const std::uint64_t chunks = s.chunk_slots_ == 0 ? 0 : (std::uint64_t{info.capacity} + s.chunk_slots_ - 1) / s.chunk_slots_;
+  const VkDeviceSize widest = std::max<VkDeviceSize>(sizeof(gpu::GpuSplatCore), s.sh_stride_ * sizeof(float));
+  if (chunks == 0 || chunks > kMaxSlotChunks || VkDeviceSize{s.chunk_slots_} * widest > range)
     return Error{"SlotBuffer: capacity " + std::to_string(info.capacity) + " at SH degree " +
-                 std::to_string(info.sh_degree) + " exceeds the device's storage binding range of " +
-                 std::to_string(range) + " bytes (at most " + std::to_string(range / per_slot) + " slots)"};
+                 std::to_string(info.sh_degree) + " in chunks of " + std::to_string(s.chunk_slots_) +
+                 " slots needs " + std::to_string(chunks) + " chunks of up to " +
+                 std::to_string(VkDeviceSize{s.chunk_slots_} * widest) + " bytes; the device's storage binding range is " +
+                 std::to_string(range) + " bytes and at most " + std::to_string(kMaxSlotChunks) + " chunks are bound"};
 
-  auto core = vk::Buffer::create(context, {.size = core_bytes, .name = "splat core slots"});
-  if (!core) return core.error();
-  auto sh = vk::Buffer::create(context, {.size = std::max<VkDeviceSize>(16, sh_bytes), .name = "splat SH rest slots (bands 1-2)"});
-  if (!sh) return sh.error();
-  auto sh_high = vk::Buffer::create(context, {.size = std::max<VkDeviceSize>(16, sh_high_bytes), .name = "splat SH rest slots (band 3)"});
-  if (!sh_high) return sh_high.error();
+  for (std::uint32_t c = 0; c < chunks; ++c) {
+    const std::uint32_t first = c * s.chunk_slots_;
+    const VkDeviceSize n = std::min(info.capacity - first, s.chunk_slots_);
+    const std::string part = chunks > 1 ? " chunk " + std::to_string(c) : std::string{};
+    auto core = vk::Buffer::create(context, {.size = n * sizeof(gpu::GpuSplatCore), .name = "splat core slots" + part});
+    if (!core) return core.error();
+    auto sh = vk::Buffer::create(context, {.size = std::max<VkDeviceSize>(16, n * s.sh_stride_ * sizeof(float)),
+                                           .name = "splat SH rest slots (bands 1-2)" + part});
+    if (!sh) return sh.error();
+    auto sh_high = vk::Buffer::create(context, {.size = std::max<VkDeviceSize>(16, n * s.sh_high_stride_ * sizeof(float)),
+                                                .name = "splat SH rest slots (band 3)" + part});
+    if (!sh_high) return sh_high.error();
+    // Start empty: flags 0 everywhere.
+    std::vector<gpu::GpuSplatCore> empty(std::min<VkDeviceSize>(n, 65536u));
+    for (VkDeviceSize at = 0; at < n; at += empty.size()) {
+      const VkDeviceSize m = std::min<VkDeviceSize>(n - at, empty.size());
+      if (auto st = core->upload(empty.data(), m * sizeof(gpu::GpuSplatCore), at * sizeof(gpu::GpuSplatCore)); !st)
+        return st.error();
+    }
+    s.core_.push_back(std::move(*core));
+    s.sh_.push_back(std::move(*sh));
+    s.sh_high_.push_back(std::move(*sh_high));
+  }
   auto edit = vk::Buffer::create(context, {.size = VkDeviceSize{info.capacity} * 4, .name = "splat edit tints"});
   if (!edit) return edit.error();
-  s.core_ = std::move(*core);
-  s.sh_ = std::move(*sh);
-  s.sh_high_ = std::move(*sh_high);
   s.edit_ = std::move(*edit);
   s.occupied_.assign(info.capacity, 0);
   s.tinted_.assign(info.capacity, 0);
-
-  // Start empty: flags 0 everywhere, tints None.
-  std::vector<gpu::GpuSplatCore> empty(std::min<std::uint32_t>(info.capacity, 65536u));
-  for (std::uint32_t first = 0; first < info.capacity; first += static_cast<std::uint32_t>(empty.size())) {
-    const std::uint32_t n = std::min<std::uint32_t>(info.capacity - first, static_cast<std::uint32_t>(empty.size()));
-    if (auto st = s.core_.upload(empty.data(), VkDeviceSize{n} * sizeof(gpu::GpuSplatCore),
-                                 VkDeviceSize{first} * sizeof(gpu::GpuSplatCore));
-        !st)
-      return st.error();
-  }
+  // Tints None.
   std::vector<std::uint32_t> zero_words(info.capacity, 0u);
   if (auto st = s.edit_.upload(zero_words.data(), VkDeviceSize{info.capacity} * 4); !st) return st.error();
   return s;
@@ -108,21 +116,35 @@ void SlotBuffer::set_occupied(std::uint32_t slot, bool value) {
 
 Status SlotBuffer::write_slots(std::uint32_t first_slot, std::span<const Gaussian> gaussians) {
   if (auto st = check_range(first_slot, gaussians.size(), "write_slots"); !st) return st;
-  if (gaussians.empty()) return Ok{};
+  // One run per chunk the range touches (one run in all below one binding's worth of
+  // slots). Only a staging failure can stop a later run, after the earlier ones are queued.
+  while (!gaussians.empty()) {
+    const std::uint64_t chunk_end = (std::uint64_t{first_slot} / chunk_slots_ + 1) * chunk_slots_;
+    const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(gaussians.size(), chunk_end - first_slot));
+    if (auto st = write_chunk_run(first_slot, gaussians.first(n)); !st) return st;
+    first_slot += static_cast<std::uint32_t>(n);
+    gaussians = gaussians.subspan(n);
+  }
+  return Ok{};
+}
+
+Status SlotBuffer::write_chunk_run(std::uint32_t first_slot, std::span<const Gaussian> gaussians) {
   const auto n = static_cast<std::uint32_t>(gaussians.size());
+  const std::uint32_t chunk = first_slot / chunk_slots_;
+  const std::uint32_t at = first_slot - chunk * chunk_slots_;
   // Staging for every buffer first, so a failure leaves nothing half queued; then pack
   // straight into it. A refused Gaussian stays all zero there (an empty slot).
   auto reserve = [&](const vk::Buffer& buffer, std::uint32_t bytes_per_slot) -> Expected<std::span<std::byte>> {
     if (bytes_per_slot == 0) return std::span<std::byte>{};
-    auto r = uploads_->reserve(buffer, VkDeviceSize{first_slot} * bytes_per_slot, VkDeviceSize{n} * bytes_per_slot);
+    auto r = uploads_->reserve(buffer, VkDeviceSize{at} * bytes_per_slot, VkDeviceSize{n} * bytes_per_slot);
     if (!r) return Error{"SlotBuffer::write_slots: " + r.message()};
     return r;
   };
-  auto core = reserve(core_, sizeof(gpu::GpuSplatCore));
+  auto core = reserve(core_[chunk], sizeof(gpu::GpuSplatCore));
   if (!core) return core.error();
-  auto sh = reserve(sh_, sh_stride_ * sizeof(float));
+  auto sh = reserve(sh_[chunk], sh_stride_ * sizeof(float));
   if (!sh) return sh.error();
-  auto sh_high = reserve(sh_high_, sh_high_stride_ * sizeof(float));
+  auto sh_high = reserve(sh_high_[chunk], sh_high_stride_ * sizeof(float));
   if (!sh_high) return sh_high.error();
 
   auto* cores = reinterpret_cast<gpu::GpuSplatCore*>(core->data());
@@ -159,10 +181,16 @@ Status SlotBuffer::write_slots(std::uint32_t first_slot, std::span<const Gaussia
 Status SlotBuffer::clear_slots(std::uint32_t first_slot, std::uint32_t count) {
   if (auto st = check_range(first_slot, count, "clear_slots"); !st) return st;
   if (count == 0) return Ok{};
-  auto core = uploads_->reserve(core_, VkDeviceSize{first_slot} * sizeof(gpu::GpuSplatCore),
-                                VkDeviceSize{count} * sizeof(gpu::GpuSplatCore));
-  if (!core) return Error{"SlotBuffer::clear_slots: " + core.message()};
-  std::memset(core->data(), 0, core->size());
+  for (std::uint32_t slot = first_slot; slot < first_slot + count;) {
+    const std::uint32_t chunk = slot / chunk_slots_;
+    const auto n = static_cast<std::uint32_t>(
+        std::min<std::uint64_t>(std::uint64_t{first_slot} + count, (std::uint64_t{chunk} + 1) * chunk_slots_) - slot);
+    auto core = uploads_->reserve(core_[chunk], VkDeviceSize{slot - chunk * chunk_slots_} * sizeof(gpu::GpuSplatCore),
+                                  VkDeviceSize{n} * sizeof(gpu::GpuSplatCore));
+    if (!core) return Error{"SlotBuffer::clear_slots: " + core.message()};
+    std::memset(core->data(), 0, core->size());
+    slot += n;
+  }
   auto words = uploads_->reserve(edit_, VkDeviceSize{first_slot} * 4, VkDeviceSize{count} * 4);
   if (!words) return Error{"SlotBuffer::clear_slots: " + words.message()};
   std::memset(words->data(), 0, words->size());

@@ -1,6 +1,8 @@
 // Recording of one view's passes (see splat_renderer.h for the sequence) and the
 // per-frame statistics read back after the frame has finished.
+#include <array>
 #include <bit>
+#include <span>
 #include <initializer_list>
 #include <utility>
 
@@ -63,9 +65,25 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
   const vk::Buffer& counters = view.counters;
   auto ts = [&](std::uint32_t i) { view.timestamps.write(c, i); };
   auto push = [&](const vk::ComputePipeline& p, std::uint32_t item_count, std::uint32_t count_index,
-                  std::uint32_t shift) {
-    const gpu::GpuSplatPush pc{item_count, count_index, shift, info.max_pairs};
+                  std::uint32_t shift, std::uint32_t first_slot = 0) {
+    const gpu::GpuSplatPush pc{item_count, count_index, shift, info.max_pairs, first_slot};
     p.push_constants(c, pc);
+  };
+  // Slot chunks below the high-water mark: [first, first + count) of chunk k.
+  struct ChunkRun {
+    std::uint32_t chunk, first, count;
+  };
+  std::array<ChunkRun, gpu::SPLAT_MAX_SLOT_CHUNKS> run_array{};
+  std::uint32_t run_count = 0;
+  for (std::uint32_t k = 0; k < slots.chunk_count() && std::uint64_t{k} * slots.chunk_slots() < hwm; ++k) {
+    const std::uint32_t first = k * slots.chunk_slots();
+    run_array[run_count++] = {k, first, std::min(hwm - first, slots.chunk_slots())};
+  }
+  const std::span<const ChunkRun> runs(run_array.data(), run_count);
+  // Emit and blend read projected splats of any chunk: every chunk binding is given, the
+  // ones past the last chunk repeat chunk 0 (never read, splat_projected.glsl).
+  auto projected_chunk = [&](std::uint32_t k) -> const vk::Buffer* {
+    return &projected[k < projected.size() ? k : 0];
   };
   auto indirect = [&](std::uint32_t word) { vkCmdDispatchIndirect(c, counters.handle(), VkDeviceSize{word} * 4); };
 
@@ -99,22 +117,23 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
                                    .mesh = with_mesh,
                                    .exact_cull = options.exact_culling});
   if (!pre) return pre.error();
-  if (hwm > 0) {
+  // One dispatch per chunk (they write disjoint slots: no barrier between them).
+  for (const ChunkRun& r : runs) {
     if (auto st = (*pre)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
-                                   {gpu::SPLAT_BINDING_CORE, &slots.core_buffer()},
-                                   {gpu::SPLAT_BINDING_SH, &slots.sh_buffer()},
-                                   {gpu::SPLAT_BINDING_SH_HIGH, &slots.sh_high_buffer()},
+                                   {gpu::SPLAT_BINDING_CORE, &slots.core_buffer(r.chunk)},
+                                   {gpu::SPLAT_BINDING_SH, &slots.sh_buffer(r.chunk)},
+                                   {gpu::SPLAT_BINDING_SH_HIGH, &slots.sh_high_buffer(r.chunk)},
                                    {gpu::SPLAT_BINDING_EDIT, &slots.edit_buffer()},
                                    {gpu::SPLAT_BINDING_HIGHLIGHT, &highlight},
-                                   {gpu::SPLAT_BINDING_PROJECTED, &projected},
+                                   {gpu::SPLAT_BINDING_PROJECTED, &projected[r.chunk]},
                                    {gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
                                    {gpu::SPLAT_BINDING_TILE_DEPTH, &tile_depth}});
         !st)
       return st;
-    push(**pre, hwm, 0, 0);
-    vkCmdDispatch(c, groups(hwm, gpu::SPLAT_WORKGROUP), 1, 1);
-    vk::compute_to_compute_barrier(c);
+    push(**pre, r.count, 0, 0, r.first);
+    vkCmdDispatch(c, groups(r.count, gpu::SPLAT_WORKGROUP), 1, 1);
   }
+  if (hwm > 0) vk::compute_to_compute_barrier(c);
   ts(2);
 
   // ---- Visible list in slot order ----
@@ -127,18 +146,18 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
   push(pipelines.scan_visible(), hwm, 0, 0);
   vkCmdDispatch(c, 1, 1, 1);
   vk::compute_to_compute_barrier(c);
-  if (hwm > 0) {
-    if (auto st = pipelines.compact().bind(c, {{gpu::SPLAT_BINDING_PROJECTED, &projected},
+  for (const ChunkRun& r : runs) {
+    if (auto st = pipelines.compact().bind(c, {{gpu::SPLAT_BINDING_PROJECTED, &projected[r.chunk]},
                                                {gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
                                                {gpu::SPLAT_BINDING_OFFSETS, &offsets},
                                                {gpu::SPLAT_BINDING_KEYS_OUT, &keys[0]},
                                                {gpu::SPLAT_BINDING_VALS_OUT, &vals[0]}});
         !st)
       return st;
-    push(pipelines.compact(), hwm, 0, 0);
-    vkCmdDispatch(c, groups(hwm, gpu::SPLAT_WORKGROUP), 1, 1);
-    vk::compute_to_compute_barrier(c);
+    push(pipelines.compact(), r.count, 0, 0, r.first);
+    vkCmdDispatch(c, groups(r.count, gpu::SPLAT_WORKGROUP), 1, 1);
   }
+  if (hwm > 0) vk::compute_to_compute_barrier(c);
   ts(3);
 
   // One stable radix pass: keys/vals[src] -> keys/vals[1 - src] on digit `shift`.
@@ -196,7 +215,10 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
   auto emit = pipelines.emit(with_mesh, options.exact_culling);
   if (!emit) return emit.error();
   if (auto st = (*emit)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
-                                  {gpu::SPLAT_BINDING_PROJECTED, &projected},
+                                  {gpu::SPLAT_BINDING_PROJECTED, projected_chunk(0)},
+                                  {gpu::SPLAT_BINDING_PROJECTED_1, projected_chunk(1)},
+                                  {gpu::SPLAT_BINDING_PROJECTED_2, projected_chunk(2)},
+                                  {gpu::SPLAT_BINDING_PROJECTED_3, projected_chunk(3)},
                                   {gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
                                   {gpu::SPLAT_BINDING_OFFSETS, &offsets},
                                   {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
@@ -239,7 +261,10 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
   auto blend = pipelines.blend(with_mesh);
   if (!blend) return blend.error();
   if (auto st = (*blend)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
-                                   {gpu::SPLAT_BINDING_PROJECTED, &projected},
+                                   {gpu::SPLAT_BINDING_PROJECTED, projected_chunk(0)},
+                                   {gpu::SPLAT_BINDING_PROJECTED_1, projected_chunk(1)},
+                                   {gpu::SPLAT_BINDING_PROJECTED_2, projected_chunk(2)},
+                                   {gpu::SPLAT_BINDING_PROJECTED_3, projected_chunk(3)},
                                    {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
                                    {gpu::SPLAT_BINDING_RANGES, &vt.ranges},
                                    {gpu::SPLAT_BINDING_OUTPUT, &output},

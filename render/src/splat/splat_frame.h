@@ -63,7 +63,8 @@ struct SplatRenderer::Impl {
   splat::SplatPipelines pipelines;
 
   // Shared by the views of a frame (used one view after the other, with barriers).
-  vk::Buffer projected;   // GpuProjected per slot
+  SplatMemoryPlan plan;
+  std::vector<vk::Buffer> projected;  // GpuProjected per slot, one buffer per slot chunk
   vk::Buffer tile_count;  // uint per slot
   vk::Buffer offsets;     // uint per slot / per visible splat
   std::array<vk::Buffer, 2> keys;  // ping-pong sort keys, max(capacity, max_pairs)

@@ -3,6 +3,7 @@
 #include "splat_pipelines.h"
 
 #include <algorithm>
+#include <bit>
 #include <string>
 #include <vector>
 
@@ -69,6 +70,18 @@ std::vector<vk::DescriptorBinding> scan_bindings() {
           {gpu::SPLAT_BINDING_HIST, SB},       {gpu::SPLAT_BINDING_COUNTERS, SB}};
 }
 
+// Readers of projected splats by slot bind every chunk (splat_projected.glsl).
+void add_projected_chunks(std::vector<vk::DescriptorBinding>& bindings) {
+  for (std::uint32_t b : {gpu::SPLAT_BINDING_PROJECTED_1, gpu::SPLAT_BINDING_PROJECTED_2, gpu::SPLAT_BINDING_PROJECTED_3})
+    bindings.push_back({b, SB});
+}
+
+std::vector<vk::SpecConstant> chunk_spec(const SlotChunkLayout& chunks) {
+  return {{gpu::SPLAT_SPEC_SLOT_CHUNKS, chunks.chunks},
+          {gpu::SPLAT_SPEC_SLOT_CHUNK_SHIFT,
+           chunks.chunks > 1 ? static_cast<std::uint32_t>(std::countr_zero(chunks.chunk_slots)) : 31u}};
+}
+
 // splat_blend.comp's ballot words: one per 32 invocations of the largest subgroup.
 std::uint32_t ballot_words(const vk::Context& context) {
   return std::clamp((context.max_subgroup_size() + 31u) / 32u, 1u, 4u);
@@ -81,12 +94,18 @@ constexpr VkSubgroupFeatureFlags kBlendSubgroupOps = VK_SUBGROUP_FEATURE_BASIC_B
 
 }  // namespace
 
-Expected<SplatPipelines> SplatPipelines::create(vk::Context& context) {
+Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const SlotChunkLayout& chunks) {
+  if (chunks.chunks == 0 || chunks.chunks > gpu::SPLAT_MAX_SLOT_CHUNKS ||
+      (chunks.chunks > 1 && !std::has_single_bit(chunks.chunk_slots)))
+    return Error{"splat renderer: " + std::to_string(chunks.chunks) + " slot chunks of " +
+                 std::to_string(chunks.chunk_slots) + " slots (1.." + std::to_string(gpu::SPLAT_MAX_SLOT_CHUNKS) +
+                 " chunks of a power of two)"};
   if ((context.subgroup_operations() & kBlendSubgroupOps) != kBlendSubgroupOps)
     return Error{"splat renderer: the device lacks compute subgroup basic, vote, arithmetic and ballot operations "
                  "(device " + context.device_name() + ")"};
   SplatPipelines p;
   p.context_ = &context;
+  p.chunks_ = chunks;
   struct Fixed {
     vk::ComputePipeline* out;
     const char* name;
@@ -163,17 +182,20 @@ Expected<const vk::ComputePipeline*> SplatPipelines::preprocess(const Preprocess
 Expected<const vk::ComputePipeline*> SplatPipelines::emit(bool mesh, bool exact_cull) {
   const std::uint32_t key = (mesh ? 1u : 0u) | (exact_cull ? 2u : 0u);
   if (auto it = emit_.find(key); it != emit_.end()) return &it->second;
-  auto pipe = make(*context_, "splat emit", vk::spirv(gauss_spv_splat_emit_comp),
-                   {{gpu::SPLAT_BINDING_VIEW, DescriptorKind::UniformBuffer},
-                    {gpu::SPLAT_BINDING_PROJECTED, SB},
-                    {gpu::SPLAT_BINDING_TILE_COUNT, SB},
-                    {gpu::SPLAT_BINDING_OFFSETS, SB},
-                    {gpu::SPLAT_BINDING_VALS_IN, SB},
-                    {gpu::SPLAT_BINDING_KEYS_OUT, SB},
-                    {gpu::SPLAT_BINDING_VALS_OUT, SB},
-                    {gpu::SPLAT_BINDING_COUNTERS, SB},
-                    {gpu::SPLAT_BINDING_TILE_DEPTH, SB}},
-                   {{gpu::SPLAT_SPEC_MESH, mesh ? 1u : 0u}, {gpu::SPLAT_SPEC_EXACT_CULL, exact_cull ? 1u : 0u}});
+  std::vector<vk::DescriptorBinding> bindings = {{gpu::SPLAT_BINDING_VIEW, DescriptorKind::UniformBuffer},
+                                                 {gpu::SPLAT_BINDING_PROJECTED, SB},
+                                                 {gpu::SPLAT_BINDING_TILE_COUNT, SB},
+                                                 {gpu::SPLAT_BINDING_OFFSETS, SB},
+                                                 {gpu::SPLAT_BINDING_VALS_IN, SB},
+                                                 {gpu::SPLAT_BINDING_KEYS_OUT, SB},
+                                                 {gpu::SPLAT_BINDING_VALS_OUT, SB},
+                                                 {gpu::SPLAT_BINDING_COUNTERS, SB},
+                                                 {gpu::SPLAT_BINDING_TILE_DEPTH, SB}};
+  add_projected_chunks(bindings);
+  std::vector<vk::SpecConstant> spec = chunk_spec(chunks_);
+  spec.push_back({gpu::SPLAT_SPEC_MESH, mesh ? 1u : 0u});
+  spec.push_back({gpu::SPLAT_SPEC_EXACT_CULL, exact_cull ? 1u : 0u});
+  auto pipe = make(*context_, "splat emit", vk::spirv(gauss_spv_splat_emit_comp), std::move(bindings), std::move(spec));
   if (!pipe) return pipe.error();
   return &emit_.emplace(key, std::move(*pipe)).first->second;
 }
@@ -181,15 +203,18 @@ Expected<const vk::ComputePipeline*> SplatPipelines::emit(bool mesh, bool exact_
 Expected<const vk::ComputePipeline*> SplatPipelines::blend(bool mesh) {
   const std::uint32_t key = mesh ? 1u : 0u;
   if (auto it = blend_.find(key); it != blend_.end()) return &it->second;
-  auto pipe = make(*context_, "splat blend", vk::spirv(gauss_spv_splat_blend_comp),
-                   {{gpu::SPLAT_BINDING_VIEW, DescriptorKind::UniformBuffer},
-                    {gpu::SPLAT_BINDING_PROJECTED, SB},
-                    {gpu::SPLAT_BINDING_VALS_IN, SB},
-                    {gpu::SPLAT_BINDING_RANGES, SB},
-                    {gpu::SPLAT_BINDING_OUTPUT, SB},
-                    {gpu::SPLAT_BINDING_MESH_COLOUR, DescriptorKind::StorageImage},
-                    {gpu::SPLAT_BINDING_MESH_DEPTH, DescriptorKind::SampledImage}},
-                   {{gpu::SPLAT_SPEC_MESH, key}, {gpu::SPLAT_SPEC_BALLOT_WORDS, ballot_words(*context_)}});
+  std::vector<vk::DescriptorBinding> bindings = {{gpu::SPLAT_BINDING_VIEW, DescriptorKind::UniformBuffer},
+                                                 {gpu::SPLAT_BINDING_PROJECTED, SB},
+                                                 {gpu::SPLAT_BINDING_VALS_IN, SB},
+                                                 {gpu::SPLAT_BINDING_RANGES, SB},
+                                                 {gpu::SPLAT_BINDING_OUTPUT, SB},
+                                                 {gpu::SPLAT_BINDING_MESH_COLOUR, DescriptorKind::StorageImage},
+                                                 {gpu::SPLAT_BINDING_MESH_DEPTH, DescriptorKind::SampledImage}};
+  add_projected_chunks(bindings);
+  std::vector<vk::SpecConstant> spec = chunk_spec(chunks_);
+  spec.push_back({gpu::SPLAT_SPEC_MESH, key});
+  spec.push_back({gpu::SPLAT_SPEC_BALLOT_WORDS, ballot_words(*context_)});
+  auto pipe = make(*context_, "splat blend", vk::spirv(gauss_spv_splat_blend_comp), std::move(bindings), std::move(spec));
   if (!pipe) return pipe.error();
   return &blend_.emplace(key, std::move(*pipe)).first->second;
 }

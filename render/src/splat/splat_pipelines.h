@@ -22,9 +22,16 @@ struct PreprocessKey {
   auto operator<=>(const PreprocessKey&) const = default;
 };
 
+// How the projected splats are split over bindings (splat_memory_plan.h): emit and blend
+// are specialised for it.
+struct SlotChunkLayout {
+  std::uint32_t chunks{1};
+  std::uint32_t chunk_slots{0};  // a power of two when chunks > 1
+};
+
 class SplatPipelines {
  public:
-  static Expected<SplatPipelines> create(vk::Context& context);
+  static Expected<SplatPipelines> create(vk::Context& context, const SlotChunkLayout& chunks);
 
   Expected<const vk::ComputePipeline*> preprocess(const PreprocessKey& key);
   Expected<const vk::ComputePipeline*> emit(bool mesh, bool exact_cull);
@@ -41,6 +48,7 @@ class SplatPipelines {
 
  private:
   vk::Context* context_{nullptr};
+  SlotChunkLayout chunks_;
   std::map<PreprocessKey, vk::ComputePipeline> preprocess_;
   std::map<std::uint32_t, vk::ComputePipeline> emit_;
   std::map<std::uint32_t, vk::ComputePipeline> blend_;

@@ -26,29 +26,15 @@ SplatRenderer::~SplatRenderer() = default;
 
 Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& context,
                                                                 const SplatRendererCreateInfo& info_in) {
+  // Everything the renderer will allocate is sized and checked first: a scene the device
+  // cannot hold is refused here, before any buffer exists.
+  auto plan = plan_splat_memory(context, info_in);
+  if (!plan) return plan.error();
   SplatRendererCreateInfo info = info_in;
-  if (info.capacity == 0 || info.capacity > kMaxSplatCapacity)
-    return Error{"SplatRenderer: capacity " + std::to_string(info.capacity) + " outside 1.." +
-                 std::to_string(kMaxSplatCapacity)};
-  if (info.sh_degree < 0 || info.sh_degree > kMaxShDegree)
-    return Error{"SplatRenderer: sh_degree " + std::to_string(info.sh_degree) + " outside 0..3"};
-  if (info.max_width == 0 || info.max_height == 0 || info.max_width > 4096 || info.max_height > 4096)
-    return Error{"SplatRenderer: max size " + std::to_string(info.max_width) + "x" + std::to_string(info.max_height) +
-                 " outside 1..4096"};
-  const VkDeviceSize range = context.max_storage_buffer_range();
-  const std::uint64_t pair_limit = range / 4;
-  if (info.max_pairs == 0)
-    info.max_pairs = static_cast<std::uint32_t>(
-        std::min<std::uint64_t>({pair_limit, 32u << 20, std::max<std::uint64_t>(1u << 20, std::uint64_t{info.capacity} * 16)}));
-  if (info.max_pairs > pair_limit)
-    return Error{"SplatRenderer: max_pairs " + std::to_string(info.max_pairs) + " exceeds the storage binding range (" +
-                 std::to_string(pair_limit) + " pairs)"};
-
-  if (info.frames_in_flight == 0 || info.frames_in_flight > vk::kMaxFramesInFlight)
-    return Error{"SplatRenderer: frames_in_flight " + std::to_string(info.frames_in_flight) + " outside 1.." +
-                 std::to_string(vk::kMaxFramesInFlight)};
+  info.max_pairs = plan->max_pairs;
 
   auto impl = std::make_unique<Impl>();
+  impl->plan = *plan;
   impl->context = &context;
   auto ring = vk::FrameRing::create(context, info.frames_in_flight);
   if (!ring) return Error{"SplatRenderer: " + ring.message()};
@@ -56,13 +42,14 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
   auto uploads = vk::StagedUploads::create(context, *impl->ring);
   if (!uploads) return Error{"SplatRenderer: " + uploads.message()};
   impl->uploads = std::move(*uploads);
-  auto slots = SlotBuffer::create(context, {.capacity = info.capacity, .sh_degree = info.sh_degree}, *impl->uploads);
+  auto slots = SlotBuffer::create(
+      context, {.capacity = info.capacity, .sh_degree = info.sh_degree, .chunk_slots = plan->chunk_slots}, *impl->uploads);
   if (!slots) return Error{"SplatRenderer: " + slots.message()};
   impl->slots = std::move(*slots);
   auto mesh = MeshPass::create(context);
   if (!mesh) return mesh.error();
   impl->mesh = std::move(*mesh);
-  auto pipes = splat::SplatPipelines::create(context);
+  auto pipes = splat::SplatPipelines::create(context, {.chunks = plan->slot_chunks, .chunk_slots = plan->chunk_slots});
   if (!pipes) return pipes.error();
   impl->pipelines = std::move(*pipes);
 
@@ -83,8 +70,15 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
     std::uint64_t bytes;
     const char* name;
   };
+  for (std::uint32_t c = 0; c < plan->slot_chunks; ++c) {
+    const std::uint64_t first = std::uint64_t{c} * plan->chunk_slots;
+    const std::uint64_t n = std::min<std::uint64_t>(info.capacity - first, plan->chunk_slots);
+    if (auto st = make(impl->projected.emplace_back(), n * sizeof(gpu::GpuProjected),
+                       plan->slot_chunks > 1 ? "splat projected chunk" : "splat projected", SSBO, Dev);
+        !st)
+      return st.error();
+  }
   const Req reqs[] = {
-      {&impl->projected, std::uint64_t{info.capacity} * sizeof(gpu::GpuProjected), "splat projected"},
       {&impl->tile_count, std::uint64_t{info.capacity} * 4, "splat tile counts"},
       {&impl->offsets, std::uint64_t{info.capacity} * 4, "splat offsets"},
       {&impl->keys[0], sort_items * 4, "sort keys A"},
@@ -124,6 +118,7 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
 std::uint32_t SplatRenderer::capacity() const noexcept { return impl_->info.capacity; }
 int SplatRenderer::sh_degree() const noexcept { return impl_->info.sh_degree; }
 std::uint32_t SplatRenderer::max_pairs() const noexcept { return impl_->info.max_pairs; }
+const SplatMemoryPlan& SplatRenderer::memory_plan() const noexcept { return impl_->plan; }
 
 Status SplatRenderer::write_slots(std::uint32_t first_slot, std::span<const Gaussian> gaussians) {
   return impl_->slots.write_slots(first_slot, gaussians);

@@ -1,11 +1,12 @@
 #pragma once
 // gauss::render::SlotBuffer: the stable-slot Gaussian store on the GPU. Capacity is fixed
-// at creation; a Gaussian keeps its slot while resident. Four storage buffers, each
-// within one binding's range (128 MiB on lavapipe): core attributes (64 B/slot), SH rest
-// of bands 1-2 (up to 24 floats/slot; absent for degree 0), SH rest of band 3 (21
-// floats/slot; only at degree 3) and one edit-tint word per slot. Splitting SH rest by
-// band keeps the largest per-slot binding at 96 B, so 1M slots of SH degree 3 fit (one
-// 180 B/slot buffer would stop at ~745k). A contiguous write is one ranged copy per buffer.
+// at creation; a Gaussian keeps its slot while resident. Per slot: core attributes
+// (64 B), SH rest of bands 1-2 (up to 24 floats; absent for degree 0), SH rest of band 3
+// (21 floats; only at degree 3) and one edit-tint word. Splitting SH rest by band keeps
+// the widest array at 96 B per slot. Core and SH are held in slot chunks of chunk_slots
+// slots, one buffer per chunk, so that each fits one storage binding (splat_memory_plan.h;
+// one chunk whenever the whole array fits). A contiguous write is one ranged copy per
+// buffer and chunk it touches.
 //
 // Input checks: a slot range past the capacity is an error (nothing written). A Gaussian
 // with a NaN/Inf in any field the splat math reads (splat_math.h step 0) is never
@@ -38,12 +39,16 @@ namespace gauss::render {
 struct SlotBufferCreateInfo {
   std::uint32_t capacity{0};  // slots, 1 ..; limited by the binding range (see create)
   int sh_degree{0};           // 0..3: SH rest stored up to this degree
+  // Slots per chunk of core and SH (slot_chunk_slots()); 0 = as the device's binding range
+  // needs.
+  std::uint32_t chunk_slots{0};
 };
 
 class SlotBuffer {
  public:
-  // Errors: capacity 0, sh_degree outside 0..3, a buffer that would exceed the device's
-  // maxStorageBufferRange (the message gives the largest capacity that fits), allocation.
+  // Errors: capacity 0, sh_degree outside 0..3, more than kMaxSlotChunks chunks or a
+  // chunk past the device's maxStorageBufferRange (the message gives the numbers),
+  // allocation.
   // `uploads` carries every later write and must outlive the SlotBuffer.
   static Expected<SlotBuffer> create(vk::Context& context, const SlotBufferCreateInfo& info,
                                      vk::StagedUploads& uploads);
@@ -83,17 +88,23 @@ class SlotBuffer {
   // Number of slots whose tint kind is not None (the renderer specialises tints away at 0).
   std::uint32_t tinted_count() const noexcept { return tinted_count_; }
 
-  const vk::Buffer& core_buffer() const noexcept { return core_; }
-  const vk::Buffer& sh_buffer() const noexcept { return sh_; }            // 16 dummy bytes for degree 0
-  const vk::Buffer& sh_high_buffer() const noexcept { return sh_high_; }  // 16 dummy bytes below degree 3
-  const vk::Buffer& edit_buffer() const noexcept { return edit_; }
+  // Slot chunks: chunk c holds slots [c * chunk_slots(), min(capacity, (c + 1) * chunk_slots())).
+  std::uint32_t chunk_count() const noexcept { return static_cast<std::uint32_t>(core_.size()); }
+  std::uint32_t chunk_slots() const noexcept { return chunk_slots_; }
+  const vk::Buffer& core_buffer(std::uint32_t chunk) const noexcept { return core_[chunk]; }
+  const vk::Buffer& sh_buffer(std::uint32_t chunk) const noexcept { return sh_[chunk]; }  // 16 dummy bytes for degree 0
+  const vk::Buffer& sh_high_buffer(std::uint32_t chunk) const noexcept { return sh_high_[chunk]; }  // 16 dummy bytes below degree 3
+  const vk::Buffer& edit_buffer() const noexcept { return edit_; }  // every slot
 
  private:
   Status check_range(std::uint32_t first_slot, std::uint64_t count, const char* what) const;
+  // Packs gaussians into slots [first_slot, first_slot + size) of one chunk.
+  Status write_chunk_run(std::uint32_t first_slot, std::span<const Gaussian> gaussians);
   void set_occupied(std::uint32_t slot, bool value);
 
   vk::StagedUploads* uploads_{nullptr};
   std::uint32_t capacity_{0};
+  std::uint32_t chunk_slots_{0};
   int sh_degree_{0};
   std::uint32_t sh_stride_{0};
   std::uint32_t sh_high_stride_{0};
@@ -103,9 +114,9 @@ class SlotBuffer {
   std::uint64_t rejected_nonfinite_{0};
   std::vector<std::uint8_t> occupied_;
   std::vector<std::uint8_t> tinted_;
-  vk::Buffer core_;
-  vk::Buffer sh_;
-  vk::Buffer sh_high_;
+  std::vector<vk::Buffer> core_;     // one per chunk
+  std::vector<vk::Buffer> sh_;
+  std::vector<vk::Buffer> sh_high_;
   vk::Buffer edit_;
 };
 

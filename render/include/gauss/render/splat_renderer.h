@@ -40,6 +40,7 @@
 #include "gauss/engine/mesh.h"
 #include "gauss/engine/result.h"
 #include "gauss/render/splat_math.h"
+#include "gauss/render/splat_memory_plan.h"
 
 namespace gauss::vk {
 class Context;
@@ -50,15 +51,12 @@ class StagedUploads;
 
 namespace gauss::render {
 
-// A client holds at most M = 400,000 (the session refuses more); the host renders whole
-// scenes, and the benchmark's 1M row, so the renderer itself goes to 2^20 slots. Every
-// per-slot binding stays within 128 MiB there (largest: 96 B/slot of SH bands 1-2).
-inline constexpr std::uint32_t kMaxSplatCapacity = 1u << 20;
 inline constexpr std::uint32_t kMaxHighlightObjects = 65'536;
 
 struct SplatRendererCreateInfo {
-  std::uint32_t capacity{0};    // slots, 1 .. kMaxSplatCapacity (less on a device whose
-                                // maxStorageBufferRange is below 96 B per slot)
+  // Slots, 1 .. what the device holds (splat_memory_plan.h: the binding range, the
+  // allocation size and the device-local heap decide; max_splat_capacity() says).
+  std::uint32_t capacity{0};
   int sh_degree{0};             // 0..3, SH rest stored and evaluated up to this degree
   std::uint32_t max_width{1280};
   std::uint32_t max_height{720};
@@ -67,6 +65,10 @@ struct SplatRendererCreateInfo {
   // Frames that may be in flight at once (1 .. vk::kMaxFramesInFlight). A display loop
   // uses 2 so that recording frame k+1 overlaps the GPU work of frame k.
   std::uint32_t frames_in_flight{1};
+  // The most bytes one storage binding may cover; 0 = the device's maxStorageBufferRange.
+  // A smaller value splits the per-slot arrays into chunks sooner (tests exercise the
+  // split on small scenes with it).
+  std::uint64_t max_binding_bytes{0};
 };
 
 // What a frame-paced caller adds to a frame of render_frame().
@@ -112,8 +114,10 @@ struct SplatFrameStats {
 
 class SplatRenderer {
  public:
-  // Errors: capacity 0 or above kMaxSplatCapacity, sh_degree outside 0..3, a zero or
-  // over-limit max size, buffers past the binding range, Vulkan failures (all named).
+  // Errors: capacity 0, sh_degree outside 0..3, a zero or over-limit max size, a scene
+  // the device cannot hold (plan_splat_memory's message: the limit, what the renderer
+  // needs, the most slots the device holds; checked before anything is allocated),
+  // Vulkan failures (all named).
   static Expected<std::unique_ptr<SplatRenderer>> create(vk::Context& context, const SplatRendererCreateInfo& info);
   ~SplatRenderer();
   SplatRenderer(const SplatRenderer&) = delete;
@@ -122,6 +126,8 @@ class SplatRenderer {
   std::uint32_t capacity() const noexcept;
   int sh_degree() const noexcept;
   std::uint32_t max_pairs() const noexcept;
+  // The sizes it was made with: slot chunks, bytes per slot, total bytes.
+  const SplatMemoryPlan& memory_plan() const noexcept;
 
   // ---- Slots (see slot_buffer.h: non-finite Gaussians are refused and counted) ----
   Status write_slots(std::uint32_t first_slot, std::span<const Gaussian> gaussians);

@@ -1,0 +1,62 @@
+#pragma once
+// gauss::render::plan_splat_memory: what a SplatRenderer of a given create info needs on a
+// device, worked out before anything is allocated, so that a scene too large for the
+// device is refused with the numbers and nothing half made.
+//
+// The renderer has no fixed capacity. Its limits are the device's:
+//  - maxStorageBufferRange (128 MiB on lavapipe): the wide per-slot arrays (core 64 B,
+//    SH bands 1-2 up to 96 B, SH band 3 84 B, projected 64 B per slot) are split into at
+//    most kMaxSlotChunks bindings of a power-of-two number of slots once one of them
+//    would not fit one binding; the 4-byte per-slot arrays and the sort buffers are never
+//    split, so they must fit one binding each;
+//  - maxMemoryAllocationSize per buffer (one allocation per buffer);
+//  - the device-local heap: every buffer the renderer makes, in total.
+// On lavapipe (128 MiB bindings, 2 GiB heap) that is 4,194,304 slots at SH degree 3 and
+// 8,388,608 at degree 0 (the binding limit; the heap comes next); with 4 GiB bindings
+// (desktop GPUs) the heap decides. Buffers made later (mesh chunks, the staging ring for
+// slot writes) are not part of the plan.
+#include <cstdint>
+#include <string>
+
+#include "gauss/engine/result.h"
+
+namespace gauss::vk {
+class Context;
+}
+
+namespace gauss::render {
+
+struct SplatRendererCreateInfo;
+
+// Most bindings one per-slot array is split over (splat_layout.h SPLAT_MAX_SLOT_CHUNKS).
+inline constexpr std::uint32_t kMaxSlotChunks = 4;
+
+struct SplatMemoryPlan {
+  std::uint32_t capacity{0};
+  std::uint32_t max_pairs{0};     // max_pairs after the automatic choice
+  std::uint32_t slot_chunks{1};   // bindings each wide per-slot array is split over
+  std::uint32_t chunk_slots{0};   // slots per chunk (the capacity when slot_chunks is 1)
+  std::uint64_t binding_range{0}; // bytes one binding may cover (device limit or the override)
+  std::uint64_t bytes_per_slot{0};  // every buffer that grows with the capacity, per slot
+  std::uint64_t total_bytes{0};     // every buffer and target the renderer makes
+  std::uint64_t heap_bytes{0};      // the device-local heap
+  std::uint64_t max_allocation{0};  // maxMemoryAllocationSize
+};
+
+// Slots per chunk of the wide per-slot arrays for `capacity` slots at `sh_degree` with
+// bindings of `binding_range` bytes: the capacity itself when every array fits one
+// binding, else the largest power of two whose widest array fits. 0 when not even one
+// slot fits (a binding under 96 bytes).
+std::uint32_t slot_chunk_slots(std::uint64_t binding_range, std::uint32_t capacity, int sh_degree);
+
+// Errors (one message naming the limit, what the renderer needs and the most slots the
+// device takes at this SH degree and size): invalid fields of `info` (as
+// SplatRenderer::create), more chunks than kMaxSlotChunks, a 4-byte-per-slot or sort
+// buffer past one binding, a buffer past maxMemoryAllocationSize, a total past the heap.
+Expected<SplatMemoryPlan> plan_splat_memory(const vk::Context& context, const SplatRendererCreateInfo& info);
+
+// The largest capacity plan_splat_memory accepts with the other fields of `info`
+// (0 when none does).
+std::uint32_t max_splat_capacity(const vk::Context& context, const SplatRendererCreateInfo& info);
+
+}  // namespace gauss::render

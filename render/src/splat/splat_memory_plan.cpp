@@ -1,0 +1,210 @@
+// plan_splat_memory: the renderer's buffers, sized from the create info alone (the same
+// sizes SplatRenderer::create and SlotBuffer::create then allocate), checked against the
+// device's binding range, allocation size and heap before anything is made.
+#include "gauss/render/splat_memory_plan.h"
+
+#include <algorithm>
+#include <bit>
+#include <string>
+#include <vector>
+
+#include "gauss/render/splat_math.h"
+#include "gauss/render/splat_renderer.h"
+#include "gauss/render/vk_context.h"
+#include "gauss/render/vk_frame_ring.h"
+#include "splat_layout.h"
+#include "vk/memory.h"
+
+namespace gauss::render {
+
+static_assert(kMaxSlotChunks == gpu::SPLAT_MAX_SLOT_CHUNKS);
+
+namespace {
+
+// Bytes per slot of each wide (chunked) per-slot array.
+struct WideStrides {
+  std::uint64_t core{sizeof(gpu::GpuSplatCore)};
+  std::uint64_t sh{0};       // bands 1-2
+  std::uint64_t sh_high{0};  // band 3
+  std::uint64_t projected{sizeof(gpu::GpuProjected)};
+  std::uint64_t widest() const { return std::max({core, sh, sh_high, projected}); }
+  std::uint64_t sum() const { return core + sh + sh_high + projected; }
+};
+
+WideStrides wide_strides(int sh_degree) {
+  WideStrides w;
+  const auto coeffs = static_cast<std::uint32_t>(sh_rest_count(sh_degree));
+  w.sh = 3u * std::min(coeffs, gpu::SPLAT_SH_LOW_COEFFS) * sizeof(float);
+  w.sh_high = coeffs > gpu::SPLAT_SH_LOW_COEFFS ? gpu::SPLAT_SH_HIGH_STRIDE * sizeof(float) : 0u;
+  return w;
+}
+
+// Per-slot arrays of 4 bytes (edit tints, tile counts, offsets), never split.
+constexpr std::uint64_t kNarrowBytesPerSlot = 3 * 4;
+
+std::uint64_t device_local_heap(const vk::Context& context) {
+  const VkPhysicalDeviceMemoryProperties& m = context.memory_properties();
+  std::uint64_t best = 0;
+  for (std::uint32_t h = 0; h < m.memoryHeapCount; ++h)
+    if (m.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) best = std::max<std::uint64_t>(best, m.memoryHeaps[h].size);
+  if (best == 0)
+    for (std::uint32_t h = 0; h < m.memoryHeapCount; ++h) best = std::max<std::uint64_t>(best, m.memoryHeaps[h].size);
+  return best;
+}
+
+std::uint64_t max_allocation_size(const vk::Context& context) {
+  VkPhysicalDeviceMaintenance3Properties m3{};
+  m3.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES;
+  VkPhysicalDeviceProperties2 p2{};
+  p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+  p2.pNext = &m3;
+  vkGetPhysicalDeviceProperties2(context.physical_device(), &p2);
+  return m3.maxMemoryAllocationSize;
+}
+
+std::string with_commas(std::uint64_t n) {
+  std::string s = std::to_string(n);
+  for (int i = static_cast<int>(s.size()) - 3; i > 0; i -= 3) s.insert(static_cast<std::size_t>(i), ",");
+  return s;
+}
+
+struct Checked {
+  SplatMemoryPlan plan;
+  std::string problem;  // empty when the plan fits the device
+};
+
+// The plan for `info` and, when the device cannot hold it, what is wrong (without the
+// "at most N slots" part, which needs this function again).
+Checked check(const vk::Context& context, const SplatRendererCreateInfo& info) {
+  Checked out;
+  SplatMemoryPlan& p = out.plan;
+  p.capacity = info.capacity;
+  p.binding_range = context.max_storage_buffer_range();
+  if (info.max_binding_bytes != 0) p.binding_range = std::min<std::uint64_t>(p.binding_range, info.max_binding_bytes);
+  p.heap_bytes = device_local_heap(context);
+  p.max_allocation = max_allocation_size(context);
+  const std::uint64_t range = p.binding_range;
+  const std::uint64_t cap = info.capacity;
+
+  const std::uint64_t pair_limit = range / 4;
+  p.max_pairs = info.max_pairs != 0
+                    ? info.max_pairs
+                    : static_cast<std::uint32_t>(std::min<std::uint64_t>(
+                          {pair_limit, 32u << 20, std::max<std::uint64_t>(1u << 20, cap * 16)}));
+  if (p.max_pairs > pair_limit) {
+    out.problem = "max_pairs " + with_commas(p.max_pairs) + " needs " + with_commas(std::uint64_t{p.max_pairs} * 4) +
+                  " bytes per sort buffer, more than one storage binding covers (" + with_commas(range) + " bytes, " +
+                  with_commas(pair_limit) + " pairs)";
+    return out;
+  }
+
+  const WideStrides wide = wide_strides(info.sh_degree);
+  p.chunk_slots = slot_chunk_slots(range, info.capacity, info.sh_degree);
+  if (p.chunk_slots == 0) {
+    out.problem = "one storage binding covers " + with_commas(range) + " bytes, less than one slot's " +
+                  with_commas(wide.widest()) + " bytes";
+    return out;
+  }
+  const std::uint64_t chunks = (cap + p.chunk_slots - 1) / p.chunk_slots;
+  p.slot_chunks = static_cast<std::uint32_t>(std::min<std::uint64_t>(chunks, 0xFFFFFFFFu));
+  const std::uint64_t sort_items = std::max<std::uint64_t>(cap, p.max_pairs);
+  const std::uint64_t sort_bytes = sort_items * 4;
+  p.bytes_per_slot = wide.sum() + kNarrowBytesPerSlot;
+  const std::uint64_t max_tiles = std::uint64_t{tile_count(info.max_width)} * tile_count(info.max_height);
+  const std::uint64_t pixels = std::uint64_t{info.max_width} * info.max_height;
+  const std::uint64_t hist = std::uint64_t{gpu::SORT_BINS} * ((sort_items + gpu::SORT_BLOCK - 1) / gpu::SORT_BLOCK) * 4;
+  // Sort keys and values (two each), the radix histogram, tile depth, output pixels,
+  // highlight ids, two views' tile ranges and targets (RGBA8 + D32), per-frame constants.
+  const std::uint64_t fixed = 4 * sort_bytes + hist + max_tiles * 4 + pixels * 4 + kMaxHighlightObjects * 4 +
+                              2 * max_tiles * 8 + 2 * pixels * 8 +
+                              std::uint64_t{info.frames_in_flight} * 2 * (sizeof(gpu::GpuView) + gpu::SPLAT_COUNTER_WORDS * 4);
+  p.total_bytes = p.bytes_per_slot * cap + fixed;
+
+  if (chunks > kMaxSlotChunks) {
+    out.problem = with_commas(cap) + " slots need " + std::to_string(chunks) + " storage bindings of " + with_commas(p.chunk_slots) +
+                  " slots per wide per-slot array (" + with_commas(wide.widest()) + " bytes per slot in the widest, " +
+                  "maxStorageBufferRange " + with_commas(range) + " bytes), more than the " + std::to_string(kMaxSlotChunks) +
+                  " the passes bind";
+    return out;
+  }
+  if (sort_bytes > range) {  // sort_items >= capacity: the 4-byte per-slot arrays fit too
+    out.problem = "the sort buffers need " + with_commas(sort_bytes) + " bytes (4 bytes x " + with_commas(sort_items) +
+                  " keys) in one storage binding, more than maxStorageBufferRange " + with_commas(range) + " bytes";
+    return out;
+  }
+  const std::uint64_t largest = std::max({std::uint64_t{p.chunk_slots} * wide.widest(), sort_bytes, pixels * 4});
+  if (largest > p.max_allocation) {
+    out.problem = "its largest buffer needs " + with_commas(largest) + " bytes, more than maxMemoryAllocationSize " +
+                  with_commas(p.max_allocation) + " bytes";
+    return out;
+  }
+  if (p.total_bytes > p.heap_bytes) {
+    out.problem = "it needs " + vk::format_bytes(p.total_bytes) + " (" + with_commas(p.bytes_per_slot) + " bytes per slot x " +
+                  with_commas(cap) + " slots + " + vk::format_bytes(fixed) + " for sorting and " +
+                  std::to_string(info.max_width) + "x" + std::to_string(info.max_height) +
+                  " targets), more than the device-local heap of " + vk::format_bytes(p.heap_bytes);
+    return out;
+  }
+  return out;
+}
+
+// The create-info checks that do not depend on the device (SplatRenderer::create's).
+Status check_fields(const SplatRendererCreateInfo& info) {
+  if (info.capacity == 0) return Error{"SplatRenderer: capacity must be at least 1"};
+  if (info.sh_degree < 0 || info.sh_degree > kMaxShDegree)
+    return Error{"SplatRenderer: sh_degree " + std::to_string(info.sh_degree) + " outside 0..3"};
+  if (info.max_width == 0 || info.max_height == 0 || info.max_width > 4096 || info.max_height > 4096)
+    return Error{"SplatRenderer: max size " + std::to_string(info.max_width) + "x" + std::to_string(info.max_height) +
+                 " outside 1..4096"};
+  if (info.frames_in_flight == 0 || info.frames_in_flight > vk::kMaxFramesInFlight)
+    return Error{"SplatRenderer: frames_in_flight " + std::to_string(info.frames_in_flight) + " outside 1.." +
+                 std::to_string(vk::kMaxFramesInFlight)};
+  return Ok{};
+}
+
+}  // namespace
+
+std::uint32_t slot_chunk_slots(std::uint64_t binding_range, std::uint32_t capacity, int sh_degree) {
+  const std::uint64_t widest = wide_strides(sh_degree).widest();
+  if (std::uint64_t{capacity} * widest <= binding_range) return capacity;
+  const std::uint64_t fit = binding_range / widest;
+  if (fit == 0) return 0;
+  return static_cast<std::uint32_t>(std::bit_floor(std::min<std::uint64_t>(fit, 1u << 31)));
+}
+
+std::uint32_t max_splat_capacity(const vk::Context& context, const SplatRendererCreateInfo& info) {
+  SplatRendererCreateInfo probe = info;
+  auto fits = [&](std::uint32_t capacity) {
+    probe.capacity = capacity;
+    return check(context, probe).problem.empty();
+  };
+  if (!check_fields({.capacity = 1,
+                     .sh_degree = info.sh_degree,
+                     .max_width = info.max_width,
+                     .max_height = info.max_height,
+                     .frames_in_flight = info.frames_in_flight})
+           .ok() ||
+      !fits(1))
+    return 0;
+  // Every need grows with the capacity, so the capacities that fit are 1 .. the answer.
+  std::uint32_t lo = 1, hi = 0xFFFFFFFFu;
+  if (fits(hi)) return hi;
+  while (hi - lo > 1) {
+    const std::uint32_t mid = lo + (hi - lo) / 2;
+    (fits(mid) ? lo : hi) = mid;
+  }
+  return lo;
+}
+
+Expected<SplatMemoryPlan> plan_splat_memory(const vk::Context& context, const SplatRendererCreateInfo& info) {
+  if (auto st = check_fields(info); !st) return st.error();
+  Checked c = check(context, info);
+  if (c.problem.empty()) return c.plan;
+  const std::uint32_t most = max_splat_capacity(context, info);
+  return Error{"SplatRenderer: " + with_commas(info.capacity) + " slots at SH degree " + std::to_string(info.sh_degree) +
+               " do not fit device '" + context.device_name() + "': " + c.problem + "; it holds at most " +
+               with_commas(most) + " slots at this SH degree and " + std::to_string(info.max_width) + "x" +
+               std::to_string(info.max_height)};
+}
+
+}  // namespace gauss::render

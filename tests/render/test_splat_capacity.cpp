@@ -1,0 +1,111 @@
+// The renderer's capacity is the device's (splat_memory_plan.h): per-slot arrays split into
+// slot chunks when one binding cannot hold them, and a scene the device cannot hold is
+// refused before anything is allocated, with the numbers. The split is exercised on small
+// scenes by lowering the binding range (SplatRendererCreateInfo::max_binding_bytes): a
+// split renderer must give the very bytes of an unsplit one.
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "gauss/render/splat_renderer.h"
+#include "gauss/render/vk_context.h"
+#include "golden.h"
+#include "splat_test_util.h"
+#include "vk_test.h"
+
+namespace gauss::test {
+namespace {
+
+// 1024 SH3 slots per chunk: the widest array (SH bands 1-2) is 96 bytes per slot.
+constexpr std::uint64_t kSmallBinding = 96 * 1024;
+
+class SplatCapacity : public VkTest {
+ protected:
+  render::SplatRendererCreateInfo info(std::uint32_t capacity, std::uint64_t binding_bytes) const {
+    return {.capacity = capacity, .sh_degree = 3, .max_width = 96, .max_height = 64, .max_pairs = 1u << 14,
+            .max_binding_bytes = binding_bytes};
+  }
+  ImageRGBA8 draw(render::SplatRenderer& r, const Camera& cam) {
+    auto stats = r.render(cam);
+    EXPECT_TRUE(stats.ok()) << (stats.ok() ? "" : stats.message());
+    if (stats.ok()) {
+      EXPECT_FALSE(stats->pair_overflow);
+    }
+    auto img = r.read_image();
+    EXPECT_TRUE(img.ok()) << (img.ok() ? "" : img.message());
+    return img.ok() ? *img : ImageRGBA8{};
+  }
+};
+
+// Writes and clears that straddle chunk boundaries, splats in every chunk: the split
+// renderer (4 chunks of 1024 slots) gives the bytes of the unsplit one, and the reference.
+TEST_F(SplatCapacity, SplitSlotsRenderLikeOneBinding) {
+  const auto scene = procedural_scene(2500, 3, 11);
+  const Camera cam = forward_camera(96, 64);
+  auto split = render::SplatRenderer::create(context(), info(4096, kSmallBinding));
+  ASSERT_TRUE(split.ok()) << split.message();
+  auto whole = render::SplatRenderer::create(context(), info(4096, 0));
+  ASSERT_TRUE(whole.ok()) << whole.message();
+  EXPECT_EQ((*split)->memory_plan().slot_chunks, 4u);
+  EXPECT_EQ((*split)->memory_plan().chunk_slots, 1024u);
+  EXPECT_EQ((*whole)->memory_plan().slot_chunks, 1u);
+  for (auto* r : {split->get(), whole->get()}) {
+    ASSERT_TRUE(r->write_slots(700, std::span(scene).first(2000)).ok());  // chunks 0-2
+    ASSERT_TRUE(r->write_slots(3596, std::span(scene).subspan(2000)).ok());  // chunks 3, up to the last slot
+    ASSERT_TRUE(r->clear_slots(1000, 100).ok());  // across the boundary at 1024
+    ASSERT_TRUE(r->set_edit_tints(2040, 20, {.kind = render::EditTintKind::Added, .age = 1}).ok());
+  }
+  EXPECT_EQ((*split)->high_water(), 4096u);
+  const ImageRGBA8 a = draw(**split, cam);
+  const ImageRGBA8 b = draw(**whole, cam);
+  EXPECT_TRUE(images_equal(b, a, "splat_split_slots"));
+
+  // Without the tints, against the reference (slot order = the order the kept ones sit in).
+  for (auto* r : {split->get(), whole->get()})
+    ASSERT_TRUE(r->set_edit_tints(0, 4096, {.kind = render::EditTintKind::None}).ok());
+  std::vector<Gaussian> kept;
+  for (std::size_t i = 0; i < scene.size(); ++i) {
+    const std::size_t slot = i < 2000 ? 700 + i : 3596 + (i - 2000);
+    if (slot < 1000 || slot >= 1100) kept.push_back(scene[i]);
+  }
+  auto ref = render::render_reference(kept, {}, 3, cam);
+  ASSERT_TRUE(ref.ok()) << ref.message();
+  EXPECT_TRUE(close_to_reference(ref->rgba8, draw(**split, cam), "splat_split_slots_reference"));
+}
+
+// One slot past what four bindings hold is refused by name before anything is made;
+// max_splat_capacity() says where the boundary is.
+TEST_F(SplatCapacity, RefusesMoreChunksThanBoundWithTheNumbers) {
+  EXPECT_EQ(render::max_splat_capacity(context(), info(0, kSmallBinding)), 4096u);
+  auto over = render::SplatRenderer::create(context(), info(4097, kSmallBinding));
+  ASSERT_FALSE(over.ok());
+  const std::string m = over.message();
+  EXPECT_NE(m.find("4,097 slots"), std::string::npos) << m;
+  EXPECT_NE(m.find("maxStorageBufferRange 98,304 bytes"), std::string::npos) << m;
+  EXPECT_NE(m.find("at most 4,096 slots"), std::string::npos) << m;
+  // Degree 0: the widest array is 64 bytes per slot, so a chunk holds 1536 -> 1024 slots.
+  auto sh0 = info(4097, kSmallBinding);
+  sh0.sh_degree = 0;
+  EXPECT_EQ(render::max_splat_capacity(context(), sh0), 4096u);
+  EXPECT_EQ(render::slot_chunk_slots(kSmallBinding, 1536, 0), 1536u);  // fits whole
+  EXPECT_EQ(render::slot_chunk_slots(kSmallBinding, 1537, 0), 1024u);
+}
+
+// A scene past the device-local heap is refused with what it needs and the heap size.
+TEST_F(SplatCapacity, RefusesMoreThanTheHeapWithTheNumbers) {
+  auto plan = render::plan_splat_memory(context(), info(1, 0));
+  ASSERT_TRUE(plan.ok()) << plan.message();
+  const std::uint32_t most = render::max_splat_capacity(context(), info(0, 0));
+  ASSERT_GT(most, 1u << 20);  // more than the renderer's old fixed capacity
+  auto over = render::plan_splat_memory(context(), info(most + 1, 0));
+  ASSERT_FALSE(over.ok());
+  const std::string m = over.message();
+  const bool names_limit = m.find("heap") != std::string::npos || m.find("maxStorageBufferRange") != std::string::npos ||
+                           m.find("maxMemoryAllocationSize") != std::string::npos;
+  EXPECT_TRUE(names_limit) << m;
+  EXPECT_NE(m.find("at most "), std::string::npos) << m;
+  EXPECT_TRUE(render::plan_splat_memory(context(), info(most, 0)).ok());
+}
+
+}  // namespace
+}  // namespace gauss::test
