@@ -1,12 +1,12 @@
 #pragma once
 // Publisher: once per display frame, moves pending edits from the DesiredState into
 // the SlotTable (the published state) under a work allowance.
-//   immediate:   every pending edit as soon as possible: a fixed allowance of
-//                `immediate_allowance` slot writes per frame (no slack adaptation, no age
-//                escape needed), so a batch larger than that is spread over the next
-//                frames at that rate instead of stalling one frame; the order follows
-//                the same ranking as progressive (a batch within the allowance is
-//                published whole in the next frame, as before).
+//   immediate:   every pending edit as soon as possible: straight from the arrival
+//                lists in arrival order, unscored, at a fixed `immediate_allowance` slot
+//                writes per frame (no slack adaptation, no age escape needed), so a batch
+//                larger than that is spread over the next frames at that rate instead of
+//                stalling one frame; a batch within the allowance is published whole in
+//                the next frame, as before.
 //   progressive: the highest-priority pending edits up to the allowance. Priority mixes
 //                reconstruction support, relevance to the current view, change magnitude
 //                and age. The allowance adapts to recent display slack within bounds, and
