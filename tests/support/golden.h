@@ -170,13 +170,7 @@ enum class GoldenCheck {
 // device, the reference tolerance. Decided by the driver ID, not the device name, so a
 // lavapipe whose name reads differently (another LLVM, LP_NATIVE_VECTOR_WIDTH) stays exact.
 inline GoldenCheck golden_check_for(const vk::Context& ctx) {
-  VkPhysicalDeviceDriverProperties driver{};
-  driver.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES;
-  VkPhysicalDeviceProperties2 props{};
-  props.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
-  props.pNext = &driver;
-  vkGetPhysicalDeviceProperties2(ctx.physical_device(), &props);
-  return driver.driverID == VK_DRIVER_ID_MESA_LLVMPIPE ? GoldenCheck::Exact : GoldenCheck::ReferenceTolerance;
+  return ctx.driver_id() == VK_DRIVER_ID_MESA_LLVMPIPE ? GoldenCheck::Exact : GoldenCheck::ReferenceTolerance;
 }
 
 // A golden check as `check` says: Exact is matches_golden(); ReferenceTolerance requires the

@@ -99,8 +99,7 @@ Publisher::Candidate Publisher::candidate_of(const PendingArrival& a) {
   if (!std::isfinite(c.base)) c.base = 0.0f;
   if (++next_seq_ == 0) next_seq_ = 1;  // 0 marks "none"; a wrap needs 2^32 rankings in between
   c.seq = next_seq_;
-  if (seq_.size() <= a.index) seq_.resize(std::size_t{a.index} + 1, 0);
-  seq_[a.index] = c.seq;
+  seq_[a.index] = c.seq;  // publish() sized seq_ for every entry index
   return c;
 }
 
@@ -270,7 +269,6 @@ void Publisher::rescore_slice(PublishReport& rep) {
       } else {
         rescore_queue_ = (rescore_queue_ + 1) % static_cast<int>(queues_.size());
         rescore_bucket_ = queues_[static_cast<std::size_t>(rescore_queue_)].highest();
-        if (rescore_bucket_ < 0) rescore_bucket_ = -1;
         // Empty queues are passed over without counting; `total` > 0 ends the search.
       }
       continue;

@@ -52,16 +52,6 @@ std::uint64_t device_local_heap(const vk::Context& context) {
   return best;
 }
 
-std::uint64_t max_allocation_size(const vk::Context& context) {
-  VkPhysicalDeviceMaintenance3Properties m3{};
-  m3.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES;
-  VkPhysicalDeviceProperties2 p2{};
-  p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
-  p2.pNext = &m3;
-  vkGetPhysicalDeviceProperties2(context.physical_device(), &p2);
-  return m3.maxMemoryAllocationSize;
-}
-
 std::string with_commas(std::uint64_t n) {
   std::string s = std::to_string(n);
   for (int i = static_cast<int>(s.size()) - 3; i > 0; i -= 3) s.insert(static_cast<std::size_t>(i), ",");
@@ -82,7 +72,7 @@ Checked check(const vk::Context& context, const SplatRendererCreateInfo& info) {
   p.binding_range = context.max_storage_buffer_range();
   if (info.max_binding_bytes != 0) p.binding_range = std::min<std::uint64_t>(p.binding_range, info.max_binding_bytes);
   p.heap_bytes = device_local_heap(context);
-  p.max_allocation = max_allocation_size(context);
+  p.max_allocation = context.max_memory_allocation_size();
   const std::uint64_t range = p.binding_range;
   const std::uint64_t cap = info.capacity;
 

@@ -238,8 +238,14 @@ Expected<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info
   ctx->physical_device_ = chosen->handle;
   ctx->device_info_ = chosen->info;
 
+  VkPhysicalDeviceDriverProperties driver{};  // core in Vulkan 1.2
+  driver.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES;
+  VkPhysicalDeviceMaintenance3Properties maintenance3{};  // core in Vulkan 1.1
+  maintenance3.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES;
+  maintenance3.pNext = &driver;
   VkPhysicalDeviceSubgroupSizeControlProperties size_control{};  // core in Vulkan 1.3
   size_control.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_SIZE_CONTROL_PROPERTIES;
+  size_control.pNext = &maintenance3;
   VkPhysicalDeviceSubgroupProperties subgroup{};
   subgroup.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES;
   subgroup.pNext = &size_control;
@@ -250,6 +256,8 @@ Expected<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info
   ctx->properties_ = props2.properties;
   ctx->subgroup_size_ = subgroup.subgroupSize;
   ctx->max_subgroup_size_ = std::max(subgroup.subgroupSize, size_control.maxSubgroupSize);
+  ctx->driver_id_ = driver.driverID;
+  ctx->max_memory_allocation_size_ = maintenance3.maxMemoryAllocationSize;
   ctx->subgroup_operations_ = (subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) ? subgroup.supportedOperations : 0;
   vkGetPhysicalDeviceMemoryProperties(ctx->physical_device_, &ctx->memory_properties_);
   ctx->queue_family_ = detail::pick_queue_family(ctx->physical_device_, &ctx->timestamp_valid_bits_, &extra);

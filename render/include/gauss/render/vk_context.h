@@ -133,6 +133,9 @@ class Context {
   // The largest subgroup a compute shader may run with (maxSubgroupSize where the device
   // varies it, else subgroup_size()).
   std::uint32_t max_subgroup_size() const noexcept { return max_subgroup_size_; }
+  VkDriverId driver_id() const noexcept { return driver_id_; }
+  // The largest single allocation (maxMemoryAllocationSize); a buffer is one allocation.
+  VkDeviceSize max_memory_allocation_size() const noexcept { return max_memory_allocation_size_; }
   // Nanoseconds per timestamp tick (VkPhysicalDeviceLimits::timestampPeriod).
   double timestamp_period_ns() const noexcept { return properties_.limits.timestampPeriod; }
   // Bits of a timestamp value that are valid on our queue (64 on lavapipe).
@@ -204,6 +207,8 @@ class Context {
   std::uint32_t subgroup_size_{0};
   std::uint32_t max_subgroup_size_{0};
   VkSubgroupFeatureFlags subgroup_operations_{0};
+  VkDriverId driver_id_{};
+  VkDeviceSize max_memory_allocation_size_{0};
   std::uint32_t timestamp_valid_bits_{0};
   VkPhysicalDeviceFeatures enabled_features_{};
   VkPhysicalDeviceVulkan11Features enabled_features11_{};
