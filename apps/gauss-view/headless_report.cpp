@@ -67,8 +67,11 @@ Status write_report(const fs::path& out, const nlohmann::json& s) {
   md << "# gauss-view headless run\n\n";
   md << "- source: " << s.value("source", "") << "\n";
   md << "- frames: " << s.value("frames", 0) << " (" << s.value("path_frames", 0) << " on the path, "
-     << s.value("preroll_frames", 0) << " while the stream started), "
-     << (s.value("settled", false) ? "settled" : "NOT settled") << " after " << num(s["wall_s"], 1) << " s\n";
+     << s.value("preroll_frames", 0) << " while the stream started) in " << num(s["wall_s"], 1)
+     << " s of wall time; "
+     << (s.value("settled", false) ? "the stream had settled at the end (nothing pending, no edits for the quiet time)"
+                                   : "the stream had NOT settled within the settle time")
+     << "\n";
   md << "- resident Gaussians: " << s.value("resident", 0);
   if (s.contains("capacity")) md << " of M = " << s["capacity"].get<std::uint64_t>();
   md << "\n";
