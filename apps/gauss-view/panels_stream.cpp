@@ -126,11 +126,9 @@ void Panels::draw_stream() {
   ImGui::Text("epoch      gaussians %s  surface %s", epoch_text(s.published_epoch).c_str(),
               epoch_text(s.surface_epoch).c_str());
   ImGui::Text("edits      %u this frame", s.publish.edits());
-  if (s.publish.allowance > 0) {
-    ImGui::Text("allowance  %u", s.publish.allowance);
-  } else {
-    ImGui::TextUnformatted("allowance  unbounded");
-  }
+  // Slot writes a frame may make: adaptive in progressive mode, fixed in immediate mode.
+  ImGui::Text("allowance  %u (%s)", s.publish.allowance,
+              rt_->publish_mode() == PublishMode::Immediate ? "fixed" : "follows the display");
   ImGui::Text("batches    %llu  resyncs %llu", static_cast<unsigned long long>(counters.batches),
               static_cast<unsigned long long>(counters.resyncs));
   int mode = rt_->publish_mode() == PublishMode::Immediate ? 0 : 1;
