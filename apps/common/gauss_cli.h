@@ -94,6 +94,14 @@ inline std::optional<std::pair<std::uint32_t, std::uint32_t>> parse_size(const s
   return std::pair{w, h};
 }
 
+// An "on|off" option for a bool that has a default either way.
+inline CLI::Option* add_on_off(CLI::App& app, const std::string& name, bool& value, const std::string& what) {
+  return app
+      .add_option_function<std::string>(name, [&value](const std::string& v) { value = v == "on"; },
+                                        what + " (on|off; default " + (value ? "on" : "off") + ")")
+      ->check(CLI::IsMember({"on", "off"}));
+}
+
 // Validator for parse_size.
 inline CLI::Validator image_size() {
   return CLI::Validator(

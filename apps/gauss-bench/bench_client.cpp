@@ -7,7 +7,9 @@
 //      beside the idle interval at the same resident count after each; convergence time
 //      (teleport -> first frame from which nothing is pending and the host sent nothing
 //      more); the network thread's CPU time per teleport (what it takes from the client's
-//      core).
+//      core). Publication runs on the client's publication thread unless
+//      --publication-thread off: the display thread's publish / upload CPU is then the
+//      handover, and the step's own CPU (ClientState::frame, packing) is reported apart.
 //   2. frame cost calibration: blocking frames (CPU packing + GPU copies + passes) while
 //      K slots are rewritten in R runs, fitted by least squares as base + a K + b R: the
 //      simulation's FrameCostModel from this device, beside its old constants, with the
@@ -64,6 +66,7 @@ struct Options {
   bool calibrate{true};
   bool throughput{true};
   bool isolate_host{false};
+  bool publication_thread{true};
 };
 
 // --isolate-host: the host's threads on the last CPU, the client's (display thread,
@@ -175,8 +178,10 @@ Camera room_camera(const LoopbackHost& h, std::uint32_t w, std::uint32_t hgt, bo
 Expected<std::unique_ptr<client::ClientRuntime>> connected_client(vk::Context& ctx, const LoopbackHost& host,
                                                                   std::uint32_t budget, std::string name,
                                                                   PublishMode mode, std::uint32_t frames_in_flight,
-                                                                  std::uint32_t w, std::uint32_t h) {
+                                                                  std::uint32_t w, std::uint32_t h,
+                                                                  bool publication_thread) {
   client::ClientRuntimeConfig cfg;
+  cfg.publication_thread = publication_thread;
   cfg.state.capacity = budget;
   cfg.state.name = std::move(name);
   cfg.state.publisher.mode = mode;
@@ -199,6 +204,9 @@ struct Settle {
   std::vector<double> publish_ms, upload_ms, lock_wait_ms;
   // The display thread's CPU time in the same two stages (lock wait excluded).
   std::vector<double> publish_cpu_ms, upload_cpu_ms;
+  // The publication step's own CPU (on the publication thread when it runs there), per
+  // frame that took a step: ClientState::frame, and packing its slots.
+  std::vector<double> step_publish_cpu_ms, step_pack_cpu_ms;
   std::vector<std::uint32_t> slot_writes;  // slots written or cleared per frame
   // Work per frame: arrivals ranked, ranked candidates touched by the upkeep, slots the
   // upload wrote or cleared, buffer copy regions recorded.
@@ -236,6 +244,10 @@ Settle run_until_settled(client::ClientRuntime& rt, const Camera& cam, double ti
     s.lock_wait_ms.push_back(f->lock_wait_ms);
     s.publish_cpu_ms.push_back(f->publish_cpu_ms);
     s.upload_cpu_ms.push_back(f->upload_cpu_ms);
+    if (f->step_taken) {
+      s.step_publish_cpu_ms.push_back(f->step_publish_cpu_ms);
+      s.step_pack_cpu_ms.push_back(f->step_pack_cpu_ms);
+    }
     s.slot_writes.push_back(f->publish.slot_writes());
     s.ranked.push_back(f->publish.ranked);
     s.touched.push_back(f->publish.touched);
@@ -287,7 +299,8 @@ std::vector<double> idle_frames(client::ClientRuntime& rt, const Camera& cam, st
 json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, PublishMode mode, std::uint32_t w,
                     std::uint32_t h) {
   const char* name = mode == PublishMode::Immediate ? "immediate" : "progressive";
-  auto rt = connected_client(ctx, host, o.budget, std::string("bench-") + name, mode, o.frames_in_flight, w, h);
+  auto rt = connected_client(ctx, host, o.budget, std::string("bench-") + name, mode, o.frames_in_flight, w, h,
+                             o.publication_thread);
   if (!rt) return json{{"mode", name}, {"error", rt.message()}};
   const Camera a = room_camera(host, w, h, false), b = room_camera(host, w, h, true);
   auto failed = [&](const Settle& s, const char* where) {
@@ -304,6 +317,7 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
   // are the idle frames after each, so a p99 rests on more than a few dozen frames.
   std::vector<double> streaming, idle_after, publish, upload, lock_wait, convergence, net_cpu;
   std::vector<double> publish_cpu, upload_cpu, ranked, touched, slots_uploaded, copy_regions;
+  std::vector<double> step_publish_cpu, step_pack_cpu;
   json series = json::array();
   for (std::uint32_t t = 0; t < o.teleports; ++t) {
     const Camera& to = t % 2 == 0 ? b : a;
@@ -318,6 +332,8 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
     lock_wait.insert(lock_wait.end(), tele.lock_wait_ms.begin(), tele.lock_wait_ms.end());
     publish_cpu.insert(publish_cpu.end(), tele.publish_cpu_ms.begin(), tele.publish_cpu_ms.end());
     upload_cpu.insert(upload_cpu.end(), tele.upload_cpu_ms.begin(), tele.upload_cpu_ms.end());
+    step_publish_cpu.insert(step_publish_cpu.end(), tele.step_publish_cpu_ms.begin(), tele.step_publish_cpu_ms.end());
+    step_pack_cpu.insert(step_pack_cpu.end(), tele.step_pack_cpu_ms.begin(), tele.step_pack_cpu_ms.end());
     ranked.insert(ranked.end(), tele.ranked.begin(), tele.ranked.end());
     touched.insert(touched.end(), tele.touched.begin(), tele.touched.end());
     slots_uploaded.insert(slots_uploaded.end(), tele.slots_uploaded.begin(), tele.slots_uploaded.end());
@@ -346,6 +362,10 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
   std::printf("   %-12s wall ms p99/max: publish %.2f/%.2f (lock wait %.2f/%.2f), upload %.2f/%.2f\n", "",
               percentile(publish, 0.99), worst(publish), percentile(lock_wait, 0.99), worst(lock_wait),
               percentile(upload, 0.99), worst(upload));
+  std::printf("   %-12s publication step CPU ms p99/max (%s): ClientState::frame %.2f/%.2f, packing %.2f/%.2f\n",
+              "", o.publication_thread ? "on the publication thread" : "on the display thread, as above",
+              percentile(step_publish_cpu, 0.99), worst(step_publish_cpu), percentile(step_pack_cpu, 0.99),
+              worst(step_pack_cpu));
   return json{{"mode", name},
               {"display_period_ms", period_s * 1e3},
               {"teleports", o.teleports},
@@ -363,6 +383,8 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
               {"upload_wall_ms_streaming", pct_max(upload)},
               {"publish_thread_cpu_ms_streaming", pct_max(publish_cpu)},
               {"upload_thread_cpu_ms_streaming", pct_max(upload_cpu)},
+              {"step_publish_thread_cpu_ms_streaming", pct_max(step_publish_cpu)},
+              {"step_pack_thread_cpu_ms_streaming", pct_max(step_pack_cpu)},
               {"work_per_frame_streaming",
                {{"arrivals_ranked", pct_max(ranked)},
                 {"backlog_items_touched", pct_max(touched)},
@@ -406,7 +428,7 @@ json bench_calibration(vk::Context& ctx, const Options& o, LoopbackHost& host, s
   // of ms from run to run, far more than uploads cost, so the upload is measured on its
   // own: CPU time packing into the staging ring + GPU time of the frame's copies
   // (timestamps around them), fitted as a K + b R + c; the base is the median idle frame.
-  auto rt = connected_client(ctx, host, o.budget, "bench-calibration", PublishMode::Immediate, 1, w, h);
+  auto rt = connected_client(ctx, host, o.budget, "bench-calibration", PublishMode::Immediate, 1, w, h, false);
   if (!rt) return json{{"error", rt.message()}};
   const Camera a = room_camera(host, w, h, false);
   if (!run_until_settled(**rt, a, o.timeout_s).converged) return json{{"error", "did not converge"}};
@@ -534,7 +556,7 @@ int bench_client_main(const Options& o) {
   // The host first (its threads inherit the host CPU when isolated), then the client's
   // Vulkan device on the client CPUs.
   std::unique_ptr<LoopbackHost> host;
-  json doc{{"budget", o.budget}, {"size", o.size}, {"frames_in_flight", o.frames_in_flight},
+  json doc{{"budget", o.budget}, {"size", o.size}, {"frames_in_flight", o.frames_in_flight}, {"publication_thread", o.publication_thread},
            {"isolate_host", o.isolate_host}};
   if (o.teleport || o.calibrate) {
     if (split && !pin_this_thread(split->host)) {
@@ -563,8 +585,9 @@ int bench_client_main(const Options& o) {
     return 1;
   }
   doc["device"] = (*ctx)->device_name();
-  std::printf("gauss-bench client: device %s, M = %u, %ux%u, %u frames in flight%s\n", (*ctx)->device_name().c_str(),
-              o.budget, w, h, o.frames_in_flight,
+  std::printf("gauss-bench client: device %s, M = %u, %ux%u, %u frames in flight, publication %s%s\n",
+              (*ctx)->device_name().c_str(), o.budget, w, h, o.frames_in_flight,
+              o.publication_thread ? "on its own thread" : "on the display thread",
               o.isolate_host ? "; host threads on the last CPU, the client's on the others" : "");
   if (o.throughput) {
     std::printf("\n3. upload throughput, 200k x 64 B records (wall, median of 5)\n");
@@ -614,6 +637,8 @@ BenchRun bench_client_setup(CLI::App& cmd) {
   cmd.add_option("--teleports", o->teleports, "far teleports per mode (A -> B -> A ...), their frames pooled")
       ->check(apps::in_range<std::uint32_t>(1, 100));
   cmd.add_option("--json", o->json_out, "also write the results as JSON to FILE");
+  apps::add_on_off(cmd, "--publication-thread", o->publication_thread,
+                   "publish and pack on a thread of the client's own, or on the display thread");
   cmd.add_flag("--isolate-host", o->isolate_host,
                "run the in-process host's threads on the last CPU and the client's on the others");
   cmd.add_flag_callback("--no-teleport", [o] { o->teleport = false; }, "skip part 1");

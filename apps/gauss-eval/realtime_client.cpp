@@ -28,6 +28,7 @@ Expected<std::unique_ptr<RealtimeClient>> RealtimeClient::connect(vk::Context& c
   rc.max_width = c.width;
   rc.max_height = c.height;
   rc.highlight_query = false;  // measured, not tinted (as the deterministic runs)
+  rc.publication_thread = c.publication_thread;
   auto rt = client::ClientRuntime::create(context, rc);  // the real clock: steady time
   if (!rt) return Error{"the realtime client: " + rt.message()};
   net::NetClientConfig net;

@@ -35,6 +35,7 @@ struct RealtimeClientConfig {
   PublishMode mode{PublishMode::Progressive};
   double display_hz{72.0};
   std::uint32_t width{160}, height{120};
+  bool publication_thread{true};  // as a headset's client runs (ClientRuntimeConfig)
 };
 
 // One settled view, on the wall clock.

@@ -41,6 +41,9 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
   app.add_flag("--edit-tints", o.edit_tints, "tint Gaussians as they are added, changed or removed");
   app.add_option("--frames-in-flight", o.frames_in_flight, "frames the GPU may work on at once")
       ->check(apps::in_range<std::uint32_t>(1, 4));
+  apps::add_on_off(app, "--publication-thread", o.publication_thread,
+                   "with --host: publish the stream and pack its uploads on a thread of their own, so the display "
+                   "thread only hands them over");
   app.add_option("--size", size, "view size (headless: unless the path file gives a camera); windowed: the window's size")->check(apps::image_size());
   app.add_option("--fov", o.fov_deg, "horizontal field of view in degrees of the default camera")
       ->check(apps::in_range(10.0, 150.0));

@@ -22,6 +22,7 @@ struct ViewOptions {
   bool highlight{true};
   bool edit_tints{false};
   std::uint32_t frames_in_flight{2};
+  bool publication_thread{true};       // a stream's publication off the display thread
   std::uint32_t width{640}, height{480};  // view size (headless: when the path has no camera; windowed: the window)
   double fov_deg{70.0};                // horizontal field of view of the default intrinsics
   double stereo_ipd{0.0};              // > 0: render both eyes (headless writes both)

@@ -138,6 +138,7 @@ Expected<std::unique_ptr<ViewSource>> make_view_source(vk::Context& context, con
   cfg.state.name = o.name;
   cfg.state.publisher.mode = o.mode;
   cfg.frames_in_flight = o.frames_in_flight;
+  cfg.publication_thread = o.publication_thread;
   cfg.max_width = max_w;
   cfg.max_height = max_h;
   cfg.highlight_query = o.highlight;

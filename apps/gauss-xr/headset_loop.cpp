@@ -182,6 +182,7 @@ int run_headset(const XrOptions& o) {
   rc.max_width = s.eye_width();
   rc.max_height = s.eye_height();
   rc.highlight_query = o.highlight;
+  rc.publication_thread = o.publication_thread;
   auto runtime = client::ClientRuntime::create(s.context(), rc);
   if (!runtime) return fail(runtime.message());
   client::ClientRuntime& rt = **runtime;

@@ -26,6 +26,9 @@ std::optional<int> parse_options(int argc, char** argv, XrOptions& o) {
   app.add_option("--name", o.name, "client name the host logs (and names its dumps after)");
   app.add_option("--budget", o.budget, "M: Gaussian slots of this client")->check(apps::in_range<std::uint32_t>(1, 400000));
   app.add_option("--mode", mode, "publication mode")->check(CLI::IsMember({"progressive", "immediate"}));
+  apps::add_on_off(app, "--publication-thread", o.publication_thread,
+                   "publish the stream and pack its uploads on a thread of their own, so the display thread only "
+                   "hands them over");
   app.add_option("--rho", o.rho, "a query's share of the budget at start")->check(apps::in_range(0.0, 1.0));
   app.add_flag("--stage", o.stage, "use the STAGE reference space (floor origin) instead of LOCAL");
   bool no_highlight = false;

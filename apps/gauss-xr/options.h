@@ -21,6 +21,7 @@ struct XrOptions {
   double rho{0.9};                     // a query's share of the budget (the thumbstick moves it)
   bool stage{false};                   // STAGE reference space (floor origin) instead of LOCAL
   bool highlight{true};                // tint the active query's objects
+  bool publication_thread{true};       // publication off the display thread
   std::uint64_t max_frames{0};         // ask the runtime to exit after this many frames (0: never)
   std::filesystem::path out;           // on exit: summary.json, final_slot_ids.json, the last eyes' cameras
 };

@@ -49,6 +49,11 @@ Expected<std::unique_ptr<ClientRuntime>> ClientRuntime::create(vk::Context& cont
       new ClientRuntime(context, std::move(config), std::make_unique<ClientState>(std::move(*state))));
   rt->mode_ = rt->config_.state.publisher.mode;
   if (auto st = rt->make_renderer(0); !st) return st.error();
+  if (rt->config_.publication_thread) {
+    ClientRuntime* self = rt.get();
+    rt->worker_ = std::make_unique<StepThread<PublicationJob, PreparedStep>>(
+        [self](PublicationJob& job) { return self->prepare_step(job); });
+  }
   return rt;
 }
 
@@ -58,6 +63,7 @@ ClientRuntime::ClientRuntime(vk::Context& context, ClientRuntimeConfig config, s
 }
 
 ClientRuntime::~ClientRuntime() {
+  worker_.reset();  // the publication thread stops before the state and renderer it uses
   net_.reset();  // the network thread stops before the state it feeds goes
   if (renderer_) (void)renderer_->frames().wait_all();
 }
@@ -76,6 +82,22 @@ Status ClientRuntime::make_renderer(int sh_degree) {
   renderer_ = std::move(*r);
   gpu_stats_.clear();
   highlighted_.clear();
+  if (config_.publication_thread) {
+    // Pack buffers in the new renderer's slot layout; its frame serials start afresh.
+    pack_pool_.clear();
+    unsubmitted_.clear();
+    const render::SlotLayout layout = renderer_->slot_layout();
+    const std::uint32_t slots = config_.pack_slots_per_step == 0 ? config_.state.capacity
+                                                                 : std::min(config_.state.capacity, config_.pack_slots_per_step);
+    for (std::uint32_t i = 0; i <= config_.frames_in_flight; ++i) {
+      auto b = vk::Buffer::create(*context_, {.size = VkDeviceSize{slots} * layout.bytes_per_slot(),
+                                              .usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                              .memory = vk::MemoryUsage::HostVisible,
+                                              .name = "publication pack buffer " + std::to_string(i)});
+      if (!b) return Error{"ClientRuntime: " + b.message()};
+      pack_pool_.push_back(PackBuffer{std::move(*b)});
+    }
+  }
   return publication_.republish_all(state_->slots(), state_->surface(), *renderer_);
 }
 
@@ -104,6 +126,111 @@ void ClientRuntime::deliver(const wire::Message& message) {
 
 std::vector<wire::Message> ClientRuntime::take_outgoing() { return sink_->take_outgoing(); }
 
+ClientRuntime::PreparedStep ClientRuntime::prepare_step(PublicationJob& job) {
+  PreparedStep st;
+  const auto t0 = std::chrono::steady_clock::now();
+  const double c0 = thread_cpu_ms();
+  auto fr = sink_->with_state([&](ClientState& s) -> Expected<FrameResult> {
+    st.lock_wait_ms = ms_since(t0);
+    if (job.pose) s.send_pose(*job.pose);
+    for (const RenderedNote& n : job.rendered) s.frame_rendered(n.now, n.frame_index, n.shown_step);
+    for (double cost : job.frame_costs) s.report_frame_cost(cost);
+    auto r = s.frame(job.view, job.now, job.frame_index);
+    if (s.codec()) st.sh_degree = s.codec()->sh_degree;
+    if (job.highlight_query) st.targets = s.query_targets();
+    st.desired = s.desired().desired_count();
+    st.pending = static_cast<std::uint32_t>(s.desired().pending().size());
+    st.resident = s.slots().size();
+    return r;
+  });
+  st.publish_ms = ms_since(t0);
+  const double c1 = thread_cpu_ms();
+  st.publish_cpu_ms = c1 - c0;
+  st.pack_buffer = job.pack_buffer;
+  if (!fr) {
+    st.error = fr.message();
+    return st;
+  }
+  st.result = std::move(*fr);
+  // Outside the lock: only this step writes the slot table. A step that changes the SH
+  // degree packs nothing (the renderer is made again and takes every slot anew).
+  const auto t1 = std::chrono::steady_clock::now();
+  const bool same_layout = !st.sh_degree || *st.sh_degree == job.layout.sh_degree;
+  st.slots = GpuPublication::prepare_slots(state_->slots(), st.result.ranges, job.layout,
+                                           same_layout ? job.pack : std::span<std::byte>{});
+  st.pack_ms = ms_since(t1);
+  st.pack_cpu_ms = thread_cpu_ms() - c1;
+  return st;
+}
+
+Status ClientRuntime::apply_step(PreparedStep& st, DisplayFrameStats& out) {
+  // The pack buffer goes back unless copies from it were queued (then after their frame).
+  auto release = [&] {
+    if (st.pack_buffer >= 0) pack_pool_[static_cast<std::size_t>(st.pack_buffer)].taken = false;
+    st.pack_buffer = -1;
+  };
+  if (!st.error.empty()) {
+    release();
+    return Error{st.error};
+  }
+  out.step_taken = true;
+  out.step_publish_cpu_ms = st.publish_cpu_ms;
+  out.step_pack_cpu_ms = st.pack_cpu_ms;
+  out.step_publish_ms = st.publish_ms;
+  out.step_pack_ms = st.pack_ms;
+  out.publish = st.result.publish;
+  out.ranges = static_cast<std::uint32_t>(st.result.ranges.size());
+  out.published_epoch = st.result.published_epoch;
+  out.surface_epoch = st.result.surface_epoch;
+  last_desired_ = st.desired;
+  last_pending_ = st.pending;
+  last_resident_ = st.resident;
+  shown_step_ = st.result.step;
+  if (st.sh_degree && *st.sh_degree != renderer_->sh_degree()) {
+    release();
+    if (auto s = make_renderer(*st.sh_degree); !s) return s;
+  } else {
+    const vk::Buffer* source =
+        st.pack_buffer >= 0 ? &pack_pool_[static_cast<std::size_t>(st.pack_buffer)].buffer : nullptr;
+    auto up = publication_.publish_prepared(st.slots, source, state_->slots(), *renderer_, config_.tint_edits);
+    if (!up) {
+      // Copies queued before the failure may still read the buffer: keep it to the next frame.
+      if (st.pack_buffer >= 0) unsubmitted_.push_back(st.pack_buffer);
+      return up.error();
+    }
+    out.uploaded = *up;
+    if (st.pack_buffer >= 0) {
+      if (up->slots_packed > 0) {
+        unsubmitted_.push_back(st.pack_buffer);
+      } else {
+        release();
+      }
+    }
+    out.uploaded.chunks_changed = publication_.publish_surface(state_->surface(), *renderer_);
+  }
+  if (st.targets != highlighted_) {
+    if (st.targets.empty()) {
+      renderer_->clear_highlight();
+    } else if (auto s = renderer_->set_highlight(st.targets); !s) {
+      return s.error();
+    }
+    highlighted_ = st.targets;
+  }
+  return Ok{};
+}
+
+int ClientRuntime::free_pack_buffer() {
+  const std::uint64_t done = renderer_->frames().poll();
+  for (std::size_t i = 0; i < pack_pool_.size(); ++i) {
+    PackBuffer& b = pack_pool_[i];
+    if (!b.taken && b.serial <= done) {
+      b.taken = true;
+      return static_cast<int>(i);
+    }
+  }
+  return -1;
+}
+
 Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, const render::FrameHooks& hooks) {
   const auto t0 = std::chrono::steady_clock::now();
   const double c0 = thread_cpu_ms();
@@ -112,62 +239,71 @@ Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, 
   DisplayFrameStats out;
   out.frame_index = frame_index_;
   out.now = now();
-  const ViewState view = view_state_of(views[0]);
+  out.publication_threaded = worker_ != nullptr;
+  PublicationJob& job = next_job_;
+  job.view = view_state_of(views[0]);
+  job.now = out.now;
+  job.frame_index = frame_index_;
+  job.highlight_query = config_.highlight_query;
+  if (config_.pose_period_s == 0.0 || out.now - last_pose_time_ >= config_.pose_period_s) {
+    job.pose = head_pose_from_camera(views[0]);
+    job.pose->client_time_us = static_cast<std::uint64_t>(std::max(0.0, out.now) * 1e6);
+    last_pose_time_ = out.now;
+  }
 
-  // --- publication (ClientState's lock, briefly) ---
-  std::optional<int> sh_degree;
-  std::vector<ObjectId> targets;
-  auto fr = sink_->with_state([&](ClientState& s) -> Expected<FrameResult> {
-    out.lock_wait_ms = ms_since(t0);
-    if (config_.pose_period_s == 0.0 || out.now - last_pose_time_ >= config_.pose_period_s) {
-      msg::HeadPose pose = head_pose_from_camera(views[0]);
-      pose.client_time_us = static_cast<std::uint64_t>(std::max(0.0, out.now) * 1e6);
-      s.send_pose(pose);
-      last_pose_time_ = out.now;
-    }
-    auto r = s.frame(view, out.now, frame_index_);
-    if (s.codec()) sh_degree = s.codec()->sh_degree;
-    if (config_.highlight_query) targets = s.query_targets();
-    out.desired = s.desired().desired_count();
-    out.pending = static_cast<std::uint32_t>(s.desired().pending().size());
-    return r;
-  });
-  if (!fr) return fr.error();
+  // --- publication: this frame's step (no thread), or the one the thread finished ---
+  std::optional<PreparedStep> step;
+  if (worker_) {
+    step = worker_->take();
+  } else {
+    job.layout = renderer_->slot_layout();
+    step = prepare_step(job);
+    job = PublicationJob{};
+    out.lock_wait_ms = step->lock_wait_ms;
+  }
   out.publish_ms = ms_since(t0);
   const double c1 = thread_cpu_ms();
   out.publish_cpu_ms = c1 - c0;
-  out.publish = fr->publish;
-  out.ranges = static_cast<std::uint32_t>(fr->ranges.size());
-  out.published_epoch = fr->published_epoch;
-  out.surface_epoch = fr->surface_epoch;
 
-  // --- GPU publication (display thread only: it alone writes slots and the surface) ---
+  // --- GPU publication (display thread; the publication thread is idle until asked again) ---
   const auto t1 = std::chrono::steady_clock::now();
-  if (sh_degree && *sh_degree != renderer_->sh_degree()) {
-    if (auto st = make_renderer(*sh_degree); !st) return st.error();
-  } else {
-    auto up = publication_.publish_slots(state_->slots(), fr->ranges, *renderer_, config_.tint_edits);
-    if (!up) return up.error();
-    out.uploaded = *up;
-    out.uploaded.chunks_changed = publication_.publish_surface(state_->surface(), *renderer_);
-  }
-  if (targets != highlighted_) {
-    if (targets.empty()) {
-      renderer_->clear_highlight();
-    } else if (auto st = renderer_->set_highlight(targets); !st) {
-      return st.error();
+  if (step)
+    if (auto st = apply_step(*step, out); !st) return st.error();
+  out.desired = last_desired_;
+  out.pending = last_pending_;
+  out.resident = last_resident_;
+  if (worker_) {
+    job.layout = renderer_->slot_layout();
+    job.pack_buffer = free_pack_buffer();
+    job.pack = job.pack_buffer >= 0 ? std::span<std::byte>(static_cast<std::byte*>(pack_pool_[static_cast<std::size_t>(job.pack_buffer)].buffer.mapped()),
+                                                      pack_pool_[static_cast<std::size_t>(job.pack_buffer)].buffer.size())
+                                    : std::span<std::byte>{};
+    if (worker_->request(job)) {
+      job = PublicationJob{};
+    } else if (job.pack_buffer >= 0) {
+      pack_pool_[static_cast<std::size_t>(job.pack_buffer)].taken = false;  // the notes wait for the next request
+      job.pack_buffer = -1;
     }
-    highlighted_ = targets;
   }
-  out.resident = state_->slots().size();
   out.upload_ms = ms_since(t1);
   out.upload_cpu_ms = thread_cpu_ms() - c1;
+  if (!worker_ && step) {
+    out.step_publish_cpu_ms = out.publish_cpu_ms;
+    out.step_publish_ms = out.publish_ms;
+    out.step_pack_cpu_ms = step->pack_cpu_ms;
+    out.step_pack_ms = step->pack_ms;
+  }
 
   // --- render ---
   const auto t2 = std::chrono::steady_clock::now();
   const std::uint64_t regions_before = renderer_->uploads().stats().copy_regions;
   auto serial = renderer_->render_frame(views, config_.render, hooks);
   if (!serial) return serial.error();
+  for (int b : unsubmitted_) {
+    pack_pool_[static_cast<std::size_t>(b)].serial = *serial;
+    pack_pool_[static_cast<std::size_t>(b)].taken = false;
+  }
+  unsubmitted_.clear();
   out.copy_regions = static_cast<std::uint32_t>(renderer_->uploads().stats().copy_regions - regions_before);
   out.serial = *serial;
   out.render_ms = ms_since(t2);
@@ -175,12 +311,21 @@ Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, 
   // Stamped when the frame was submitted, not when it began: a query's resolution or a batch
   // that arrived while this frame was being prepared is in it, and its "shown" stage must not
   // come out earlier than its arrival. (A simulation's clock stands still within a frame.)
-  sink_->with_state([&](ClientState& s) { s.frame_rendered(now(), frame_index_); });
+  const RenderedNote shown{now(), frame_index_, shown_step_};
   gpu_stats_.collect(*renderer_);
   out.cpu_ms = ms_since(t0);
   // The display slack the allowance follows: the frame costs whichever of the CPU work
   // and the GPU work of a frame is longer (they overlap with frames in flight).
-  sink_->with_state([&](ClientState& s) { s.report_frame_cost(std::max(out.cpu_ms, gpu_stats_.last_total_ms()) * 1e-3); });
+  const double cost = std::max(out.cpu_ms, gpu_stats_.last_total_ms()) * 1e-3;
+  if (worker_) {
+    next_job_.rendered.push_back(shown);
+    next_job_.frame_costs.push_back(cost);
+  } else {
+    sink_->with_state([&](ClientState& s) {
+      s.frame_rendered(shown.now, shown.frame_index, shown.shown_step);
+      s.report_frame_cost(cost);
+    });
+  }
   ++frame_index_;
   return out;
 }
@@ -213,13 +358,16 @@ void ClientRuntime::set_display_period(double seconds) {
 }
 
 std::map<std::int32_t, std::uint32_t> ClientRuntime::resident_per_object() {
-  std::map<std::int32_t, std::uint32_t> out;
-  const SlotTable& slots = state_->slots();
-  for (std::uint32_t s = 0; s < slots.capacity(); ++s) {
-    GaussianId id{0};
-    if (slots.occupant(SlotIndex{s}, id)) ++out[to_underlying(slots.records()[s].object)];
-  }
-  return out;
+  // Under the lock: a publication thread writes the slot table under it.
+  return sink_->with_state([](ClientState& st) {
+    std::map<std::int32_t, std::uint32_t> out;
+    const SlotTable& slots = st.slots();
+    for (std::uint32_t s = 0; s < slots.capacity(); ++s) {
+      GaussianId id{0};
+      if (slots.occupant(SlotIndex{s}, id)) ++out[to_underlying(slots.records()[s].object)];
+    }
+    return out;
+  });
 }
 
 ConnectionInfo ClientRuntime::connection() const {

@@ -5,45 +5,117 @@
 
 namespace gauss::client {
 
-Expected<PublicationResult> GpuPublication::publish_slots(const SlotTable& slots, std::span<const SlotRange> ranges,
-                                                          render::SplatRenderer& renderer, bool tint_edits) {
-  PublicationResult out;
+PreparedSlots GpuPublication::prepare_slots(const SlotTable& slots, std::span<const SlotRange> ranges,
+                                            const render::SlotLayout& layout, std::span<std::byte> pack) {
+  PreparedSlots out;
+  out.layout = layout;
   const auto& records = slots.records();
+  const std::size_t per_slot = layout.bytes_per_slot();
+  const auto room = static_cast<std::uint32_t>(per_slot == 0 ? 0 : pack.size() / per_slot);
+  // The pack buffer's three areas, `room` slots each.
+  std::byte* core = pack.data();
+  std::byte* sh = core + std::size_t{room} * layout.core_bytes();
+  std::byte* sh_high = sh + std::size_t{room} * layout.sh_bytes();
+  const std::uint32_t chunk = std::max(layout.chunk_slots, 1u);
   auto occupied = [&](std::uint32_t s) {
     GaussianId id{0};
     return slots.occupant(SlotIndex{s}, id);
   };
+  auto add = [](std::vector<SlotRange>& runs, std::uint32_t first, std::uint32_t count) {
+    if (!runs.empty() && runs.back().first + runs.back().count == first) {
+      runs.back().count += count;
+    } else {
+      runs.push_back({first, count});
+    }
+  };
   for (const SlotRange& r : ranges) {
     const std::uint32_t end = r.first + r.count;
-    if (end > records.size() || end < r.first)
-      return Error{"GpuPublication: slot range [" + std::to_string(r.first) + ", " + std::to_string(end) +
-                   ") outside the slot table"};
+    if (end > records.size() || end < r.first) {
+      out.error = "GpuPublication: slot range [" + std::to_string(r.first) + ", " + std::to_string(end) +
+                  ") outside the slot table";
+      return out;
+    }
     std::uint32_t s = r.first;
     while (s < end) {
       const bool occ = occupied(s);
       std::uint32_t e = s + 1;
       while (e < end && occupied(e) == occ) ++e;
-      if (occ) {
-        if (auto st = renderer.write_slots(s, std::span<const Gaussian>(records.data() + s, e - s)); !st) return st.error();
-        out.slots_written += e - s;
-        // A written slot is "added" (it was free or held another Gaussian: an update and a
-        // replacement both read as a change in place).
-        if (tint_edits)
-          if (auto st = renderer.set_edit_tints(s, e - s, {render::EditTintKind::Added, 0}); !st) return st.error();
-      } else {
-        // Cleared at once (clearing also resets the tint): an empty slot is skipped before
-        // its tint is read, so a removal has nothing to fade.
-        if (auto st = renderer.clear_slots(s, e - s); !st) return st.error();
-        out.slots_cleared += e - s;
-      }
       ++out.runs;
+      if (!occ) {
+        out.cleared.push_back({s, e - s});
+        s = e;
+        continue;
+      }
+      // Packed piece by piece within slot chunks while the buffer has room.
+      for (std::uint32_t a = s; a < e;) {
+        const std::uint32_t piece = std::min(e, (a / chunk + 1) * chunk) - a;
+        const std::uint32_t n = std::min(piece, room - out.packed_slots);
+        if (n == 0) {
+          add(out.unpacked, a, e - a);
+          break;
+        }
+        const std::uint32_t at = out.packed_slots;
+        out.good.resize(std::size_t{at} + n);
+        render::pack_slots(layout, std::span<const Gaussian>(records.data() + a, n),
+                           core + std::size_t{at} * layout.core_bytes(), sh + std::size_t{at} * layout.sh_bytes(),
+                           sh_high + std::size_t{at} * layout.sh_high_bytes(), out.good.data() + at);
+        out.packed.push_back({a, n, VkDeviceSize{at} * layout.core_bytes(),
+                              static_cast<VkDeviceSize>(sh - core) + VkDeviceSize{at} * layout.sh_bytes(),
+                              static_cast<VkDeviceSize>(sh_high - core) + VkDeviceSize{at} * layout.sh_high_bytes(), at});
+        out.packed_slots += n;
+        a += n;
+      }
       s = e;
     }
+  }
+  return out;
+}
+
+Expected<PublicationResult> GpuPublication::publish_prepared(const PreparedSlots& prepared, const vk::Buffer* source,
+                                                             const SlotTable& slots, render::SplatRenderer& renderer,
+                                                             bool tint_edits) {
+  if (!prepared.error.empty()) return Error{prepared.error};
+  PublicationResult out;
+  out.runs = prepared.runs;
+  // A written slot is "added" (it was free or held another Gaussian: an update and a
+  // replacement both read as a change in place).
+  auto tint = [&](std::uint32_t first, std::uint32_t count) -> Status {
+    if (!tint_edits) return Ok{};
+    return renderer.set_edit_tints(first, count, {render::EditTintKind::Added, 0});
+  };
+  if (!prepared.packed.empty()) {
+    if (source == nullptr) return Error{"GpuPublication: packed slot runs without their buffer"};
+    if (auto st = renderer.queue_packed_slots(*source, prepared.layout, prepared.packed, prepared.good); !st)
+      return st.error();
+    for (const render::PackedSlotRun& r : prepared.packed) {
+      out.slots_written += r.count;
+      out.slots_packed += r.count;
+      if (auto st = tint(r.first_slot, r.count); !st) return st.error();
+    }
+  }
+  const auto& records = slots.records();
+  for (const SlotRange& r : prepared.unpacked) {
+    if (auto st = renderer.write_slots(r.first, std::span<const Gaussian>(records.data() + r.first, r.count)); !st)
+      return st.error();
+    out.slots_written += r.count;
+    if (auto st = tint(r.first, r.count); !st) return st.error();
+  }
+  // Cleared at once (clearing also resets the tint): an empty slot is skipped before its
+  // tint is read, so a removal has nothing to fade.
+  for (const SlotRange& r : prepared.cleared) {
+    if (auto st = renderer.clear_slots(r.first, r.count); !st) return st.error();
+    out.slots_cleared += r.count;
   }
   stats_.slots_written += out.slots_written;
   stats_.slots_cleared += out.slots_cleared;
   stats_.write_calls += out.runs;
   return out;
+}
+
+Expected<PublicationResult> GpuPublication::publish_slots(const SlotTable& slots, std::span<const SlotRange> ranges,
+                                                          render::SplatRenderer& renderer, bool tint_edits) {
+  return publish_prepared(prepare_slots(slots, ranges, renderer.slot_layout(), {}), nullptr, slots, renderer,
+                          tint_edits);
 }
 
 std::uint32_t GpuPublication::publish_surface(const SurfaceStage& surface, render::SplatRenderer& renderer) {

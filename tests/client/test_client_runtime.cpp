@@ -3,6 +3,8 @@
 // After convergence the runtime's published set equals what the host sent (checksum),
 // and its frame equals a blocking renderer's image of that set loaded in slot order
 // with the committed surface: GPU publication (dirty ranges, clears, chunks) lost nothing.
+// The same with publication on its own thread: packed runs copied from its pack buffers,
+// and runs past a small pack buffer left to the display thread, show the same set.
 #include <gtest/gtest.h>
 
 #include "gauss/client/client_runtime.h"
@@ -15,9 +17,14 @@
 namespace gauss::test {
 namespace {
 
-class ClientRuntimeInProcess : public VkTest {};
+class ClientRuntimeInProcess : public VkTest {
+ protected:
+  // pack_slots: 0 = publication on the display thread; else on the publication thread
+  // with pack buffers of that many slots.
+  void converge_and_compare(std::uint32_t pack_slots);
+};
 
-TEST_F(ClientRuntimeInProcess, ConvergesToTheSentSetAndRendersItExactly) {
+void ClientRuntimeInProcess::converge_and_compare(std::uint32_t pack_slots) {
   SyntheticSceneConfig sc = small_synthetic_config(6000, 3);
   sc.surface_chunk = true;  // a surface for the mesh pass
   auto synth = SyntheticScene::create(sc);
@@ -40,6 +47,8 @@ TEST_F(ClientRuntimeInProcess, ConvergesToTheSentSetAndRendersItExactly) {
   cfg.max_width = 160;
   cfg.max_height = 120;
   cfg.clock = [&now] { return now; };
+  cfg.publication_thread = pack_slots > 0;
+  cfg.pack_slots_per_step = pack_slots;
   auto rt = client::ClientRuntime::create(context(), cfg);
   ASSERT_TRUE(rt.ok()) << rt.message();
 
@@ -49,7 +58,8 @@ TEST_F(ClientRuntimeInProcess, ConvergesToTheSentSetAndRendersItExactly) {
   const Camera cam = synth->overview_camera(160, 120);
   int frames = 0;
   std::size_t pending = 1;
-  for (; frames < 200 && (pending > 0 || frames < 3); ++frames) {
+  std::uint64_t packed = 0, written = 0;
+  for (; frames < 400 && (pending > 0 || frames < 3); ++frames) {
     now += 1.0 / 72.0;
     auto out = host.tick(scene, now);
     ASSERT_TRUE(out.ok()) << out.message();
@@ -58,10 +68,30 @@ TEST_F(ClientRuntimeInProcess, ConvergesToTheSentSetAndRendersItExactly) {
     ASSERT_TRUE(f.ok()) << f.message();
     for (const auto& m : (*rt)->take_outgoing())
       for (const auto& reply : host.on_message(m, scene, now)) (*rt)->deliver(reply);
+    EXPECT_EQ(f->publication_threaded, pack_slots > 0);
+    packed += f->uploaded.slots_packed;
+    written += f->uploaded.slots_written;
     pending = f->pending + (f->published_epoch ? 0 : 1);
   }
-  ASSERT_LT(frames, 200) << "did not converge";
+  ASSERT_LT(frames, 400) << "did not converge";
   EXPECT_GT(frames, 6) << "progressive publication at 400 edits per frame needs several frames for 2500";
+  if (pack_slots == 0) {
+    EXPECT_EQ(packed, 0u);
+  } else {
+    // A frame that took a step writing nothing: the slot table the next check reads under
+    // the lock is the one on screen (the step it asked for has nothing left to publish).
+    bool quiet = false;
+    for (int k = 0; k < 100 && !quiet; ++k) {
+      now += 1.0 / 72.0;
+      auto f = (*rt)->frame(std::span<const Camera>(&cam, 1));
+      ASSERT_TRUE(f.ok()) << f.message();
+      quiet = f->step_taken && f->publish.slot_writes() == 0 && f->pending == 0;
+    }
+    ASSERT_TRUE(quiet);
+    EXPECT_GT(packed, 0u) << "runs went through the pack buffers";
+    if (pack_slots < 400) EXPECT_LT(packed, written) << "runs past the pack buffer went the display thread's way";
+    else EXPECT_EQ(packed, written);
+  }
   ASSERT_TRUE((*rt)->wait_frames().ok());
 
   // The published set is what the host sent.
@@ -93,6 +123,12 @@ TEST_F(ClientRuntimeInProcess, ConvergesToTheSentSetAndRendersItExactly) {
   for (std::size_t i = 0; i < expected->pixels.size(); ++i) differ += expected->pixels[i] != actual->pixels[i];
   EXPECT_EQ(differ, 0u);
 }
+
+TEST_F(ClientRuntimeInProcess, ConvergesToTheSentSetAndRendersItExactly) { converge_and_compare(0); }
+
+TEST_F(ClientRuntimeInProcess, PublicationThreadShowsTheSameSet) { converge_and_compare(4096); }
+
+TEST_F(ClientRuntimeInProcess, PublicationThreadWithASmallPackBufferShowsTheSameSet) { converge_and_compare(150); }
 
 }  // namespace
 }  // namespace gauss::test

@@ -74,3 +74,38 @@ TEST(ClientState, FirstAdditionalFiresWhenReplyAndBatchArriveTogether) {
   EXPECT_EQ(more->frame, initial->frame) << "both in the first frame after the reply";
   EXPECT_LE(more->frame, converged->frame);
 }
+
+// A client that publishes ahead of its display (ClientRuntime's publication thread) says
+// which publication step a rendered frame shows: a batch published by a later step is not
+// on screen yet, so its first-frame event waits for the frame that shows that step.
+TEST(ClientState, FirstFrameWaitsForTheFrameShowingThePublishingStep) {
+  gauss::test::HostWorld w(2);
+  ClientConfig cfg;
+  cfg.capacity = 300;
+  cfg.publisher.mode = PublishMode::Immediate;
+  auto client = ClientState::create(0, cfg);
+  ASSERT_TRUE(client.ok());
+  HostSession host(1, 9, w.params);
+  ASSERT_NO_FATAL_FAILURE(deliver(*client, host.on_message(client->hello(), w.store, 0.0), 0.0));
+  auto first = host.tick(w.store, 0.0);
+  ASSERT_TRUE(first.ok()) << first.message();
+  ASSERT_NO_FATAL_FAILURE(deliver(*client, *first, 0.0));
+  auto step = client->frame(ViewState{}, 0.5, 0);
+  ASSERT_TRUE(step.ok()) << step.message();
+  ASSERT_EQ(step->step, 1u);
+  ASSERT_EQ(client->desired().pending_count(), 0u) << "immediate mode published the first batch whole";
+  const Epoch epoch = *step->published_epoch;
+  const EventLog& ev = client->events();
+  ASSERT_NE(ev.find_batch(0, epoch, BatchStage::Published), nullptr);
+
+  client->frame_rendered(0.6, 0, 0);  // a frame showing no step yet
+  EXPECT_EQ(ev.find_batch(0, epoch, BatchStage::FirstFrame), nullptr);
+  auto next = client->frame(ViewState{}, 0.7, 1);
+  ASSERT_TRUE(next.ok());
+  EXPECT_EQ(next->step, 2u);
+  client->frame_rendered(0.8, 1, 1);  // the frame that shows step 1
+  const StageEvent* shown = ev.find_batch(0, epoch, BatchStage::FirstFrame);
+  ASSERT_NE(shown, nullptr);
+  EXPECT_DOUBLE_EQ(shown->t, 0.8);
+  EXPECT_EQ(shown->frame, 1u);
+}

@@ -1,7 +1,9 @@
 // Frames in flight: FrameRing pacing and deferred destruction, StagedUploads ordering and
 // growth, and a renderer with 2 frames in flight giving the very images of the blocking
-// path while slots, tints and mesh chunks change between frames.
+// path while slots, tints and mesh chunks change between frames; slot runs packed into a
+// caller's buffer (another thread's, in the client) land as the same writes would.
 #include <cstring>
+#include <limits>
 #include <numeric>
 #include <vector>
 
@@ -208,6 +210,88 @@ TEST_F(FramesInFlight, PipelinedFramesEndInTheBlockingRenderersImage) {
   EXPECT_EQ(differ, 0u);
   EXPECT_EQ(piped->mesh_chunk_count(), 2u);
   EXPECT_EQ(piped->occupied_count(), 1190u);
+}
+
+// Runs packed by pack_slots into a host-visible buffer and queued with queue_packed_slots
+// show what write_slots shows, a non-finite Gaussian included (refused, counted, its slot
+// left empty); and a later ring write to the same slots in the same frame still wins.
+TEST_F(FramesInFlight, PackedSlotRunsLandAsWritesDo) {
+  auto scene = procedural_scene(900, 1, 11);
+  scene[17].position.x = std::numeric_limits<float>::quiet_NaN();
+  const Camera cam = forward_camera(160, 120);
+  auto packed = renderer(1000, 2);
+  auto written = renderer(1000, 1);
+  ASSERT_TRUE(packed && written);
+  const render::SlotLayout layout = packed->slot_layout();
+  EXPECT_EQ(layout.bytes_per_slot(), 64u + 3u * 3u * 4u) << "core record + SH band 1";
+  auto source = vk::Buffer::create(context(), {.size = VkDeviceSize{900} * layout.bytes_per_slot(),
+                                               .usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                               .memory = vk::MemoryUsage::HostVisible,
+                                               .name = "test pack buffer"});
+  ASSERT_TRUE(source.ok()) << source.message();
+  auto* bytes = static_cast<std::byte*>(source->mapped());
+  ASSERT_NE(bytes, nullptr);
+  // Two runs, slots [0, 500) and [600, 1000), packed core area first, then the SH area.
+  std::vector<std::uint8_t> good(900, 7);
+  std::byte* sh = bytes + std::size_t{900} * layout.core_bytes();
+  const std::uint32_t refused = render::pack_slots(layout, std::span(scene).first(900), bytes, sh, nullptr, good.data());
+  EXPECT_EQ(refused, 1u);
+  EXPECT_EQ(good[17], 0u);
+  EXPECT_EQ(good[18], 1u);
+  const VkDeviceSize sh_base = VkDeviceSize{900} * layout.core_bytes();
+  const std::vector<render::PackedSlotRun> runs = {
+      {0, 500, 0, sh_base, 0, 0},
+      {600, 400, VkDeviceSize{500} * layout.core_bytes(), sh_base + VkDeviceSize{500} * layout.sh_bytes(), 0, 500}};
+  ASSERT_TRUE(packed->queue_packed_slots(*source, layout, runs, good).ok());
+  ASSERT_TRUE(packed->clear_slots(990, 10).ok());  // after the packed copies: stays clear
+  EXPECT_EQ(packed->occupied_count(), 889u);
+  EXPECT_EQ(packed->rejected_nonfinite(), 1u);
+  ASSERT_TRUE(packed->render(cam).ok());
+
+  ASSERT_TRUE(written->write_slots(0, std::span(scene).first(500)).ok());
+  ASSERT_TRUE(written->write_slots(600, std::span(scene).subspan(500, 390)).ok());
+  EXPECT_EQ(written->occupied_count(), 889u);
+  ASSERT_TRUE(written->render(cam).ok());
+  auto a = packed->read_image();
+  auto b = written->read_image();
+  ASSERT_TRUE(a.ok() && b.ok());
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < a->pixels.size(); ++i) differ += a->pixels[i] != b->pixels[i];
+  EXPECT_EQ(differ, 0u);
+  EXPECT_EQ(packed->high_water(), written->high_water());
+}
+
+// queue_packed_slots refuses, queuing nothing: another layout, a run past the capacity,
+// flags or bytes past what was given.
+TEST_F(FramesInFlight, PackedSlotRunsAreCheckedBeforeAnythingIsQueued) {
+  auto r = renderer(100, 2);
+  ASSERT_TRUE(r);
+  render::SlotLayout layout = r->slot_layout();
+  auto source = vk::Buffer::create(context(), {.size = VkDeviceSize{10} * layout.bytes_per_slot(),
+                                               .usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                               .memory = vk::MemoryUsage::HostVisible,
+                                               .name = "test pack buffer"});
+  ASSERT_TRUE(source.ok());
+  const std::vector<std::uint8_t> good(10, 1);
+  const VkDeviceSize sh = VkDeviceSize{10} * layout.core_bytes();
+  const std::uint64_t regions = r->uploads().stats().writes;
+  render::SlotLayout other = layout;
+  other.sh_degree = 0;
+  other.sh_stride = 0;
+  auto st = r->queue_packed_slots(*source, other, std::vector<render::PackedSlotRun>{{0, 10, 0, sh, 0, 0}}, good);
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("another slot layout"), std::string::npos) << st.message();
+  st = r->queue_packed_slots(*source, layout, std::vector<render::PackedSlotRun>{{95, 10, 0, sh, 0, 0}}, good);
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("exceed the capacity"), std::string::npos) << st.message();
+  st = r->queue_packed_slots(*source, layout, std::vector<render::PackedSlotRun>{{0, 10, 0, sh, 0, 1}}, good);
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("flags"), std::string::npos) << st.message();
+  st = r->queue_packed_slots(*source, layout, std::vector<render::PackedSlotRun>{{0, 10, 0, sh + 4, 0, 0}}, good);
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("past the end of 'test pack buffer'"), std::string::npos) << st.message();
+  EXPECT_EQ(r->uploads().stats().writes, regions);
+  EXPECT_EQ(r->occupied_count(), 0u);
 }
 
 }  // namespace

@@ -185,12 +185,16 @@ std::uint64_t ClientState::count_resident(std::span<const ObjectId> targets) con
   return n;
 }
 
-void ClientState::track_query(double now, std::uint64_t frame_index, bool rendered, bool slots_written) {
+void ClientState::track_query(double now, std::uint64_t frame_index, bool rendered, bool slots_written,
+                              std::uint64_t shown_step) {
   if (!query_track_) return;
   QueryTrack& q = *query_track_;
   const ObjectId first = q.targets.empty() ? kNoObject : q.targets.front();
+  if (!rendered && q.first_step == 0) q.first_step = step_;
   if (rendered) {
-    if (!q.highlight_shown) {
+    // The tint follows the targets a frame() handed out: a rendered frame showing an
+    // earlier step (a client publishing ahead of its display) does not show it yet.
+    if (!q.highlight_shown && q.first_step != 0 && q.first_step <= shown_step) {
       q.highlight_shown = true;
       events_.query(now, client_index_, q.query_id, QueryStage::Highlight, first, 0, frame_index);
     }
@@ -225,6 +229,7 @@ void ClientState::track_query(double now, std::uint64_t frame_index, bool render
 Expected<FrameResult> ClientState::frame(const ViewState& view, double now, std::uint64_t frame_index) {
   std::lock_guard<std::mutex> lock(*mutex_);
   FrameResult out;
+  out.step = ++step_;
   auto rep = publisher_.publish(desired_, slots_, view, now);
   if (!rep) {
     if (query_track_) query_track_->resident.reset();  // it may have written slots before failing
@@ -240,6 +245,7 @@ Expected<FrameResult> ClientState::frame(const ViewState& view, double now, std:
   for (auto& b : unpublished_) {
     if (!b.published && (!oldest || to_underlying(*oldest) > to_underlying(b.epoch))) {
       b.published = true;
+      b.published_step = out.step;
       events_.batch(now, client_index_, b.epoch, BatchStage::Published, b.edits, frame_index);
     }
   }
@@ -247,18 +253,18 @@ Expected<FrameResult> ClientState::frame(const ViewState& view, double now, std:
     acked_published_ = out.published_epoch;
     outgoing_.push_back(msg::Ack{last_batch_id_, desired_.received_epoch().value_or(Epoch{0}), *out.published_epoch});
   }
-  track_query(now, frame_index, false, out.publish.slot_writes() > 0);
+  track_query(now, frame_index, false, out.publish.slot_writes() > 0, out.step);
   return out;
 }
 
-void ClientState::frame_rendered(double now, std::uint64_t frame_index) {
+void ClientState::frame_rendered(double now, std::uint64_t frame_index, std::uint64_t shown_step) {
   std::lock_guard<std::mutex> lock(*mutex_);
   std::erase_if(unpublished_, [&](const PendingBatch& b) {
-    if (!b.published) return false;
+    if (!b.published || b.published_step > shown_step) return false;
     events_.batch(now, client_index_, b.epoch, BatchStage::FirstFrame, b.edits, frame_index);
     return true;
   });
-  track_query(now, frame_index, true, false);
+  track_query(now, frame_index, true, false, shown_step);
 }
 
 void ClientState::report_frame_cost(double seconds) {

@@ -36,6 +36,42 @@ std::uint32_t edit_word(EditTintState state, std::uint32_t frame) {
 
 }  // namespace
 
+std::uint32_t SlotLayout::core_bytes() const noexcept { return sizeof(gpu::GpuSplatCore); }
+
+std::uint32_t pack_slots(const SlotLayout& layout, std::span<const Gaussian> gaussians, std::byte* core,
+                         std::byte* sh, std::byte* sh_high, std::uint8_t* good) {
+  const auto n = static_cast<std::uint32_t>(gaussians.size());
+  auto* cores = reinterpret_cast<gpu::GpuSplatCore*>(core);
+  std::uint32_t refused = 0;
+  for (std::uint32_t i = 0; i < n; ++i) {
+    good[i] = gaussian_is_finite(gaussians[i], layout.sh_degree) ? 1 : 0;
+    if (!good[i]) {
+      ++refused;
+      cores[i] = gpu::GpuSplatCore{};
+      continue;
+    }
+    cores[i] = pack_core(gaussians[i]);
+  }
+  // One SH band buffer: `stride` floats per slot, coefficients from `first_coeff` on.
+  auto pack_band = [&](std::byte* bytes, std::uint32_t stride, std::uint32_t first_coeff) {
+    if (stride == 0 || bytes == nullptr) return;
+    auto* band = reinterpret_cast<float*>(bytes);
+    for (std::uint32_t i = 0; i < n; ++i) {
+      float* out = band + std::size_t{i} * stride;
+      if (!good[i]) {
+        std::fill(out, out + stride, 0.0f);
+        continue;
+      }
+      for (std::uint32_t k = 0; k < stride / 3; ++k)
+        for (std::uint32_t ch = 0; ch < 3; ++ch)
+          out[k * 3 + ch] = gaussians[i].sh_rest[first_coeff + k][static_cast<int>(ch)];
+    }
+  };
+  pack_band(sh, layout.sh_stride, 0);
+  pack_band(sh_high, layout.sh_high_stride, gpu::SPLAT_SH_LOW_COEFFS);
+  return refused;
+}
+
 Expected<SlotBuffer> SlotBuffer::create(vk::Context& context, const SlotBufferCreateInfo& info,
                                         vk::StagedUploads& uploads) {
   if (info.capacity == 0) return Error{"SlotBuffer: capacity must be at least 1"};
@@ -147,34 +183,65 @@ Status SlotBuffer::write_chunk_run(std::uint32_t first_slot, std::span<const Gau
   auto sh_high = reserve(sh_high_[chunk], sh_high_stride_ * sizeof(float));
   if (!sh_high) return sh_high.error();
 
-  auto* cores = reinterpret_cast<gpu::GpuSplatCore*>(core->data());
   std::vector<std::uint8_t> good(n, 0);
-  for (std::uint32_t i = 0; i < n; ++i) {
-    if (!gaussian_is_finite(gaussians[i], sh_degree_)) {
-      ++rejected_nonfinite_;
-      cores[i] = gpu::GpuSplatCore{};
+  rejected_nonfinite_ += pack_slots(layout(), gaussians, core->data(), sh->data(), sh_high->data(), good.data());
+  for (std::uint32_t i = 0; i < n; ++i) set_occupied(first_slot + i, good[i] != 0);
+  return Ok{};
+}
+
+Status SlotBuffer::queue_packed(const vk::Buffer& source, const SlotLayout& packed_as,
+                                std::span<const PackedSlotRun> runs, std::span<const std::uint8_t> good) {
+  if (!(packed_as == layout())) return Error{"SlotBuffer::queue_packed: runs packed for another slot layout"};
+  for (const PackedSlotRun& r : runs) {
+    if (auto st = check_range(r.first_slot, r.count, "queue_packed"); !st) return st;
+    if (r.count > 0 && r.first_slot / chunk_slots_ != (r.first_slot + r.count - 1) / chunk_slots_)
+      return Error{"SlotBuffer::queue_packed: run [" + std::to_string(r.first_slot) + ", " +
+                   std::to_string(r.first_slot + r.count) + ") crosses a slot chunk"};
+    if (std::uint64_t{r.good_at} + r.count > good.size())
+      return Error{"SlotBuffer::queue_packed: run flags past the " + std::to_string(good.size()) + " given"};
+    const VkDeviceSize n = r.count;
+    if (r.core_at + n * layout().core_bytes() > source.size() || r.sh_at + n * layout().sh_bytes() > source.size() ||
+        r.sh_high_at + n * layout().sh_high_bytes() > source.size())
+      return Error{"SlotBuffer::queue_packed: run of " + std::to_string(r.count) + " slots past the end of '" +
+                   source.name() + "' (" + std::to_string(source.size()) + " bytes)"};
+  }
+  // One copy group per destination buffer: runs are taken chunk by chunk, each chunk's
+  // core, SH and band-3 regions together. StagedUploads checks every region's bytes.
+  const std::uint32_t bytes[3] = {layout().core_bytes(), layout().sh_bytes(), layout().sh_high_bytes()};
+  for (std::uint32_t chunk = 0; chunk < chunk_count(); ++chunk) {
+    const vk::Buffer* dst[3] = {&core_[chunk], &sh_[chunk], &sh_high_[chunk]};
+    for (int part = 0; part < 3; ++part) {
+      if (bytes[part] == 0) continue;
+      regions_.clear();
+      for (const PackedSlotRun& r : runs) {
+        if (r.count == 0 || r.first_slot / chunk_slots_ != chunk) continue;
+        const VkDeviceSize src = part == 0 ? r.core_at : part == 1 ? r.sh_at : r.sh_high_at;
+        regions_.push_back(VkBufferCopy{src, VkDeviceSize{r.first_slot - chunk * chunk_slots_} * bytes[part],
+                                        VkDeviceSize{r.count} * bytes[part]});
+      }
+      if (regions_.empty()) break;
+      if (auto st = uploads_->copy_from(source, *dst[part], regions_); !st)
+        return Error{"SlotBuffer::queue_packed: " + st.message()};
+    }
+  }
+  // Bookkeeping by run (this is the display thread's per-slot share): a run of stored
+  // slots in one pass over its bytes, runs with a refusal slot by slot.
+  for (const PackedSlotRun& r : runs) {
+    if (r.count == 0) continue;
+    const std::uint8_t* flags = good.data() + r.good_at;
+    std::uint8_t* occ = occupied_.data() + r.first_slot;
+    if (std::all_of(flags, flags + r.count, [](std::uint8_t f) { return f != 0; })) {
+      occupied_count_ += static_cast<std::uint32_t>(std::count(occ, occ + r.count, std::uint8_t{0}));
+      std::fill(occ, occ + r.count, std::uint8_t{1});
+      high_water_ = std::max(high_water_, r.first_slot + r.count);
       continue;
     }
-    good[i] = 1;
-    cores[i] = pack_core(gaussians[i]);
-  }
-  // One SH band buffer: `stride` floats per slot, coefficients from `first_coeff` on.
-  auto pack_band = [&](std::span<std::byte> bytes, std::uint32_t stride, std::uint32_t first_coeff) {
-    auto* band = reinterpret_cast<float*>(bytes.data());
-    for (std::uint32_t i = 0; i < n && stride > 0; ++i) {
-      float* out = band + std::size_t{i} * stride;
-      if (!good[i]) {
-        std::fill(out, out + stride, 0.0f);
-        continue;
-      }
-      for (std::uint32_t k = 0; k < stride / 3; ++k)
-        for (std::uint32_t ch = 0; ch < 3; ++ch)
-          out[k * 3 + ch] = gaussians[i].sh_rest[first_coeff + k][static_cast<int>(ch)];
+    for (std::uint32_t i = 0; i < r.count; ++i) {
+      const bool ok = flags[i] != 0;
+      if (!ok) ++rejected_nonfinite_;
+      set_occupied(r.first_slot + i, ok);
     }
-  };
-  pack_band(*sh, sh_stride_, 0);
-  pack_band(*sh_high, sh_high_stride_, gpu::SPLAT_SH_LOW_COEFFS);
-  for (std::uint32_t i = 0; i < n; ++i) set_occupied(first_slot + i, good[i] != 0);
+  }
   return Ok{};
 }
 

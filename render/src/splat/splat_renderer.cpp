@@ -126,6 +126,13 @@ Status SplatRenderer::write_slots(std::uint32_t first_slot, std::span<const Gaus
 Status SplatRenderer::write_slot(SlotIndex slot, const Gaussian& gaussian) {
   return impl_->slots.write_slot(slot, gaussian);
 }
+SlotLayout SplatRenderer::slot_layout() const noexcept { return impl_->slots.layout(); }
+
+Status SplatRenderer::queue_packed_slots(const vk::Buffer& source, const SlotLayout& packed_as,
+                                         std::span<const PackedSlotRun> runs, std::span<const std::uint8_t> good) {
+  return impl_->slots.queue_packed(source, packed_as, runs, good);
+}
+
 Status SplatRenderer::clear_slots(std::uint32_t first_slot, std::uint32_t count) {
   return impl_->slots.clear_slots(first_slot, count);
 }

@@ -150,6 +150,25 @@ Status StagedUploads::write(const Buffer& dst, VkDeviceSize offset, const void* 
   return Ok{};
 }
 
+Status StagedUploads::copy_from(const Buffer& src, const Buffer& dst, std::span<const VkBufferCopy> regions) {
+  if (regions.empty()) return Ok{};
+  VkDeviceSize bytes = 0;
+  for (const VkBufferCopy& r : regions) {
+    if (auto st = src.check_range(r.srcOffset, r.size); !st) return Error{"StagedUploads: " + st.message()};
+    if (auto st = dst.check_range(r.dstOffset, r.size); !st) return Error{"StagedUploads: " + st.message()};
+    bytes += r.size;
+  }
+  // A group of its own: another source than the ring's, so later ring writes to `dst`
+  // start a new group behind a barrier (reserve() sees a foreign source as overlapping).
+  auto it = open_group_.find(dst.handle());
+  const bool after_earlier = it != open_group_.end();
+  groups_.push_back(Group{src.handle(), dst.handle(), {regions.begin(), regions.end()}, {}, after_earlier});
+  open_group_[dst.handle()] = groups_.size() - 1;
+  stats_.writes += regions.size();
+  stats_.bytes += bytes;
+  return Ok{};
+}
+
 void StagedUploads::record(VkCommandBuffer cmd) {
   for (const Group& g : groups_) {
     if (g.barrier_before)

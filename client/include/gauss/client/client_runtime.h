@@ -15,8 +15,21 @@
 //
 // The display thread never waits on the network: the network thread only decodes into
 // ClientState (under ClientState's short lock, no I/O held), and frame() takes that lock
-// only for the publication step. The display thread is the only writer of the slot
-// table and the committed surface, so it reads them without the lock afterwards.
+// only for the publication step (not at all with the publication thread, below). The
+// publication step is the only writer of the slot table and the committed surface, so
+// they are read without the lock while no step runs.
+//
+// Publication thread (ClientRuntimeConfig::publication_thread): publishing and packing
+// cost the display thread up to ~1 µs per slot written (scattered reads of the desired
+// state and slot table, records packed into the GPU layout), tens of ms in a frame after
+// a teleport. With the thread, a display frame takes the step the thread finished
+// (queues its packed runs as copies from its pack buffer, clears, tints, surface) and
+// asks for the next one, which runs while the frame renders: publication shows one frame
+// later, the display thread's share is O(runs) and a step that takes longer than a
+// frame spreads over frames instead of stalling one. The display thread never takes
+// ClientState's lock then: the head pose, frame-shown notes and frame costs travel with
+// the next step. Between take() and the next request the thread is idle, so the display
+// thread reads the slot table and the committed surface then without the lock.
 //
 // Renderer: created at start for SH degree 0; when the stream's SceneInfo announces
 // another degree the renderer is recreated for it and every resident slot and chunk is
@@ -34,6 +47,7 @@
 
 #include "gauss/client/gpu_frame_stats.h"
 #include "gauss/client/gpu_publication.h"
+#include "gauss/client/step_thread.h"
 #include "gauss/engine/client_state.h"
 #include "gauss/engine/result.h"
 #include "gauss/net/client.h"
@@ -55,6 +69,14 @@ struct ClientRuntimeConfig {
   bool highlight_query{true};           // tint the objects of the resolved query
   bool tint_edits{false};               // edit visualisation: tint slots as they change
   double pose_period_s{0.1};            // the coarse head pose goes to the host at ~10 Hz
+  // Publication on a thread of its own (see "Publication thread" above): the display
+  // thread only hands over and queues copies. Off: each frame publishes and packs on the
+  // display thread before it renders (deterministic: tests, simulations, goldens).
+  bool publication_thread{false};
+  // Slots one publication step packs off the display thread at most (per pack buffer;
+  // frames_in_flight + 1 buffers of this many slots); a step writing more leaves the rest
+  // to the display thread. 0 = capacity.
+  std::uint32_t pack_slots_per_step{65536};
   // The client's clock in seconds (arrivals on the network thread and frames share it).
   // Empty: steady time since the runtime was created. A simulation passes virtual time.
   std::function<double()> clock;
@@ -75,6 +97,16 @@ struct DisplayFrameStats {
   double publish_cpu_ms{0.0};
   double upload_cpu_ms{0.0};
   std::uint32_t copy_regions{0};    // buffer copy regions this frame's upload pass recorded
+  // Publication thread (ClientRuntimeConfig::publication_thread): whether a step's result
+  // reached this frame, and what that step cost the publication thread (ClientState::frame
+  // under the lock, and packing its slots), CPU (CLOCK_THREAD_CPUTIME_ID) and wall.
+  // Without the thread, the step is this frame's own and these repeat publish_*.
+  bool publication_threaded{false};
+  bool step_taken{false};
+  double step_publish_cpu_ms{0.0};
+  double step_pack_cpu_ms{0.0};
+  double step_publish_ms{0.0};
+  double step_pack_ms{0.0};
   double render_ms{0.0};            // recording + submission (includes waiting for frame k - N)
   PublishReport publish;
   PublicationResult uploaded;
@@ -153,6 +185,54 @@ class ClientRuntime {
  private:
   ClientRuntime(vk::Context& context, ClientRuntimeConfig config, std::unique_ptr<ClientState> state);
   Status make_renderer(int sh_degree);
+
+  // One publication step: ClientState::frame and the packing of its slot uploads.
+  struct RenderedNote {
+    double now;
+    std::uint64_t frame_index;
+    std::uint64_t shown_step;
+  };
+  struct PublicationJob {
+    ViewState view;
+    double now{0.0};
+    std::uint64_t frame_index{0};
+    bool highlight_query{true};
+    std::optional<msg::HeadPose> pose;
+    std::vector<RenderedNote> rendered;  // applied before the step (publication thread)
+    std::vector<double> frame_costs;
+    int pack_buffer{-1};                 // pack_pool_ index, or none: nothing packed
+    std::span<std::byte> pack;
+    render::SlotLayout layout;
+  };
+  struct PreparedStep {
+    std::string error;
+    FrameResult result;
+    std::optional<int> sh_degree;
+    std::vector<ObjectId> targets;
+    std::uint64_t desired{0};
+    std::uint32_t pending{0};
+    std::uint32_t resident{0};
+    PreparedSlots slots;
+    int pack_buffer{-1};
+    double lock_wait_ms{0.0}, publish_ms{0.0}, publish_cpu_ms{0.0}, pack_ms{0.0}, pack_cpu_ms{0.0};
+  };
+  PreparedStep prepare_step(PublicationJob& job);
+  // Display thread, with the publication thread idle.
+  Status apply_step(PreparedStep& step, DisplayFrameStats& out);
+  int free_pack_buffer();
+
+  struct PackBuffer {
+    vk::Buffer buffer;
+    std::uint64_t serial{0};  // the frame that copies from it (0: none yet)
+    bool taken{false};        // with a step, or queued and not yet submitted
+  };
+  std::vector<PackBuffer> pack_pool_;
+  std::vector<int> unsubmitted_;        // pack buffers whose copies wait for a submission
+  PublicationJob next_job_;             // notes gathered for the next request
+  std::uint64_t shown_step_{0};
+  std::uint64_t last_desired_{0};
+  std::uint32_t last_pending_{0}, last_resident_{0};
+  std::unique_ptr<StepThread<PublicationJob, PreparedStep>> worker_;  // last: stops first
 
   vk::Context* context_;
   ClientRuntimeConfig config_;

@@ -17,6 +17,7 @@
 #include <map>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "gauss/engine/result.h"
 #include "gauss/engine/slot_table.h"
@@ -37,13 +38,40 @@ struct GpuPublicationStats {
 
 struct PublicationResult {
   std::uint32_t slots_written{0};
+  std::uint32_t slots_packed{0};   // of which packed off the display thread (PreparedSlots)
   std::uint32_t slots_cleared{0};
   std::uint32_t runs{0};
   std::uint32_t chunks_changed{0};
 };
 
+// A frame's slot uploads, prepared where the packing costs the display thread nothing
+// (GpuPublication::prepare_slots, e.g. on a publication thread): occupied runs packed in
+// the renderer's slot layout into a caller's host-visible buffer, and what is left to the
+// display thread: free runs to clear, and occupied runs that did not fit the buffer.
+struct PreparedSlots {
+  std::string error;  // a range outside the slot table (nothing after it prepared)
+  render::SlotLayout layout;
+  std::vector<render::PackedSlotRun> packed;
+  std::vector<std::uint8_t> good;       // per packed slot: stored (1) or refused non-finite (0)
+  std::vector<SlotRange> unpacked;      // occupied runs past the pack buffer
+  std::vector<SlotRange> cleared;       // free runs
+  std::uint32_t packed_slots{0};
+  std::uint32_t runs{0};                // occupied and free runs, as publish_slots counts them
+};
+
 class GpuPublication {
  public:
+  // Splits `ranges` of `slots` into occupied and free runs and packs occupied runs (split
+  // at slot chunks) into `pack` (layout.bytes_per_slot() bytes per slot: core records of
+  // every run first, then SH bands 1-2, then band 3) until it is full. Reads the slot
+  // table only: thread-safe while no one writes it.
+  static PreparedSlots prepare_slots(const SlotTable& slots, std::span<const SlotRange> ranges,
+                                     const render::SlotLayout& layout, std::span<std::byte> pack);
+  // Queues what prepare_slots made: packed runs copied from `source` (the buffer `pack`
+  // was; kept unchanged until the frame recording them has finished), unpacked runs
+  // written and free runs cleared through the renderer's staging ring, edit tints.
+  Expected<PublicationResult> publish_prepared(const PreparedSlots& prepared, const vk::Buffer* source,
+                                               const SlotTable& slots, render::SplatRenderer& renderer, bool tint_edits);
   // Uploads `ranges` (this frame's merged dirty ranges) of `slots`. Errors: a range past
   // the renderer's capacity (nothing after it is written).
   Expected<PublicationResult> publish_slots(const SlotTable& slots, std::span<const SlotRange> ranges,

@@ -58,6 +58,7 @@ struct FrameResult {
   std::uint32_t surface_committed{0};
   std::optional<Epoch> published_epoch;
   std::optional<Epoch> surface_epoch;
+  std::uint64_t step{0};             // this frame() call's number, from 1
 };
 
 class ClientState {
@@ -71,7 +72,10 @@ class ClientState {
   // One display frame: publish, commit surface, take the merged dirty ranges.
   Expected<FrameResult> frame(const ViewState& view, double now, std::uint64_t frame_index);
   // The frame that frame() prepared was displayed: first-frame and highlight events.
-  void frame_rendered(double now, std::uint64_t frame_index);
+  // `shown_step`: the newest FrameResult::step whose slots that frame shows (a client
+  // that publishes ahead of its display, on another thread, passes the one it uploaded;
+  // a batch published by a later step is not on screen yet).
+  void frame_rendered(double now, std::uint64_t frame_index, std::uint64_t shown_step = ~std::uint64_t{0});
   // Cost of the last displayed frame (render + publication) for the adaptive allowance.
   void report_frame_cost(double seconds);
   void set_publish_mode(PublishMode mode);
@@ -124,7 +128,8 @@ class ClientState {
   };
   Status on_batch(const msg::EditBatchMsg& b, std::optional<DecodedBatch>& decoded, double now);
   // `slots_written`: this frame's publication wrote slots (target residency may differ).
-  void track_query(double now, std::uint64_t frame_index, bool rendered, bool slots_written);
+  void track_query(double now, std::uint64_t frame_index, bool rendered, bool slots_written,
+                   std::uint64_t shown_step = ~std::uint64_t{0});
 
   std::uint32_t client_index_;
   ClientConfig config_;
@@ -153,7 +158,9 @@ class ClientState {
     Epoch epoch;
     std::uint64_t edits;
     bool published{false};
+    std::uint64_t published_step{0};  // frame() call that published it
   };
+  std::uint64_t step_{0};  // frame() calls so far
   std::vector<PendingBatch> unpublished_;  // received, not yet shown in a rendered frame
 
   struct QueryTrack {
@@ -164,6 +171,7 @@ class ClientState {
     bool initial_reported{false};
     std::optional<std::uint64_t> resident;  // target members published, as of the last scan
     bool highlight_shown{false};
+    std::uint64_t first_step{0};    // the first frame() after the reply: its targets tint frames showing it
     bool first_additional{false};
     bool converged{false};
     std::uint64_t batch_after{0};   // first batch id sent after the resolution

@@ -36,6 +36,40 @@ class StagedUploads;
 
 namespace gauss::render {
 
+// How a SlotBuffer lays slots out, as a value: enough to pack Gaussians into its GPU layout
+// anywhere (another thread, a buffer of the caller's) without touching the SlotBuffer.
+struct SlotLayout {
+  std::uint32_t capacity{0};
+  std::uint32_t chunk_slots{1};
+  int sh_degree{0};
+  std::uint32_t sh_stride{0};       // floats per slot, bands 1-2
+  std::uint32_t sh_high_stride{0};  // floats per slot, band 3
+  std::uint32_t core_bytes() const noexcept;
+  std::uint32_t sh_bytes() const noexcept { return sh_stride * 4u; }
+  std::uint32_t sh_high_bytes() const noexcept { return sh_high_stride * 4u; }
+  std::uint32_t bytes_per_slot() const noexcept { return core_bytes() + sh_bytes() + sh_high_bytes(); }
+  bool operator==(const SlotLayout&) const = default;
+};
+
+// Packs `gaussians` into the GPU layout: core records at `core`, SH bands at `sh` and
+// `sh_high` (each may be null when its stride is 0), one flag per Gaussian at `good` (1 =
+// stored, 0 = refused for a non-finite field: its bytes are all zero, an empty slot).
+// Thread-safe: reads only its arguments. Returns the number refused.
+std::uint32_t pack_slots(const SlotLayout& layout, std::span<const Gaussian> gaussians, std::byte* core,
+                         std::byte* sh, std::byte* sh_high, std::uint8_t* good);
+
+// Slots packed by pack_slots into a caller's host-visible buffer: slots
+// [first_slot, first_slot + count) of one slot chunk, their core bytes at `core_at` in the
+// source buffer, SH bands at `sh_at` / `sh_high_at`; `good` indexes the run's flags.
+struct PackedSlotRun {
+  std::uint32_t first_slot{0};
+  std::uint32_t count{0};
+  VkDeviceSize core_at{0};
+  VkDeviceSize sh_at{0};
+  VkDeviceSize sh_high_at{0};
+  std::uint32_t good_at{0};
+};
+
 struct SlotBufferCreateInfo {
   std::uint32_t capacity{0};  // slots, 1 ..; limited by the binding range (see create)
   int sh_degree{0};           // 0..3: SH rest stored up to this degree
@@ -74,6 +108,17 @@ class SlotBuffer {
   Status write_slot(SlotIndex slot, const Gaussian& gaussian) {
     return write_slots(to_underlying(slot), std::span<const Gaussian>(&gaussian, 1));
   }
+  // Queues copies of runs packed elsewhere (pack_slots with layout()) from `source` into
+  // the slots, in order with the other writes; `good` holds the runs' flags. The caller
+  // keeps `source` unchanged until the frame that records the copies has finished. Costs
+  // the calling thread O(runs) plus one byte per slot of bookkeeping, no packing.
+  // Errors: a run past the capacity or across a chunk, a layout other than layout(),
+  // flags or source bytes out of range (nothing queued).
+  Status queue_packed(const vk::Buffer& source, const SlotLayout& packed_as, std::span<const PackedSlotRun> runs,
+                      std::span<const std::uint8_t> good);
+  SlotLayout layout() const noexcept {
+    return {capacity_, chunk_slots_, sh_degree_, sh_stride_, sh_high_stride_};
+  }
   // Marks [first_slot, first_slot + count) empty (and their edit tint None).
   Status clear_slots(std::uint32_t first_slot, std::uint32_t count);
   Status clear_slot(SlotIndex slot) { return clear_slots(to_underlying(slot), 1); }
@@ -101,6 +146,7 @@ class SlotBuffer {
   // Packs gaussians into slots [first_slot, first_slot + size) of one chunk.
   Status write_chunk_run(std::uint32_t first_slot, std::span<const Gaussian> gaussians);
   void set_occupied(std::uint32_t slot, bool value);
+  std::vector<VkBufferCopy> regions_;  // queue_packed's scratch
 
   vk::StagedUploads* uploads_{nullptr};
   std::uint32_t capacity_{0};

@@ -40,6 +40,7 @@
 #include "gauss/engine/mesh.h"
 #include "gauss/engine/result.h"
 #include "gauss/render/splat_math.h"
+#include "gauss/render/slot_buffer.h"
 #include "gauss/render/splat_memory_plan.h"
 
 namespace gauss::vk {
@@ -134,6 +135,11 @@ class SplatRenderer {
   Status write_slot(SlotIndex slot, const Gaussian& gaussian);
   Status clear_slots(std::uint32_t first_slot, std::uint32_t count);
   Status clear_slot(SlotIndex slot);
+  // Slots packed elsewhere (SlotBuffer::queue_packed: pack_slots with slot_layout(), into a
+  // host-visible buffer the caller keeps until the frame that copies them has finished).
+  SlotLayout slot_layout() const noexcept;
+  Status queue_packed_slots(const vk::Buffer& source, const SlotLayout& packed_as, std::span<const PackedSlotRun> runs,
+                            std::span<const std::uint8_t> good);
   std::uint32_t occupied_count() const noexcept;
   std::uint32_t high_water() const noexcept;
   std::uint64_t rejected_nonfinite() const noexcept;

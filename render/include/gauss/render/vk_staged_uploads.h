@@ -56,6 +56,13 @@ class StagedUploads {
   // Reserves `size` bytes of staging for dst[offset, ...) and returns where to write
   // them; fill them before the next record(). Packing straight into staging saves a copy.
   Expected<std::span<std::byte>> reserve(const Buffer& dst, VkDeviceSize offset, VkDeviceSize size);
+  // Queues copies from a caller's host-visible buffer `src` (bytes packed elsewhere, e.g.
+  // on another thread) into `dst`, in order with the other writes to `dst` (a copy group
+  // of its own, behind a transfer barrier when `dst` already has writes queued). The
+  // regions must not overlap each other in `dst`. The caller keeps `src` and its bytes
+  // unchanged until the frame that records them has finished (FrameRing serial).
+  // Errors: a region outside `src` or `dst` (nothing queued).
+  Status copy_from(const Buffer& src, const Buffer& dst, std::span<const VkBufferCopy> regions);
 
   bool empty() const noexcept { return groups_.empty(); }
   // Records every queued copy into `cmd` (the current frame of the ring), then a barrier
