@@ -18,7 +18,6 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
-#include <map>
 #include <memory>
 #include <optional>
 #include <span>
@@ -225,13 +224,16 @@ void add_options(CLI::App& cmd, Options& o, std::vector<std::string>& sizes) {
   cmd.add_option("--peer-rounds", o.peer_rounds, "alternating rounds (peer, then ours) per size with --peer")
       ->check(gauss::apps::in_range(1, 20))
       ->type_name("R");
-  cmd.add_option("--shapes", o.pass_shapes,
-                 "compute pass shapes: auto (from the device type, or $GAUSS_PASS_SHAPES), cpu (long per-thread "
-                 "runs, tuned on lavapipe) or gpu (one element per invocation, subgroup ranks); images are identical")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, render::SplatPassShapes>{
-          {"auto", render::SplatPassShapes::Auto},
-          {"cpu", render::SplatPassShapes::Cpu},
-          {"gpu", render::SplatPassShapes::Gpu}}))
+  cmd.add_option_function<std::string>(
+         "--shapes",
+         [&o](const std::string& v) {
+           o.pass_shapes = v == "cpu"   ? render::SplatPassShapes::Cpu
+                           : v == "gpu" ? render::SplatPassShapes::Gpu
+                                        : render::SplatPassShapes::Auto;
+         },
+         "compute pass shapes: auto (from the device type, or $GAUSS_PASS_SHAPES), cpu (long per-thread runs, "
+         "tuned on lavapipe) or gpu (one element per invocation, subgroup ranks); the images are identical")
+      ->check(CLI::IsMember({"auto", "cpu", "gpu"}))
       ->type_name("auto|cpu|gpu")
       ->default_str("auto");
   cmd.add_option("--peer-timeout", o.peer_timeout_s, "seconds one peer run may take with --peer")

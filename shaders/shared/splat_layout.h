@@ -28,9 +28,10 @@ GAUSS_CONST(uint, SPLAT_TILE, 16u)
 // of SPLAT_BLEND_PIXELS pixels (invocation i: column i % 16, rows 8 * (i / 16) ...).
 GAUSS_CONST(uint, SPLAT_BLEND_PIXELS, 8u)
 GAUSS_CONST(uint, SPLAT_BLEND_THREADS, 32u)  // SPLAT_TILE * SPLAT_TILE / SPLAT_BLEND_PIXELS
-// Radix sort: 4-bit digits (16 bins), every thread owns SORT_ITEMS consecutive keys, so
-// one workgroup sorts a block of SORT_BLOCK keys. No subgroup operation is used: the
-// per-block ranking goes through shared memory, correct at any subgroup size.
+// Radix sort: 4-bit digits (16 bins). CPU shapes (SplatPassShapes::Cpu, the lavapipe ones):
+// every thread owns SORT_ITEMS consecutive keys, so one workgroup sorts a block of
+// SORT_BLOCK keys; no subgroup operation is used: the per-block ranking goes through shared
+// memory, correct at any subgroup size. The GPU shapes follow below.
 GAUSS_CONST(uint, SORT_RADIX_BITS, 4u)
 GAUSS_CONST(uint, SORT_BINS, 16u)
 // 32 keys per thread: lavapipe pays a fixed cost per thread and per workgroup of each pass

@@ -104,6 +104,21 @@ TEST_F(SplatPassShapesTest, ProfileFollowsTheDeviceAndTheOverride) {
   }
 }
 
+// A misspelt override is refused by name, not silently ignored.
+TEST_F(SplatPassShapesTest, RejectsAnUnknownOverride) {
+  const char* before = std::getenv("GAUSS_PASS_SHAPES");
+  const std::string saved = before ? before : "";
+  ::setenv("GAUSS_PASS_SHAPES", "gpus", 1);
+  auto chosen = render::choose_pass_shapes(context(), SplatPassShapes::Auto);
+  auto asked = render::choose_pass_shapes(context(), SplatPassShapes::Cpu);  // an explicit choice wins
+  if (before) ::setenv("GAUSS_PASS_SHAPES", saved.c_str(), 1);
+  else ::unsetenv("GAUSS_PASS_SHAPES");
+  ASSERT_FALSE(chosen.ok());
+  EXPECT_NE(chosen.message().find("GAUSS_PASS_SHAPES=gpus"), std::string::npos) << chosen.message();
+  ASSERT_TRUE(asked.ok()) << asked.message();
+  EXPECT_EQ(asked->shapes, SplatPassShapes::Cpu);
+}
+
 // Scan and radix block boundaries: 4096 (GPU scan and radix block), 8192 (CPU radix
 // block), and sizes that are multiples of neither.
 TEST_F(SplatPassShapesTest, SameBytesAcrossBlockBoundaries) {

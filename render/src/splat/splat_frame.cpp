@@ -1,5 +1,6 @@
 // Recording of one view's passes (see splat_renderer.h for the sequence) and the
 // per-frame statistics read back after the frame has finished.
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <span>
@@ -151,8 +152,10 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
                        std::optional<std::uint32_t> indirect_args) -> Status {
     if (auto st = p.bind(c, scan_res); !st) return st;
     push(p, item_count, 0, 0);
+    // Past SPLAT_DISPATCH_ROW groups the dispatch wraps into y, as the indirect ones do
+    // (the shader's linear_group_id; groups past the last block return at once).
     if (indirect_args) indirect(*indirect_args);
-    else vkCmdDispatch(c, groups_direct, 1, 1);
+    else vkCmdDispatch(c, std::min(groups_direct, gpu::SPLAT_DISPATCH_ROW), groups(groups_direct, gpu::SPLAT_DISPATCH_ROW), 1);
     vk::compute_to_compute_barrier(c);
     return Ok{};
   };

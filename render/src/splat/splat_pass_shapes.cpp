@@ -10,8 +10,8 @@
 // - Subgroup size. The GPU shapes rank by ballot and keep one shared row per subgroup,
 //   sized for 4..128 invocations (splat_layout.h SPLAT_MAX_SUBGROUPS); a device outside
 //   that range keeps the CPU shapes, which use no subgroup operation in these passes.
-// - Shared memory. The CPU radix scatter holds 16 x 256 counts (17.4 KiB in all), above
-//   Vulkan's guaranteed 16 KiB; the GPU shapes need 4.4 KiB. A device with less than the
+// - Shared memory. The CPU radix scatter holds 16 x 256 counts (17.1 KiB in all), above
+//   Vulkan's guaranteed 16 KiB; the GPU shapes need 4.3 KiB. A device with less than the
 //   CPU shapes need gets the GPU shapes when its subgroups allow.
 #include <cstdlib>
 #include <string>
