@@ -6,7 +6,8 @@
 // Subgroup-size agnostic by construction: nothing assumes a size, only that a workgroup of
 // SPLAT_WORKGROUP (256) invocations is made of gl_NumSubgroups full subgroups, which holds
 // for every power-of-two size 4..128 (256 is a multiple of each; Vulkan subgroup sizes are
-// powers of two). Invocations are numbered by (subgroup, lane), never by
+// powers of two), and which the pipelines require where the device has computeFullSubgroups
+// (splat_pipelines.cpp). Invocations are numbered by (subgroup, lane), never by
 // gl_LocalInvocationIndex, because Vulkan does not say which local ids share a subgroup:
 // wg_index() is the order every scan and rank follows.
 #ifndef GAUSS_SHADERS_SHARED_SPLAT_SUBGROUP_GLSL

@@ -10,6 +10,9 @@
 // - Subgroup size. The GPU shapes rank by ballot and keep one shared row per subgroup,
 //   sized for 4..128 invocations (splat_layout.h SPLAT_MAX_SUBGROUPS); a device outside
 //   that range keeps the CPU shapes, which use no subgroup operation in these passes.
+// - Full subgroups. The GPU shapes number invocations by (subgroup, lane); a workgroup of
+//   256 made of full subgroups is what every driver does for power-of-two sizes up to 128,
+//   and the pipelines require it where the device has computeFullSubgroups (Vulkan 1.3).
 // - Shared memory. The CPU radix scatter holds 16 x 256 counts (17.1 KiB in all), above
 //   Vulkan's guaranteed 16 KiB; the GPU shapes need 4.3 KiB. A device with less than the
 //   CPU shapes need gets the GPU shapes when its subgroups allow.
@@ -38,7 +41,8 @@ std::string describe(const vk::Context& context, const char* why) {
   const VkPhysicalDeviceProperties& p = context.properties();
   return std::string(why) + "; " + vk::device_type_name(p.deviceType) + " device, subgroup " +
          std::to_string(context.subgroup_size()) + ", " +
-         std::to_string(p.limits.maxComputeSharedMemorySize / 1024) + " KiB shared";
+         std::to_string(p.limits.maxComputeSharedMemorySize / 1024) + " KiB shared" +
+         (context.enabled_features13().computeFullSubgroups ? ", full subgroups" : "");
 }
 
 }  // namespace

@@ -61,14 +61,18 @@ static_assert(kHighlightColour[0] == 1.0 && kHighlightColour[1] == 0.8 && kHighl
 static_assert(kAddedColour[1] == 1.0 && kReplacedColour[2] == 1.0 && kRemovedColour[0] == 1.0,
               "splat_preprocess.comp hard-codes the edit tint colours");
 
+// full_subgroups: the GPU shapes number invocations by (subgroup, lane) and give each
+// subgroup a share of a block, which covers the block only when every subgroup is full
+// (splat_subgroup.glsl); the device guarantees it where it can.
 Expected<vk::ComputePipeline> make(vk::Context& context, const char* name, vk::SpirvCode code,
                                    std::vector<vk::DescriptorBinding> bindings,
-                                   std::vector<vk::SpecConstant> spec = {}) {
+                                   std::vector<vk::SpecConstant> spec = {}, bool full_subgroups = false) {
   auto p = vk::ComputePipeline::create(context, {.name = name,
                                                  .shader = code,
                                                  .bindings = std::move(bindings),
                                                  .push_constant_size = sizeof(gpu::GpuSplatPush),
-                                                 .spec_constants = std::move(spec)});
+                                                 .spec_constants = std::move(spec),
+                                                 .require_full_subgroups = full_subgroups});
   if (!p) return Error{std::string("splat renderer: ") + p.message()};
   return std::move(*p);
 }
@@ -127,6 +131,7 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
     vk::SpirvCode code;
     std::vector<vk::DescriptorBinding> bindings;
     std::vector<vk::SpecConstant> spec;
+    bool full_subgroups{false};  // a GPU-shape shader (splat_subgroup.glsl)
   };
   // The CPU scan has one step; the GPU scan's SPLAT_SPEC_SCAN_PHASE picks reduce, spine or down.
   const vk::SpirvCode scan_code = g ? vk::spirv(gauss_spv_splat_scan_gpu_comp) : vk::spirv(gauss_spv_splat_scan_comp);
@@ -136,11 +141,11 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
   };
   std::vector<Fixed> fixed = {
       {&p.scan_visible_, "splat scan (visible)", scan_code, scan_bindings(),
-       scan_spec(gpu::SPLAT_SCAN_VISIBLE, gpu::SPLAT_SCAN_PHASE_SPINE)},
+       scan_spec(gpu::SPLAT_SCAN_VISIBLE, gpu::SPLAT_SCAN_PHASE_SPINE), g},
       {&p.scan_pairs_, "splat scan (pairs)", scan_code, scan_bindings(),
-       scan_spec(gpu::SPLAT_SCAN_PAIRS, gpu::SPLAT_SCAN_PHASE_SPINE)},
+       scan_spec(gpu::SPLAT_SCAN_PAIRS, gpu::SPLAT_SCAN_PHASE_SPINE), g},
       {&p.scan_hist_, "splat scan (radix histogram)", scan_code, scan_bindings(),
-       scan_spec(gpu::SPLAT_SCAN_HIST, gpu::SPLAT_SCAN_PHASE_SPINE)},
+       scan_spec(gpu::SPLAT_SCAN_HIST, gpu::SPLAT_SCAN_PHASE_SPINE), g},
       {&p.compact_, "splat compact", vk::spirv(gauss_spv_splat_compact_comp),
        {{gpu::SPLAT_BINDING_PROJECTED, SB},
         {gpu::SPLAT_BINDING_TILE_COUNT, SB},
@@ -151,7 +156,8 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
       {&p.radix_count_, "radix count",
        g ? vk::spirv(gauss_spv_sort_radix_count_gpu_comp) : vk::spirv(gauss_spv_sort_radix_count_comp),
        {{gpu::SPLAT_BINDING_KEYS_IN, SB}, {gpu::SPLAT_BINDING_HIST, SB}, {gpu::SPLAT_BINDING_COUNTERS, SB}},
-       {}},
+       {},
+       g},
       {&p.radix_scatter_, "radix scatter",
        g ? vk::spirv(gauss_spv_sort_radix_scatter_gpu_comp) : vk::spirv(gauss_spv_sort_radix_scatter_comp),
        {{gpu::SPLAT_BINDING_KEYS_IN, SB},
@@ -160,7 +166,8 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
         {gpu::SPLAT_BINDING_VALS_OUT, SB},
         {gpu::SPLAT_BINDING_HIST, SB},
         {gpu::SPLAT_BINDING_COUNTERS, SB}},
-       {}},
+       {},
+       g},
       {&p.ranges_, "splat tile ranges", vk::spirv(gauss_spv_splat_ranges_comp),
        {{gpu::SPLAT_BINDING_VIEW, DescriptorKind::UniformBuffer},
         {gpu::SPLAT_BINDING_KEYS_IN, SB},
@@ -175,16 +182,16 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
   };
   if (g) {
     fixed.push_back({&p.scan_visible_reduce_, "splat scan (visible, reduce)", scan_code, scan_bindings(),
-                     scan_spec(gpu::SPLAT_SCAN_VISIBLE, gpu::SPLAT_SCAN_PHASE_REDUCE)});
+                     scan_spec(gpu::SPLAT_SCAN_VISIBLE, gpu::SPLAT_SCAN_PHASE_REDUCE), true});
     fixed.push_back({&p.scan_visible_down_, "splat scan (visible, down)", scan_code, scan_bindings(),
-                     scan_spec(gpu::SPLAT_SCAN_VISIBLE, gpu::SPLAT_SCAN_PHASE_DOWN)});
+                     scan_spec(gpu::SPLAT_SCAN_VISIBLE, gpu::SPLAT_SCAN_PHASE_DOWN), true});
     fixed.push_back({&p.scan_pairs_reduce_, "splat scan (pairs, reduce)", scan_code, scan_bindings(),
-                     scan_spec(gpu::SPLAT_SCAN_PAIRS, gpu::SPLAT_SCAN_PHASE_REDUCE)});
+                     scan_spec(gpu::SPLAT_SCAN_PAIRS, gpu::SPLAT_SCAN_PHASE_REDUCE), true});
     fixed.push_back({&p.scan_pairs_down_, "splat scan (pairs, down)", scan_code, scan_bindings(),
-                     scan_spec(gpu::SPLAT_SCAN_PAIRS, gpu::SPLAT_SCAN_PHASE_DOWN)});
+                     scan_spec(gpu::SPLAT_SCAN_PAIRS, gpu::SPLAT_SCAN_PHASE_DOWN), true});
   }
   for (const Fixed& f : fixed) {
-    auto pipe = make(context, f.name, f.code, f.bindings, f.spec);
+    auto pipe = make(context, f.name, f.code, f.bindings, f.spec, f.full_subgroups);
     if (!pipe) return pipe.error();
     *f.out = std::move(*pipe);
   }
