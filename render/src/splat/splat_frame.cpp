@@ -155,7 +155,9 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
     // Past SPLAT_DISPATCH_ROW groups the dispatch wraps into y, as the indirect ones do
     // (the shader's linear_group_id; groups past the last block return at once).
     if (indirect_args) indirect(*indirect_args);
-    else vkCmdDispatch(c, std::min(groups_direct, gpu::SPLAT_DISPATCH_ROW), groups(groups_direct, gpu::SPLAT_DISPATCH_ROW), 1);
+    else
+      vkCmdDispatch(c, std::min(groups_direct, gpu::SPLAT_DISPATCH_ROW), groups(groups_direct, gpu::SPLAT_DISPATCH_ROW),
+                    1);
     vk::compute_to_compute_barrier(c);
     return Ok{};
   };

@@ -106,10 +106,6 @@ constexpr VkSubgroupFeatureFlags kBlendSubgroupOps = VK_SUBGROUP_FEATURE_BASIC_B
 
 }  // namespace
 
-std::uint32_t SplatPipelines::sort_block() const noexcept {
-  return shapes_ == SplatPassShapes::Gpu ? gpu::SORT_BLOCK_GPU : gpu::SORT_BLOCK;
-}
-
 Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const SlotChunkLayout& chunks,
                                                 SplatPassShapes shapes) {
   if (chunks.chunks == 0 || chunks.chunks > gpu::SPLAT_MAX_SLOT_CHUNKS ||

@@ -37,8 +37,6 @@ class SplatPipelines {
   static Expected<SplatPipelines> create(vk::Context& context, const SlotChunkLayout& chunks, SplatPassShapes shapes);
 
   SplatPassShapes shapes() const noexcept { return shapes_; }
-  // Keys per radix block of these shapes (SORT_BLOCK or SORT_BLOCK_GPU).
-  std::uint32_t sort_block() const noexcept;
 
   Expected<const vk::ComputePipeline*> preprocess(const PreprocessKey& key);
   Expected<const vk::ComputePipeline*> emit(bool mesh, bool exact_cull);
