@@ -160,6 +160,7 @@ struct Options {
   bool reference{true};
   std::uint32_t ref_rows{0};  // 0 = automatic
   unsigned ref_threads{2};
+  render::SplatPassShapes pass_shapes{render::SplatPassShapes::Auto};
 };
 
 // Rows of the reference comparison: the whole image when the reference is affordable
@@ -223,6 +224,18 @@ void add_options(CLI::App& cmd, Options& o, std::vector<std::string>& sizes) {
   cmd.add_option("--peer-rounds", o.peer_rounds, "alternating rounds (peer, then ours) per size with --peer")
       ->check(gauss::apps::in_range(1, 20))
       ->type_name("R");
+  cmd.add_option_function<std::string>(
+         "--shapes",
+         [&o](const std::string& v) {
+           o.pass_shapes = v == "cpu"   ? render::SplatPassShapes::Cpu
+                           : v == "gpu" ? render::SplatPassShapes::Gpu
+                                        : render::SplatPassShapes::Auto;
+         },
+         "compute pass shapes: auto (from the device type, or $GAUSS_PASS_SHAPES), cpu (long per-thread runs, "
+         "tuned on lavapipe) or gpu (one element per invocation, subgroup ranks); the images are identical")
+      ->check(CLI::IsMember({"auto", "cpu", "gpu"}))
+      ->type_name("auto|cpu|gpu")
+      ->default_str("auto");
   cmd.add_option("--peer-timeout", o.peer_timeout_s, "seconds one peer run may take with --peer")
       ->check(gauss::apps::in_range(1, 86400))
       ->type_name("S");
@@ -258,11 +271,12 @@ double median_of(const std::vector<FrameTimes>& v, F f) {
 }
 
 // The renderer of one row: the box scene is SH degree 3.
-render::SplatRendererCreateInfo renderer_info(const Config& c) {
+render::SplatRendererCreateInfo renderer_info(const Options& o, const Config& c) {
   return {.capacity = static_cast<std::uint32_t>(std::clamp<long>(c.n, 1, 0xFFFFFFFFl)),
           .sh_degree = 3,
           .max_width = c.width,
-          .max_height = c.height};
+          .max_height = c.height,
+          .pass_shapes = o.pass_shapes};
 }
 
 // Measures one row and prints it. `base` is the row's baseline ms (the stored lavapipe table,
@@ -270,7 +284,7 @@ render::SplatRendererCreateInfo renderer_info(const Config& c) {
 int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<const Gaussian> scene, double base,
                bool reference, nlohmann::json& out) {
   out = {{"size", c.label}, {"n", c.n}, {"width", c.width}, {"height", c.height}, {"stereo", c.stereo}};
-  if (auto plan = render::plan_splat_memory(ctx, renderer_info(c)); !plan) {
+  if (auto plan = render::plan_splat_memory(ctx, renderer_info(o, c)); !plan) {
     std::printf("%-22s skipped: %s\n", c.label.c_str(), plan.message().c_str());
     out["skipped"] = plan.message();
     return 0;
@@ -281,7 +295,7 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
     return 1;
   }
   const std::uint32_t n = std::uint32_t(c.n);
-  auto renderer = render::SplatRenderer::create(ctx, renderer_info(c));
+  auto renderer = render::SplatRenderer::create(ctx, renderer_info(o, c));
   if (!renderer) {
     std::fprintf(stderr, "gauss-bench render: %s: %s\n", c.label.c_str(), renderer.message().c_str());
     return 1;
@@ -482,9 +496,14 @@ int bench_render_main(const Options& o) {
     std::fprintf(stderr, "gauss-bench render: no usable Vulkan device: %s\n", ctx.message().c_str());
     return 1;
   }
+  auto shapes = render::choose_pass_shapes(**ctx, o.pass_shapes);
+  if (!shapes) {
+    std::fprintf(stderr, "gauss-bench render: %s\n", shapes.message().c_str());
+    return 1;
+  }
   long max_n = 0;
   for (const Config& c : o.configs)
-    if (render::plan_splat_memory(**ctx, renderer_info(c)).ok()) max_n = std::max(max_n, c.n);
+    if (render::plan_splat_memory(**ctx, renderer_info(o, c)).ok()) max_n = std::max(max_n, c.n);
   // The box scene for N is the first N Gaussians of the scene for any larger N.
   const auto t0 = std::chrono::steady_clock::now();
   const std::vector<Gaussian> scene = box_gaussians(max_n);
@@ -498,6 +517,7 @@ int bench_render_main(const Options& o) {
               "sum both eyes; image crc32 = last frame's pixels (left/right); ratio = wall_med / base_ms (base_ms: %s); "
               "times taken on a shared machine (under load)\n\n",
               (*ctx)->device_name().c_str(), max_n, gen_ms, o.frames, base_label.c_str());
+  std::printf("pass shapes: %s\n\n", shapes->reason.c_str());
   std::printf("%-22s %8s %8s %8s %5s %8s %8s %8s %8s %9s %10s %7s %5s %17s | %s\n", "size", "wall_med", "wall_min",
               "cpu_med", "load", "gpu_tot", "preproc", "sorts", "blend", "visible", "pairs", "base_ms", "ratio",
               "image crc32", "vs CPU reference (PSNR, max err)");
@@ -537,6 +557,8 @@ int bench_render_main(const Options& o) {
   if (!o.json_out.empty()) {
     nlohmann::json doc = {{"bench", "render"},
                           {"device", (*ctx)->device_name()},
+                          {"pass_shapes", render::pass_shapes_name(shapes->shapes)},
+                          {"pass_shapes_reason", shapes->reason},
                           {"frames", o.frames},
                           {"note", "wall and gpu ms are medians over the measured frames on a shared, loaded machine"},
                           {"results", results}};

@@ -28,15 +28,27 @@ GAUSS_CONST(uint, SPLAT_TILE, 16u)
 // of SPLAT_BLEND_PIXELS pixels (invocation i: column i % 16, rows 8 * (i / 16) ...).
 GAUSS_CONST(uint, SPLAT_BLEND_PIXELS, 8u)
 GAUSS_CONST(uint, SPLAT_BLEND_THREADS, 32u)  // SPLAT_TILE * SPLAT_TILE / SPLAT_BLEND_PIXELS
-// Radix sort: 4-bit digits (16 bins), every thread owns SORT_ITEMS consecutive keys, so
-// one workgroup sorts a block of SORT_BLOCK keys. No subgroup operation is used: the
-// per-block ranking goes through shared memory, correct at any subgroup size.
+// Radix sort: 4-bit digits (16 bins). CPU shapes (SplatPassShapes::Cpu, the lavapipe ones):
+// every thread owns SORT_ITEMS consecutive keys, so one workgroup sorts a block of
+// SORT_BLOCK keys; no subgroup operation is used: the per-block ranking goes through shared
+// memory, correct at any subgroup size. The GPU shapes follow below.
 GAUSS_CONST(uint, SORT_RADIX_BITS, 4u)
 GAUSS_CONST(uint, SORT_BINS, 16u)
 // 32 keys per thread: lavapipe pays a fixed cost per thread and per workgroup of each pass
 // (sorts at box 1M@1280x720: depth 96 -> 54 ms, tile 268 -> 164 ms against 8 keys).
 GAUSS_CONST(uint, SORT_ITEMS, 32u)
 GAUSS_CONST(uint, SORT_BLOCK, 8192u)  // SPLAT_WORKGROUP * SORT_ITEMS
+// GPU pass shapes (SplatPassShapes::Gpu: splat_scan_gpu.comp, sort_radix_*_gpu.comp; the
+// CPU shapes above are unchanged). A GPU wants consecutive invocations on consecutive
+// words: every loop takes one key per invocation per iteration, SORT_ITEMS_GPU iterations
+// per workgroup, and ranks within a subgroup by ballot. 16 keys x 256 invocations = 4096
+// keys per radix block and per scan block: 1M keys make 256 workgroups (an H100 has 132
+// SMs), and the histogram (16 x 256 words) is scanned by one workgroup in 16 steps.
+GAUSS_CONST(uint, SORT_ITEMS_GPU, 16u)
+GAUSS_CONST(uint, SORT_BLOCK_GPU, 4096u)  // SPLAT_WORKGROUP * SORT_ITEMS_GPU
+// The most subgroups of one SPLAT_WORKGROUP workgroup: 256 / the smallest subgroup (4).
+// Shared arrays per subgroup are sized for it, so any subgroup size 4..128 fits.
+GAUSS_CONST(uint, SPLAT_MAX_SUBGROUPS, 64u)
 // Indirect dispatches larger than this many workgroups wrap into the y dimension
 // (maxComputeWorkGroupCount[0] is only guaranteed to be 65535).
 GAUSS_CONST(uint, SPLAT_DISPATCH_ROW, 16384u)
@@ -173,6 +185,12 @@ GAUSS_CONST(uint, SPLAT_SPEC_SCAN_MODE, 0u)   // splat_scan.comp: SPLAT_SCAN_*
 GAUSS_CONST(uint, SPLAT_SCAN_VISIBLE, 0u)     // flags tile_count[i] > 0 over the slots
 GAUSS_CONST(uint, SPLAT_SCAN_PAIRS, 1u)       // tile_count[vals[i]] over the visible list
 GAUSS_CONST(uint, SPLAT_SCAN_HIST, 2u)        // radix histogram, in place
+// splat_scan_gpu.comp: which step of the reduce-then-scan (no workgroup waits on another:
+// Vulkan promises no forward progress between workgroups, so each step is a dispatch).
+GAUSS_CONST(uint, SPLAT_SPEC_SCAN_PHASE, 1u)
+GAUSS_CONST(uint, SPLAT_SCAN_PHASE_REDUCE, 0u)  // block sums -> hist[block]
+GAUSS_CONST(uint, SPLAT_SCAN_PHASE_SPINE, 1u)   // one workgroup: scan of the block sums (or of hist)
+GAUSS_CONST(uint, SPLAT_SCAN_PHASE_DOWN, 2u)    // each block rescanned from its scanned sum
 
 // ---- Push constants ---------------------------------------------------------------------------
 // One struct for every compute kernel; each reads the fields it documents.

@@ -1,9 +1,11 @@
 // Recording of one view's passes (see splat_renderer.h for the sequence) and the
 // per-frame statistics read back after the frame has finished.
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <span>
 #include <initializer_list>
+#include <optional>
 #include <utility>
 
 #include "gauss/render/vk_context.h"
@@ -142,10 +144,29 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
                                                         {gpu::SPLAT_BINDING_OFFSETS, &offsets},
                                                         {gpu::SPLAT_BINDING_HIST, &hist},
                                                         {gpu::SPLAT_BINDING_COUNTERS, &counters}};
-  if (auto st = pipelines.scan_visible().bind(c, scan_res); !st) return st;
-  push(pipelines.scan_visible(), hwm, 0, 0);
-  vkCmdDispatch(c, 1, 1, 1);
-  vk::compute_to_compute_barrier(c);
+  // CPU shapes: one dispatch. GPU shapes: block sums, their scan (the spine, which also
+  // writes the totals and arguments), then every block rescanned: no workgroup waits on
+  // another (splat_scan_gpu.comp).
+  const bool gpu_shapes = pipelines.shapes() == SplatPassShapes::Gpu;
+  auto scan_step = [&](const vk::ComputePipeline& p, std::uint32_t item_count, std::uint32_t groups_direct,
+                       std::optional<std::uint32_t> indirect_args) -> Status {
+    if (auto st = p.bind(c, scan_res); !st) return st;
+    push(p, item_count, 0, 0);
+    // Past SPLAT_DISPATCH_ROW groups the dispatch wraps into y, as the indirect ones do
+    // (the shader's linear_group_id; groups past the last block return at once).
+    if (indirect_args) indirect(*indirect_args);
+    else
+      vkCmdDispatch(c, std::min(groups_direct, gpu::SPLAT_DISPATCH_ROW), groups(groups_direct, gpu::SPLAT_DISPATCH_ROW),
+                    1);
+    vk::compute_to_compute_barrier(c);
+    return Ok{};
+  };
+  const std::uint32_t visible_blocks = groups(hwm, gpu::SORT_BLOCK_GPU);
+  if (gpu_shapes && visible_blocks > 0)
+    if (auto st = scan_step(pipelines.scan_visible_reduce(), hwm, visible_blocks, std::nullopt); !st) return st;
+  if (auto st = scan_step(pipelines.scan_visible(), hwm, 1, std::nullopt); !st) return st;
+  if (gpu_shapes && visible_blocks > 0)
+    if (auto st = scan_step(pipelines.scan_visible_down(), hwm, visible_blocks, std::nullopt); !st) return st;
   for (const ChunkRun& r : runs) {
     if (auto st = pipelines.compact().bind(c, {{gpu::SPLAT_BINDING_PROJECTED, &projected[r.chunk]},
                                                {gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
@@ -202,16 +223,26 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
   ts(4);
 
   // ---- Pair offsets in depth order, then emit (tile, slot) into [1 - src] ----
-  if (auto st = pipelines.scan_pairs().bind(c, {{gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
-                                                {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
-                                                {gpu::SPLAT_BINDING_OFFSETS, &offsets},
-                                                {gpu::SPLAT_BINDING_HIST, &hist},
-                                                {gpu::SPLAT_BINDING_COUNTERS, &counters}});
-      !st)
-    return st;
-  push(pipelines.scan_pairs(), 0, 0, 0);
-  vkCmdDispatch(c, 1, 1, 1);
-  vk::compute_to_compute_barrier(c);
+  // GPU shapes: the visible radix-block arguments size the reduce and down steps (the scan
+  // block is the radix block, SORT_BLOCK_GPU).
+  const std::initializer_list<vk::Resource> pair_scan_res = {{gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
+                                                             {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
+                                                             {gpu::SPLAT_BINDING_OFFSETS, &offsets},
+                                                             {gpu::SPLAT_BINDING_HIST, &hist},
+                                                             {gpu::SPLAT_BINDING_COUNTERS, &counters}};
+  auto pair_scan_step = [&](const vk::ComputePipeline& p, bool by_blocks) -> Status {
+    if (auto st = p.bind(c, pair_scan_res); !st) return st;
+    push(p, 0, 0, 0);
+    if (by_blocks) indirect(gpu::SPLAT_ARGS_VISIBLE_BLOCKS);
+    else vkCmdDispatch(c, 1, 1, 1);
+    vk::compute_to_compute_barrier(c);
+    return Ok{};
+  };
+  if (gpu_shapes)
+    if (auto st = pair_scan_step(pipelines.scan_pairs_reduce(), true); !st) return st;
+  if (auto st = pair_scan_step(pipelines.scan_pairs(), false); !st) return st;
+  if (gpu_shapes)
+    if (auto st = pair_scan_step(pipelines.scan_pairs_down(), true); !st) return st;
   auto emit = pipelines.emit(with_mesh, options.exact_culling);
   if (!emit) return emit.error();
   if (auto st = (*emit)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},

@@ -64,12 +64,13 @@ struct SplatRenderer::Impl {
 
   // Shared by the views of a frame (used one view after the other, with barriers).
   SplatMemoryPlan plan;
+  SplatPassProfile profile;
   std::vector<vk::Buffer> projected;  // GpuProjected per slot, one buffer per slot chunk
   vk::Buffer tile_count;  // uint per slot
   vk::Buffer offsets;     // uint per slot / per visible splat
   std::array<vk::Buffer, 2> keys;  // ping-pong sort keys, max(capacity, max_pairs)
   std::array<vk::Buffer, 2> vals;
-  vk::Buffer hist;        // 16 * blocks
+  vk::Buffer hist;        // 16 * blocks (radix_histogram_bytes); the GPU scans' block sums
   vk::Buffer tile_depth;  // float per tile
   vk::Buffer output;      // packed RGBA8 per pixel
   vk::Buffer highlight;   // sorted object ids

@@ -102,7 +102,7 @@ Checked check(const vk::Context& context, const SplatRendererCreateInfo& info) {
   p.bytes_per_slot = wide.sum() + kNarrowBytesPerSlot;
   const std::uint64_t max_tiles = std::uint64_t{tile_count(info.max_width)} * tile_count(info.max_height);
   const std::uint64_t pixels = std::uint64_t{info.max_width} * info.max_height;
-  const std::uint64_t hist = std::uint64_t{gpu::SORT_BINS} * ((sort_items + gpu::SORT_BLOCK - 1) / gpu::SORT_BLOCK) * 4;
+  const std::uint64_t hist = radix_histogram_bytes(sort_items);
   // Sort keys and values (two each), the radix histogram, tile depth, output pixels,
   // highlight ids, two views' tile ranges and targets (RGBA8 + D32), per-frame constants.
   const std::uint64_t fixed = 4 * sort_bytes + hist + max_tiles * 4 + pixels * 4 + kMaxHighlightObjects * 4 +
@@ -153,6 +153,10 @@ Status check_fields(const SplatRendererCreateInfo& info) {
 }
 
 }  // namespace
+
+std::uint64_t radix_histogram_bytes(std::uint64_t sort_keys) {
+  return std::uint64_t{gpu::SORT_BINS} * ((sort_keys + gpu::SORT_BLOCK_GPU - 1) / gpu::SORT_BLOCK_GPU) * 4;
+}
 
 std::uint32_t slot_chunk_slots(std::uint64_t binding_range, std::uint32_t capacity, int sh_degree) {
   const std::uint64_t widest = wide_strides(sh_degree).widest();

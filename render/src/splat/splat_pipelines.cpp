@@ -10,13 +10,16 @@
 #include "gauss/render/splat_math.h"
 #include "gauss/render/vk_context.h"
 #include "gauss/shaders/sort_radix_count.comp.spv.h"
+#include "gauss/shaders/sort_radix_count_gpu.comp.spv.h"
 #include "gauss/shaders/sort_radix_scatter.comp.spv.h"
+#include "gauss/shaders/sort_radix_scatter_gpu.comp.spv.h"
 #include "gauss/shaders/splat_blend.comp.spv.h"
 #include "gauss/shaders/splat_compact.comp.spv.h"
 #include "gauss/shaders/splat_emit.comp.spv.h"
 #include "gauss/shaders/splat_preprocess.comp.spv.h"
 #include "gauss/shaders/splat_ranges.comp.spv.h"
 #include "gauss/shaders/splat_scan.comp.spv.h"
+#include "gauss/shaders/splat_scan_gpu.comp.spv.h"
 #include "gauss/shaders/splat_tile_depth.comp.spv.h"
 #include "splat_layout.h"
 
@@ -30,6 +33,11 @@ constexpr auto SB = DescriptorKind::StorageBuffer;
 // The C++ and GLSL views of the splat math must agree with splat_math.h.
 static_assert(gpu::SPLAT_TILE == static_cast<std::uint32_t>(kTileSize));
 static_assert(gpu::SORT_BLOCK == gpu::SPLAT_WORKGROUP * gpu::SORT_ITEMS);
+static_assert(gpu::SORT_BLOCK_GPU == gpu::SPLAT_WORKGROUP * gpu::SORT_ITEMS_GPU);
+// The GPU scan keeps its block sums in hist, sized for the smaller radix block
+// (splat_memory_plan.cpp): one sum per SORT_BLOCK_GPU values fits.
+static_assert(gpu::SORT_BLOCK_GPU <= gpu::SORT_BLOCK);
+static_assert(gpu::SPLAT_WORKGROUP / gpu::SPLAT_MAX_SUBGROUPS == 4, "SPLAT_MAX_SUBGROUPS: subgroups of 4");
 static_assert(gpu::SORT_BINS == (1u << gpu::SORT_RADIX_BITS));
 static_assert(gpu::SPLAT_BLEND_THREADS * gpu::SPLAT_BLEND_PIXELS == gpu::SPLAT_TILE * gpu::SPLAT_TILE);
 static_assert(gpu::SPLAT_BLEND_PIXELS * 2 == gpu::SPLAT_TILE);  // two invocations per column
@@ -53,14 +61,18 @@ static_assert(kHighlightColour[0] == 1.0 && kHighlightColour[1] == 0.8 && kHighl
 static_assert(kAddedColour[1] == 1.0 && kReplacedColour[2] == 1.0 && kRemovedColour[0] == 1.0,
               "splat_preprocess.comp hard-codes the edit tint colours");
 
+// full_subgroups: the GPU shapes number invocations by (subgroup, lane) and give each
+// subgroup a share of a block, which covers the block only when every subgroup is full
+// (splat_subgroup.glsl); the device guarantees it where it can.
 Expected<vk::ComputePipeline> make(vk::Context& context, const char* name, vk::SpirvCode code,
                                    std::vector<vk::DescriptorBinding> bindings,
-                                   std::vector<vk::SpecConstant> spec = {}) {
+                                   std::vector<vk::SpecConstant> spec = {}, bool full_subgroups = false) {
   auto p = vk::ComputePipeline::create(context, {.name = name,
                                                  .shader = code,
                                                  .bindings = std::move(bindings),
                                                  .push_constant_size = sizeof(gpu::GpuSplatPush),
-                                                 .spec_constants = std::move(spec)});
+                                                 .spec_constants = std::move(spec),
+                                                 .require_full_subgroups = full_subgroups});
   if (!p) return Error{std::string("splat renderer: ") + p.message()};
   return std::move(*p);
 }
@@ -94,7 +106,8 @@ constexpr VkSubgroupFeatureFlags kBlendSubgroupOps = VK_SUBGROUP_FEATURE_BASIC_B
 
 }  // namespace
 
-Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const SlotChunkLayout& chunks) {
+Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const SlotChunkLayout& chunks,
+                                                SplatPassShapes shapes) {
   if (chunks.chunks == 0 || chunks.chunks > gpu::SPLAT_MAX_SLOT_CHUNKS ||
       (chunks.chunks > 1 && !std::has_single_bit(chunks.chunk_slots)))
     return Error{"splat renderer: " + std::to_string(chunks.chunks) + " slot chunks of " +
@@ -106,20 +119,29 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
   SplatPipelines p;
   p.context_ = &context;
   p.chunks_ = chunks;
+  p.shapes_ = shapes == SplatPassShapes::Gpu ? SplatPassShapes::Gpu : SplatPassShapes::Cpu;
+  const bool g = p.shapes_ == SplatPassShapes::Gpu;
   struct Fixed {
     vk::ComputePipeline* out;
     const char* name;
     vk::SpirvCode code;
     std::vector<vk::DescriptorBinding> bindings;
     std::vector<vk::SpecConstant> spec;
+    bool full_subgroups{false};  // a GPU-shape shader (splat_subgroup.glsl)
   };
-  const std::vector<Fixed> fixed = {
-      {&p.scan_visible_, "splat scan (visible)", vk::spirv(gauss_spv_splat_scan_comp), scan_bindings(),
-       {{gpu::SPLAT_SPEC_SCAN_MODE, gpu::SPLAT_SCAN_VISIBLE}}},
-      {&p.scan_pairs_, "splat scan (pairs)", vk::spirv(gauss_spv_splat_scan_comp), scan_bindings(),
-       {{gpu::SPLAT_SPEC_SCAN_MODE, gpu::SPLAT_SCAN_PAIRS}}},
-      {&p.scan_hist_, "splat scan (radix histogram)", vk::spirv(gauss_spv_splat_scan_comp), scan_bindings(),
-       {{gpu::SPLAT_SPEC_SCAN_MODE, gpu::SPLAT_SCAN_HIST}}},
+  // The CPU scan has one step; the GPU scan's SPLAT_SPEC_SCAN_PHASE picks reduce, spine or down.
+  const vk::SpirvCode scan_code = g ? vk::spirv(gauss_spv_splat_scan_gpu_comp) : vk::spirv(gauss_spv_splat_scan_comp);
+  auto scan_spec = [&](std::uint32_t mode, std::uint32_t phase) -> std::vector<vk::SpecConstant> {
+    if (!g) return {{gpu::SPLAT_SPEC_SCAN_MODE, mode}};
+    return {{gpu::SPLAT_SPEC_SCAN_MODE, mode}, {gpu::SPLAT_SPEC_SCAN_PHASE, phase}};
+  };
+  std::vector<Fixed> fixed = {
+      {&p.scan_visible_, "splat scan (visible)", scan_code, scan_bindings(),
+       scan_spec(gpu::SPLAT_SCAN_VISIBLE, gpu::SPLAT_SCAN_PHASE_SPINE), g},
+      {&p.scan_pairs_, "splat scan (pairs)", scan_code, scan_bindings(),
+       scan_spec(gpu::SPLAT_SCAN_PAIRS, gpu::SPLAT_SCAN_PHASE_SPINE), g},
+      {&p.scan_hist_, "splat scan (radix histogram)", scan_code, scan_bindings(),
+       scan_spec(gpu::SPLAT_SCAN_HIST, gpu::SPLAT_SCAN_PHASE_SPINE), g},
       {&p.compact_, "splat compact", vk::spirv(gauss_spv_splat_compact_comp),
        {{gpu::SPLAT_BINDING_PROJECTED, SB},
         {gpu::SPLAT_BINDING_TILE_COUNT, SB},
@@ -127,17 +149,21 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
         {gpu::SPLAT_BINDING_KEYS_OUT, SB},
         {gpu::SPLAT_BINDING_VALS_OUT, SB}},
        {}},
-      {&p.radix_count_, "radix count", vk::spirv(gauss_spv_sort_radix_count_comp),
+      {&p.radix_count_, "radix count",
+       g ? vk::spirv(gauss_spv_sort_radix_count_gpu_comp) : vk::spirv(gauss_spv_sort_radix_count_comp),
        {{gpu::SPLAT_BINDING_KEYS_IN, SB}, {gpu::SPLAT_BINDING_HIST, SB}, {gpu::SPLAT_BINDING_COUNTERS, SB}},
-       {}},
-      {&p.radix_scatter_, "radix scatter", vk::spirv(gauss_spv_sort_radix_scatter_comp),
+       {},
+       g},
+      {&p.radix_scatter_, "radix scatter",
+       g ? vk::spirv(gauss_spv_sort_radix_scatter_gpu_comp) : vk::spirv(gauss_spv_sort_radix_scatter_comp),
        {{gpu::SPLAT_BINDING_KEYS_IN, SB},
         {gpu::SPLAT_BINDING_VALS_IN, SB},
         {gpu::SPLAT_BINDING_KEYS_OUT, SB},
         {gpu::SPLAT_BINDING_VALS_OUT, SB},
         {gpu::SPLAT_BINDING_HIST, SB},
         {gpu::SPLAT_BINDING_COUNTERS, SB}},
-       {}},
+       {},
+       g},
       {&p.ranges_, "splat tile ranges", vk::spirv(gauss_spv_splat_ranges_comp),
        {{gpu::SPLAT_BINDING_VIEW, DescriptorKind::UniformBuffer},
         {gpu::SPLAT_BINDING_KEYS_IN, SB},
@@ -150,8 +176,18 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
         {gpu::SPLAT_BINDING_TILE_DEPTH, SB}},
        {}},
   };
+  if (g) {
+    fixed.push_back({&p.scan_visible_reduce_, "splat scan (visible, reduce)", scan_code, scan_bindings(),
+                     scan_spec(gpu::SPLAT_SCAN_VISIBLE, gpu::SPLAT_SCAN_PHASE_REDUCE), true});
+    fixed.push_back({&p.scan_visible_down_, "splat scan (visible, down)", scan_code, scan_bindings(),
+                     scan_spec(gpu::SPLAT_SCAN_VISIBLE, gpu::SPLAT_SCAN_PHASE_DOWN), true});
+    fixed.push_back({&p.scan_pairs_reduce_, "splat scan (pairs, reduce)", scan_code, scan_bindings(),
+                     scan_spec(gpu::SPLAT_SCAN_PAIRS, gpu::SPLAT_SCAN_PHASE_REDUCE), true});
+    fixed.push_back({&p.scan_pairs_down_, "splat scan (pairs, down)", scan_code, scan_bindings(),
+                     scan_spec(gpu::SPLAT_SCAN_PAIRS, gpu::SPLAT_SCAN_PHASE_DOWN), true});
+  }
   for (const Fixed& f : fixed) {
-    auto pipe = make(context, f.name, f.code, f.bindings, f.spec);
+    auto pipe = make(context, f.name, f.code, f.bindings, f.spec, f.full_subgroups);
     if (!pipe) return pipe.error();
     *f.out = std::move(*pipe);
   }

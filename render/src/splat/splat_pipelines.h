@@ -5,6 +5,7 @@
 #include <map>
 
 #include "gauss/engine/result.h"
+#include "gauss/render/splat_renderer.h"
 #include "gauss/render/vk_pipeline.h"
 
 namespace gauss::vk {
@@ -31,15 +32,26 @@ struct SlotChunkLayout {
 
 class SplatPipelines {
  public:
-  static Expected<SplatPipelines> create(vk::Context& context, const SlotChunkLayout& chunks);
+  // `shapes` is Cpu or Gpu (resolved by choose_pass_shapes): which shaders the scans and
+  // the radix passes take. The other passes have one shape.
+  static Expected<SplatPipelines> create(vk::Context& context, const SlotChunkLayout& chunks, SplatPassShapes shapes);
+
+  SplatPassShapes shapes() const noexcept { return shapes_; }
 
   Expected<const vk::ComputePipeline*> preprocess(const PreprocessKey& key);
   Expected<const vk::ComputePipeline*> emit(bool mesh, bool exact_cull);
   Expected<const vk::ComputePipeline*> blend(bool mesh);
 
+  // Cpu: the whole scan in one workgroup. Gpu: the spine (one workgroup) between the
+  // reduce and down dispatches below.
   const vk::ComputePipeline& scan_visible() const noexcept { return scan_visible_; }
   const vk::ComputePipeline& scan_pairs() const noexcept { return scan_pairs_; }
   const vk::ComputePipeline& scan_hist() const noexcept { return scan_hist_; }
+  // Gpu only: block sums and the per-block rescans of the visible and pair scans.
+  const vk::ComputePipeline& scan_visible_reduce() const noexcept { return scan_visible_reduce_; }
+  const vk::ComputePipeline& scan_visible_down() const noexcept { return scan_visible_down_; }
+  const vk::ComputePipeline& scan_pairs_reduce() const noexcept { return scan_pairs_reduce_; }
+  const vk::ComputePipeline& scan_pairs_down() const noexcept { return scan_pairs_down_; }
   const vk::ComputePipeline& compact() const noexcept { return compact_; }
   const vk::ComputePipeline& radix_count() const noexcept { return radix_count_; }
   const vk::ComputePipeline& radix_scatter() const noexcept { return radix_scatter_; }
@@ -49,11 +61,13 @@ class SplatPipelines {
  private:
   vk::Context* context_{nullptr};
   SlotChunkLayout chunks_;
+  SplatPassShapes shapes_{SplatPassShapes::Cpu};
   std::map<PreprocessKey, vk::ComputePipeline> preprocess_;
   std::map<std::uint32_t, vk::ComputePipeline> emit_;
   std::map<std::uint32_t, vk::ComputePipeline> blend_;
   vk::ComputePipeline scan_visible_, scan_pairs_, scan_hist_, compact_, radix_count_, radix_scatter_, ranges_,
       tile_depth_;
+  vk::ComputePipeline scan_visible_reduce_, scan_visible_down_, scan_pairs_reduce_, scan_pairs_down_;
 };
 
 }  // namespace gauss::render::splat

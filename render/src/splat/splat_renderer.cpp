@@ -49,7 +49,11 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
   auto mesh = MeshPass::create(context);
   if (!mesh) return mesh.error();
   impl->mesh = std::move(*mesh);
-  auto pipes = splat::SplatPipelines::create(context, {.chunks = plan->slot_chunks, .chunk_slots = plan->chunk_slots});
+  auto profile = choose_pass_shapes(context, info.pass_shapes);
+  if (!profile) return profile.error();
+  impl->profile = *profile;
+  auto pipes = splat::SplatPipelines::create(context, {.chunks = plan->slot_chunks, .chunk_slots = plan->chunk_slots},
+                                             profile->shapes);
   if (!pipes) return pipes.error();
   impl->pipelines = std::move(*pipes);
 
@@ -85,8 +89,7 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
       {&impl->keys[1], sort_items * 4, "sort keys B"},
       {&impl->vals[0], sort_items * 4, "sort values A"},
       {&impl->vals[1], sort_items * 4, "sort values B"},
-      {&impl->hist, std::uint64_t{gpu::SORT_BINS} * ((sort_items + gpu::SORT_BLOCK - 1) / gpu::SORT_BLOCK) * 4,
-       "radix histogram"},
+      {&impl->hist, radix_histogram_bytes(sort_items), "radix histogram"},
       {&impl->tile_depth, max_tiles * 4, "tile max mesh depth"},
       {&impl->output, std::uint64_t{info.max_width} * info.max_height * 4, "splat output pixels"},
       {&impl->highlight, std::uint64_t{kMaxHighlightObjects} * 4, "highlight object ids"},
@@ -119,6 +122,7 @@ std::uint32_t SplatRenderer::capacity() const noexcept { return impl_->info.capa
 int SplatRenderer::sh_degree() const noexcept { return impl_->info.sh_degree; }
 std::uint32_t SplatRenderer::max_pairs() const noexcept { return impl_->info.max_pairs; }
 const SplatMemoryPlan& SplatRenderer::memory_plan() const noexcept { return impl_->plan; }
+const SplatPassProfile& SplatRenderer::pass_profile() const noexcept { return impl_->profile; }
 
 Status SplatRenderer::write_slots(std::uint32_t first_slot, std::span<const Gaussian> gaussians) {
   return impl_->slots.write_slots(first_slot, gaussians);

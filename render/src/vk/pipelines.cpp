@@ -88,6 +88,8 @@ Expected<ComputePipeline> ComputePipeline::create(Context& context, const Comput
   ci.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
   ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
   ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  if (info.require_full_subgroups && context.enabled_features13().computeFullSubgroups)
+    ci.stage.flags |= VK_PIPELINE_SHADER_STAGE_CREATE_REQUIRE_FULL_SUBGROUPS_BIT;
   ci.stage.module = module.module;
   ci.stage.pName = info.entry_point.c_str();
   ci.stage.pSpecializationInfo = spec.get();

@@ -49,6 +49,11 @@ struct SplatMemoryPlan {
 // slot fits (a binding under 96 bytes).
 std::uint32_t slot_chunk_slots(std::uint64_t binding_range, std::uint32_t capacity, int sh_degree);
 
+// Bytes of the radix histogram for sorts of up to `sort_keys` keys: 16 words per block of
+// the smaller radix block of the two pass shapes (SORT_BLOCK_GPU), so one size serves
+// both; the GPU scans keep their block sums there too.
+std::uint64_t radix_histogram_bytes(std::uint64_t sort_keys);
+
 // Errors (one message naming the limit, what the renderer needs and the most slots the
 // device takes at this SH degree and size): invalid fields of `info` (as
 // SplatRenderer::create), more chunks than kMaxSlotChunks, a 4-byte-per-slot or sort

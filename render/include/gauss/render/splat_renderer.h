@@ -27,6 +27,7 @@
 #include <functional>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include <volk.h>
@@ -54,6 +55,34 @@ namespace gauss::render {
 
 inline constexpr std::uint32_t kMaxHighlightObjects = 65'536;
 
+// The shapes of the compute passes (scans, radix count and scatter), chosen once when the
+// renderer is created; the image is the same byte for byte either way (docs/DESIGN.md
+// "What lavapipe charges" and "What GPUs charge").
+enum class SplatPassShapes : std::uint8_t {
+  // From the device: Cpu on CPU Vulkan (lavapipe), Gpu on every other device type. The
+  // environment variable GAUSS_PASS_SHAPES=cpu|gpu overrides it (tests, benchmarks).
+  Auto,
+  // Long contiguous runs per thread: 32 keys per radix thread, one-workgroup scans. On
+  // lavapipe every non-constant load is a loop over the lanes, so fewer, longer threads win.
+  Cpu,
+  // One element per invocation per iteration (consecutive invocations on consecutive
+  // words), ranks by subgroup ballot, multi-workgroup reduce-then-scan. Needs subgroups of
+  // 4..128 invocations.
+  Gpu,
+};
+const char* pass_shapes_name(SplatPassShapes shapes) noexcept;  // "auto", "cpu", "gpu"
+
+// The shapes a renderer on `context` takes and why (one line, e.g. "gpu (discrete GPU,
+// subgroup 32, 48 KiB shared)").
+struct SplatPassProfile {
+  SplatPassShapes shapes{SplatPassShapes::Cpu};
+  std::string reason;
+};
+// Resolves `requested` (Auto: GAUSS_PASS_SHAPES, else the device type). Errors:
+// GAUSS_PASS_SHAPES set to anything but cpu or gpu; Gpu asked of a device whose subgroups
+// are outside 4..128 (both named).
+Expected<SplatPassProfile> choose_pass_shapes(const vk::Context& context, SplatPassShapes requested);
+
 struct SplatRendererCreateInfo {
   // Slots, 1 .. what the device holds (splat_memory_plan.h: the binding range, the
   // allocation size and the device-local heap decide; max_splat_capacity() says).
@@ -70,6 +99,8 @@ struct SplatRendererCreateInfo {
   // A smaller value splits the per-slot arrays into chunks sooner (tests exercise the
   // split on small scenes with it).
   std::uint64_t max_binding_bytes{0};
+  // Pass shapes (see SplatPassShapes); Auto lets the device and GAUSS_PASS_SHAPES decide.
+  SplatPassShapes pass_shapes{SplatPassShapes::Auto};
 };
 
 // What a frame-paced caller adds to a frame of render_frame().
@@ -129,6 +160,8 @@ class SplatRenderer {
   std::uint32_t max_pairs() const noexcept;
   // The sizes it was made with: slot chunks, bytes per slot, total bytes.
   const SplatMemoryPlan& memory_plan() const noexcept;
+  // The pass shapes it was made with, and why.
+  const SplatPassProfile& pass_profile() const noexcept;
 
   // ---- Slots (see slot_buffer.h: non-finite Gaussians are refused and counted) ----
   Status write_slots(std::uint32_t first_slot, std::span<const Gaussian> gaussians);

@@ -135,6 +135,10 @@ struct ComputePipelineCreateInfo {
   std::vector<DescriptorBinding> bindings{};
   std::uint32_t push_constant_size{0};  // bytes; <= maxPushConstantsSize (128 on lavapipe)
   std::vector<SpecConstant> spec_constants{};
+  // Every subgroup of a workgroup full (VK_PIPELINE_SHADER_STAGE_CREATE_REQUIRE_FULL_SUBGROUPS_BIT)
+  // where the device has computeFullSubgroups (core in Vulkan 1.3); ignored elsewhere. The
+  // workgroup's x size must then be a multiple of the device's largest subgroup.
+  bool require_full_subgroups{false};
 };
 
 class ComputePipeline : public PipelineBase {

@@ -1,0 +1,97 @@
+// The device profile of the splat passes: which shapes (SplatPassShapes) a renderer takes
+// on a device, decided once when its pipelines are created.
+//
+// What decides it (docs/DESIGN.md "What lavapipe charges", "What GPUs charge"):
+// - Device type. CPU Vulkan (lavapipe) runs a subgroup as SIMD lanes of one core and
+//   turns every non-constant load into a loop over the lanes: fewer threads with long
+//   contiguous runs win there, and the CPU shapes were measured on it. Every other type is
+//   a GPU, which wants consecutive invocations on consecutive words, many workgroups per
+//   pass and no serial runs: the GPU shapes.
+// - Subgroup size. The GPU shapes rank by ballot and keep one shared row per subgroup,
+//   sized for 4..128 invocations (splat_layout.h SPLAT_MAX_SUBGROUPS); a device outside
+//   that range keeps the CPU shapes, which use no subgroup operation in these passes.
+// - Full subgroups. The GPU shapes number invocations by (subgroup, lane); a workgroup of
+//   256 made of full subgroups is what every driver does for power-of-two sizes up to 128,
+//   and the pipelines require it where the device has computeFullSubgroups (Vulkan 1.3).
+// - Shared memory. The CPU radix scatter holds 16 x 256 counts (17.1 KiB in all), above
+//   Vulkan's guaranteed 16 KiB; the GPU shapes need 4.3 KiB. A device with less than the
+//   CPU shapes need gets the GPU shapes when its subgroups allow.
+#include <cstdlib>
+#include <string>
+#include <string_view>
+
+#include "gauss/render/splat_renderer.h"
+#include "gauss/render/vk_context.h"
+#include "splat_layout.h"
+
+namespace gauss::render {
+
+namespace {
+
+// Shared memory of the largest pass of each shape (bytes), see the shaders' shared arrays.
+constexpr std::uint32_t kCpuShapesShared = (gpu::SORT_BINS * gpu::SPLAT_WORKGROUP + gpu::SORT_BINS * 16 + gpu::SORT_BINS) * 4;
+constexpr std::uint32_t kGpuShapesShared = (gpu::SPLAT_MAX_SUBGROUPS * gpu::SORT_BINS + gpu::SORT_BINS + gpu::SPLAT_MAX_SUBGROUPS) * 4;
+
+bool subgroups_fit_gpu_shapes(const vk::Context& context) {
+  return context.subgroup_size() >= 4 && context.max_subgroup_size() <= 128 &&
+         gpu::SPLAT_WORKGROUP / context.subgroup_size() <= gpu::SPLAT_MAX_SUBGROUPS;
+}
+
+std::string describe(const vk::Context& context, const char* why) {
+  const VkPhysicalDeviceProperties& p = context.properties();
+  return std::string(why) + "; " + vk::device_type_name(p.deviceType) + " device, subgroup " +
+         std::to_string(context.subgroup_size()) + ", " +
+         std::to_string(p.limits.maxComputeSharedMemorySize / 1024) + " KiB shared" +
+         (context.enabled_features13().computeFullSubgroups ? ", full subgroups" : "");
+}
+
+}  // namespace
+
+const char* pass_shapes_name(SplatPassShapes shapes) noexcept {
+  switch (shapes) {
+    case SplatPassShapes::Auto: return "auto";
+    case SplatPassShapes::Cpu: return "cpu";
+    case SplatPassShapes::Gpu: return "gpu";
+  }
+  return "auto";
+}
+
+Expected<SplatPassProfile> choose_pass_shapes(const vk::Context& context, SplatPassShapes requested) {
+  const char* why = "asked for";
+  if (requested == SplatPassShapes::Auto) {
+    if (const char* env = std::getenv("GAUSS_PASS_SHAPES"); env && *env) {
+      const std::string_view v = env;
+      if (v == "cpu") requested = SplatPassShapes::Cpu;
+      else if (v == "gpu") requested = SplatPassShapes::Gpu;
+      else if (v != "auto")
+        return Error{"GAUSS_PASS_SHAPES=" + std::string(v) + ": expected cpu, gpu or auto"};
+      why = "GAUSS_PASS_SHAPES";
+    }
+  }
+  if (requested == SplatPassShapes::Auto) {
+    const bool cpu_device = context.properties().deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+    const bool cpu_fits = context.limits().maxComputeSharedMemorySize >= kCpuShapesShared;
+    if (!subgroups_fit_gpu_shapes(context)) {
+      requested = SplatPassShapes::Cpu;
+      why = "subgroups outside 4..128";
+    } else if (cpu_device && cpu_fits) {
+      requested = SplatPassShapes::Cpu;
+      why = "CPU Vulkan";
+    } else {
+      requested = SplatPassShapes::Gpu;
+      why = cpu_device ? "too little shared memory for the CPU shapes" : "GPU";
+    }
+  }
+  if (requested == SplatPassShapes::Gpu && !subgroups_fit_gpu_shapes(context))
+    return Error{"splat renderer: the GPU pass shapes need subgroups of 4..128 invocations; device " +
+                 context.device_name() + " has " + std::to_string(context.subgroup_size()) + ".." +
+                 std::to_string(context.max_subgroup_size())};
+  const std::uint32_t need = requested == SplatPassShapes::Gpu ? kGpuShapesShared : kCpuShapesShared;
+  if (context.limits().maxComputeSharedMemorySize < need)
+    return Error{std::string("splat renderer: the ") + pass_shapes_name(requested) + " pass shapes need " +
+                 std::to_string(need) + " bytes of compute shared memory; device " + context.device_name() +
+                 " has " + std::to_string(context.limits().maxComputeSharedMemorySize)};
+  return SplatPassProfile{requested, std::string(pass_shapes_name(requested)) + " (" + describe(context, why) + ")"};
+}
+
+}  // namespace gauss::render

@@ -1,0 +1,101 @@
+#version 460
+// The GPU shape of sort_radix_scatter.comp: the same stable scatter of one 4-bit digit over
+// blocks of SORT_BLOCK_GPU keys, with the same histogram (sort_radix_count_gpu.comp) and
+// the same single-block rule (no count or histogram scan: the block ranks its own digits).
+// Subgroup s of the block owns the contiguous run of SORT_ITEMS_GPU * gl_SubgroupSize keys
+// after those of subgroups s' < s, and walks it one key per lane per iteration, so a
+// subgroup reads consecutive words and writes each digit's keys of an iteration to
+// consecutive words. A key's output position is
+//   scanned hist[d][block] (or, single block, the block's keys of smaller digits)
+//   + keys of digit d in the runs of subgroups s' < s          (s_off, scanned per digit)
+//   + keys of digit d in this subgroup's earlier iterations    (s_off, advanced per iteration)
+//   + lanes below it with digit d in this iteration            (ballot rank)
+// Every term follows input order, so the pass is stable and the output equals the CPU
+// shape's. Subgroups never wait on each other inside an iteration, only at the two
+// workgroup barriers around the per-digit scan; each s_off row is touched by its own
+// subgroup only, in order (subgroup barriers).
+#extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_ballot : require
+
+#include "splat_common.glsl"
+#include "splat_subgroup.glsl"
+
+layout(local_size_x = SPLAT_WORKGROUP) in;
+
+layout(std430, binding = SPLAT_BINDING_KEYS_IN) readonly buffer KeysInBuf { uint keys_in[]; };
+layout(std430, binding = SPLAT_BINDING_VALS_IN) readonly buffer ValsInBuf { uint vals_in[]; };
+layout(std430, binding = SPLAT_BINDING_KEYS_OUT) writeonly buffer KeysOutBuf { uint keys_out[]; };
+layout(std430, binding = SPLAT_BINDING_VALS_OUT) writeonly buffer ValsOutBuf { uint vals_out[]; };
+layout(std430, binding = SPLAT_BINDING_HIST) readonly buffer HistBuf { uint hist[]; };
+layout(std430, binding = SPLAT_BINDING_COUNTERS) readonly buffer CounterBuf { uint counters[]; };
+layout(push_constant) uniform Push { GpuSplatPush pc; };
+
+// Row s: per digit, the keys of subgroup s's run, then its next output position (4 KiB).
+shared uint s_off[SPLAT_MAX_SUBGROUPS * SORT_BINS];
+shared uint s_total[SORT_BINS];  // keys of each digit in the block
+
+void main() {
+  const uint n = counters[pc.count_index];
+  const uint blocks = (n + SORT_BLOCK_GPU - 1u) / SORT_BLOCK_GPU;
+  const uint block = linear_group_id();
+  if (block >= blocks) return;  // uniform over the workgroup
+  const uint lid = gl_LocalInvocationIndex;
+  const uint sg = gl_SubgroupID;
+  const uint lane = gl_SubgroupInvocationID;
+  const uint row = sg * SORT_BINS;
+  const uint run_base = block * SORT_BLOCK_GPU + sg * (SORT_ITEMS_GPU * gl_SubgroupSize);
+
+  for (uint d = lane; d < SORT_BINS; d += gl_SubgroupSize) s_off[row + d] = 0u;
+  subgroupMemoryBarrierShared();
+  subgroupBarrier();
+  for (uint j = 0u; j < SORT_ITEMS_GPU; ++j) {  // count this subgroup's run per digit
+    const uint i = run_base + j * gl_SubgroupSize + lane;
+    const bool valid = i < n;
+    const uint d = valid ? (keys_in[i] >> pc.shift) & (SORT_BINS - 1u) : 0u;
+    const uvec4 peers = digit_peers(d, valid);
+    if (valid && subgroupBallotBitCount(peers & gl_SubgroupLtMask) == 0u) s_off[row + d] += subgroupBallotBitCount(peers);
+    subgroupMemoryBarrierShared();
+    subgroupBarrier();
+  }
+  barrier();
+  if (lid < SORT_BINS) {
+    uint total = 0u;
+    for (uint s = 0u; s < gl_NumSubgroups; ++s) total += s_off[s * SORT_BINS + lid];
+    s_total[lid] = total;
+  }
+  barrier();
+  if (lid < SORT_BINS) {  // digit lid: where each subgroup's keys of it start
+    uint run = 0u;
+    if (blocks == 1u) {
+      for (uint d = 0u; d < lid; ++d) run += s_total[d];
+    } else {
+      run = hist[lid * blocks + block];
+    }
+    for (uint s = 0u; s < gl_NumSubgroups; ++s) {
+      const uint v = s_off[s * SORT_BINS + lid];
+      s_off[s * SORT_BINS + lid] = run;
+      run += v;
+    }
+  }
+  barrier();
+  for (uint j = 0u; j < SORT_ITEMS_GPU; ++j) {
+    const uint i = run_base + j * gl_SubgroupSize + lane;
+    const bool valid = i < n;
+    const uint key = valid ? keys_in[i] : 0u;
+    const uint d = (key >> pc.shift) & (SORT_BINS - 1u);
+    const uvec4 peers = digit_peers(d, valid);
+    const uint rank = subgroupBallotBitCount(peers & gl_SubgroupLtMask);
+    const uint start = s_off[row + d];
+    if (valid) {
+      keys_out[start + rank] = key;
+      vals_out[start + rank] = vals_in[i];
+    }
+    subgroupMemoryBarrierShared();
+    subgroupBarrier();  // every lane has read its digit's start before it moves on
+    if (valid && rank == 0u) s_off[row + d] = start + subgroupBallotBitCount(peers);
+    subgroupMemoryBarrierShared();
+    subgroupBarrier();
+  }
+}

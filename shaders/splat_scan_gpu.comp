@@ -1,0 +1,125 @@
+#version 460
+// The GPU shape of splat_scan.comp (same modes, same results, same counters and dispatch
+// arguments): an exclusive, saturating prefix sum as reduce-then-scan over blocks of
+// SORT_BLOCK_GPU values, three dispatches with a barrier between them:
+//   REDUCE  workgroup b sums block b -> hist[b]           (VISIBLE, PAIRS)
+//   SPINE   one workgroup scans hist in place and, for VISIBLE / PAIRS, writes the totals
+//           and indirect arguments as splat_scan.comp does; for HIST it is the whole scan
+//   DOWN    workgroup b rescans block b from hist[b] -> offsets (VISIBLE, PAIRS)
+// splat_scan.comp runs in one workgroup whose threads each walk a contiguous run, which a
+// GPU spends on one SM with uncoalesced loads (1M slots: 1.7 ms on an H100). Here every
+// loop takes one value per invocation per iteration, so consecutive invocations read
+// consecutive words, and a workgroup never waits on another (no forward-progress
+// assumption). hist is free while a scan runs (the radix passes own it only inside a
+// sort), and holds the block sums: blocks(n) <= 16 * blocks(sort keys) words.
+//   VISIBLE: n = high-water mark (push), REDUCE / DOWN dispatched directly.
+//   PAIRS:   n = counters[VISIBLE], REDUCE / DOWN dispatched with the visible radix-block
+//            arguments (the radix block equals the scan block, SORT_BLOCK_GPU).
+//   HIST:    SPINE only, n = 16 * blocks(counters[count_index]).
+#extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_ballot : require
+
+#include "splat_common.glsl"
+#include "splat_subgroup.glsl"
+
+layout(local_size_x = SPLAT_WORKGROUP) in;
+layout(constant_id = SPLAT_SPEC_SCAN_MODE) const uint MODE = 0u;
+layout(constant_id = SPLAT_SPEC_SCAN_PHASE) const uint PHASE = 0u;
+
+layout(std430, binding = SPLAT_BINDING_TILE_COUNT) readonly buffer TileCountBuf { uint tile_count[]; };
+layout(std430, binding = SPLAT_BINDING_VALS_IN) readonly buffer ValsBuf { uint vals[]; };
+layout(std430, binding = SPLAT_BINDING_OFFSETS) writeonly buffer OffsetsBuf { uint offsets[]; };
+layout(std430, binding = SPLAT_BINDING_HIST) buffer HistBuf { uint hist[]; };
+layout(std430, binding = SPLAT_BINDING_COUNTERS) buffer CounterBuf { uint counters[]; };
+layout(push_constant) uniform Push { GpuSplatPush pc; };
+
+uint item_count() {
+  if (MODE == SPLAT_SCAN_VISIBLE) return pc.item_count;
+  if (MODE == SPLAT_SCAN_PAIRS) return counters[SPLAT_COUNTER_VISIBLE];
+  return SORT_BINS * ((counters[pc.count_index] + SORT_BLOCK_GPU - 1u) / SORT_BLOCK_GPU);
+}
+
+uint value(uint i) {
+  if (MODE == SPLAT_SCAN_VISIBLE) return tile_count[i] > 0u ? 1u : 0u;
+  return tile_count[vals[i]];
+}
+
+void write_args(uint at, uint groups) {
+  counters[at] = min(groups, SPLAT_DISPATCH_ROW);
+  counters[at + 1u] = max(1u, (groups + SPLAT_DISPATCH_ROW - 1u) / SPLAT_DISPATCH_ROW);
+  counters[at + 2u] = 1u;
+}
+
+// As splat_scan.comp, with the GPU radix block.
+void write_sort_args(uint keys, uint blocks_at, uint count_at, uint hist_at) {
+  const uint blocks = (keys + SORT_BLOCK_GPU - 1u) / SORT_BLOCK_GPU;
+  write_args(blocks_at, blocks);
+  write_args(count_at, blocks > 1u ? blocks : 0u);
+  write_args(hist_at, blocks > 1u ? 1u : 0u);
+}
+
+void reduce(uint n) {
+  const uint block = linear_group_id();
+  const uint base = block * SORT_BLOCK_GPU;
+  if (base >= n) return;  // uniform over the workgroup
+  // Per invocation at most 16 values below 2^32: summed with saturation, then across the
+  // workgroup saturating as well.
+  uint sum = 0u;
+  for (uint j = 0u; j < SORT_ITEMS_GPU; ++j) {
+    const uint i = base + j * SPLAT_WORKGROUP + wg_index();
+    if (i < n) sum = sat_add(sum, value(i));
+  }
+  uint total;
+  wg_exclusive_scan(sum, total);
+  if (wg_index() == 0u) hist[block] = total;
+}
+
+void spine(uint n) {
+  // n values in hist: the block sums (VISIBLE, PAIRS) or the radix histogram (HIST).
+  const uint m = MODE == SPLAT_SCAN_HIST ? n : (n + SORT_BLOCK_GPU - 1u) / SORT_BLOCK_GPU;
+  uint run = 0u;
+  for (uint base = 0u; base < m; base += SPLAT_WORKGROUP) {
+    const uint i = base + wg_index();
+    const uint v = i < m ? hist[i] : 0u;
+    uint total;
+    const uint before = wg_exclusive_scan(v, total);
+    if (i < m) hist[i] = sat_add(run, before);
+    run = sat_add(run, total);
+  }
+  if (wg_index() != 0u) return;
+  if (MODE == SPLAT_SCAN_VISIBLE) {
+    counters[SPLAT_COUNTER_VISIBLE] = run;
+    write_args(SPLAT_ARGS_VISIBLE_ITEMS, (run + SPLAT_WORKGROUP - 1u) / SPLAT_WORKGROUP);
+    write_sort_args(run, SPLAT_ARGS_VISIBLE_BLOCKS, SPLAT_ARGS_VISIBLE_COUNT, SPLAT_ARGS_VISIBLE_HIST);
+  } else if (MODE == SPLAT_SCAN_PAIRS) {
+    const uint used = min(run, pc.pair_capacity);
+    counters[SPLAT_COUNTER_PAIRS_NEEDED] = run;
+    counters[SPLAT_COUNTER_PAIRS] = used;
+    write_args(SPLAT_ARGS_PAIR_ITEMS, (used + SPLAT_WORKGROUP - 1u) / SPLAT_WORKGROUP);
+    write_sort_args(used, SPLAT_ARGS_PAIR_BLOCKS, SPLAT_ARGS_PAIR_COUNT, SPLAT_ARGS_PAIR_HIST);
+  }
+}
+
+void down(uint n) {
+  const uint block = linear_group_id();
+  const uint base = block * SORT_BLOCK_GPU;
+  if (base >= n) return;  // uniform over the workgroup
+  uint run = hist[block];
+  for (uint j = 0u; j < SORT_ITEMS_GPU; ++j) {
+    const uint i = base + j * SPLAT_WORKGROUP + wg_index();
+    const uint v = i < n ? value(i) : 0u;
+    uint total;
+    const uint before = wg_exclusive_scan(v, total);
+    if (i < n) offsets[i] = sat_add(run, before);
+    run = sat_add(run, total);
+  }
+}
+
+void main() {
+  const uint n = item_count();
+  if (PHASE == SPLAT_SCAN_PHASE_REDUCE) reduce(n);
+  else if (PHASE == SPLAT_SCAN_PHASE_SPINE) spine(n);
+  else down(n);
+}

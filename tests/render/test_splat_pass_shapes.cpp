@@ -1,0 +1,191 @@
+// The two pass shapes (SplatPassShapes: Cpu, measured on lavapipe; Gpu, for real GPUs)
+// render the same bytes: both compute the same offsets and the same stable orders, so the
+// images and the frame counters must be identical, at sizes on both sides of every block
+// boundary of both shapes (GPU scan / radix block 4096, CPU radix block 8192, the spine's
+// 256 values per step), with many exact depth ties (equal depths blend in slot order), and
+// both stay within the reference tolerance. CTest also runs this at lavapipe subgroup sizes
+// 4 and 16 (tests/CMakeLists.txt): the GPU shapes rank by subgroup ballot.
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "gauss/render/splat_renderer.h"
+#include "gauss/render/vk_context.h"
+#include "golden.h"
+#include "splat_test_util.h"
+#include "vk_test.h"
+
+namespace gauss::test {
+namespace {
+
+using render::SplatPassShapes;
+
+// The GPU shapes' scan and radix block (shaders/shared/splat_layout.h SORT_BLOCK_GPU).
+constexpr std::uint32_t kGpuBlock = 4096;
+
+struct Rendered {
+  ImageRGBA8 image;
+  render::SplatFrameStats stats;
+};
+
+class SplatPassShapesTest : public VkTest {
+ protected:
+  // Renders `scene` at slot `first_slot` onwards with the given shapes.
+  Rendered render_with(SplatPassShapes shapes, std::span<const Gaussian> scene, const Camera& cam,
+                       std::uint32_t capacity, std::uint32_t first_slot = 0,
+                       const render::SplatRenderOptions& options = {}) {
+    auto r = render::SplatRenderer::create(context(), {.capacity = capacity, .sh_degree = 0, .max_width = cam.width,
+                                                       .max_height = cam.height, .pass_shapes = shapes});
+    EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.message());
+    if (!r.ok()) return {};
+    EXPECT_EQ((*r)->pass_profile().shapes, shapes) << (*r)->pass_profile().reason;
+    if (!scene.empty()) {
+      EXPECT_TRUE((*r)->write_slots(first_slot, scene).ok());
+    }
+    auto stats = (*r)->render(cam, options);
+    EXPECT_TRUE(stats.ok()) << (stats.ok() ? "" : stats.message());
+    auto img = (*r)->read_image();
+    EXPECT_TRUE(img.ok()) << (img.ok() ? "" : img.message());
+    if (!stats.ok() || !img.ok()) return {};
+    return {*img, *stats};
+  }
+
+  // Both shapes, compared byte for byte and counter for counter; returns the GPU shapes' render.
+  Rendered both_equal(std::span<const Gaussian> scene, const Camera& cam, std::uint32_t capacity,
+                      const std::string& name, std::uint32_t first_slot = 0,
+                      const render::SplatRenderOptions& options = {}) {
+    const Rendered cpu = render_with(SplatPassShapes::Cpu, scene, cam, capacity, first_slot, options);
+    const Rendered gpu = render_with(SplatPassShapes::Gpu, scene, cam, capacity, first_slot, options);
+    EXPECT_EQ(cpu.stats.visible, gpu.stats.visible) << name;
+    EXPECT_EQ(cpu.stats.pairs, gpu.stats.pairs) << name;
+    EXPECT_EQ(cpu.stats.pairs_needed, gpu.stats.pairs_needed) << name;
+    EXPECT_TRUE(images_equal(cpu.image, gpu.image, "pass_shapes_" + name));
+    std::printf("%s: %u visible, %u pairs\n", name.c_str(), gpu.stats.visible, gpu.stats.pairs);
+    return gpu;
+  }
+};
+
+// n Gaussians filling forward_camera's view, on 64 exact depths (many ties).
+std::vector<Gaussian> tied_box(std::uint32_t n, std::uint64_t seed) {
+  Rng rng;
+  rng.s ^= seed * 0x9E3779B97F4A7C15ull;
+  std::vector<Gaussian> scene(n);
+  for (Gaussian& g : scene) {
+    const float z = 2.0f + float(int(rng.next() * 64.0)) / 16.0f;
+    g.position = {rng.uniform(-0.45 * z, 0.45 * z), rng.uniform(-0.32 * z, 0.32 * z), z};
+    g.log_scale = glm::vec3(rng.uniform(-4.5, -3.0));
+    g.opacity_logit = rng.uniform(-1.0, 3.0);
+    g.sh_dc = {rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5)};
+  }
+  return scene;
+}
+
+TEST_F(SplatPassShapesTest, ProfileFollowsTheDeviceAndTheOverride) {
+  auto chosen = render::choose_pass_shapes(context(), SplatPassShapes::Auto);
+  ASSERT_TRUE(chosen.ok()) << chosen.message();
+  std::printf("auto: %s\n", chosen->reason.c_str());
+  const char* env = std::getenv("GAUSS_PASS_SHAPES");
+  if (env && std::string(env) == "gpu") {
+    EXPECT_EQ(chosen->shapes, SplatPassShapes::Gpu);
+  } else if (env && std::string(env) == "cpu") {
+    EXPECT_EQ(chosen->shapes, SplatPassShapes::Cpu);
+  } else if (context().properties().deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU) {
+    EXPECT_EQ(chosen->shapes, SplatPassShapes::Cpu);  // lavapipe keeps the shapes measured on it
+  } else {
+    EXPECT_EQ(chosen->shapes, SplatPassShapes::Gpu);
+  }
+  for (SplatPassShapes s : {SplatPassShapes::Cpu, SplatPassShapes::Gpu}) {
+    auto asked = render::choose_pass_shapes(context(), s);
+    ASSERT_TRUE(asked.ok()) << asked.message();
+    EXPECT_EQ(asked->shapes, s);
+    EXPECT_NE(asked->reason.find(render::pass_shapes_name(s)), std::string::npos) << asked->reason;
+  }
+}
+
+// A misspelt override is refused by name, not silently ignored.
+TEST_F(SplatPassShapesTest, RejectsAnUnknownOverride) {
+  const char* before = std::getenv("GAUSS_PASS_SHAPES");
+  const std::string saved = before ? before : "";
+  ::setenv("GAUSS_PASS_SHAPES", "gpus", 1);
+  auto chosen = render::choose_pass_shapes(context(), SplatPassShapes::Auto);
+  auto asked = render::choose_pass_shapes(context(), SplatPassShapes::Cpu);  // an explicit choice wins
+  if (before) ::setenv("GAUSS_PASS_SHAPES", saved.c_str(), 1);
+  else ::unsetenv("GAUSS_PASS_SHAPES");
+  ASSERT_FALSE(chosen.ok());
+  EXPECT_NE(chosen.message().find("GAUSS_PASS_SHAPES=gpus"), std::string::npos) << chosen.message();
+  ASSERT_TRUE(asked.ok()) << asked.message();
+  EXPECT_EQ(asked->shapes, SplatPassShapes::Cpu);
+}
+
+// Scan and radix block boundaries: 4096 (GPU scan and radix block), 8192 (CPU radix
+// block), and sizes that are multiples of neither.
+TEST_F(SplatPassShapesTest, SameBytesAcrossBlockBoundaries) {
+  const Camera cam = forward_camera(160, 120);
+  for (const std::uint32_t n : {1u, 2u, 255u, 257u, 4095u, 4096u, 4097u, 8193u, 10007u}) {
+    const auto scene = tied_box(n, n);
+    const Rendered gpu = both_equal(scene, cam, n, "n" + std::to_string(n));
+    EXPECT_EQ(gpu.stats.visible, n);
+    if (n == 1u || n == 10007u) {
+      auto ref = render::render_reference(scene, {}, 0, cam);
+      ASSERT_TRUE(ref.ok()) << ref.message();
+      EXPECT_TRUE(close_to_reference(ref->rgba8, gpu.image, "pass_shapes_reference_n" + std::to_string(n)));
+    }
+  }
+}
+
+// Nothing visible: an empty renderer (high-water mark 0) and slots that all cull (behind
+// the camera); and a lone visible splat among culled ones.
+TEST_F(SplatPassShapesTest, SameBytesWithNoneOrOneVisible) {
+  const Camera cam = forward_camera(128, 96);
+  EXPECT_EQ(both_equal({}, cam, 100, "empty").stats.visible, 0u);
+  auto behind = tied_box(3000, 5);
+  for (Gaussian& g : behind) g.position.z = -g.position.z;
+  EXPECT_EQ(both_equal(behind, cam, 3000, "all_culled").stats.visible, 0u);
+  behind[1777] = tied_box(1, 9)[0];
+  EXPECT_EQ(both_equal(behind, cam, 3000, "one_of_3000").stats.visible, 1u);
+}
+
+// Many blocks: 40k splats at 320x240 give ~10 radix blocks of depth keys and more than 16
+// blocks of (tile, splat) pairs (a histogram the spine scans in several steps of 256); the
+// same splats spread over 1.2M slots (the rest empty) give more than 256 visible-scan block
+// sums, so the spine's carry between its steps is exercised too. Exact culling off gives
+// more pairs; a pair capacity below what the view needs cuts the farthest splats' pairs.
+TEST_F(SplatPassShapesTest, SameBytesOverManyBlocks) {
+  const Camera cam = forward_camera(320, 240);
+  const auto scene = tied_box(40000, 3);
+  const Rendered many = both_equal(scene, cam, 40000, "n40000");
+  EXPECT_GT(many.stats.pairs, 16u * kGpuBlock);
+  render::SplatRenderOptions loose;
+  loose.exact_culling = false;
+  both_equal(scene, cam, 40000, "n40000_loose", 0, loose);
+  constexpr std::uint32_t kSpread = 1'200'000;
+  EXPECT_GT(kSpread / kGpuBlock, 256u);
+  both_equal(scene, cam, kSpread, "n40000_at_top", kSpread - 40000);
+
+  // Pair overflow: both shapes drop the same farthest pairs.
+  const std::uint32_t cap = many.stats.pairs / 2;
+  ImageRGBA8 images[2];
+  std::uint32_t pairs[2] = {};
+  int k = 0;
+  for (SplatPassShapes s : {SplatPassShapes::Cpu, SplatPassShapes::Gpu}) {
+    auto r = render::SplatRenderer::create(context(), {.capacity = 40000, .sh_degree = 0, .max_width = 320,
+                                                       .max_height = 240, .max_pairs = cap, .pass_shapes = s});
+    ASSERT_TRUE(r.ok()) << r.message();
+    ASSERT_TRUE((*r)->write_slots(0, scene).ok());
+    auto stats = (*r)->render(cam);
+    ASSERT_TRUE(stats.ok()) << stats.message();
+    EXPECT_TRUE(stats->pair_overflow);
+    pairs[k] = stats->pairs;
+    auto img = (*r)->read_image();
+    ASSERT_TRUE(img.ok());
+    images[k++] = *img;
+  }
+  EXPECT_EQ(pairs[0], cap);
+  EXPECT_EQ(pairs[1], cap);
+  EXPECT_TRUE(images_equal(images[0], images[1], "pass_shapes_pair_overflow"));
+}
+
+}  // namespace
+}  // namespace gauss::test
