@@ -59,7 +59,7 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
       ->check(apps::in_range(0.0, 3600.0));
   app.add_option("--quiet-time", o.quiet_s, "headless: settled = nothing pending and no edits for this many seconds")
       ->check(apps::in_range(0.0, 600.0));
-  app.add_option("--max-frames", o.max_frames, "stop after this many frames")->check(apps::at_least<std::uint64_t>(1));
+  app.add_option("--max-frames", o.max_frames, "headless: stop after this many frames (windowed: --exit-after)")->check(apps::at_least<std::uint64_t>(1));
   app.add_option("--screenshot", o.screenshot, "windowed: write the window (scene + panels) as PNG");
   app.add_option("--screenshot-after", o.screenshot_after, "windowed: frames before the screenshot");
   app.add_option("--exit-after", o.exit_after, "windowed: close after this many frames (0: never)");

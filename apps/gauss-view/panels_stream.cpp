@@ -60,7 +60,7 @@ void Panels::draw_connection(double now_s) {
     return;
   }
   const client::ConnectionInfo c = rt_->connection();
-  const bool welcomed = rt_->with_state([](const ClientState& s) { return s.welcomed(); });
+  const bool welcomed = last_.has_value() && last_->welcomed;  // no lock per frame: a publication step may hold it
   ImGui::Text("host       %s", c.server.c_str());
   ImGui::TextUnformatted("state      ");
   ImGui::SameLine(0.0f, 0.0f);
@@ -118,7 +118,7 @@ void Panels::draw_stream() {
     return;
   }
   const client::DisplayFrameStats s = last_.value_or(client::DisplayFrameStats{});
-  const ClientStatsCounters counters = rt_->with_state([](const ClientState& st) { return st.stats(); });
+  const ClientStatsCounters& counters = s.counters;
   ImGui::Text("budget M   %u", rt_->capacity());
   ImGui::Text("resident   %u", s.resident);
   ImGui::Text("desired    %llu", static_cast<unsigned long long>(s.desired));
@@ -143,18 +143,23 @@ void Panels::draw_stream() {
 
 void Panels::refresh_objects(double now_s) {
   if (rt_ == nullptr || (objects_at_s_ >= 0.0 && now_s - objects_at_s_ < kSlowRefreshS)) return;
-  objects_at_s_ = now_s;
-  const std::map<std::int32_t, std::uint32_t> per_object = rt_->resident_per_object();
   struct Snap {
+    std::map<std::int32_t, std::uint32_t> per_object;
     std::vector<ObjectRow> rows;
     std::vector<ObjectId> targets;
   };
-  Snap snap = rt_->with_state([](const ClientState& st) {
+  // Skipped (tried again next frame) while a publication step holds the state.
+  auto taken = rt_->try_with_state([](const ClientState& st) {
     Snap out;
+    out.per_object = client::ClientRuntime::resident_per_object(st);
     out.targets = st.query_targets();
     for (const auto& [id, info] : st.objects()) out.rows.push_back(ObjectRow{id, info.label, info.member_count, 0});
     return out;
   });
+  if (!taken) return;
+  objects_at_s_ = now_s;
+  Snap& snap = *taken;
+  const std::map<std::int32_t, std::uint32_t>& per_object = snap.per_object;
   std::set<std::string> labels;
   for (ObjectRow& row : snap.rows) {
     if (auto it = per_object.find(row.id); it != per_object.end()) row.resident = it->second;

@@ -78,11 +78,13 @@ Status FrameLoop::start_pose() {
 }
 
 void FrameLoop::frame_stream_box() {
-  const auto box = source_.runtime()->with_state([](const ClientState& s) -> std::optional<CodecBox> {
+  // Tried every frame until the box is known: never waits for a publication step.
+  const auto taken = source_.runtime()->try_with_state([](const ClientState& s) -> std::optional<CodecBox> {
     if (!s.codec()) return std::nullopt;
     return s.codec()->box;
   });
-  if (!box) return;
+  if (!taken || !*taken) return;
+  const CodecBox* box = &**taken;
   camera_.frame_box(glm::dvec3(box->min), glm::dvec3(box->max));
   auto_frame_ = false;
 }

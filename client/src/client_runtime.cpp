@@ -141,6 +141,8 @@ ClientRuntime::PreparedStep ClientRuntime::prepare_step(PublicationJob& job) {
     st.desired = s.desired().desired_count();
     st.pending = static_cast<std::uint32_t>(s.desired().pending().size());
     st.resident = s.slots().size();
+    st.welcomed = s.welcomed();
+    st.counters = s.stats();
     return r;
   });
   st.publish_ms = ms_since(t0);
@@ -185,6 +187,8 @@ Status ClientRuntime::apply_step(PreparedStep& st, DisplayFrameStats& out) {
   last_desired_ = st.desired;
   last_pending_ = st.pending;
   last_resident_ = st.resident;
+  last_welcomed_ = st.welcomed;
+  last_counters_ = st.counters;
   shown_step_ = st.result.step;
   if (st.sh_degree && *st.sh_degree != renderer_->sh_degree()) {
     release();
@@ -272,6 +276,8 @@ Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, 
   out.desired = last_desired_;
   out.pending = last_pending_;
   out.resident = last_resident_;
+  out.welcomed = last_welcomed_;
+  out.counters = last_counters_;
   if (worker_) {
     job.layout = renderer_->slot_layout();
     job.pack_buffer = free_pack_buffer();
@@ -279,6 +285,7 @@ Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, 
                                                       pack_pool_[static_cast<std::size_t>(job.pack_buffer)].buffer.size())
                                     : std::span<std::byte>{};
     if (worker_->request(job)) {
+      requested_at_ = std::chrono::steady_clock::now();
       job = PublicationJob{};
     } else if (job.pack_buffer >= 0) {
       pack_pool_[static_cast<std::size_t>(job.pack_buffer)].taken = false;  // the notes wait for the next request
@@ -315,8 +322,16 @@ Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, 
   gpu_stats_.collect(*renderer_);
   out.cpu_ms = ms_since(t0);
   // The display slack the allowance follows: the frame costs whichever of the CPU work
-  // and the GPU work of a frame is longer (they overlap with frames in flight).
-  const double cost = std::max(out.cpu_ms, gpu_stats_.last_total_ms()) * 1e-3;
+  // and the GPU work of a frame is longer (they overlap with frames in flight), and with
+  // the publication thread whichever is longer still, the step this frame took or the one
+  // still running: publication keeps the display's pace, one step a frame, instead of
+  // growing into steps that span frames and land in bursts.
+  double cost_ms = std::max(out.cpu_ms, gpu_stats_.last_total_ms());
+  if (worker_) {
+    if (step) cost_ms = std::max(cost_ms, step->publish_ms + step->pack_ms);
+    else if (worker_->outstanding()) cost_ms = std::max(cost_ms, ms_since(requested_at_));
+  }
+  const double cost = cost_ms * 1e-3;
   if (worker_) {
     next_job_.rendered.push_back(shown);
     next_job_.frame_costs.push_back(cost);
@@ -357,17 +372,19 @@ void ClientRuntime::set_display_period(double seconds) {
   sink_->with_state([&](ClientState& s) { s.set_display_period(seconds); });
 }
 
+std::map<std::int32_t, std::uint32_t> ClientRuntime::resident_per_object(const ClientState& state) {
+  std::map<std::int32_t, std::uint32_t> out;
+  const SlotTable& slots = state.slots();
+  for (std::uint32_t s = 0; s < slots.capacity(); ++s) {
+    GaussianId id{0};
+    if (slots.occupant(SlotIndex{s}, id)) ++out[to_underlying(slots.records()[s].object)];
+  }
+  return out;
+}
+
 std::map<std::int32_t, std::uint32_t> ClientRuntime::resident_per_object() {
   // Under the lock: a publication thread writes the slot table under it.
-  return sink_->with_state([](ClientState& st) {
-    std::map<std::int32_t, std::uint32_t> out;
-    const SlotTable& slots = st.slots();
-    for (std::uint32_t s = 0; s < slots.capacity(); ++s) {
-      GaussianId id{0};
-      if (slots.occupant(SlotIndex{s}, id)) ++out[to_underlying(slots.records()[s].object)];
-    }
-    return out;
-  });
+  return sink_->with_state([](ClientState& st) { return resident_per_object(st); });
 }
 
 ConnectionInfo ClientRuntime::connection() const {

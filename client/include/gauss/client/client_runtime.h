@@ -35,6 +35,7 @@
 // another degree the renderer is recreated for it and every resident slot and chunk is
 // uploaded again (a new scene, not a frame-path event).
 #include <array>
+#include <chrono>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -116,6 +117,10 @@ struct DisplayFrameStats {
   std::uint32_t resident{0};        // Gaussians in slots
   std::uint64_t desired{0};         // Gaussians the host wants resident
   std::uint32_t pending{0};         // edits received, not yet published
+  // As of the publication step this frame took (or the last one): for panels, which must
+  // not take the state's lock every frame.
+  bool welcomed{false};
+  ClientStatsCounters counters{};
 };
 
 
@@ -168,13 +173,21 @@ class ClientRuntime {
   render::SplatRenderOptions& render_options() noexcept { return config_.render; }
 
   // --- inspection ---
-  // Runs f(const ClientState&) with the network thread kept out.
+  // Runs f(const ClientState&) with the network thread kept out (and the publication
+  // thread: waits while a step runs).
   template <class F>
   decltype(auto) with_state(F&& f) {
     return sink_->with_state([&](ClientState& s) -> decltype(auto) { return f(static_cast<const ClientState&>(s)); });
   }
+  // The same if the state is free now, else nothing: for a display loop's inspection (a
+  // panel skips a refresh rather than wait for a publication step).
+  template <class F>
+  auto try_with_state(F&& f) {
+    return sink_->try_with_state([&](ClientState& s) { return f(static_cast<const ClientState&>(s)); });
+  }
   // Resident Gaussians per object id (O(M): for panels and reports, not per frame).
   std::map<std::int32_t, std::uint32_t> resident_per_object();
+  static std::map<std::int32_t, std::uint32_t> resident_per_object(const ClientState& state);
   ConnectionInfo connection() const;
   render::SplatRenderer& renderer() noexcept { return *renderer_; }
   const GpuPublication& publication() const noexcept { return publication_; }
@@ -212,6 +225,8 @@ class ClientRuntime {
     std::uint64_t desired{0};
     std::uint32_t pending{0};
     std::uint32_t resident{0};
+    bool welcomed{false};
+    ClientStatsCounters counters{};
     PreparedSlots slots;
     int pack_buffer{-1};
     double lock_wait_ms{0.0}, publish_ms{0.0}, publish_cpu_ms{0.0}, pack_ms{0.0}, pack_cpu_ms{0.0};
@@ -230,8 +245,11 @@ class ClientRuntime {
   std::vector<int> unsubmitted_;        // pack buffers whose copies wait for a submission
   PublicationJob next_job_;             // notes gathered for the next request
   std::uint64_t shown_step_{0};
+  std::chrono::steady_clock::time_point requested_at_{};  // of the step the thread runs
   std::uint64_t last_desired_{0};
   std::uint32_t last_pending_{0}, last_resident_{0};
+  bool last_welcomed_{false};
+  ClientStatsCounters last_counters_{};
   std::unique_ptr<StepThread<PublicationJob, PreparedStep>> worker_;  // last: stops first
 
   vk::Context* context_;

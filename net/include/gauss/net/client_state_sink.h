@@ -9,6 +9,8 @@
 #include <cstdint>
 #include <functional>
 #include <mutex>
+#include <optional>
+#include <utility>
 #include <string>
 
 #include "gauss/engine/client_state.h"
@@ -43,6 +45,15 @@ class ClientStateSink final : public ClientSink {
   template <class F>
   decltype(auto) with_state(F&& f) {
     std::lock_guard lock(mu_);
+    return f(state_);
+  }
+
+  // As with_state when the lock is free now; nothing (f not run) while another thread holds
+  // it: for a display loop that must not wait (a publication step holds it for its length).
+  template <class F>
+  auto try_with_state(F&& f) -> std::optional<decltype(f(std::declval<ClientState&>()))> {
+    std::unique_lock lock(mu_, std::try_to_lock);
+    if (!lock.owns_lock()) return std::nullopt;
     return f(state_);
   }
 
