@@ -168,7 +168,7 @@ ClientRuntime::PreparedStep ClientRuntime::prepare_step(PublicationJob& job) {
 Status ClientRuntime::apply_step(PreparedStep& st, DisplayFrameStats& out) {
   // The pack buffer goes back unless copies from it were queued (then after their frame).
   auto release = [&] {
-    if (st.pack_buffer >= 0) pack_pool_[static_cast<std::size_t>(st.pack_buffer)].taken = false;
+    if (st.pack_buffer >= 0) pack_buffer(st.pack_buffer).taken = false;
     st.pack_buffer = -1;
   };
   if (!st.error.empty()) {
@@ -194,8 +194,7 @@ Status ClientRuntime::apply_step(PreparedStep& st, DisplayFrameStats& out) {
     release();
     if (auto s = make_renderer(*st.sh_degree); !s) return s;
   } else {
-    const vk::Buffer* source =
-        st.pack_buffer >= 0 ? &pack_pool_[static_cast<std::size_t>(st.pack_buffer)].buffer : nullptr;
+    const vk::Buffer* source = st.pack_buffer >= 0 ? &pack_buffer(st.pack_buffer).buffer : nullptr;
     auto up = publication_.publish_prepared(st.slots, source, state_->slots(), *renderer_, config_.tint_edits);
     if (!up) {
       // Copies queued before the failure may still read the buffer: keep it to the next frame.
@@ -281,25 +280,17 @@ Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, 
   if (worker_) {
     job.layout = renderer_->slot_layout();
     job.pack_buffer = free_pack_buffer();
-    job.pack = job.pack_buffer >= 0 ? std::span<std::byte>(static_cast<std::byte*>(pack_pool_[static_cast<std::size_t>(job.pack_buffer)].buffer.mapped()),
-                                                      pack_pool_[static_cast<std::size_t>(job.pack_buffer)].buffer.size())
-                                    : std::span<std::byte>{};
+    job.pack = job.pack_buffer >= 0 ? pack_buffer(job.pack_buffer).bytes() : std::span<std::byte>{};
     if (worker_->request(job)) {
       requested_at_ = std::chrono::steady_clock::now();
       job = PublicationJob{};
     } else if (job.pack_buffer >= 0) {
-      pack_pool_[static_cast<std::size_t>(job.pack_buffer)].taken = false;  // the notes wait for the next request
+      pack_buffer(job.pack_buffer).taken = false;  // the notes wait for the next request
       job.pack_buffer = -1;
     }
   }
   out.upload_ms = ms_since(t1);
   out.upload_cpu_ms = thread_cpu_ms() - c1;
-  if (!worker_ && step) {
-    out.step_publish_cpu_ms = out.publish_cpu_ms;
-    out.step_publish_ms = out.publish_ms;
-    out.step_pack_cpu_ms = step->pack_cpu_ms;
-    out.step_pack_ms = step->pack_ms;
-  }
 
   // --- render ---
   const auto t2 = std::chrono::steady_clock::now();
@@ -307,8 +298,8 @@ Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, 
   auto serial = renderer_->render_frame(views, config_.render, hooks);
   if (!serial) return serial.error();
   for (int b : unsubmitted_) {
-    pack_pool_[static_cast<std::size_t>(b)].serial = *serial;
-    pack_pool_[static_cast<std::size_t>(b)].taken = false;
+    pack_buffer(b).serial = *serial;
+    pack_buffer(b).taken = false;
   }
   unsubmitted_.clear();
   out.copy_regions = static_cast<std::uint32_t>(renderer_->uploads().stats().copy_regions - regions_before);

@@ -3,6 +3,8 @@
 // the reply and the batch it causes reach the client before the same frame (the usual
 // case over a fast link). Before the fix the first frame after both counted the new
 // content as the starting residency and the event never came.
+#include <optional>
+
 #include <gtest/gtest.h>
 
 #include "gauss/engine/client_state.h"
@@ -20,20 +22,31 @@ void deliver(ClientState& client, const std::vector<wire::Message>& messages, do
   }
 }
 
+// A client of 300 slots publishing immediately, welcomed by `host`, with the host's first
+// batch delivered and not yet published.
+class ClientStateEvents : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ClientConfig cfg;
+    cfg.capacity = 300;
+    cfg.publisher.mode = PublishMode::Immediate;
+    auto c = ClientState::create(0, cfg);
+    ASSERT_TRUE(c.ok());
+    client.emplace(std::move(*c));
+    ASSERT_NO_FATAL_FAILURE(deliver(*client, host.on_message(client->hello(), w.store, 0.0), 0.0));
+    auto first = host.tick(w.store, 0.0);
+    ASSERT_TRUE(first.ok()) << first.message();
+    ASSERT_NO_FATAL_FAILURE(deliver(*client, *first, 0.0));
+  }
+
+  gauss::test::HostWorld w{2};
+  HostSession host{1, 9, w.params};
+  std::optional<ClientState> client;
+};
+
 }  // namespace
 
-TEST(ClientState, FirstAdditionalFiresWhenReplyAndBatchArriveTogether) {
-  gauss::test::HostWorld w(2);
-  ClientConfig cfg;
-  cfg.capacity = 300;
-  cfg.publisher.mode = PublishMode::Immediate;
-  auto client = ClientState::create(0, cfg);
-  ASSERT_TRUE(client.ok());
-  HostSession host(1, 9, w.params);
-  ASSERT_NO_FATAL_FAILURE(deliver(*client, host.on_message(client->hello(), w.store, 0.0), 0.0));
-  auto first = host.tick(w.store, 0.0);
-  ASSERT_TRUE(first.ok()) << first.message();
-  ASSERT_NO_FATAL_FAILURE(deliver(*client, *first, 0.0));
+TEST_F(ClientStateEvents, FirstAdditionalFiresWhenReplyAndBatchArriveTogether) {
   std::uint64_t frame = 0;
   for (; frame < 5; ++frame) ASSERT_TRUE(client->frame(ViewState{}, 0.0, frame).ok());
   ASSERT_EQ(client->desired().pending_count(), 0u);
@@ -78,18 +91,7 @@ TEST(ClientState, FirstAdditionalFiresWhenReplyAndBatchArriveTogether) {
 // A client that publishes ahead of its display (ClientRuntime's publication thread) says
 // which publication step a rendered frame shows: a batch published by a later step is not
 // on screen yet, so its first-frame event waits for the frame that shows that step.
-TEST(ClientState, FirstFrameWaitsForTheFrameShowingThePublishingStep) {
-  gauss::test::HostWorld w(2);
-  ClientConfig cfg;
-  cfg.capacity = 300;
-  cfg.publisher.mode = PublishMode::Immediate;
-  auto client = ClientState::create(0, cfg);
-  ASSERT_TRUE(client.ok());
-  HostSession host(1, 9, w.params);
-  ASSERT_NO_FATAL_FAILURE(deliver(*client, host.on_message(client->hello(), w.store, 0.0), 0.0));
-  auto first = host.tick(w.store, 0.0);
-  ASSERT_TRUE(first.ok()) << first.message();
-  ASSERT_NO_FATAL_FAILURE(deliver(*client, *first, 0.0));
+TEST_F(ClientStateEvents, FirstFrameWaitsForTheFrameShowingThePublishingStep) {
   auto step = client->frame(ViewState{}, 0.5, 0);
   ASSERT_TRUE(step.ok()) << step.message();
   ASSERT_EQ(step->step, 1u);

@@ -101,7 +101,7 @@ struct DisplayFrameStats {
   // Publication thread (ClientRuntimeConfig::publication_thread): whether a step's result
   // reached this frame, and what that step cost the publication thread (ClientState::frame
   // under the lock, and packing its slots), CPU (CLOCK_THREAD_CPUTIME_ID) and wall.
-  // Without the thread, the step is this frame's own and these repeat publish_*.
+  // Without the thread, the step is this frame's own: publish_* above include it.
   bool publication_threaded{false};
   bool step_taken{false};
   double step_publish_cpu_ms{0.0};
@@ -240,7 +240,9 @@ class ClientRuntime {
     vk::Buffer buffer;
     std::uint64_t serial{0};  // the frame that copies from it (0: none yet)
     bool taken{false};        // with a step, or queued and not yet submitted
+    std::span<std::byte> bytes() const { return {static_cast<std::byte*>(buffer.mapped()), buffer.size()}; }
   };
+  PackBuffer& pack_buffer(int index) { return pack_pool_[static_cast<std::size_t>(index)]; }
   std::vector<PackBuffer> pack_pool_;
   std::vector<int> unsubmitted_;        // pack buffers whose copies wait for a submission
   PublicationJob next_job_;             // notes gathered for the next request
