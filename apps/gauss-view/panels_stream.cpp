@@ -129,6 +129,7 @@ void Panels::draw_stream() {
   // Slot writes a frame may make: adaptive in progressive mode, fixed in immediate mode.
   ImGui::Text("allowance  %u (%s)", s.publish.allowance,
               rt_->publish_mode() == PublishMode::Immediate ? "fixed" : "follows the display");
+  ImGui::Text("publisher  %s", s.publication_threaded ? "own thread" : "display thread");
   ImGui::Text("batches    %llu  resyncs %llu", static_cast<unsigned long long>(counters.batches),
               static_cast<unsigned long long>(counters.resyncs));
   int mode = rt_->publish_mode() == PublishMode::Immediate ? 0 : 1;

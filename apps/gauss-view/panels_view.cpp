@@ -11,7 +11,7 @@
 namespace gauss::view {
 namespace {
 
-constexpr float kPanelW = 270.0f;
+constexpr float kPanelW = 290.0f;
 constexpr float kMargin = 8.0f;
 // Below this window width the first-use layout starts objects, timing and view collapsed
 // so that the scene stays visible between the two panel columns.
@@ -53,9 +53,9 @@ void Panels::draw(FlyCamera& camera, std::uint32_t width, std::uint32_t height, 
   const float right = std::max(kMargin, w - kPanelW - kMargin);
   place(kMargin, kMargin, kPanelW, 145.0f, false);
   draw_connection(now_s);
-  place(kMargin, 161.0f, kPanelW, 200.0f, false);
+  place(kMargin, 161.0f, kPanelW, 218.0f, false);
   draw_stream();
-  place(kMargin, 369.0f, kPanelW, std::max(120.0f, static_cast<float>(height) - 377.0f), small_window_);
+  place(kMargin, 387.0f, kPanelW, std::max(120.0f, static_cast<float>(height) - 395.0f), small_window_);
   draw_objects(now_s);
   place(right, kMargin, kPanelW, 370.0f, small_window_);
   draw_timing();

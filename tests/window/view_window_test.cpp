@@ -44,10 +44,11 @@ namespace fs = std::filesystem;
 constexpr std::uint32_t kW = 640, kH = 480;
 constexpr int kTimeoutS = 300;
 // First-use panel layout of a window narrower than 1000 px (apps/gauss-view/panels_view.cpp):
-// a 270 px column at x = 8 on each side, so x in [290, 350) shows only the scene.
-constexpr std::uint32_t kFreeX0 = 290, kFreeX1 = 350;
-// The connection panel: (8, 8), 270 x 145.
-constexpr std::uint32_t kPanelX0 = 8, kPanelY0 = 8, kPanelX1 = 278, kPanelY1 = 153;
+// a 290 px column at x = 8 on each side (the right one from 640 - 298 = 342), so x in
+// [300, 340) shows only the scene.
+constexpr std::uint32_t kFreeX0 = 300, kFreeX1 = 340;
+// The connection panel: (8, 8), 290 x 145.
+constexpr std::uint32_t kPanelX0 = 8, kPanelY0 = 8, kPanelX1 = 298, kPanelY1 = 153;
 
 int failures = 0;
 void check(bool ok, const std::string& what) {
