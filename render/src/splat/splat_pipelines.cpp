@@ -14,6 +14,7 @@
 #include "gauss/shaders/sort_radix_scatter.comp.spv.h"
 #include "gauss/shaders/sort_radix_scatter_gpu.comp.spv.h"
 #include "gauss/shaders/splat_blend.comp.spv.h"
+#include "gauss/shaders/splat_blend_gpu.comp.spv.h"
 #include "gauss/shaders/splat_compact.comp.spv.h"
 #include "gauss/shaders/splat_emit.comp.spv.h"
 #include "gauss/shaders/splat_preprocess.comp.spv.h"
@@ -249,8 +250,13 @@ Expected<const vk::ComputePipeline*> SplatPipelines::blend(bool mesh) {
   add_projected_chunks(bindings);
   std::vector<vk::SpecConstant> spec = chunk_spec(chunks_);
   spec.push_back({gpu::SPLAT_SPEC_MESH, key});
-  spec.push_back({gpu::SPLAT_SPEC_BALLOT_WORDS, ballot_words(*context_)});
-  auto pipe = make(*context_, "splat blend", vk::spirv(gauss_spv_splat_blend_comp), std::move(bindings), std::move(spec));
+  // CPU shape: a subgroup culls and broadcasts (ballot words); GPU shape: 256 pixels share
+  // shared-memory batches (splat_blend_gpu.comp).
+  const bool g = shapes_ == SplatPassShapes::Gpu;
+  if (!g) spec.push_back({gpu::SPLAT_SPEC_BALLOT_WORDS, ballot_words(*context_)});
+  auto pipe = make(*context_, g ? "splat blend (batched)" : "splat blend",
+                   g ? vk::spirv(gauss_spv_splat_blend_gpu_comp) : vk::spirv(gauss_spv_splat_blend_comp),
+                   std::move(bindings), std::move(spec));
   if (!pipe) return pipe.error();
   return &blend_.emplace(key, std::move(*pipe)).first->second;
 }
