@@ -1,23 +1,26 @@
 #pragma once
-// FlyCamera: gauss-view's free-fly camera. A pose (position, yaw, pitch; no roll) in a
-// world whose up is +y (the synthetic rooms: metres, floor at y = 0), turned into an
-// OpenCV camera (x right, y down, z forward) for any view size.
+// FlyCamera: gauss-view's free-fly camera. A pose (position, yaw, pitch; no roll) about the
+// scene's up (set_up: +y for the synthetic rooms, -y for 3DGS/COLMAP scenes, whatever a
+// trainer's cameras say), turned into an OpenCV camera (x right, y down, z forward) for any
+// view size; the image's up always leans toward the scene's up.
 //
 // Controls (window.h InputState): W/S forward/back along the view direction, A/D
-// sideways, E/Q along world up/down, Shift x kFastFactor, right mouse button held:
+// sideways, E/Q along the scene's up/down, Shift x kFastFactor, right mouse button held:
 // look (kLookRadiansPerPixel), wheel: speed x kSpeedStep per step.
 #include <cstdint>
 
 #include <glm/vec3.hpp>
 
 #include "gauss/engine/camera.h"
+#include "gauss/engine/scene_framing.h"
 #include "options.h"
 #include "window.h"
 
 namespace gauss::view {
 
-// Where the camera is and where it looks. yaw 0 looks along +z; positive yaw turns
-// toward +x; positive pitch looks up.
+// Where the camera is and where it looks, relative to the camera's up: yaw 0 looks along
+// front_direction(up) (scene_framing.h; -z for up +y), positive yaw turns to the left,
+// positive pitch looks up.
 struct FlyPose {
   glm::dvec3 position{0.0, 1.6, 0.0};
   double yaw{0.0};    // radians
@@ -46,11 +49,24 @@ class FlyCamera {
 
   const FlyPose& pose() const noexcept { return pose_; }
   void set_pose(const FlyPose& pose);
+  // The view direction (unit) and the up the pose is relative to.
+  glm::dvec3 forward() const;
+  const glm::dvec3& up() const noexcept { return up_; }
+  // Turns the world about: the position and view direction stay (the direction's pitch is
+  // clamped to +-kMaxPitch about the new up); the image rolls to the new up. A zero or
+  // non-finite up is ignored.
+  void set_up(const glm::dvec3& up);
+  // Looks from `position` along `direction` (non-zero; a zero direction keeps the view).
+  void look(const glm::dvec3& position, const glm::dvec3& direction);
   // Takes the position and view direction of `camera` (its roll is dropped).
   void set_from_camera(const Camera& camera);
-  // The overview of a room-like box [lo, hi] (y up): from inside, high above one corner,
-  // looking at the far lower centre (as SyntheticScene::overview_camera does).
-  void frame_box(const glm::dvec3& lo, const glm::dvec3& hi);
+  // The overview of a room-like box [lo, hi] (up +y): from inside, high above one corner,
+  // looking at the far lower centre (as SyntheticScene::overview_camera does): a stream's
+  // first view.
+  void frame_room(const glm::dvec3& lo, const glm::dvec3& hi);
+  // Takes a framing (scene_framing.h): its up, eye and view of its target; the speed
+  // crosses the framed box in about 4 s; the far plane reaches past it.
+  void frame(const Framing& framing);
 
   double speed() const noexcept { return speed_; }
   void set_speed(double metres_per_second);
@@ -58,6 +74,8 @@ class FlyCamera {
  private:
   FlyPose pose_{};
   double speed_{1.5};
+  glm::dvec3 up_{0.0, 1.0, 0.0};
+  double far_{1000.0};
 };
 
 }  // namespace gauss::view

@@ -16,6 +16,7 @@
 #include "gauss/engine/camera_io.h"
 #include "gauss/engine/image_io.h"
 #include "gauss/render/splat_math.h"
+#include "default_view.h"
 #include "gauss_cli.h"
 #include "percentile.h"
 #include "headless_report.h"
@@ -36,6 +37,24 @@ client::CameraIntrinsics default_intrinsics(const ViewOptions& o) {
   in.cy = 0.5 * o.height;
   return in;
 }
+
+// Frames a scene's default camera is rendered for without --path: the frames in flight
+// cycle once and the last is read back after the others.
+constexpr std::uint32_t kDefaultCameraFrames = 3;
+
+// The default camera held still: keyframes at t = 0 and t = kDefaultCameraFrames - 1 at
+// 1 fps, so frame k is at t = k exactly and the path has kDefaultCameraFrames frames.
+client::CameraPath default_camera_path(const Framing& fr, const client::CameraIntrinsics& in) {
+  client::CameraPath p;
+  p.intrinsics = in;
+  p.fps = 1.0;
+  const client::PathKeyframe k{.t = 0.0, .eye = fr.eye, .look_at = fr.target, .up = fr.up};
+  p.keyframes = {k, k};
+  p.keyframes[1].t = kDefaultCameraFrames - 1;
+  return p;
+}
+
+json vec_json(const glm::dvec3& v) { return json::array({v.x, v.y, v.z}); }
 
 json epoch_json(const std::optional<Epoch>& e) { return e ? json(to_underlying(*e)) : json(nullptr); }
 
@@ -137,12 +156,19 @@ Status write_views(ViewSource& src, const std::filesystem::path& base, std::uint
 
 int run_headless(const ViewOptions& opts_in, vk::Context& context) {
   ViewOptions opts = opts_in;
-  auto path = client::read_camera_path(opts.path);
-  if (!path) {
-    std::fprintf(stderr, "gauss-view: %s\n", path.message().c_str());
-    return 1;
+  // A path file, or (a local scene without one) the scene's default camera, made once the
+  // scene is loaded.
+  std::optional<client::CameraPath> path;
+  if (!opts.path.empty()) {
+    auto read = client::read_camera_path(opts.path);
+    if (!read) {
+      std::fprintf(stderr, "gauss-view: %s\n", read.message().c_str());
+      return 1;
+    }
+    path = std::move(*read);
   }
-  const client::CameraIntrinsics in = path->intrinsics.value_or(default_intrinsics(opts));
+  const client::CameraIntrinsics in =
+      path && path->intrinsics ? *path->intrinsics : default_intrinsics(opts);
   opts.width = in.width;
   opts.height = in.height;
   auto source = make_view_source(context, opts);
@@ -152,6 +178,24 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
   }
   ViewSource& src = **source;
   client::ClientRuntime* rt = src.runtime();
+  json default_camera = nullptr;
+  if (!path) {
+    // options.cpp lets only a local scene through without --path; it always has bounds.
+    const auto framing = default_framing(src, src.up().up, opts.fov_deg, in.width, in.height);
+    if (!framing) {
+      std::fprintf(stderr, "gauss-view: %s has no bounds to frame; give --path\n", src.describe().c_str());
+      return 1;
+    }
+    path = default_camera_path(*framing, in);
+    const RobustBounds box = *src.bounds();
+    default_camera = json{{"bounds", {{"lo", vec_json(box.lo)}, {"hi", vec_json(box.hi)}}},
+                          {"opacity_weighted", box.opacity_weighted},
+                          {"finite_centres", box.finite},
+                          {"up", vec_json(framing->up)},
+                          {"up_from", src.up().detail},
+                          {"eye", vec_json(framing->eye)},
+                          {"target", vec_json(framing->target)}};
+  }
 
   std::error_code ec;
   std::filesystem::create_directories(opts.out / "frames", ec);
@@ -166,10 +210,15 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
     return 1;
   }
   FrameLog log(jsonl);
-  std::fprintf(stderr, "gauss-view: %s, path %s (%.1f s at %.0f fps), %ux%u%s, out %s\n", src.describe().c_str(),
-               opts.path.string().c_str(), path->duration(), path->fps, in.width, in.height,
+  char flown[512];
+  if (opts.path.empty())
+    std::snprintf(flown, sizeof flown, "its default camera (up %s, %s) for %u frames", up_label(src.up().up).c_str(),
+                  src.up().detail.c_str(), kDefaultCameraFrames);
+  else
+    std::snprintf(flown, sizeof flown, "path %s (%.1f s at %.0f fps)", opts.path.string().c_str(), path->duration(),
+                  path->fps);
+  std::fprintf(stderr, "gauss-view: %s, %s, %ux%u%s, out %s\n", src.describe().c_str(), flown, in.width, in.height,
                opts.stereo_ipd > 0.0 ? " stereo" : "", opts.out.string().c_str());
-
   const std::uint64_t path_frames = static_cast<std::uint64_t>(std::floor(path->duration() * path->fps)) + 1;
   const double settle_limit = path->settle_s > 0.0 ? path->settle_s : opts.settle_timeout_s;
   std::size_t next_event = 0;
@@ -330,7 +379,8 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
                  {"p95", percentile(log.gpu_ms_, 0.95)},
                  {"p99", percentile(log.gpu_ms_, 0.99)}}},
                {"resident", src.renderer().occupied_count()},
-               {"rejected_nonfinite", src.renderer().rejected_nonfinite()}};
+               {"rejected_nonfinite", src.renderer().rejected_nonfinite()},
+               {"default_camera", std::move(default_camera)}};
   if (rt) {
     const auto per_object = rt->resident_per_object();
     json objects = json::object();

@@ -1,6 +1,9 @@
 #pragma once
 // gauss-view --headless: flies a camera path (client/camera_path.h) through a ViewSource
-// and writes what it saw:
+// and writes what it saw. A local scene without --path holds its default camera
+// (default_view.h: its robust bounds framed from outside, upright for its up) for a few
+// frames, as a path of one still pose; summary.json's "default_camera" then gives the
+// bounds, the up and where the up came from, the eye and the target.
 //   OUT/frames/frame_NNNNNN.png     every --every'th path frame (+ _right for stereo)
 //   OUT/frames.jsonl                one line per frame: CPU ms (publication, upload,
 //                                   render), GPU ms per pass, resident / desired / pending,

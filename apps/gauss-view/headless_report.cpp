@@ -72,6 +72,13 @@ Status write_report(const fs::path& out, const nlohmann::json& s) {
      << (s.value("settled", false) ? "the stream had settled at the end (nothing pending, no edits for the quiet time)"
                                    : "the stream had NOT settled within the settle time")
      << "\n";
+  if (const auto it = s.find("default_camera"); it != s.end() && it->is_object()) {
+    const auto& c = *it;
+    md << "- camera: the scene's default camera, framing the box " << c["bounds"]["lo"].dump() << " .. "
+       << c["bounds"]["hi"].dump() << (c.value("opacity_weighted", false) ? " (opacity-weighted" : " (counted")
+       << " 2nd..98th percentiles) from " << c["eye"].dump() << ", up " << c["up"].dump() << " ("
+       << c.value("up_from", "") << ")\n";
+  }
   md << "- resident Gaussians: " << s.value("resident", 0);
   if (s.contains("capacity")) md << " of M = " << s["capacity"].get<std::uint64_t>();
   md << "\n";

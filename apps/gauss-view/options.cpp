@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "endpoint_option.h"
+#include "gauss/engine/scene_up.h"
 #include "gauss_cli.h"
 
 namespace gauss::view {
@@ -17,7 +18,9 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
       "gauss-view: the desktop client. Connects to a gauss-host (--host) and shows the stream it\n"
       "receives, or views a scene file alone (--scene, the whole scene resident). Windowed by\n"
       "default (ImGui panels: connection, stream, timing, objects and queries, view); --headless\n"
-      "flies a camera path file and writes PNG frames plus one JSON line per frame instead.",
+      "flies a camera path file and writes PNG frames plus one JSON line per frame instead (a\n"
+      "scene without --path: a few frames from its default camera, which frames the scene's\n"
+      "opacity-weighted 2nd..98th percentile box from outside, upright for --up).",
       "gauss-view"};
   apps::configure(app);
   std::string host, mode = o.mode == PublishMode::Immediate ? "immediate" : "progressive", size;
@@ -47,11 +50,23 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
   app.add_option("--size", size, "view size (headless: unless the path file gives a camera); windowed: the window's size")->check(apps::image_size());
   app.add_option("--fov", o.fov_deg, "horizontal field of view in degrees of the default camera")
       ->check(apps::in_range(10.0, 150.0));
+  std::string up;
+  app.add_option("--up", up,
+                 "the scene's up axis: +x -x +y -y +z -z (default: a local scene's trainer cameras.json beside it "
+                 "gives the capture's up, else -y, the 3DGS/COLMAP convention; a stream: +y)")
+      ->check(CLI::Validator(
+          [](std::string& in) {
+            auto r = parse_up_axis(in);
+            return r ? std::string() : r.message();
+          },
+          "AXIS"))
+      ->type_name("AXIS");
   app.add_option("--stereo", o.stereo_ipd, "render both eyes this far apart (metres; 0: one view)")
       ->check(apps::in_range(0.0, 1.0));
   app.add_option("--device", o.device, "Vulkan device index or name substring");
 
-  app.add_flag("--headless", o.headless, "no window: fly --path, write frames to --out");
+  app.add_flag("--headless", o.headless,
+               "no window: fly --path (a scene without --path: a few frames from its default camera), write frames to --out");
   auto* path_opt = app.add_option("--path", o.path, "camera path JSON (see client/camera_path.h)")->check(CLI::ExistingFile);
   app.add_option("--out", o.out, "headless: folder for frames, frames.jsonl and summary.json");
   app.add_option("--every", o.every, "headless: write every Nth frame as PNG (0: only the final frame)");
@@ -71,14 +86,17 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
     std::fprintf(stderr, "gauss-view: give --host HOST:PORT or --scene FILE\nRun with --help for more information.\n");
     return apps::kUsageError;
   }
-  if (o.headless && o.path.empty()) {
-    std::fprintf(stderr, "gauss-view: --headless needs --path FILE (a camera path)\nRun with --help for more information.\n");
+  if (o.headless && o.path.empty() && !host.empty()) {
+    std::fprintf(stderr,
+                 "gauss-view: --headless --host needs --path FILE (a camera path; only a --scene has a default "
+                 "camera)\nRun with --help for more information.\n");
     return apps::kUsageError;
   }
   (void)path_opt;
   if (!host.empty()) o.host = *net::parse_endpoint(host);
   o.mode = mode == "immediate" ? PublishMode::Immediate : PublishMode::Progressive;
   o.highlight = !no_highlight;
+  if (!up.empty()) o.up = *parse_up_axis(up);
   const auto wh = apps::parse_size(size);
   o.width = wh->first;
   o.height = wh->second;

@@ -5,6 +5,8 @@
 #include <optional>
 #include <string>
 
+#include <glm/vec3.hpp>
+
 #include "gauss/engine/publisher.h"
 #include "gauss/net/address.h"
 
@@ -25,12 +27,15 @@ struct ViewOptions {
   bool publication_thread{true};       // a stream's publication off the display thread
   std::uint32_t width{640}, height{480};  // view size (headless: when the path has no camera; windowed: the window)
   double fov_deg{70.0};                // horizontal field of view of the default intrinsics
+  // The scene's up (--up): unset, a local scene's up is detected (gauss/engine/scene_up.h:
+  // the trainer's cameras.json, else the 3DGS default -y) and a stream's is +y.
+  std::optional<glm::dvec3> up;
   double stereo_ipd{0.0};              // > 0: render both eyes (headless writes both)
   std::string device;                  // Vulkan device override
 
   // Headless
   bool headless{false};
-  std::filesystem::path path;          // camera path JSON (required with --headless)
+  std::filesystem::path path;          // camera path JSON (needed with --host; a scene without one: its default camera)
   std::filesystem::path out{"out/view"};
   std::uint32_t every{1};              // PNG every N path frames (0: the final frame only)
   double settle_timeout_s{60.0};       // after the path: the longest wait for the stream to settle

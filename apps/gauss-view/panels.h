@@ -8,16 +8,22 @@
 //   objects     the object table (resident per object refreshed kSlowRefreshS), instance
 //               and class queries with rho, clear, the share of M the query got
 //   timing      scrolling graphs of CPU and GPU milliseconds per pass (panels_view.cpp)
-//   view        saved viewpoints, highlight, edit tints, stereo preview + IPD, speed
+//   view        the bounds the default camera frames, the scene's up (and where it came
+//               from) with a choice of axis, "frame (F)", saved viewpoints, highlight,
+//               edit tints, stereo preview + IPD, speed
 // A local scene (no stream) shows "local scene (no stream)" where a panel needs one.
 //
 // Intents (queries, mode, highlight, tints) go straight to the ClientRuntime; what the
-// frame loop needs (stereo, IPD) is read back through settings().
+// frame loop needs (stereo, IPD) is read back through settings(), and what it should do to
+// the camera (frame again, another up) through the take_* requests.
 #include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include <glm/vec3.hpp>
 
 #include "fly_camera.h"
 #include "gauss/client/client_runtime.h"
@@ -35,9 +41,11 @@ struct ViewSettings {
   bool tint_edits{false};
 };
 
+// Position and view direction: a pose stays the same view when the up changes.
 struct SavedViewpoint {
   std::string name;
-  FlyPose pose;
+  glm::dvec3 position{0.0};
+  glm::dvec3 forward{0.0, 0.0, 1.0};
 };
 
 class Panels {
@@ -59,6 +67,10 @@ class Panels {
   void draw(FlyCamera& camera, std::uint32_t width, std::uint32_t height, double now_s);
 
   const ViewSettings& settings() const noexcept { return settings_; }
+  // The view panel's "frame" button was pressed since the last call.
+  bool take_frame_request() { return std::exchange(frame_request_, false); }
+  // An up chosen in the view panel since the last call.
+  std::optional<glm::dvec3> take_up_request() { return std::exchange(up_request_, std::nullopt); }
 
  private:
   struct ObjectRow {
@@ -80,6 +92,7 @@ class Panels {
   void draw_objects(double now_s);
   void draw_timing();
   void draw_view(FlyCamera& camera);
+  void draw_framing(FlyCamera& camera);
   void refresh_objects(double now_s);
 
   ViewSource* source_;
@@ -102,6 +115,8 @@ class Panels {
   std::uint64_t target_resident_{0};
   std::string last_query_;
 
+  bool frame_request_{false};
+  std::optional<glm::dvec3> up_request_;
   std::vector<SavedViewpoint> viewpoints_;
   int next_viewpoint_{1};
 };

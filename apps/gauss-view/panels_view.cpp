@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include <imgui.h>
+#include <glm/geometric.hpp>
 
 #include "panels.h"
 
@@ -59,7 +60,9 @@ void Panels::draw(FlyCamera& camera, std::uint32_t width, std::uint32_t height, 
   draw_objects(now_s);
   place(right, kMargin, kPanelW, 370.0f, small_window_);
   draw_timing();
-  place(right, small_window_ ? 34.0f : 386.0f, kPanelW, 300.0f, small_window_);
+  // The view panel takes the rest of the column (it scrolls when that is too short).
+  place(right, small_window_ ? 34.0f : 386.0f, kPanelW, std::max(300.0f, static_cast<float>(height) - 394.0f),
+        small_window_);
   draw_view(camera);
 }
 
@@ -88,8 +91,11 @@ void Panels::draw_view(FlyCamera& camera) {
     return;
   }
   const FlyPose& p = camera.pose();
-  ImGui::Text("at %.2f %.2f %.2f  yaw %.0f  pitch %.0f", p.position.x, p.position.y, p.position.z,
-              p.yaw * 180.0 / 3.14159265358979323846, p.pitch * 180.0 / 3.14159265358979323846);
+  ImGui::Text("at %.2f %.2f %.2f", p.position.x, p.position.y, p.position.z);
+  ImGui::Text("yaw %.0f  pitch %.0f  up %s",
+              p.yaw * 180.0 / 3.14159265358979323846, p.pitch * 180.0 / 3.14159265358979323846,
+              up_label(camera.up()).c_str());
+  draw_framing(camera);
   float speed = static_cast<float>(camera.speed());
   ImGui::SetNextItemWidth(150.0f);
   if (ImGui::SliderFloat("speed", &speed, static_cast<float>(FlyCamera::kMinSpeed),
@@ -107,23 +113,60 @@ void Panels::draw_view(FlyCamera& camera) {
   if (ImGui::SliderFloat("IPD", &ipd_mm, 0.0f, 200.0f, "%.0f mm")) settings_.ipd = ipd_mm / 1000.0;
 
   if (ImGui::Button("save viewpoint")) {
-    viewpoints_.push_back(SavedViewpoint{"view " + std::to_string(next_viewpoint_++), camera.pose()});
+    viewpoints_.push_back(SavedViewpoint{"view " + std::to_string(next_viewpoint_++), camera.pose().position,
+                                         camera.forward()});
   }
   std::optional<std::size_t> erase;
   for (std::size_t i = 0; i < viewpoints_.size(); ++i) {
     const SavedViewpoint& v = viewpoints_[i];
     ImGui::PushID(static_cast<int>(i));
-    if (ImGui::SmallButton("go")) camera.set_pose(v.pose);
+    if (ImGui::SmallButton("go")) camera.look(v.position, v.forward);
     ImGui::SameLine();
     if (ImGui::SmallButton("x")) erase = i;
     ImGui::SameLine();
-    ImGui::Text("%s  (%.1f %.1f %.1f)", v.name.c_str(), v.pose.position.x, v.pose.position.y, v.pose.position.z);
+    ImGui::Text("%s  (%.1f %.1f %.1f)", v.name.c_str(), v.position.x, v.position.y, v.position.z);
     ImGui::PopID();
   }
   if (erase) viewpoints_.erase(viewpoints_.begin() + static_cast<std::ptrdiff_t>(*erase));
   ImGui::TextDisabled("WASD move, E/Q up/down, Shift fast,");
-  ImGui::TextDisabled("right mouse look, wheel speed");
+  ImGui::TextDisabled("right mouse look, wheel speed, F frame");
   ImGui::End();
+}
+
+void Panels::draw_framing(FlyCamera& camera) {
+  // The box the default camera frames, as the source computed it.
+  if (const auto box = source_->bounds()) {
+    ImGui::Text("bounds (2-98 %%%s):", box->opacity_weighted ? ", by opacity" : "");
+    for (int a = 0; a < 3; ++a)
+      ImGui::Text("  %c %9.3f .. %9.3f", "xyz"[a], box->lo[a], box->hi[a]);
+    if (box->finite == 0) ImGui::TextColored(ImVec4(1.0f, 0.6f, 0.3f, 1.0f), "  no finite centre: a unit box");
+  } else {
+    ImGui::TextDisabled("bounds: the stream's box, once known");
+  }
+  // Up: the six axes, and the detected vector when it is none of them (a trainer's cameras).
+  static constexpr const char* kAxes[] = {"+x", "-x", "+y", "-y", "+z", "-z"};
+  const SceneUp& detected = source_->up();
+  const std::string detected_label = "capture " + up_label(detected.up);
+  const bool detected_is_axis = up_label(detected.up).size() == 2;
+  int current = 6;
+  for (int i = 0; i < 6; ++i)
+    if (glm::dvec3 a = *parse_up_axis(kAxes[i]); glm::length(a - camera.up()) < 1e-9) current = i;
+  const char* shown = current < 6 ? kAxes[current] : detected_label.c_str();
+  ImGui::SetNextItemWidth(110.0f);
+  if (ImGui::BeginCombo("up", shown)) {
+    for (int i = 0; i < 6; ++i)
+      if (ImGui::Selectable(kAxes[i], i == current) && i != current) up_request_ = *parse_up_axis(kAxes[i]);
+    if (!detected_is_axis && ImGui::Selectable(detected_label.c_str(), current == 6) && current != 6)
+      up_request_ = detected.up;
+    ImGui::EndCombo();
+  }
+  ImGui::SameLine();
+  if (ImGui::Button("frame (F)")) frame_request_ = true;
+  // Wrapped: the detail may name a file's path.
+  ImGui::PushTextWrapPos(0.0f);
+  ImGui::TextDisabled("scene's up %s, from %s", up_label(detected.up).c_str(), detected.detail.c_str());
+  if (!detected.problem.empty()) ImGui::TextColored(ImVec4(1.0f, 0.6f, 0.3f, 1.0f), "%s", detected.problem.c_str());
+  ImGui::PopTextWrapPos();
 }
 
 }  // namespace gauss::view

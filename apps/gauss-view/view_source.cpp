@@ -3,9 +3,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <vector>
 
-#include "central_box.h"
 #include "gauss/engine/splat_file.h"
 #include "gauss/engine/ply_mesh.h"
 #include "gauss/render/vk_frame_ring.h"
@@ -16,8 +16,10 @@ namespace {
 
 class StreamSource final : public ViewSource {
  public:
-  explicit StreamSource(std::unique_ptr<client::ClientRuntime> rt, std::string server)
-      : rt_(std::move(rt)), server_(std::move(server)) {}
+  StreamSource(std::unique_ptr<client::ClientRuntime> rt, std::string server, SceneUp up)
+      : rt_(std::move(rt)), server_(std::move(server)) {
+    up_ = std::move(up);
+  }
 
   Expected<client::DisplayFrameStats> frame(std::span<const Camera> views, const render::FrameHooks& hooks) override {
     return rt_->frame(views, hooks);
@@ -60,8 +62,10 @@ class StreamSource final : public ViewSource {
 
 class LocalSource final : public ViewSource {
  public:
-  LocalSource(std::unique_ptr<render::SplatRenderer> r, std::string what, std::pair<glm::dvec3, glm::dvec3> box)
-      : r_(std::move(r)), what_(std::move(what)), box_(box) {}
+  LocalSource(std::unique_ptr<render::SplatRenderer> r, std::string what, RobustBounds box, SceneUp up)
+      : r_(std::move(r)), what_(std::move(what)), box_(box) {
+    up_ = std::move(up);
+  }
 
   Expected<client::DisplayFrameStats> frame(std::span<const Camera> views, const render::FrameHooks& hooks) override {
     const auto t0 = std::chrono::steady_clock::now();
@@ -87,12 +91,12 @@ class LocalSource final : public ViewSource {
   render::SplatRenderer& renderer() override { return *r_; }
   bool settled(double) override { return true; }
   std::string describe() const override { return what_; }
-  std::optional<std::pair<glm::dvec3, glm::dvec3>> bounds() const override { return box_; }
+  std::optional<RobustBounds> bounds() const override { return box_; }
 
  private:
   std::unique_ptr<render::SplatRenderer> r_;
   std::string what_;
-  std::pair<glm::dvec3, glm::dvec3> box_;
+  RobustBounds box_;
   client::GpuFrameStatsCollector stats_;
   std::uint64_t frame_index_{0};
 };
@@ -122,7 +126,12 @@ Expected<std::unique_ptr<ViewSource>> make_local(vk::Context& context, const Vie
                      std::to_string(scene->cloud.sh_degree) + ")";
   if ((*r)->rejected_nonfinite() > 0)
     what += ", " + std::to_string((*r)->rejected_nonfinite()) + " non-finite Gaussians skipped";
-  return std::unique_ptr<ViewSource>(new LocalSource(std::move(*r), std::move(what), apps::central_box(gs)));
+  SceneUp up = choose_scene_up(o.up, o.scene);
+  if (!up.problem.empty())
+    std::fprintf(stderr, "gauss-view: %s; up is %s, %s\n", up.problem.c_str(), up_label(up.up).c_str(),
+                 up.detail.c_str());
+  return std::unique_ptr<ViewSource>(
+      new LocalSource(std::move(*r), std::move(what), robust_bounds(gs), std::move(up)));
 }
 
 }  // namespace
@@ -148,7 +157,15 @@ Expected<std::unique_ptr<ViewSource>> make_view_source(vk::Context& context, con
   net::NetClientConfig net;
   net.server = *o.host;
   if (auto st = (*rt)->connect(net); !st) return st.error();
-  return std::unique_ptr<ViewSource>(new StreamSource(std::move(*rt), net::to_string(*o.host)));
+  SceneUp up;
+  up.up = glm::dvec3(0.0, 1.0, 0.0);
+  up.detail = "default for a stream (+y)";
+  if (o.up) {
+    up.up = *o.up;
+    up.source = UpSource::Option;
+    up.detail = "--up " + up_label(*o.up);
+  }
+  return std::unique_ptr<ViewSource>(new StreamSource(std::move(*rt), net::to_string(*o.host), std::move(up)));
 }
 
 }  // namespace gauss::view

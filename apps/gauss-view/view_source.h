@@ -14,6 +14,8 @@
 
 #include "gauss/client/client_runtime.h"
 #include "gauss/engine/result.h"
+#include "gauss/engine/scene_framing.h"
+#include "gauss/engine/scene_up.h"
 #include "options.h"
 
 namespace gauss::vk {
@@ -36,12 +38,19 @@ class ViewSource {
   // Nothing is left to do: for a stream, connected, nothing pending, something resident,
   // and no edit arrived for `quiet_s` seconds; a local scene is always settled.
   virtual bool settled(double quiet_s) = 0;
-  // A box around the content to frame the first view with: for a local scene the 2nd..98th
-  // percentile box of the Gaussian centres (floaters ignored); nullopt for a stream (its
-  // SceneInfo's box arrives later).
-  virtual std::optional<std::pair<glm::dvec3, glm::dvec3>> bounds() const { return std::nullopt; }
+  // The box the default camera frames: for a local scene the opacity-weighted 2nd..98th
+  // percentile box of the Gaussian centres (floaters ignored, gauss/engine/scene_framing.h);
+  // nullopt for a stream (its SceneInfo's box arrives later).
+  virtual std::optional<RobustBounds> bounds() const { return std::nullopt; }
+  // The scene's up and where it came from: --up; for a local scene else its trainer's
+  // cameras.json or the 3DGS default -y (gauss/engine/scene_up.h); for a stream else +y, the
+  // up of the host's synthetic rooms and RGB-D fusion.
+  const SceneUp& up() const noexcept { return up_; }
   // "host 127.0.0.1:7000" or "scene room.ply (10000 Gaussians)".
   virtual std::string describe() const = 0;
+
+ protected:
+  SceneUp up_;
 };
 
 // Connects to opts.host (the network thread starts; connecting goes on in the background)

@@ -175,6 +175,10 @@ void Window::poll_events() {
     in.down = key_down(GLFW_KEY_Q);
     in.fast = key_down(GLFW_KEY_LEFT_SHIFT) || key_down(GLFW_KEY_RIGHT_SHIFT);
   }
+  // F acts once per press, not once per frame while held.
+  const bool frame_down = !in.ui_wants_keyboard && key_down(GLFW_KEY_F);
+  in.frame = frame_down && !frame_was_down_;
+  frame_was_down_ = frame_down;
   // Mouse look starts only with a press over the scene (not one that began on a panel)
   // and lasts while the button is held; the cursor is captured meanwhile.
   const bool right_down = glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS;

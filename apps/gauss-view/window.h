@@ -65,6 +65,7 @@ struct InputState {
   bool left{false}, right{false};    // A / D
   bool up{false}, down{false};       // E / Q
   bool fast{false};                  // Shift held
+  bool frame{false};                 // F pressed since the previous poll_events(): frame the scene again
   // Right mouse button held, pressed over the scene: mouse look. The cursor is hidden and
   // unbounded while it lasts.
   bool looking{false};
@@ -197,6 +198,7 @@ class Window {
   double last_cursor_x_{0.0}, last_cursor_y_{0.0};
   double scroll_accum_{0.0};
   bool right_was_down_{false};
+  bool frame_was_down_{false};
   VkExtent2D swapchain_for_{0, 0};  // framebuffer size the swapchain was last made for
   bool framebuffer_resized_{false};
   std::optional<std::uint32_t> image_index_;  // acquired, not yet presented

@@ -8,6 +8,7 @@
 #include <memory>
 #include <vector>
 
+#include "default_view.h"
 #include "fly_camera.h"
 #include "gauss/engine/camera_io.h"
 #include "gauss/render/vk_context.h"
@@ -46,6 +47,9 @@ class FrameLoop {
 
  private:
   Status start_pose();
+  // The default camera again (F, the view panel): a local scene's framing for the window's
+  // current size; a stream's box once it is known.
+  void reframe();
   void frame_stream_box();
   // Waits until frame slot `slot`'s previous frame finished (its acquire semaphore and the
   // UI's buffers are free again; vk_swapchain.h step 1).
@@ -63,18 +67,26 @@ class FrameLoop {
 };
 
 Status FrameLoop::start_pose() {
+  // The scene's up first, so that a --camera's roll is dropped toward it.
+  camera_.set_up(source_.up().up);
   if (!opts_.camera.empty()) {
     auto c = read_camera_json(opts_.camera);
     if (!c) return c.error();
     camera_.set_from_camera(*c);
-  } else if (source_.runtime() == nullptr) {
-    const auto box = source_.bounds();
-    if (!box) return Error{"gauss-view: the scene has no bounds to frame"};
-    camera_.frame_box(box->first, box->second);
-  } else {
-    auto_frame_ = true;
+    return Ok{};
   }
+  reframe();
   return Ok{};
+}
+
+void FrameLoop::reframe() {
+  if (source_.runtime() != nullptr) {
+    auto_frame_ = true;
+    return;
+  }
+  // The mono view's size and focal length (run() keeps the pixel scale in stereo).
+  const VkExtent2D ve = view_extent(window_.framebuffer_extent());
+  if (auto fr = default_framing(source_, camera_.up(), opts_.fov_deg, ve.width, ve.height)) camera_.frame(*fr);
 }
 
 void FrameLoop::frame_stream_box() {
@@ -85,7 +97,7 @@ void FrameLoop::frame_stream_box() {
   });
   if (!taken || !*taken) return;
   const CodecBox* box = &**taken;
-  camera_.frame_box(glm::dvec3(box->min), glm::dvec3(box->max));
+  camera_.frame_room(glm::dvec3(box->min), glm::dvec3(box->max));
   auto_frame_ = false;
 }
 
@@ -143,6 +155,12 @@ int FrameLoop::run() {
     const double t = seconds_since(t0);
     const double dt = presented == 0 ? 0.0 : t - last_t;
     if (camera_.update(window_.input(), dt)) auto_frame_ = false;
+    if (window_.input().frame || panels_.take_frame_request()) reframe();
+    if (auto up = panels_.take_up_request()) {
+      // A new up turns the default view with it: frame again, upright for it.
+      camera_.set_up(*up);
+      reframe();
+    }
     if (auto_frame_) frame_stream_box();
 
     std::uint32_t slot = 0;

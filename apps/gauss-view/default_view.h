@@ -1,0 +1,24 @@
+#pragma once
+// gauss-view's default camera, shared by the window and headless: the framing
+// (gauss/engine/scene_framing.h) of a local scene's robust bounds through the lens of --fov
+// at the view's size, upright for the chosen up.
+#include <cstdint>
+#include <optional>
+
+#include <glm/vec3.hpp>
+
+#include "gauss/engine/scene_framing.h"
+#include "view_source.h"
+
+namespace gauss::view {
+
+// A `width` x `height` pinhole with horizontal field of view `hfov_deg` (fx = fy), the box
+// kept beyond the renderer's near cull.
+FramingLens view_lens(double hfov_deg, std::uint32_t width, std::uint32_t height);
+
+// The framing of `source`'s bounds for `up` through view_lens(); nullopt when the source has
+// no bounds (a stream).
+std::optional<Framing> default_framing(const ViewSource& source, const glm::dvec3& up, double hfov_deg,
+                                       std::uint32_t width, std::uint32_t height);
+
+}  // namespace gauss::view

@@ -1,0 +1,63 @@
+#pragma once
+// Which way is up in a splat scene file, and where that was read.
+//
+// Splat files carry no up vector. The 3DGS trainer (and COLMAP before it) writes scenes in
+// the capture's camera frame, OpenCV style: y points down (kColmapUp = -y), and that is the
+// default here, since trainer output is what people open most. Tools that convert for the
+// web (three.js, PlayCanvas, Blender exports) use y up or z up: those need --up.
+// Where the trainer left its cameras.json (the capture's camera poses), the up vector is
+// measured instead: the mean of the cameras' image-up directions, which is the capture's
+// up whatever convention the file uses.
+//
+// Precedence (choose_scene_up): an explicit --up, then the trainer's cameras.json found
+// beside the scene, then kColmapUp.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include <glm/vec3.hpp>
+
+#include "gauss/engine/result.h"
+
+namespace gauss {
+
+// The 3DGS / COLMAP convention: OpenCV camera frames, y down.
+inline constexpr glm::dvec3 kColmapUp{0.0, -1.0, 0.0};
+
+// "+x", "-x", "+y", "-y", "+z", "-z" (a bare "x" means "+x"; case-insensitive) to the unit
+// axis. Errors name the text and list the accepted values.
+Expected<glm::dvec3> parse_up_axis(std::string_view text);
+
+// "+y" / "-z" for an axis, else the vector as "(0.02, -0.99, 0.10)".
+std::string up_label(const glm::dvec3& up);
+
+enum class UpSource : std::uint8_t { Option, TrainerCameras, Default };
+
+struct SceneUp {
+  glm::dvec3 up{kColmapUp};  // unit
+  UpSource source{UpSource::Default};
+  // Where it came from, for a person: "--up +z", "RUN/cameras.json (the capture's
+  // cameras)", "default (3DGS/COLMAP: y down)".
+  std::string detail{"default (3DGS/COLMAP: y down)"};
+  // A cameras.json was found but could not be used: the reader's message; else empty.
+  std::string problem;
+};
+
+// The trainer's cameras.json for a scene file: beside it, or at the run folder of the
+// trainer's layout RUN/point_cloud/iteration_N/point_cloud.ply. nullopt when neither exists.
+std::optional<std::filesystem::path> find_trainer_cameras(const std::filesystem::path& scene);
+
+// The capture's up from a trainer cameras.json (a JSON array of {"rotation": 3x3 rows
+// camera-to-world, "position": [x, y, z], ...}, as 3DGS writes it): the normalised mean of
+// -rotation's second column over the cameras. Errors name the file and the first bad camera
+// (not an array, no cameras, a rotation that is not 3 rows of 3 finite numbers) or say the
+// cameras' up directions cancel out.
+Expected<glm::dvec3> read_trainer_capture_up(const std::filesystem::path& cameras_json);
+
+// The up for a scene file by the precedence above. A cameras.json that cannot be read falls
+// back to the default, and `problem` says why (the scene itself still opens).
+SceneUp choose_scene_up(const std::optional<glm::dvec3>& option, const std::filesystem::path& scene);
+
+}  // namespace gauss

@@ -1,0 +1,164 @@
+// Robust bounds and the default framing of a splat scene (contract in scene_framing.h).
+#include "gauss/engine/scene_framing.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <utility>
+#include <vector>
+
+#include <glm/geometric.hpp>
+
+namespace gauss {
+namespace {
+
+bool finite(const glm::vec3& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+bool finite(const glm::dvec3& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+
+double opacity_weight(float logit) {
+  if (std::isnan(logit)) return 0.0;
+  return 1.0 / (1.0 + std::exp(-static_cast<double>(logit)));  // +inf -> 1, -inf -> 0
+}
+
+// The unweighted percentile box, by order statistics (the evaluation's region: the same
+// indices as before opacity weighting existed, so its reports do not move).
+void count_bounds(const std::vector<glm::vec3>& ps, RobustBounds& out) {
+  std::vector<float> axis(ps.size());
+  const std::size_t i_lo = ps.size() * 2 / 100, i_hi = ps.size() - 1 - i_lo;
+  for (int a = 0; a < 3; ++a) {
+    for (std::size_t i = 0; i < ps.size(); ++i) axis[i] = ps[i][a];
+    std::nth_element(axis.begin(), axis.begin() + static_cast<std::ptrdiff_t>(i_lo), axis.end());
+    out.lo[a] = axis[i_lo];
+    std::nth_element(axis.begin(), axis.begin() + static_cast<std::ptrdiff_t>(i_hi), axis.end());
+    out.hi[a] = axis[i_hi];
+  }
+}
+
+// Weighted quantiles per axis: symmetric from both ends, so a single heavy centre is both
+// bounds and equal weights give the same box as the count for large n.
+void weighted_bounds(const std::vector<glm::vec3>& ps, const std::vector<double>& w, double total, RobustBounds& out) {
+  std::vector<std::pair<float, double>> axis(ps.size());
+  const double cut_lo = kRobustLowQuantile * total, cut_hi = (1.0 - kRobustHighQuantile) * total;
+  for (int a = 0; a < 3; ++a) {
+    for (std::size_t i = 0; i < ps.size(); ++i) axis[i] = {ps[i][a], w[i]};
+    std::sort(axis.begin(), axis.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+    double cum = 0.0;
+    std::size_t lo = 0;
+    for (; lo + 1 < axis.size(); ++lo) {
+      cum += axis[lo].second;
+      if (cum > cut_lo) break;
+    }
+    cum = 0.0;
+    std::size_t hi = axis.size() - 1;
+    for (; hi > lo; --hi) {
+      cum += axis[hi].second;
+      if (cum > cut_hi) break;
+    }
+    out.lo[a] = axis[lo].first;
+    out.hi[a] = axis[hi].first;
+  }
+}
+
+}  // namespace
+
+glm::dvec3 view_side(const glm::dvec3& centre, const glm::dvec3& half, const glm::dvec3& up) {
+  const auto horizontal = [&](const glm::dvec3& v) { return v - glm::dot(v, up) * up; };
+  const glm::dvec3 to_origin = horizontal(-centre);
+  const double footprint = glm::length(horizontal(glm::abs(half)));
+  const double d = glm::length(to_origin);
+  if (std::isfinite(d) && d > footprint && d > 0.0) return to_origin / d;
+  return -front_direction(up);
+}
+
+RobustBounds robust_bounds(std::span<const Gaussian> gaussians, BoundsWeighting weighting) {
+  RobustBounds out;
+  std::vector<glm::vec3> ps;
+  std::vector<double> w;
+  ps.reserve(gaussians.size());
+  if (weighting == BoundsWeighting::Opacity) w.reserve(gaussians.size());
+  double total = 0.0;
+  for (const Gaussian& g : gaussians) {
+    if (!finite(g.position)) continue;
+    ps.push_back(g.position);
+    if (weighting == BoundsWeighting::Opacity) {
+      w.push_back(opacity_weight(g.opacity_logit));
+      total += w.back();
+    }
+  }
+  out.finite = ps.size();
+  if (ps.empty()) return out;  // the unit box: nothing to frame
+  // A total that underflowed to 0 (every opacity ~0) says nothing about where the subject
+  // is: count the centres instead.
+  if (weighting == BoundsWeighting::Opacity && total > 0.0 && std::isfinite(total)) {
+    weighted_bounds(ps, w, total, out);
+    out.opacity_weighted = true;
+  } else {
+    count_bounds(ps, out);
+  }
+  return out;
+}
+
+glm::dvec3 front_direction(const glm::dvec3& up) {
+  const glm::dvec3 a = glm::abs(up);
+  const glm::dvec3 r0 = a.x > a.y && a.x > a.z ? glm::dvec3(0.0, 1.0, 0.0) : glm::dvec3(1.0, 0.0, 0.0);
+  const glm::dvec3 right = glm::normalize(r0 - glm::dot(r0, up) * up);
+  return -glm::cross(right, up);
+}
+
+Framing frame_bounds(const glm::dvec3& lo_in, const glm::dvec3& hi_in, const glm::dvec3& up_in, const FramingLens& lens) {
+  Framing fr;
+  const double up_len = glm::length(up_in);
+  fr.up = std::isfinite(up_len) && up_len > 1e-12 ? up_in / up_len : glm::dvec3(0.0, 1.0, 0.0);
+  glm::dvec3 lo = glm::min(lo_in, hi_in), hi = glm::max(lo_in, hi_in);
+  if (!finite(lo) || !finite(hi)) lo = glm::dvec3(-1.0), hi = glm::dvec3(1.0);
+  const glm::dvec3 centre = 0.5 * (lo + hi);
+  glm::dvec3 half = 0.5 * (hi - lo);
+  const double largest = std::max({half.x, half.y, half.z});
+  // Relative to the coordinates' magnitude: float centres far from the origin are never
+  // closer than their own rounding.
+  if (!(largest > 1e-6 * std::max(1.0, glm::length(centre)))) half = glm::dvec3(kPointBoxHalfExtent);
+  fr.lo = centre - half;
+  fr.hi = centre + half;
+  fr.target = centre;
+
+  // The view direction: from the side the camera stands on, tilted down by the elevation
+  // (clamped short of vertical, where image-up is undefined).
+  const double e = std::clamp(lens.elevation, -1.4, 1.4);
+  const glm::dvec3 f = glm::normalize(-std::cos(e) * view_side(centre, half, fr.up) - std::sin(e) * fr.up);
+  const glm::dvec3 right = glm::normalize(glm::cross(f, fr.up));
+  const glm::dvec3 down = glm::cross(f, right);
+  // Tangents of the half-angles the box may fill (principal point at the centre).
+  const double fill = std::clamp(lens.fill, 0.05, 1.0);
+  const double tx = fill * 0.5 * std::max(1u, lens.width) / std::max(lens.fx, 1e-9);
+  const double ty = fill * 0.5 * std::max(1u, lens.height) / std::max(lens.fy, 1e-9);
+  // For a corner at offset o from the centre and the eye at centre - D f: depth D + o.f,
+  // image x (o.right) / depth. |o.right| <= tx (D + o.f) <=> D >= |o.right| / tx - o.f.
+  double d = 0.0;
+  for (int i = 0; i < 8; ++i) {
+    const glm::dvec3 o((i & 1) ? half.x : -half.x, (i & 2) ? half.y : -half.y, (i & 4) ? half.z : -half.z);
+    const double z = glm::dot(o, f);
+    d = std::max({d, std::abs(glm::dot(o, right)) / tx - z, std::abs(glm::dot(o, down)) / ty - z,
+                  std::max(lens.min_depth, 0.0) - z});
+  }
+  // Every corner in front of the camera puts the eye outside the (convex) box; a hair more
+  // so that rounding does not put the nearest corner exactly on the near plane.
+  fr.distance = d * (1.0 + 1e-6) + 1e-9;
+  fr.eye = centre - fr.distance * f;
+  return fr;
+}
+
+Camera framed_camera(const Framing& fr, const FramingLens& lens) {
+  Camera c;
+  c.width = std::max(1u, lens.width);
+  c.height = std::max(1u, lens.height);
+  c.fx = lens.fx;
+  c.fy = lens.fy;
+  c.cx = 0.5 * c.width;
+  c.cy = 0.5 * c.height;
+  c.world_to_camera = glm::inverse(opencv_look_at(fr.eye, fr.target, fr.up));
+  const double reach = fr.distance + glm::length(fr.hi - fr.lo);
+  c.far_plane = std::max(c.far_plane, 2.0 * reach);
+  return c;
+}
+
+}  // namespace gauss

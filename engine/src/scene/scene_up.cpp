@@ -1,0 +1,127 @@
+// The up vector of a scene file: --up, the trainer's cameras.json, or the 3DGS default
+// (contract in scene_up.h). nlohmann::json throws on malformed text; the throw is caught
+// here and turned into an Error.
+#include "gauss/engine/scene_up.h"
+
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include <glm/geometric.hpp>
+#include <nlohmann/json.hpp>
+
+#include "io/file_bytes.h"
+
+namespace gauss {
+namespace {
+
+using nlohmann::json;
+
+Error up_error(const std::filesystem::path& file, const std::string& what) { return Error{file.string() + ": " + what}; }
+
+}  // namespace
+
+Expected<glm::dvec3> parse_up_axis(std::string_view text) {
+  std::string t;
+  for (char c : text) t.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(c))));
+  double sign = 1.0;
+  std::string_view axis = t;
+  if (!axis.empty() && (axis.front() == '+' || axis.front() == '-')) {
+    sign = axis.front() == '-' ? -1.0 : 1.0;
+    axis.remove_prefix(1);
+  }
+  glm::dvec3 up(0.0);
+  if (axis == "x") up.x = sign;
+  else if (axis == "y") up.y = sign;
+  else if (axis == "z") up.z = sign;
+  else return Error{"up axis '" + std::string(text) + "': expected one of +x -x +y -y +z -z"};
+  return up;
+}
+
+std::string up_label(const glm::dvec3& up) {
+  static constexpr const char* kAxes = "xyz";
+  for (int a = 0; a < 3; ++a) {
+    const glm::dvec3 other(a == 0 ? 0.0 : up.x, a == 1 ? 0.0 : up.y, a == 2 ? 0.0 : up.z);
+    if (std::abs(std::abs(up[a]) - 1.0) < 1e-9 && glm::dot(other, other) < 1e-18)
+      return std::string(up[a] < 0.0 ? "-" : "+") + kAxes[a];
+  }
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "(%.2f, %.2f, %.2f)", up.x, up.y, up.z);
+  return buf;
+}
+
+std::optional<std::filesystem::path> find_trainer_cameras(const std::filesystem::path& scene) {
+  std::error_code ec;
+  const std::filesystem::path dir = scene.parent_path();
+  if (std::filesystem::is_regular_file(dir / "cameras.json", ec)) return dir / "cameras.json";
+  // RUN/point_cloud/iteration_N/point_cloud.ply: the trainer writes RUN/cameras.json.
+  const std::filesystem::path run = dir.parent_path().parent_path();
+  if (dir.filename().string().rfind("iteration_", 0) == 0 && dir.parent_path().filename() == "point_cloud" &&
+      std::filesystem::is_regular_file(run / "cameras.json", ec))
+    return run / "cameras.json";
+  return std::nullopt;
+}
+
+Expected<glm::dvec3> read_trainer_capture_up(const std::filesystem::path& file) {
+  auto bytes = io::read_file_bytes(file);
+  if (!bytes) return bytes.error();
+  json j;
+  try {
+    j = json::parse(bytes->begin(), bytes->end());
+  } catch (const json::exception& e) {
+    return up_error(file, std::string("not JSON: ") + e.what());
+  }
+  if (!j.is_array()) return up_error(file, std::string("expected an array of cameras, got ") + j.type_name());
+  if (j.empty()) return up_error(file, "no cameras");
+  glm::dvec3 sum(0.0);
+  for (std::size_t i = 0; i < j.size(); ++i) {
+    const std::string at = "camera " + std::to_string(i) + ": ";
+    const json& cam = j[i];
+    const auto rot = cam.is_object() ? cam.find("rotation") : cam.end();
+    if (!cam.is_object() || rot == cam.end()) return up_error(file, at + "no 'rotation'");
+    if (!rot->is_array() || rot->size() != 3) return up_error(file, at + "'rotation' must be 3 rows of 3 numbers");
+    glm::dvec3 down(0.0);  // the camera's y axis (image down) in the world: the matrix's second column
+    for (std::size_t r = 0; r < 3; ++r) {
+      const json& row = (*rot)[r];
+      if (!row.is_array() || row.size() != 3) return up_error(file, at + "'rotation' must be 3 rows of 3 numbers");
+      for (std::size_t c = 0; c < 3; ++c)
+        if (!row[c].is_number() || !std::isfinite(row[c].get<double>()))
+          return up_error(file, at + "rotation[" + std::to_string(r) + "][" + std::to_string(c) + "] is not a finite number");
+      down[static_cast<int>(r)] = row[1].get<double>();
+    }
+    const double len = glm::length(down);
+    if (!(len > 1e-6)) return up_error(file, at + "the rotation's second column is zero");
+    sum -= down / len;
+  }
+  const double len = glm::length(sum);
+  // Cameras looking from every side still agree on up; ups that cancel mean a capture
+  // without one (or a broken file).
+  if (!(len > 0.1 * static_cast<double>(j.size())))
+    return up_error(file, "the cameras' up directions do not agree (mean length " +
+                              std::to_string(len / static_cast<double>(j.size())) + ")");
+  return sum / len;
+}
+
+SceneUp choose_scene_up(const std::optional<glm::dvec3>& option, const std::filesystem::path& scene) {
+  SceneUp out;
+  if (option) {
+    out.up = glm::normalize(*option);
+    out.source = UpSource::Option;
+    out.detail = "--up " + up_label(out.up);
+    return out;
+  }
+  const auto cams = find_trainer_cameras(scene);
+  if (!cams) return out;
+  auto up = read_trainer_capture_up(*cams);
+  if (!up) {
+    out.problem = up.message();
+    return out;
+  }
+  out.up = *up;
+  out.source = UpSource::TrainerCameras;
+  out.detail = cams->string() + " (the capture's cameras)";
+  return out;
+}
+
+}  // namespace gauss
