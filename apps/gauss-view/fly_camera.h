@@ -4,7 +4,7 @@
 // trainer's cameras say), turned into an OpenCV camera (x right, y down, z forward) for any
 // view size; the image's up always leans toward the scene's up.
 //
-// Controls (window.h InputState): W/S forward/back along the view direction, A/D
+// Controls (input_state.h): W/S forward/back along the view direction, A/D
 // sideways, E/Q along the scene's up/down, Shift x kFastFactor, right mouse button held:
 // look (kLookRadiansPerPixel), wheel: speed x kSpeedStep per step.
 #include <cstdint>
@@ -13,8 +13,7 @@
 
 #include "gauss/engine/camera.h"
 #include "gauss/engine/scene_framing.h"
-#include "options.h"
-#include "window.h"
+#include "input_state.h"
 
 namespace gauss::view {
 

@@ -9,8 +9,9 @@
 //               and class queries with rho, clear, the share of M the query got
 //   timing      scrolling graphs of CPU and GPU milliseconds per pass (panels_view.cpp)
 //   view        the bounds the default camera frames, the scene's up (and where it came
-//               from) with a choice of axis, "frame (F)", saved viewpoints, highlight,
-//               edit tints, stereo preview + IPD, speed
+//               from) with a choice of axis, "frame (F)", fly / orbit, saved viewpoints,
+//               highlight, edit tints, stereo preview + IPD, speed, and every key and
+//               mouse binding (help)
 // A local scene (no stream) shows "local scene (no stream)" where a panel needs one.
 //
 // Intents (queries, mode, highlight, tints) go straight to the ClientRuntime; what the
@@ -63,10 +64,13 @@ class Panels {
   void add_frame(const client::DisplayFrameStats& stats, double interval_ms);
   void add_gpu(const client::GpuFrameStats& gpu);
   // Draws every panel for a `width` x `height` window (first-use placement); `now_s` is
-  // a steady clock in seconds. May move `camera` (viewpoints, speed).
-  void draw(FlyCamera& camera, std::uint32_t width, std::uint32_t height, double now_s);
+  // a steady clock in seconds; `orbit`: the camera is in orbit mode. May move `camera`
+  // (viewpoints, speed).
+  void draw(FlyCamera& camera, bool orbit, std::uint32_t width, std::uint32_t height, double now_s);
 
   const ViewSettings& settings() const noexcept { return settings_; }
+  // Fly or orbit chosen in the view panel since the last call (true: orbit).
+  std::optional<bool> take_mode_request() { return std::exchange(mode_request_, std::nullopt); }
   // The view panel's "frame" button was pressed since the last call.
   bool take_frame_request() { return std::exchange(frame_request_, false); }
   // An up chosen in the view panel since the last call.
@@ -91,7 +95,7 @@ class Panels {
   void draw_stream();
   void draw_objects(double now_s);
   void draw_timing();
-  void draw_view(FlyCamera& camera);
+  void draw_view(FlyCamera& camera, bool orbit);
   void draw_framing(FlyCamera& camera);
   void refresh_objects(double now_s);
 
@@ -116,6 +120,7 @@ class Panels {
   std::string last_query_;
 
   bool frame_request_{false};
+  std::optional<bool> mode_request_;
   std::optional<glm::dvec3> up_request_;
   std::vector<SavedViewpoint> viewpoints_;
   int next_viewpoint_{1};

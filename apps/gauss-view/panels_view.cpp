@@ -48,7 +48,7 @@ void Panels::add_gpu(const client::GpuFrameStats& gpu) {
   gpu_visible_ = gpu.view[0].visible;
 }
 
-void Panels::draw(FlyCamera& camera, std::uint32_t width, std::uint32_t height, double now_s) {
+void Panels::draw(FlyCamera& camera, bool orbit, std::uint32_t width, std::uint32_t height, double now_s) {
   small_window_ = width < kSmallWindowWidth;
   const float w = static_cast<float>(width);
   const float right = std::max(kMargin, w - kPanelW - kMargin);
@@ -63,7 +63,7 @@ void Panels::draw(FlyCamera& camera, std::uint32_t width, std::uint32_t height, 
   // The view panel takes the rest of the column (it scrolls when that is too short).
   place(right, small_window_ ? 34.0f : 386.0f, kPanelW, std::max(300.0f, static_cast<float>(height) - 394.0f),
         small_window_);
-  draw_view(camera);
+  draw_view(camera, orbit);
 }
 
 void Panels::draw_timing() {
@@ -85,7 +85,7 @@ void Panels::draw_timing() {
   ImGui::End();
 }
 
-void Panels::draw_view(FlyCamera& camera) {
+void Panels::draw_view(FlyCamera& camera, bool orbit) {
   if (!ImGui::Begin("view")) {
     ImGui::End();
     return;
@@ -96,6 +96,9 @@ void Panels::draw_view(FlyCamera& camera) {
               p.yaw * 180.0 / 3.14159265358979323846, p.pitch * 180.0 / 3.14159265358979323846,
               up_label(camera.up()).c_str());
   draw_framing(camera);
+  if (ImGui::RadioButton("fly", !orbit) && orbit) mode_request_ = false;
+  ImGui::SameLine();
+  if (ImGui::RadioButton("orbit (O)", orbit) && !orbit) mode_request_ = true;
   float speed = static_cast<float>(camera.speed());
   ImGui::SetNextItemWidth(150.0f);
   if (ImGui::SliderFloat("speed", &speed, static_cast<float>(FlyCamera::kMinSpeed),
@@ -128,8 +131,17 @@ void Panels::draw_view(FlyCamera& camera) {
     ImGui::PopID();
   }
   if (erase) viewpoints_.erase(viewpoints_.begin() + static_cast<std::ptrdiff_t>(*erase));
-  ImGui::TextDisabled("WASD move, E/Q up/down, Shift fast,");
-  ImGui::TextDisabled("right mouse look, wheel speed, F frame");
+  if (ImGui::CollapsingHeader("help: keys and mouse")) {
+    ImGui::TextDisabled("W/S A/D   forward/back, sideways");
+    ImGui::TextDisabled("E/Q       along the scene's up/down");
+    ImGui::TextDisabled("Shift     x%.0f speed", FlyCamera::kFastFactor);
+    ImGui::TextDisabled("right drag  look around");
+    ImGui::TextDisabled("wheel     fly: speed; orbit: zoom");
+    ImGui::TextDisabled("left drag   orbit: turn about the pivot");
+    ImGui::TextDisabled("middle drag orbit: pan");
+    ImGui::TextDisabled("F         frame the scene again");
+    ImGui::TextDisabled("O         orbit <-> fly (the view stays)");
+  }
   ImGui::End();
 }
 

@@ -175,10 +175,32 @@ void Window::poll_events() {
     in.down = key_down(GLFW_KEY_Q);
     in.fast = key_down(GLFW_KEY_LEFT_SHIFT) || key_down(GLFW_KEY_RIGHT_SHIFT);
   }
-  // F acts once per press, not once per frame while held.
+  // F and O act once per press, not once per frame while held.
   const bool frame_down = !in.ui_wants_keyboard && key_down(GLFW_KEY_F);
   in.frame = frame_down && !frame_was_down_;
   frame_was_down_ = frame_down;
+  const bool orbit_down = !in.ui_wants_keyboard && key_down(GLFW_KEY_O);
+  in.toggle_orbit = orbit_down && !orbit_was_down_;
+  orbit_was_down_ = orbit_down;
+  // Left (orbit) and middle (pan) drags, like mouse look, start only with a press over the
+  // scene, so that dragging a panel's slider never turns the view. The cursor stays visible.
+  const bool left_down = glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
+  const bool middle_down = glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS;
+  in.dragging = left_down && (input_.dragging || (!left_was_down_ && !in.ui_wants_mouse));
+  in.panning = middle_down && (input_.panning || (!middle_was_down_ && !in.ui_wants_mouse));
+  {
+    double x = 0.0;
+    double y = 0.0;
+    glfwGetCursorPos(window_, &x, &y);
+    if ((in.dragging && input_.dragging) || (in.panning && input_.panning)) {
+      in.drag_dx = x - drag_cursor_x_;
+      in.drag_dy = y - drag_cursor_y_;
+    }
+    drag_cursor_x_ = x;
+    drag_cursor_y_ = y;
+  }
+  left_was_down_ = left_down;
+  middle_was_down_ = middle_down;
   // Mouse look starts only with a press over the scene (not one that began on a panel)
   // and lasts while the button is held; the cursor is captured meanwhile.
   const bool right_down = glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS;

@@ -1,6 +1,7 @@
 #pragma once
 // Window: the desktop viewer's GLFW window, its Vulkan surface and swapchain, the ImGui
-// panels, free-fly camera input, and per frame the present of a caller's image.
+// panels, camera input (input_state.h: fly and orbit), and per frame the present of a
+// caller's image.
 //
 // Setup (the order matters: the surface needs the instance, the device choice needs the
 // surface):
@@ -39,6 +40,7 @@
 #include "gauss/render/vk_buffer.h"
 #include "gauss/render/vk_context.h"
 #include "gauss/render/vk_swapchain.h"
+#include "input_state.h"
 
 struct GLFWwindow;
 
@@ -56,25 +58,6 @@ struct WindowCreateInfo {
   std::uint32_t frames_in_flight{2};
   // Colour of the letterbox bars and of frames without a source image (display-encoded).
   float clear_color[4]{0.08f, 0.08f, 0.09f, 1.0f};
-};
-
-// Camera input of the display frame, gathered by poll_events(). Keys and mouse that the
-// UI takes (a focused text field, the cursor over a panel) do not reach the camera.
-struct InputState {
-  bool forward{false}, back{false};  // W / S
-  bool left{false}, right{false};    // A / D
-  bool up{false}, down{false};       // E / Q
-  bool fast{false};                  // Shift held
-  bool frame{false};                 // F pressed since the previous poll_events(): frame the scene again
-  // Right mouse button held, pressed over the scene: mouse look. The cursor is hidden and
-  // unbounded while it lasts.
-  bool looking{false};
-  // Cursor motion since the previous poll_events() while looking, in pixels (+x right,
-  // +y down); 0 otherwise.
-  double look_dx{0.0}, look_dy{0.0};
-  // Wheel steps since the previous poll_events() over the scene (+ away from the user).
-  double scroll{0.0};
-  bool ui_wants_mouse{false}, ui_wants_keyboard{false};
 };
 
 // The image record_present() shows: RGBA8/BGRA8 (UNORM), in GENERAL or
@@ -199,6 +182,9 @@ class Window {
   double scroll_accum_{0.0};
   bool right_was_down_{false};
   bool frame_was_down_{false};
+  bool orbit_was_down_{false};
+  bool left_was_down_{false}, middle_was_down_{false};
+  double drag_cursor_x_{0.0}, drag_cursor_y_{0.0};
   VkExtent2D swapchain_for_{0, 0};  // framebuffer size the swapchain was last made for
   bool framebuffer_resized_{false};
   std::optional<std::uint32_t> image_index_;  // acquired, not yet presented

@@ -10,6 +10,7 @@
 
 #include "default_view.h"
 #include "fly_camera.h"
+#include "orbit_control.h"
 #include "gauss/engine/camera_io.h"
 #include "gauss/render/vk_context.h"
 #include "gauss/render/vk_frame_ring.h"
@@ -61,6 +62,10 @@ class FrameLoop {
   ViewSource& source_;
   Panels panels_;
   FlyCamera camera_;
+  // Orbit mode drives camera_'s pose about a pivot ahead of it (orbit_control.h).
+  OrbitControl orbit_;
+  bool orbit_mode_{false};
+  glm::dvec3 framed_centre_{0.0};  // the last framing's target: where entering orbit aims
   bool auto_frame_{false};  // a stream: frame the scene's box once it is known, until the user moves
   std::vector<std::uint64_t> slot_serial_;  // renderer serial that last used each slot
   render::SplatRenderer* renderer_;
@@ -86,7 +91,11 @@ void FrameLoop::reframe() {
   }
   // The mono view's size and focal length (run() keeps the pixel scale in stereo).
   const VkExtent2D ve = view_extent(window_.framebuffer_extent());
-  if (auto fr = default_framing(source_, camera_.up(), opts_.fov_deg, ve.width, ve.height)) camera_.frame(*fr);
+  if (auto fr = default_framing(source_, camera_.up(), opts_.fov_deg, ve.width, ve.height)) {
+    camera_.frame(*fr);
+    orbit_.frame(*fr);
+    framed_centre_ = fr->target;
+  }
 }
 
 void FrameLoop::frame_stream_box() {
@@ -98,6 +107,8 @@ void FrameLoop::frame_stream_box() {
   if (!taken || !*taken) return;
   const CodecBox* box = &**taken;
   camera_.frame_room(glm::dvec3(box->min), glm::dvec3(box->max));
+  framed_centre_ = 0.5 * (glm::dvec3(box->min) + glm::dvec3(box->max));
+  orbit_.frame_at(glm::length(framed_centre_ - camera_.pose().position));
   auto_frame_ = false;
 }
 
@@ -154,8 +165,22 @@ int FrameLoop::run() {
     }
     const double t = seconds_since(t0);
     const double dt = presented == 0 ? 0.0 : t - last_t;
-    if (camera_.update(window_.input(), dt)) auto_frame_ = false;
-    if (window_.input().frame || panels_.take_frame_request()) reframe();
+    const InputState& in = window_.input();
+    if (const auto orbit = panels_.take_mode_request(); in.toggle_orbit || orbit) {
+      // The view stays where it is; only what the mouse does changes.
+      orbit_mode_ = orbit.value_or(!orbit_mode_);
+      if (orbit_mode_) orbit_.aim(camera_, framed_centre_);
+    }
+    // In orbit mode the wheel zooms toward the pivot instead of setting the fly speed.
+    InputState fly_in = in;
+    if (orbit_mode_) fly_in.scroll = 0.0;
+    bool moved = camera_.update(fly_in, dt);
+    if (orbit_mode_) {
+      const double focal = focal_from_hfov(opts_.fov_deg, view_extent(window_.framebuffer_extent()).width);
+      moved = orbit_.update(camera_, in, focal) || moved;
+    }
+    if (moved) auto_frame_ = false;
+    if (in.frame || panels_.take_frame_request()) reframe();
     if (auto up = panels_.take_up_request()) {
       // A new up turns the default view with it: frame again, upright for it.
       camera_.set_up(*up);
@@ -180,7 +205,7 @@ int FrameLoop::run() {
     const VkExtent2D fb = window_.framebuffer_extent();
     if (!opts_.no_ui) {
       window_.begin_ui();
-      panels_.draw(camera_, fb.width, fb.height, t);
+      panels_.draw(camera_, orbit_mode_, fb.width, fb.height, t);
     }
     if (!opts_.screenshot.empty() && !screenshot_requested && presented >= opts_.screenshot_after) {
       window_.request_screenshot(opts_.screenshot);
