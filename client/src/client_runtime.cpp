@@ -132,6 +132,9 @@ ClientRuntime::PreparedStep ClientRuntime::prepare_step(PublicationJob& job) {
   const double c0 = thread_cpu_ms();
   auto fr = sink_->with_state([&](ClientState& s) -> Expected<FrameResult> {
     st.lock_wait_ms = ms_since(t0);
+    for (msg::Query& q : job.queries) s.send_reserved_query(std::move(q));
+    if (job.mode) s.set_publish_mode(*job.mode);
+    if (job.display_period) s.set_display_period(*job.display_period);
     if (job.pose) s.send_pose(*job.pose);
     for (const RenderedNote& n : job.rendered) s.frame_rendered(n.now, n.frame_index, n.shown_step);
     for (double cost : job.frame_costs) s.report_frame_cost(cost);
@@ -345,7 +348,10 @@ Status ClientRuntime::wait_frames() {
 }
 
 std::uint32_t ClientRuntime::send_query(msg::Query query) {
-  return sink_->with_state([&](ClientState& s) { return s.send_query(std::move(query)); });
+  if (!worker_) return sink_->with_state([&](ClientState& s) { return s.send_query(std::move(query)); });
+  query.query_id = state_->reserve_query_id();  // atomic: no wait for a running step
+  next_job_.queries.push_back(std::move(query));
+  return next_job_.queries.back().query_id;
 }
 
 void ClientRuntime::clear_query() {
@@ -356,10 +362,18 @@ void ClientRuntime::clear_query() {
 
 void ClientRuntime::set_publish_mode(PublishMode mode) {
   mode_ = mode;
+  if (worker_) {
+    next_job_.mode = mode;
+    return;
+  }
   sink_->with_state([&](ClientState& s) { s.set_publish_mode(mode); });
 }
 
 void ClientRuntime::set_display_period(double seconds) {
+  if (worker_) {
+    next_job_.display_period = seconds;
+    return;
+  }
   sink_->with_state([&](ClientState& s) { s.set_display_period(seconds); });
 }
 

@@ -4,7 +4,12 @@
 // and its frame equals a blocking renderer's image of that set loaded in slot order
 // with the committed surface: GPU publication (dirty ranges, clears, chunks) lost nothing.
 // The same with publication on its own thread: packed runs copied from its pack buffers,
-// and runs past a small pack buffer left to the display thread, show the same set.
+// and runs past a small pack buffer left to the display thread, show the same set; and
+// queries sent from the display thread meanwhile do not wait for the state lock.
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
 #include <gtest/gtest.h>
 
 #include "gauss/client/client_runtime.h"
@@ -129,6 +134,81 @@ TEST_F(ClientRuntimeInProcess, ConvergesToTheSentSetAndRendersItExactly) { conve
 TEST_F(ClientRuntimeInProcess, PublicationThreadShowsTheSameSet) { converge_and_compare(4096); }
 
 TEST_F(ClientRuntimeInProcess, PublicationThreadWithASmallPackBufferShowsTheSameSet) { converge_and_compare(150); }
+
+// With the publication thread, a query and a mode change from the display thread never
+// wait for the state lock (a running step holds it for its whole length): the id is
+// reserved at once and both reach ClientState with the next step, in order. Here another
+// thread holds the lock while the display thread sends; it lets go only when the sends
+// returned (or after 10 s, which the test reports as a wait).
+TEST_F(ClientRuntimeInProcess, IntentFromTheDisplayThreadDoesNotWaitForTheStateLock) {
+  SyntheticSceneConfig sc = small_synthetic_config(2000, 3);
+  auto synth = SyntheticScene::create(sc);
+  ASSERT_TRUE(synth.ok()) << synth.message();
+  SceneStore scene;
+  ASSERT_NO_FATAL_FAILURE(produce_all(*synth, scene));
+  CodecParams params;
+  params.box.min = synth->room_min() - glm::vec3(0.5f);
+  params.box.max = synth->room_max() + glm::vec3(0.5f);
+  double now = 0.0;
+  client::ClientRuntimeConfig cfg;
+  cfg.state.capacity = 1000;
+  cfg.state.publisher.mode = PublishMode::Progressive;
+  cfg.max_width = 64;
+  cfg.max_height = 48;
+  cfg.clock = [&now] { return now; };
+  cfg.publication_thread = true;
+  auto rt = client::ClientRuntime::create(context(), cfg);
+  ASSERT_TRUE(rt.ok()) << rt.message();
+  HostSession host(1, 42, params);
+  const msg::Hello hello = (*rt)->with_state([](const ClientState& s) { return s.hello(); });
+  for (const auto& m : host.on_message(wire::Message{hello}, scene, now)) (*rt)->deliver(m);
+  const Camera cam = synth->overview_camera(64, 48);
+
+  std::mutex mu;
+  std::condition_variable cv;
+  bool holding = false, sent = false, released_by_sender = false;
+  std::thread holder([&] {
+    (*rt)->with_state([&](const ClientState&) {
+      std::unique_lock lock(mu);
+      holding = true;
+      cv.notify_all();
+      released_by_sender = cv.wait_for(lock, std::chrono::seconds(10), [&] { return sent; });
+      return 0;
+    });
+  });
+  {
+    std::unique_lock lock(mu);
+    cv.wait(lock, [&] { return holding; });
+  }
+  msg::Query q;
+  q.kind = msg::QueryKind::Instance;
+  q.instance = ObjectId{1};
+  q.rho = 0.5f;
+  const std::uint32_t first = (*rt)->send_query(q);
+  const std::uint32_t second = (*rt)->send_query(q);
+  (*rt)->set_publish_mode(PublishMode::Immediate);
+  {
+    std::lock_guard lock(mu);
+    sent = true;
+  }
+  cv.notify_all();
+  holder.join();
+  EXPECT_TRUE(released_by_sender) << "send_query or set_publish_mode waited for the state lock";
+  EXPECT_EQ(second, first + 1);
+
+  // The next steps hand both queries to the host, in order, and switch the mode.
+  std::vector<std::uint32_t> sent_ids;
+  for (int frames = 0; frames < 20 && sent_ids.size() < 2; ++frames) {
+    now += 1.0 / 72.0;
+    auto f = (*rt)->frame(std::span<const Camera>(&cam, 1));
+    ASSERT_TRUE(f.ok()) << f.message();
+    ASSERT_TRUE((*rt)->wait_frames().ok());
+    for (const auto& m : (*rt)->take_outgoing())
+      if (const auto* query = std::get_if<msg::Query>(&m)) sent_ids.push_back(query->query_id);
+  }
+  EXPECT_EQ(sent_ids, (std::vector<std::uint32_t>{first, second}));
+  EXPECT_EQ((*rt)->with_state([](const ClientState& s) { return s.publisher().config().mode; }), PublishMode::Immediate);
+}
 
 }  // namespace
 }  // namespace gauss::test
