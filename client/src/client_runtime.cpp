@@ -98,7 +98,10 @@ Status ClientRuntime::make_renderer(int sh_degree) {
       pack_pool_.push_back(PackBuffer{std::move(*b)});
     }
   }
-  return publication_.republish_all(state_->slots(), state_->surface(), *renderer_);
+  // Under the state lock (the network thread changes the surface stage); called while no
+  // publication step runs, so the wait is for a message at most. A new SH degree is rare.
+  return sink_->with_state(
+      [&](ClientState& s) { return publication_.republish_all(s.slots(), s.surface(), *renderer_); });
 }
 
 Status ClientRuntime::connect(net::NetClientConfig net) {
@@ -139,6 +142,8 @@ ClientRuntime::PreparedStep ClientRuntime::prepare_step(PublicationJob& job) {
     for (const RenderedNote& n : job.rendered) s.frame_rendered(n.now, n.frame_index, n.shown_step);
     for (double cost : job.frame_costs) s.report_frame_cost(cost);
     auto r = s.frame(job.view, job.now, job.frame_index);
+    // Under the lock: the network thread changes the stage (a restarted host's epochs).
+    if (r) st.surface = publication_.prepare_surface(s.surface());
     if (s.codec()) st.sh_degree = s.codec()->sh_degree;
     if (job.highlight_query) st.targets = s.query_targets();
     st.desired = s.desired().desired_count();
@@ -212,7 +217,7 @@ Status ClientRuntime::apply_step(PreparedStep& st, DisplayFrameStats& out) {
         release();
       }
     }
-    out.uploaded.chunks_changed = publication_.publish_surface(state_->surface(), *renderer_);
+    out.uploaded.chunks_changed = publication_.publish_prepared_surface(st.surface, *renderer_);
   }
   if (st.targets != highlighted_) {
     if (st.targets.empty()) {

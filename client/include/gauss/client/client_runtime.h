@@ -235,6 +235,7 @@ class ClientRuntime {
     bool welcomed{false};
     ClientStatsCounters counters{};
     PreparedSlots slots;
+    PreparedSurface surface;  // prepared under the state lock
     int pack_buffer{-1};
     double lock_wait_ms{0.0}, publish_ms{0.0}, publish_cpu_ms{0.0}, pack_ms{0.0}, pack_cpu_ms{0.0};
   };

@@ -53,6 +53,8 @@ class StagedUploads;
 
 namespace gauss::render {
 
+struct PreparedMeshChunk;  // mesh_pass.h
+
 inline constexpr std::uint32_t kMaxHighlightObjects = 65'536;
 
 // The shapes of the compute passes (scans, radix count and scatter), chosen once when the
@@ -180,6 +182,7 @@ class SplatRenderer {
   // ---- Mesh layer (mesh_pass.h: chunks by id, drawn in id order) ----
   Status set_mesh(const TriangleMesh& mesh);  // the only chunk
   Status set_mesh_chunk(std::uint64_t id, const TriangleMesh& mesh);  // add / replace
+  Status set_mesh_chunk(std::uint64_t id, const PreparedMeshChunk& chunk);  // prepare_mesh_chunk's
   void remove_mesh_chunk(std::uint64_t id) noexcept;
   void clear_mesh() noexcept;
   bool has_mesh() const noexcept;
