@@ -325,6 +325,9 @@ struct NetHost::Impl {
       std::lock_guard lock(mu);
       counters.bytes_received += packet->dataLength;
     }
+    // Input is moving: data still waiting behind it (a fragment, a retransmission on a
+    // lossy link) is not a stall. Only waiting with nothing delivered is.
+    ps.waiting_since = {};
     if (ps.closing) return;
     std::span<const std::uint8_t> frame(packet->data, packet->dataLength);
     std::vector<std::uint8_t> opened;
@@ -471,7 +474,8 @@ struct NetHost::Impl {
         continue;
       }
       // A reliable channel held back by a gap the peer never fills keeps its input
-      // waiting in ENet: nothing reaches the rejection count, so it is timed here.
+      // waiting in ENet: nothing reaches the rejection count, so it is timed here, from
+      // the last delivery (receive() restarts it) while data waits.
       if (peer->totalWaitingData == 0) {
         ps.waiting_since = {};
       } else if (ps.waiting_since == Clock::time_point{}) {
