@@ -8,6 +8,7 @@
 // queries sent from the display thread meanwhile do not wait for the state lock.
 #include <condition_variable>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -27,18 +28,32 @@ class ClientRuntimeInProcess : public VkTest {
   // pack_slots: 0 = publication on the display thread; else on the publication thread
   // with pack buffers of that many slots.
   void converge_and_compare(std::uint32_t pack_slots);
+  // A synthetic room of n Gaussians (with a surface: `surface`) produced into scene_, and
+  // codec parameters boxing it.
+  void make_room(std::size_t n, bool surface) {
+    SyntheticSceneConfig sc = small_synthetic_config(n, 3);
+    sc.surface_chunk = surface;
+    auto synth = SyntheticScene::create(sc);
+    ASSERT_TRUE(synth.ok()) << synth.message();
+    synth_.emplace(std::move(*synth));
+    ASSERT_NO_FATAL_FAILURE(produce_all(*synth_, scene_));
+    params_.box.min = synth_->room_min() - glm::vec3(0.5f);
+    params_.box.max = synth_->room_max() + glm::vec3(0.5f);
+  }
+  // The runtime's Hello to `host` and the host's answers (Welcome, scene info, surface).
+  void welcome(client::ClientRuntime& rt, HostSession& host, double now) {
+    const msg::Hello hello = rt.with_state([](const ClientState& s) { return s.hello(); });
+    for (const auto& m : host.on_message(wire::Message{hello}, scene_, now)) rt.deliver(m);
+  }
+
+  std::optional<SyntheticScene> synth_;
+  SceneStore scene_;
+  CodecParams params_;
 };
 
 void ClientRuntimeInProcess::converge_and_compare(std::uint32_t pack_slots) {
-  SyntheticSceneConfig sc = small_synthetic_config(6000, 3);
-  sc.surface_chunk = true;  // a surface for the mesh pass
-  auto synth = SyntheticScene::create(sc);
-  ASSERT_TRUE(synth.ok()) << synth.message();
-  SceneStore scene;
-  ASSERT_NO_FATAL_FAILURE(produce_all(*synth, scene));
-  CodecParams params;
-  params.box.min = synth->room_min() - glm::vec3(0.5f);
-  params.box.max = synth->room_max() + glm::vec3(0.5f);
+  ASSERT_NO_FATAL_FAILURE(make_room(6000, true));  // a surface for the mesh pass
+  CodecParams params = params_;
   params.sh_degree = 1;
 
   constexpr std::uint32_t kM = 2500;
@@ -58,21 +73,20 @@ void ClientRuntimeInProcess::converge_and_compare(std::uint32_t pack_slots) {
   ASSERT_TRUE(rt.ok()) << rt.message();
 
   HostSession host(1, 42, params);
-  const msg::Hello hello = (*rt)->with_state([](const ClientState& s) { return s.hello(); });
-  for (const auto& m : host.on_message(wire::Message{hello}, scene, now)) (*rt)->deliver(m);
-  const Camera cam = synth->overview_camera(160, 120);
+  welcome(**rt, host, now);
+  const Camera cam = synth_->overview_camera(160, 120);
   int frames = 0;
   std::size_t pending = 1;
   std::uint64_t packed = 0, written = 0;
   for (; frames < 400 && (pending > 0 || frames < 3); ++frames) {
     now += 1.0 / 72.0;
-    auto out = host.tick(scene, now);
+    auto out = host.tick(scene_, now);
     ASSERT_TRUE(out.ok()) << out.message();
     for (const auto& m : *out) (*rt)->deliver(m);
     auto f = (*rt)->frame(std::span<const Camera>(&cam, 1));
     ASSERT_TRUE(f.ok()) << f.message();
     for (const auto& m : (*rt)->take_outgoing())
-      for (const auto& reply : host.on_message(m, scene, now)) (*rt)->deliver(reply);
+      for (const auto& reply : host.on_message(m, scene_, now)) (*rt)->deliver(reply);
     EXPECT_EQ(f->publication_threaded, pack_slots > 0);
     packed += f->uploaded.slots_packed;
     written += f->uploaded.slots_written;
@@ -101,7 +115,7 @@ void ClientRuntimeInProcess::converge_and_compare(std::uint32_t pack_slots) {
 
   // The published set is what the host sent.
   const std::uint64_t published = (*rt)->with_state([](const ClientState& s) { return s.published_checksum(); });
-  EXPECT_EQ(published, host.sent_checksum(scene));
+  EXPECT_EQ(published, host.sent_checksum(scene_));
   EXPECT_GT((*rt)->publication().stats().write_calls, 0u);
 
   // The frame equals a blocking renderer's image of the same slots and surface.
@@ -141,14 +155,7 @@ TEST_F(ClientRuntimeInProcess, PublicationThreadWithASmallPackBufferShowsTheSame
 // thread holds the lock while the display thread sends; it lets go only when the sends
 // returned (or after 10 s, which the test reports as a wait).
 TEST_F(ClientRuntimeInProcess, IntentFromTheDisplayThreadDoesNotWaitForTheStateLock) {
-  SyntheticSceneConfig sc = small_synthetic_config(2000, 3);
-  auto synth = SyntheticScene::create(sc);
-  ASSERT_TRUE(synth.ok()) << synth.message();
-  SceneStore scene;
-  ASSERT_NO_FATAL_FAILURE(produce_all(*synth, scene));
-  CodecParams params;
-  params.box.min = synth->room_min() - glm::vec3(0.5f);
-  params.box.max = synth->room_max() + glm::vec3(0.5f);
+  ASSERT_NO_FATAL_FAILURE(make_room(2000, false));
   double now = 0.0;
   client::ClientRuntimeConfig cfg;
   cfg.state.capacity = 1000;
@@ -159,10 +166,9 @@ TEST_F(ClientRuntimeInProcess, IntentFromTheDisplayThreadDoesNotWaitForTheStateL
   cfg.publication_thread = true;
   auto rt = client::ClientRuntime::create(context(), cfg);
   ASSERT_TRUE(rt.ok()) << rt.message();
-  HostSession host(1, 42, params);
-  const msg::Hello hello = (*rt)->with_state([](const ClientState& s) { return s.hello(); });
-  for (const auto& m : host.on_message(wire::Message{hello}, scene, now)) (*rt)->deliver(m);
-  const Camera cam = synth->overview_camera(64, 48);
+  HostSession host(1, 42, params_);
+  welcome(**rt, host, now);
+  const Camera cam = synth_->overview_camera(64, 48);
 
   std::mutex mu;
   std::condition_variable cv;

@@ -17,20 +17,12 @@
 
 #include "gauss/engine/lod_hierarchy.h"
 #include "gauss/engine/lod_merge.h"
+#include "split_mix_rng.h"
 
 namespace gauss {
 namespace {
 
-struct Rng {
-  std::uint64_t s;
-  std::uint64_t next() {
-    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  float uniform(float lo, float hi) { return lo + (hi - lo) * float(double(next() >> 11) * (1.0 / 9007199254740992.0)); }
-};
+using Rng = test::SplitMixRng;
 
 // A random Gaussian of a 10 m room; objects are clustered in space (object o lives in a 1 m box).
 Gaussian random_gaussian(Rng& rng, std::uint64_t id, int objects) {
