@@ -53,7 +53,7 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
   if (!profile) return profile.error();
   impl->profile = *profile;
   auto pipes = splat::SplatPipelines::create(context, {.chunks = plan->slot_chunks, .chunk_slots = plan->chunk_slots},
-                                             profile->shapes);
+                                             *profile);
   if (!pipes) return pipes.error();
   impl->pipelines = std::move(*pipes);
 
