@@ -1,10 +1,10 @@
 #version 460
-// The GPU shape of sort_radix_count.comp (same histogram layout: hist[digit * blocks + b],
-// blocks of SORT_BLOCK_GPU keys). Every iteration reads one key per invocation, so
-// consecutive invocations read consecutive words; the keys of one digit in a subgroup are
-// counted by ballot and added by one lane, instead of one shared atomic per key (16 bins
-// hit by 256 invocations serialise on a GPU). Counting is order-independent: exact at any
-// subgroup size.
+// The GPU shape of sort_radix_count.comp: the digit histogram of each block of
+// SORT_BLOCK_GPU keys, hist[digit * blocks + b], for digits of RADIX_BITS (4 or 8) bits.
+// Every iteration reads one key per invocation, so consecutive invocations read
+// consecutive words; the keys of one digit in a subgroup are counted by ballot and added
+// by one lane, instead of one shared atomic per key (a few bins hit by 256 invocations
+// serialise on a GPU). Counting is order-independent: exact at any subgroup size.
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
@@ -14,13 +14,15 @@
 #include "splat_subgroup.glsl"
 
 layout(local_size_x = SPLAT_WORKGROUP) in;
+layout(constant_id = SORT_SPEC_RADIX_BITS) const uint RADIX_BITS = 4u;
+const uint BINS = 1u << RADIX_BITS;
 
 layout(std430, binding = SPLAT_BINDING_KEYS_IN) readonly buffer KeysBuf { uint keys_in[]; };
 layout(std430, binding = SPLAT_BINDING_HIST) writeonly buffer HistBuf { uint hist[]; };
 layout(std430, binding = SPLAT_BINDING_COUNTERS) readonly buffer CounterBuf { uint counters[]; };
 layout(push_constant) uniform Push { GpuSplatPush pc; };
 
-shared uint s_hist[SORT_BINS];
+shared uint s_hist[BINS];
 
 void main() {
   const uint n = counters[pc.count_index];
@@ -28,17 +30,17 @@ void main() {
   const uint block = linear_group_id();
   if (block >= blocks) return;  // uniform over the workgroup
   const uint lid = gl_LocalInvocationIndex;
-  if (lid < SORT_BINS) s_hist[lid] = 0u;
+  if (lid < BINS) s_hist[lid] = 0u;  // BINS <= SPLAT_WORKGROUP
   barrier();
   const uint base = block * SORT_BLOCK_GPU;
   for (uint j = 0u; j < SORT_ITEMS_GPU; ++j) {
     const uint i = base + j * SPLAT_WORKGROUP + wg_index();
     const bool valid = i < n;
-    const uint d = valid ? (keys_in[i] >> pc.shift) & (SORT_BINS - 1u) : 0u;
-    const uvec4 peers = digit_peers(d, valid);
+    const uint d = valid ? (keys_in[i] >> pc.shift) & (BINS - 1u) : 0u;
+    const uvec4 peers = digit_peers(d, valid, RADIX_BITS);
     if (valid && subgroupBallotBitCount(peers & gl_SubgroupLtMask) == 0u)
       atomicAdd(s_hist[d], subgroupBallotBitCount(peers));
   }
   barrier();
-  if (lid < SORT_BINS) hist[lid * blocks + block] = s_hist[lid];
+  if (lid < BINS) hist[lid * blocks + block] = s_hist[lid];
 }

@@ -1,19 +1,21 @@
 #version 460
-// The GPU shape of sort_radix_scatter.comp: the same stable scatter of one 4-bit digit over
-// blocks of SORT_BLOCK_GPU keys, with the same histogram (sort_radix_count_gpu.comp) and
-// the same single-block rule (no count or histogram scan: the block ranks its own digits).
-// Subgroup s of the block owns the contiguous run of SORT_ITEMS_GPU * gl_SubgroupSize keys
-// after those of subgroups s' < s, and walks it one key per lane per iteration, so a
-// subgroup reads consecutive words and writes each digit's keys of an iteration to
-// consecutive words. A key's output position is
-//   scanned hist[d][block] (or, single block, the block's keys of smaller digits)
-//   + keys of digit d in the runs of subgroups s' < s          (s_off, scanned per digit)
-//   + keys of digit d in this subgroup's earlier iterations    (s_off, advanced per iteration)
-//   + lanes below it with digit d in this iteration            (ballot rank)
+// The GPU shape of sort_radix_scatter.comp: a stable scatter of one digit of RADIX_BITS (4
+// or 8) bits over blocks of SORT_BLOCK_GPU keys, after sort_radix_count_gpu.comp and, with
+// several blocks, sort_radix_offsets_gpu.comp (a single block ranks its own digits and
+// needs neither). Subgroup s of the block owns the contiguous run of
+// SORT_ITEMS_GPU * gl_SubgroupSize keys after those of subgroups s' < s, and walks it one
+// key per lane per iteration, so a subgroup reads consecutive words and writes each
+// digit's keys of an iteration to consecutive words. A key's output position is
+//   keys of smaller digits in the whole list                    (s_base: scan of the totals)
+//   + keys of digit d in the blocks before this one              (offsets row; 0 for one block)
+//   + keys of digit d in the runs of subgroups s' < s            (s_off, scanned per digit)
+//   + keys of digit d in this subgroup's earlier iterations      (s_off, advanced per iteration)
+//   + lanes below it with digit d in this iteration              (ballot rank)
 // Every term follows input order, so the pass is stable and the output equals the CPU
-// shape's. Subgroups never wait on each other inside an iteration, only at the two
-// workgroup barriers around the per-digit scan; each s_off row is touched by its own
-// subgroup only, in order (subgroup barriers).
+// shape's. Subgroups never wait on each other inside an iteration, only at the workgroup
+// barriers around the per-digit scan; each s_off row is touched by its own subgroup only,
+// in order (subgroup barriers). ROWS (specialised: SPLAT_WORKGROUP / the device's smallest
+// subgroup) sizes s_off, ROWS * BINS words: 8-bit digits are chosen only where it fits.
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
@@ -23,6 +25,9 @@
 #include "splat_subgroup.glsl"
 
 layout(local_size_x = SPLAT_WORKGROUP) in;
+layout(constant_id = SORT_SPEC_RADIX_BITS) const uint RADIX_BITS = 4u;
+layout(constant_id = SORT_SPEC_ROWS) const uint ROWS = SPLAT_MAX_SUBGROUPS;
+const uint BINS = 1u << RADIX_BITS;
 
 layout(std430, binding = SPLAT_BINDING_KEYS_IN) readonly buffer KeysInBuf { uint keys_in[]; };
 layout(std430, binding = SPLAT_BINDING_VALS_IN) readonly buffer ValsInBuf { uint vals_in[]; };
@@ -32,9 +37,10 @@ layout(std430, binding = SPLAT_BINDING_HIST) readonly buffer HistBuf { uint hist
 layout(std430, binding = SPLAT_BINDING_COUNTERS) readonly buffer CounterBuf { uint counters[]; };
 layout(push_constant) uniform Push { GpuSplatPush pc; };
 
-// Row s: per digit, the keys of subgroup s's run, then its next output position (4 KiB).
-shared uint s_off[SPLAT_MAX_SUBGROUPS * SORT_BINS];
-shared uint s_total[SORT_BINS];  // keys of each digit in the block
+// Row s: per digit, the keys of subgroup s's run, then its next output position.
+shared uint s_off[ROWS * BINS];
+shared uint s_total[BINS];  // keys of each digit: in the block (one block) or in the list
+shared uint s_base[BINS];   // keys of the smaller digits
 
 void main() {
   const uint n = counters[pc.count_index];
@@ -44,38 +50,44 @@ void main() {
   const uint lid = gl_LocalInvocationIndex;
   const uint sg = gl_SubgroupID;
   const uint lane = gl_SubgroupInvocationID;
-  const uint row = sg * SORT_BINS;
+  const uint row = sg * BINS;
   const uint run_base = block * SORT_BLOCK_GPU + sg * (SORT_ITEMS_GPU * gl_SubgroupSize);
 
-  for (uint d = lane; d < SORT_BINS; d += gl_SubgroupSize) s_off[row + d] = 0u;
+  for (uint d = lane; d < BINS; d += gl_SubgroupSize) s_off[row + d] = 0u;
   subgroupMemoryBarrierShared();
   subgroupBarrier();
   for (uint j = 0u; j < SORT_ITEMS_GPU; ++j) {  // count this subgroup's run per digit
     const uint i = run_base + j * gl_SubgroupSize + lane;
     const bool valid = i < n;
-    const uint d = valid ? (keys_in[i] >> pc.shift) & (SORT_BINS - 1u) : 0u;
-    const uvec4 peers = digit_peers(d, valid);
+    const uint d = valid ? (keys_in[i] >> pc.shift) & (BINS - 1u) : 0u;
+    const uvec4 peers = digit_peers(d, valid, RADIX_BITS);
     if (valid && subgroupBallotBitCount(peers & gl_SubgroupLtMask) == 0u) s_off[row + d] += subgroupBallotBitCount(peers);
     subgroupMemoryBarrierShared();
     subgroupBarrier();
   }
   barrier();
-  if (lid < SORT_BINS) {
+  if (lid < BINS) {  // BINS <= SPLAT_WORKGROUP
     uint total = 0u;
-    for (uint s = 0u; s < gl_NumSubgroups; ++s) total += s_off[s * SORT_BINS + lid];
+    if (blocks == 1u) {
+      for (uint s = 0u; s < gl_NumSubgroups; ++s) total += s_off[s * BINS + lid];
+    } else {
+      total = hist[BINS * blocks + lid];
+    }
     s_total[lid] = total;
   }
   barrier();
-  if (lid < SORT_BINS) {  // digit lid: where each subgroup's keys of it start
-    uint run = 0u;
-    if (blocks == 1u) {
-      for (uint d = 0u; d < lid; ++d) run += s_total[d];
-    } else {
-      run = hist[lid * blocks + block];
-    }
+  {  // digit bases: an exclusive scan of the totals in digit order (wg_index order)
+    const uint d = wg_index();
+    uint all;
+    const uint before = wg_exclusive_scan(d < BINS ? s_total[d] : 0u, all);
+    if (d < BINS) s_base[d] = before;
+  }
+  barrier();
+  if (lid < BINS) {  // digit lid: where each subgroup's keys of it start
+    uint run = s_base[lid] + (blocks == 1u ? 0u : hist[lid * blocks + block]);
     for (uint s = 0u; s < gl_NumSubgroups; ++s) {
-      const uint v = s_off[s * SORT_BINS + lid];
-      s_off[s * SORT_BINS + lid] = run;
+      const uint v = s_off[s * BINS + lid];
+      s_off[s * BINS + lid] = run;
       run += v;
     }
   }
@@ -84,8 +96,8 @@ void main() {
     const uint i = run_base + j * gl_SubgroupSize + lane;
     const bool valid = i < n;
     const uint key = valid ? keys_in[i] : 0u;
-    const uint d = (key >> pc.shift) & (SORT_BINS - 1u);
-    const uvec4 peers = digit_peers(d, valid);
+    const uint d = (key >> pc.shift) & (BINS - 1u);
+    const uvec4 peers = digit_peers(d, valid, RADIX_BITS);
     const uint rank = subgroupBallotBitCount(peers & gl_SubgroupLtMask);
     const uint start = s_off[row + d];
     if (valid) {

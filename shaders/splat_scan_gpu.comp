@@ -1,11 +1,13 @@
 #version 460
-// The GPU shape of splat_scan.comp (same modes, same results, same counters and dispatch
-// arguments): an exclusive, saturating prefix sum as reduce-then-scan over blocks of
-// SORT_BLOCK_GPU values, three dispatches with a barrier between them:
-//   REDUCE  workgroup b sums block b -> hist[b]           (VISIBLE, PAIRS)
-//   SPINE   one workgroup scans hist in place and, for VISIBLE / PAIRS, writes the totals
-//           and indirect arguments as splat_scan.comp does; for HIST it is the whole scan
-//   DOWN    workgroup b rescans block b from hist[b] -> offsets (VISIBLE, PAIRS)
+// The GPU shape of splat_scan.comp's VISIBLE and PAIRS modes (same results, same counters;
+// the radix arguments are those of the GPU radix passes): an exclusive, saturating prefix
+// sum as reduce-then-scan over blocks of SORT_BLOCK_GPU values, three dispatches with a
+// barrier between them:
+//   REDUCE  workgroup b sums block b -> hist[b]
+//   SPINE   one workgroup scans hist in place and writes the totals and indirect
+//           arguments as splat_scan.comp does
+//   DOWN    workgroup b rescans block b from hist[b] -> offsets
+// (The radix histogram is scanned per digit by sort_radix_offsets_gpu.comp instead.)
 // splat_scan.comp runs in one workgroup whose threads each walk a contiguous run, which a
 // GPU spends on one SM with uncoalesced loads (1M slots: 1.7 ms on an H100). Here every
 // loop takes one value per invocation per iteration, so consecutive invocations read
@@ -15,7 +17,6 @@
 //   VISIBLE: n = high-water mark (push), REDUCE / DOWN dispatched directly.
 //   PAIRS:   n = counters[VISIBLE], REDUCE / DOWN dispatched with the visible radix-block
 //            arguments (the radix block equals the scan block, SORT_BLOCK_GPU).
-//   HIST:    SPINE only, n = 16 * blocks(counters[count_index]).
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
@@ -27,6 +28,7 @@
 layout(local_size_x = SPLAT_WORKGROUP) in;
 layout(constant_id = SPLAT_SPEC_SCAN_MODE) const uint MODE = 0u;
 layout(constant_id = SPLAT_SPEC_SCAN_PHASE) const uint PHASE = 0u;
+layout(constant_id = SORT_SPEC_RADIX_BITS) const uint RADIX_BITS = 4u;  // the radix passes' digits
 
 layout(std430, binding = SPLAT_BINDING_TILE_COUNT) readonly buffer TileCountBuf { uint tile_count[]; };
 layout(std430, binding = SPLAT_BINDING_VALS_IN) readonly buffer ValsBuf { uint vals[]; };
@@ -36,9 +38,7 @@ layout(std430, binding = SPLAT_BINDING_COUNTERS) buffer CounterBuf { uint counte
 layout(push_constant) uniform Push { GpuSplatPush pc; };
 
 uint item_count() {
-  if (MODE == SPLAT_SCAN_VISIBLE) return pc.item_count;
-  if (MODE == SPLAT_SCAN_PAIRS) return counters[SPLAT_COUNTER_VISIBLE];
-  return SORT_BINS * ((counters[pc.count_index] + SORT_BLOCK_GPU - 1u) / SORT_BLOCK_GPU);
+  return MODE == SPLAT_SCAN_VISIBLE ? pc.item_count : counters[SPLAT_COUNTER_VISIBLE];
 }
 
 uint value(uint i) {
@@ -52,12 +52,13 @@ void write_args(uint at, uint groups) {
   counters[at + 2u] = 1u;
 }
 
-// As splat_scan.comp, with the GPU radix block.
+// As splat_scan.comp, with the GPU radix block; the histogram step is one workgroup per
+// digit (sort_radix_offsets_gpu.comp). A single block needs neither count nor offsets.
 void write_sort_args(uint keys, uint blocks_at, uint count_at, uint hist_at) {
   const uint blocks = (keys + SORT_BLOCK_GPU - 1u) / SORT_BLOCK_GPU;
   write_args(blocks_at, blocks);
   write_args(count_at, blocks > 1u ? blocks : 0u);
-  write_args(hist_at, blocks > 1u ? 1u : 0u);
+  write_args(hist_at, blocks > 1u ? (1u << RADIX_BITS) : 0u);
 }
 
 void reduce(uint n) {
@@ -77,8 +78,7 @@ void reduce(uint n) {
 }
 
 void spine(uint n) {
-  // n values in hist: the block sums (VISIBLE, PAIRS) or the radix histogram (HIST).
-  const uint m = MODE == SPLAT_SCAN_HIST ? n : (n + SORT_BLOCK_GPU - 1u) / SORT_BLOCK_GPU;
+  const uint m = (n + SORT_BLOCK_GPU - 1u) / SORT_BLOCK_GPU;  // block sums in hist
   uint run = 0u;
   for (uint base = 0u; base < m; base += SPLAT_WORKGROUP) {
     const uint i = base + wg_index();
@@ -93,7 +93,7 @@ void spine(uint n) {
     counters[SPLAT_COUNTER_VISIBLE] = run;
     write_args(SPLAT_ARGS_VISIBLE_ITEMS, (run + SPLAT_WORKGROUP - 1u) / SPLAT_WORKGROUP);
     write_sort_args(run, SPLAT_ARGS_VISIBLE_BLOCKS, SPLAT_ARGS_VISIBLE_COUNT, SPLAT_ARGS_VISIBLE_HIST);
-  } else if (MODE == SPLAT_SCAN_PAIRS) {
+  } else {
     const uint used = min(run, pc.pair_capacity);
     counters[SPLAT_COUNTER_PAIRS_NEEDED] = run;
     counters[SPLAT_COUNTER_PAIRS] = used;

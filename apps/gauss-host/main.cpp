@@ -4,7 +4,8 @@
 //              [--labels F] [--objects F] [--rgbd DIR | --mesh M.ply] [--epoch-period S]
 //              [--max-budget N] [--rho R] [--min-opacity A] [--max-scale S] [--min-support N]
 //              [--gaussians N] [--epochs N] [--seed N] [--max-clients N] [--duration S]
-//              [--surface-voxel M] [--events FILE] [--dump-sent DIR] [--quiet]
+//              [--surface-voxel M] [--events FILE] [--sessions FILE] [--dump-sent DIR]
+//              [--max-clients-per-address N] [--handshake-timeout S] [--quiet]
 //              (options.cpp; --help lists them)
 //
 // Binds 127.0.0.1 by default: other machines reach the host only with an explicit
@@ -13,8 +14,10 @@
 // (followed live); the host keeps serving the latest epoch (clients may still connect,
 // move and query) until --duration passes or SIGINT/SIGTERM. Once a second it prints the
 // epoch, clients, edits/s and bytes/s; on exit, a summary. --events writes every session's
-// stage events as JSON lines; --dump-sent writes what each client was sent when its
-// session ends (dump_sent.h).
+// stage events as JSON lines; --sessions writes where it listens and every client that
+// joins and leaves, with what it was sent, as JSON lines (session_record.h: scripts read
+// that, never the log, where client names appear escaped); --dump-sent writes what each
+// client was sent when its session ends (dump_sent.h).
 //
 // Exit status: 0 stopped by --duration or a signal; 1 the scene or the transport failed
 // (the message says which); 2 bad arguments.
@@ -32,9 +35,11 @@
 #include <thread>
 
 #include "dump_sent.h"
+#include "gauss/engine/log_text.h"
 #include "gauss/net/session_host.h"
 #include "options.h"
 #include "scene_feed.h"
+#include "session_record.h"
 
 namespace {
 
@@ -56,12 +61,27 @@ int main(int argc, char** argv) {
     return 1;
   }
   const gauss::CodecParams params = (*feed)->codec_params();
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
+  auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
+  std::unique_ptr<gauss::host_app::SessionRecord> record;
+  if (!o.sessions_path.empty()) {
+    auto r = gauss::host_app::SessionRecord::open(o.sessions_path);
+    if (!r) {
+      std::fprintf(stderr, "gauss-host: %s\n", r.message().c_str());
+      return 1;
+    }
+    record = std::move(r).value();
+  }
 
   gauss::net::SessionHostConfig hc;
   hc.net.bind = o.bind;
   hc.net.access_token = o.token;  // proved by challenge-response; never sent
   hc.net.encrypt_stream = o.encrypt;
   hc.net.max_clients = o.max_clients;
+  hc.net.admission.max_clients_per_address = o.max_clients_per_address;
+  hc.net.handshake_timeout = std::chrono::milliseconds(static_cast<long long>(o.handshake_timeout_s * 1000.0));
+  hc.net.admission.pending_timeout = hc.net.handshake_timeout;
   if (o.max_budget > 0) hc.session.max_capacity = o.max_budget;
   hc.session.default_rho = o.rho;
   if (o.min_opacity > 0.0f || o.max_scale > 0.0f || o.min_support > 0) {
@@ -75,12 +95,21 @@ int main(int argc, char** argv) {
   std::uint64_t closed_edits = 0, closed_batches = 0;
   // One line per client that leaves: what it was sent, as the checksum its published set
   // has once it converged (ClientState::published_checksum; scripts/soak compares them).
+  // The name is the client's own text: escaped in the log (it cannot forge a line), exact
+  // in the --sessions record.
   auto report_left = [&](std::uint32_t client, const std::string& name, const gauss::HostSession& session) {
     if (!session.accepted()) return;
-    std::printf("gauss-host: client %u '%s' left: sent %zu Gaussians, checksum %llu\n", client, name.c_str(),
-                session.sent_ids().size(), static_cast<unsigned long long>(session.sent_checksum(store)));
+    const std::uint64_t checksum = session.sent_checksum(store);
+    std::printf("gauss-host: client %u '%s' left: sent %zu Gaussians, checksum %llu\n", client,
+                gauss::escape_for_log(name).c_str(), session.sent_ids().size(),
+                static_cast<unsigned long long>(checksum));
     std::fflush(stdout);
+    if (record) record->left(seconds(), client, name, session.sent_ids().size(), checksum);
   };
+  if (record)
+    hc.on_session_opened = [&](std::uint32_t client, const std::string& name, const gauss::HostSession& session) {
+      if (session.accepted()) record->joined(seconds(), client, name, session.capacity());
+    };
   if (o.dump_sent_dir.empty()) {
     hc.on_session_closed = [&](std::uint32_t client, const std::string& name, const gauss::HostSession& session) {
       closed_edits += session.stats().edits_sent;
@@ -132,10 +161,7 @@ int main(int argc, char** argv) {
               (*feed)->describe().c_str(), store.size(), store.sh_degree(), store.objects().size(), o.bind.host.c_str(), (*host)->net().port(), static_cast<unsigned long long>((*host)->net().session_id()),
               o.token.empty() ? "" : o.encrypt ? ", token required, stream sealed" : ", token required");
   std::fflush(stdout);
-
-  using Clock = std::chrono::steady_clock;
-  const auto start = Clock::now();
-  auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
+  if (record) record->listening(o.bind.host, (*host)->net().port(), (*host)->net().session_id());
   auto edits_sent = [&] {
     std::uint64_t n = closed_edits;
     for (std::uint32_t id : (*host)->clients()) n += (*host)->session(id)->stats().edits_sent;
@@ -172,8 +198,7 @@ int main(int argc, char** argv) {
                   (*feed)->live() ? "" : " (final)", (*host)->clients().size(),
                   static_cast<unsigned long long>(edits - last_edits), double(c.bytes_sent - last_bytes) / 1e6,
                   static_cast<unsigned long long>(c.rejected()),
-                  static_cast<unsigned long long>(c.refused_token + c.refused_version + c.refused_capacity +
-                                                  c.refused_full + c.refused_malformed));
+                  static_cast<unsigned long long>(c.refused()));
       std::fflush(stdout);
       last_bytes = c.bytes_sent;
       last_edits = edits;

@@ -93,12 +93,23 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
       ->check(apps::at_least(0.0));
   app.add_option("--seed", o.seed, "seed of the synthetic scene");
   app.add_option("--max-clients", o.max_clients, "clients served at once")->check(apps::at_least<std::size_t>(1));
+  app.add_option("--max-clients-per-address", o.max_clients_per_address,
+                 "clients served at once from one IP address (clients on this machine share 127.0.0.1)")
+      ->check(apps::at_least<std::size_t>(1));
+  app.add_option("--handshake-timeout", o.handshake_timeout_s,
+                 "seconds a connection may take to complete ENet's handshake, and again to send its Hello (and "
+                 "proof); slower ones are dropped")
+      ->check(apps::in_range(0.1, 60.0));
   app.add_option("--duration", o.duration_s, "seconds to run (0: until SIGINT/SIGTERM)")->check(apps::at_least(0.0));
   app.add_option("--surface-voxel", o.surface_voxel,
                  "TSDF voxel size in metres for the fused surface (synthetic, --rgbd, a capture as the scene; 0: none "
                  "for synthetic and a capture)")
       ->check(apps::at_least(0.0));
   app.add_option("--events", o.events_path, "write every session's stage events to FILE as JSON lines")
+      ->type_name("FILE");
+  app.add_option("--sessions", o.sessions_path,
+                 "write where the host listens and every client that joins and leaves (name, Gaussians sent, "
+                 "checksum) to FILE as JSON lines, for scripts")
       ->type_name("FILE");
   app.add_option("--dump-sent", o.dump_sent_dir,
                  "write what each client was sent when its session ends (see below)")

@@ -32,9 +32,12 @@ struct Options {
   double settle_s{2.0};        // a snapshot failing to load this recently written is waited for
   std::uint64_t seed{1};
   std::size_t max_clients{8};
+  std::size_t max_clients_per_address{4};  // a headset is one address; loopback runs raise it
+  double handshake_timeout_s{3.0};  // connect request, Hello and proof each within this
   double duration_s{0.0};      // 0: until SIGINT/SIGTERM
   double surface_voxel{0.04};  // TSDF voxel (m) for the surface fused from each epoch's frames; 0 = none
   std::string events_path;     // empty: no event log
+  std::filesystem::path sessions_path;  // empty: no sessions record
   std::filesystem::path dump_sent_dir;  // empty: no dumps
   bool quiet{false};
 };

@@ -22,7 +22,9 @@ class StreamSource final : public ViewSource {
   }
 
   Expected<client::DisplayFrameStats> frame(std::span<const Camera> views, const render::FrameHooks& hooks) override {
-    return rt_->frame(views, hooks);
+    auto f = rt_->frame(views, hooks);
+    if (f) last_ = *f;
+    return f;
   }
   std::vector<client::GpuFrameStats> take_gpu_stats() override { return rt_->take_gpu_stats(); }
   Status wait_frames() override { return rt_->wait_frames(); }
@@ -30,31 +32,24 @@ class StreamSource final : public ViewSource {
   client::ClientRuntime* runtime() noexcept override { return rt_.get(); }
   std::string describe() const override { return "host " + server_; }
 
+  // From the last frame's figures (the state as its publication step left it), not under
+  // the state lock: a running step holds that for its length.
   bool settled(double quiet_s) override {
-    struct Now {
-      bool welcomed;
-      std::uint64_t edits;
-      std::uint64_t batches;
-      std::size_t pending;
-      std::size_t desired;
-    };
-    const Now s = rt_->with_state([](const ClientState& st) {
-      return Now{st.welcomed(), st.stats().edits_received, st.stats().batches, st.desired().pending().size(),
-                 st.desired().desired_count()};
-    });
     const double now = rt_->now();
-    if (s.edits != last_edits_ || s.batches != last_batches_ || !s.welcomed) {
-      last_edits_ = s.edits;
-      last_batches_ = s.batches;
+    const std::uint64_t edits = last_.counters.edits_received, batches = last_.counters.batches;
+    if (edits != last_edits_ || batches != last_batches_ || !last_.welcomed) {
+      last_edits_ = edits;
+      last_batches_ = batches;
       last_change_ = now;
       return false;
     }
-    return s.pending == 0 && s.desired > 0 && now - last_change_ >= quiet_s;
+    return last_.pending == 0 && last_.desired > 0 && now - last_change_ >= quiet_s;
   }
 
  private:
   std::unique_ptr<client::ClientRuntime> rt_;
   std::string server_;
+  client::DisplayFrameStats last_;  // of the last frame that succeeded
   std::uint64_t last_edits_{~std::uint64_t{0}};
   std::uint64_t last_batches_{0};
   double last_change_{0.0};

@@ -49,8 +49,12 @@ class QueryControl {
       active_.reset();
       sent_.push_back(Json{{"kind", "clear"}});
     }
-    if (in.next_class) next_class();
-    if (in.trigger_pulled && in.aim_valid) pick(in.aim);
+    // The class list and the pick read ClientState, whose lock a publication step holds for
+    // its length: they wait for a frame where it is free instead of stalling this one.
+    if (in.next_class) class_pending_ = true;
+    if (in.trigger_pulled && in.aim_valid) pick_pending_ = in.aim;
+    if (class_pending_ && next_class()) class_pending_ = false;
+    if (pick_pending_ && pick(*pick_pending_)) pick_pending_.reset();
   }
   double rho() const noexcept { return rho_; }
   const Json& sent() const noexcept { return sent_; }
@@ -63,15 +67,18 @@ class QueryControl {
     what["rho"] = rho_;
     sent_.push_back(std::move(what));
   }
-  // The next class label (sorted) of the objects the host has described.
-  void next_class() {
-    const std::set<std::string> labels = runtime_.with_state([](const ClientState& s) {
+  // The next class label (sorted) of the objects the host has described. False: the state
+  // was busy, try again next frame.
+  bool next_class() {
+    const auto taken = runtime_.try_with_state([](const ClientState& s) {
       std::set<std::string> out;
       for (const auto& [id, o] : s.objects())
         if (!o.label.empty()) out.insert(o.label);
       return out;
     });
-    if (labels.empty()) return;
+    if (!taken) return false;
+    const std::set<std::string>& labels = *taken;
+    if (labels.empty()) return true;
     auto it = labels.upper_bound(last_class_);
     if (it == labels.end()) it = labels.begin();
     last_class_ = *it;
@@ -79,25 +86,33 @@ class QueryControl {
     q.kind = msg::QueryKind::ClassText;
     q.text = last_class_;
     send(q, Json{{"kind", "class"}, {"text", last_class_}});
+    return true;
   }
   // An instance query on the object under the aim ray (nothing when it points at none).
-  void pick(const xr::XrPose& aim) {
+  // False: the state was busy, try again next frame.
+  bool pick(const xr::XrPose& aim) {
     glm::dvec3 origin, direction;
     xr::aim_ray(aim, origin, direction);
-    const auto hit = runtime_.with_state([&](const ClientState& s) { return client::pick(s.slots(), origin, direction); });
+    const auto taken =
+        runtime_.try_with_state([&](const ClientState& s) { return client::pick(s.slots(), origin, direction); });
+    if (!taken) return false;
+    const auto& hit = *taken;
     if (!hit || hit->object == kNoObject) {
       sent_.push_back(Json{{"kind", "miss"}, {"distance", hit ? Json(hit->distance) : Json(nullptr)}});
-      return;
+      return true;
     }
     msg::Query q;
     q.kind = msg::QueryKind::Instance;
     q.instance = hit->object;
     send(q, Json{{"kind", "instance"}, {"object", to_underlying(hit->object)}, {"distance", hit->distance}});
+    return true;
   }
 
   client::ClientRuntime& runtime_;
   double rho_;
   std::optional<msg::Query> active_;  // the last query sent, until cleared
+  bool class_pending_{false};          // asked for, the state busy so far
+  std::optional<xr::XrPose> pick_pending_;
   std::string last_class_;
   Json sent_ = Json::array();
 };

@@ -98,7 +98,10 @@ Status ClientRuntime::make_renderer(int sh_degree) {
       pack_pool_.push_back(PackBuffer{std::move(*b)});
     }
   }
-  return publication_.republish_all(state_->slots(), state_->surface(), *renderer_);
+  // Under the state lock (the network thread changes the surface stage); called while no
+  // publication step runs, so the wait is for a message at most. A new SH degree is rare.
+  return sink_->with_state(
+      [&](ClientState& s) { return publication_.republish_all(s.slots(), s.surface(), *renderer_); });
 }
 
 Status ClientRuntime::connect(net::NetClientConfig net) {
@@ -132,10 +135,15 @@ ClientRuntime::PreparedStep ClientRuntime::prepare_step(PublicationJob& job) {
   const double c0 = thread_cpu_ms();
   auto fr = sink_->with_state([&](ClientState& s) -> Expected<FrameResult> {
     st.lock_wait_ms = ms_since(t0);
+    for (msg::Query& q : job.queries) s.send_reserved_query(std::move(q));
+    if (job.mode) s.set_publish_mode(*job.mode);
+    if (job.display_period) s.set_display_period(*job.display_period);
     if (job.pose) s.send_pose(*job.pose);
     for (const RenderedNote& n : job.rendered) s.frame_rendered(n.now, n.frame_index, n.shown_step);
     for (double cost : job.frame_costs) s.report_frame_cost(cost);
     auto r = s.frame(job.view, job.now, job.frame_index);
+    // Under the lock: the network thread changes the stage (a restarted host's epochs).
+    if (r) st.surface = publication_.prepare_surface(s.surface());
     if (s.codec()) st.sh_degree = s.codec()->sh_degree;
     if (job.highlight_query) st.targets = s.query_targets();
     st.desired = s.desired().desired_count();
@@ -209,7 +217,7 @@ Status ClientRuntime::apply_step(PreparedStep& st, DisplayFrameStats& out) {
         release();
       }
     }
-    out.uploaded.chunks_changed = publication_.publish_surface(state_->surface(), *renderer_);
+    out.uploaded.chunks_changed = publication_.publish_prepared_surface(st.surface, *renderer_);
   }
   if (st.targets != highlighted_) {
     if (st.targets.empty()) {
@@ -345,7 +353,10 @@ Status ClientRuntime::wait_frames() {
 }
 
 std::uint32_t ClientRuntime::send_query(msg::Query query) {
-  return sink_->with_state([&](ClientState& s) { return s.send_query(std::move(query)); });
+  if (!worker_) return sink_->with_state([&](ClientState& s) { return s.send_query(std::move(query)); });
+  query.query_id = state_->reserve_query_id();  // atomic: no wait for a running step
+  next_job_.queries.push_back(std::move(query));
+  return next_job_.queries.back().query_id;
 }
 
 void ClientRuntime::clear_query() {
@@ -356,10 +367,18 @@ void ClientRuntime::clear_query() {
 
 void ClientRuntime::set_publish_mode(PublishMode mode) {
   mode_ = mode;
+  if (worker_) {
+    next_job_.mode = mode;
+    return;
+  }
   sink_->with_state([&](ClientState& s) { s.set_publish_mode(mode); });
 }
 
 void ClientRuntime::set_display_period(double seconds) {
+  if (worker_) {
+    next_job_.display_period = seconds;
+    return;
+  }
   sink_->with_state([&](ClientState& s) { s.set_display_period(seconds); });
 }
 

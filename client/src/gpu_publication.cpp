@@ -119,45 +119,61 @@ Expected<PublicationResult> GpuPublication::publish_slots(const SlotTable& slots
 }
 
 std::uint32_t GpuPublication::publish_surface(const SurfaceStage& surface, render::SplatRenderer& renderer) {
-  if (surface.revision() == surface_revision_) return 0;
-  surface_revision_ = surface.revision();
-  if (surface.generation() != surface_generation_) {
-    // The host restarted: its epochs are not comparable with those held, so every chunk
-    // is compared afresh (a never-matching epoch forces the upload).
-    surface_generation_ = surface.generation();
+  return publish_prepared_surface(prepare_surface(surface), renderer);
+}
+
+PreparedSurface GpuPublication::prepare_surface(const SurfaceStage& surface) const {
+  PreparedSurface out;
+  if (surface.revision() == surface_revision_) return out;
+  out.changed = true;
+  out.revision = surface.revision();
+  out.generation = surface.generation();
+  // Another generation: the host restarted and its epochs are not comparable with those
+  // held, so every chunk is compared afresh (as if none matched).
+  const bool restarted = surface.generation() != surface_generation_;
+  const auto& committed = surface.committed();
+  // Removed: held on the GPU, no longer committed.
+  for (const auto& [id, epoch] : gpu_chunks_)
+    if (committed.count(id) == 0) out.removed.push_back(id);
+  for (const auto& [id, chunk] : committed) {
+    auto held = gpu_chunks_.find(id);
+    if (!restarted && held != gpu_chunks_.end() && held->second == chunk.epoch) continue;
+    if (chunk.mesh.indices.empty()) {
+      if (held != gpu_chunks_.end()) out.removed.push_back(id);
+      continue;
+    }
+    PreparedSurface::Set set{id, chunk.epoch, {}, {}};
+    if (auto p = render::prepare_mesh_chunk(id, chunk.mesh)) set.chunk = std::move(*p);
+    else set.error = p.message();
+    out.sets.push_back(std::move(set));
+  }
+  return out;
+}
+
+std::uint32_t GpuPublication::publish_prepared_surface(const PreparedSurface& prepared,
+                                                       render::SplatRenderer& renderer) {
+  if (!prepared.changed) return 0;
+  surface_revision_ = prepared.revision;
+  if (prepared.generation != surface_generation_) {
+    // A chunk refused below must not match its old epoch later either.
+    surface_generation_ = prepared.generation;
     for (auto& [id, epoch] : gpu_chunks_) epoch = Epoch{~std::uint64_t{0}};
   }
   std::uint32_t changed = 0;
-  const auto& committed = surface.committed();
-  // Removed: held on the GPU, no longer committed.
-  for (auto it = gpu_chunks_.begin(); it != gpu_chunks_.end();) {
-    if (committed.count(it->first) == 0) {
-      renderer.remove_mesh_chunk(it->first);
-      ++stats_.chunks_removed;
-      ++changed;
-      it = gpu_chunks_.erase(it);
-    } else {
-      ++it;
-    }
+  for (std::uint64_t id : prepared.removed) {
+    renderer.remove_mesh_chunk(id);
+    gpu_chunks_.erase(id);
+    ++stats_.chunks_removed;
+    ++changed;
   }
-  for (const auto& [id, chunk] : committed) {
-    auto held = gpu_chunks_.find(id);
-    if (held != gpu_chunks_.end() && held->second == chunk.epoch) continue;
-    if (chunk.mesh.indices.empty()) {
-      if (held != gpu_chunks_.end()) {
-        renderer.remove_mesh_chunk(id);
-        gpu_chunks_.erase(held);
-        ++stats_.chunks_removed;
-        ++changed;
-      }
-      continue;
-    }
-    if (auto st = renderer.set_mesh_chunk(id, chunk.mesh); !st) {
+  for (const PreparedSurface::Set& set : prepared.sets) {
+    Status st = set.error.empty() ? renderer.set_mesh_chunk(set.id, set.chunk) : Status(Error{set.error});
+    if (!st) {
       ++stats_.chunks_refused;
       stats_.last_refusal = st.message();
       continue;  // the previous version of the chunk (if any) stays
     }
-    gpu_chunks_[id] = chunk.epoch;
+    gpu_chunks_[set.id] = set.epoch;
     ++stats_.chunks_set;
     ++changed;
   }

@@ -1,6 +1,7 @@
 // NetHost: ENet service thread, handshake and per-connection input hygiene.
 #include "gauss/net/host.h"
 
+#include <algorithm>
 #include <condition_variable>
 #include <cstdio>
 #include <deque>
@@ -10,9 +11,12 @@
 #include <unordered_map>
 
 #include "enet_runtime.h"
+#include "gauss/engine/log_text.h"
 #include "gauss/net/auth.h"
 #include "gauss/net/stream_cipher.h"
+#include "guard_summary.h"
 #include "packet_ref.h"
+#include "pending_peers.h"
 
 namespace gauss::net {
 
@@ -29,8 +33,13 @@ struct Outgoing {
 struct PeerState {
   bool welcomed{false};
   bool closing{false};     // refused or kicked: further input is ignored
+  bool hostile{false};     // refused at the handshake or kicked: dropped if it lingers
+  bool counted{false};     // holds one of its address's client slots (AdmissionGuard)
   std::uint32_t client{0};
+  AdmissionGuard::Address address{0};
   Clock::time_point connected_at{};
+  Clock::time_point closing_since{};
+  Clock::time_point waiting_since{};  // input held undelivered since (stall check); epoch: none
   double tokens{0.0};      // query bucket
   Clock::time_point refilled{};
   double message_tokens{0.0};  // message bucket
@@ -50,6 +59,15 @@ struct PeerState {
 // Only the first few rejections per connection are logged in full; after that one
 // line per 100 keeps a flood from flooding the log too (the counters keep the rest).
 constexpr std::uint32_t kLoggedRejections = 8;
+
+// While peer slots run short, a connection that has sent no Hello this long after ENet's
+// handshake (or a connect request unacknowledged this long) may be dropped early: a
+// client acknowledges, then sends its Hello, each within a round trip.
+constexpr auto kSilentGrace = std::chrono::milliseconds(500);
+
+// Free peer slots kept in reserve (at least this share of them) by dropping the oldest
+// half-open and silent connections early, so the next connect finds one.
+constexpr std::size_t kReserveDivisor = 8;
 
 }  // namespace
 
@@ -73,6 +91,11 @@ struct NetHost::Impl {
   std::unordered_map<ENetPeer*, PeerState> peers;
   std::unordered_map<std::uint32_t, ENetPeer*> clients;
   std::uint32_t next_client{1};
+  std::unique_ptr<AdmissionGuard> admission;
+  detail::PendingPeers pending_peers;
+  Clock::time_point next_summary{};
+  Clock::time_point last_summary{};
+  HostCounters summarized;  // the counts at the last summary line
 
   ~Impl() {
     if (thread.joinable()) {
@@ -125,11 +148,10 @@ struct NetHost::Impl {
       ++(counters.*counter);
       counters.last_rejection = "refused: " + detail;
     }
-    log("refusing connection: " + detail);
+    // Counted, not logged: the summary line reports refusals (see summarize()).
     msg::Refuse r{reason, msg::kProtocolVersion, detail.substr(0, msg::kMaxReasonBytes)};
     send_now(peer, ps, r);
-    ps.closing = true;
-    enet_peer_disconnect_later(peer, 0);  // after the Refuse is delivered
+    close_hostile(peer, ps);
   }
 
   void reject(ENetPeer* peer, PeerState& ps, const std::string& why, std::uint64_t HostCounters::*counter) {
@@ -148,9 +170,17 @@ struct NetHost::Impl {
         std::lock_guard lock(mu);
         ++counters.kicked;
       }
-      ps.closing = true;
-      enet_peer_disconnect_later(peer, 0);
+      close_hostile(peer, ps);
     }
+  }
+
+  // Closes after what is queued is delivered, but only for so long: a peer that does not
+  // take its Refuse (or the kick) and leave is dropped (tick()).
+  void close_hostile(ENetPeer* peer, PeerState& ps) {
+    ps.closing = true;
+    ps.hostile = true;
+    ps.closing_since = Clock::now();
+    enet_peer_disconnect_later(peer, 0);
   }
 
   void handshake(ENetPeer* peer, PeerState& ps, Expected<wire::Message> decoded,
@@ -175,6 +205,18 @@ struct NetHost::Impl {
                     "a Hello must not carry the access token over the network (the host sends a challenge)",
                     &HostCounters::refused_malformed);
     if (!cfg.access_token.empty()) {
+      // Online guessing costs time: an address waits after each wrong proof (doubling),
+      // and the host checks a bounded number of proofs per second whoever sends them.
+      const auto now = Clock::now();
+      if (auto wait = admission->auth_blocked(ps.address, now)) {
+        const auto s = std::chrono::duration_cast<std::chrono::seconds>(*wait).count() + 1;
+        return refuse(peer, ps, msg::RefuseReason::BadToken,
+                      "authentication failed recently from this address; retry in " + std::to_string(s) + " s",
+                      &HostCounters::refused_backoff);
+      }
+      if (!admission->take_proof(now))
+        return refuse(peer, ps, msg::RefuseReason::Other, "too many authentication attempts on this host; retry shortly",
+                      &HostCounters::refused_proof_rate);
       // Nothing else about this Hello is judged before the peer proved the token, so a
       // peer without it learns nothing but "authentication failed".
       ps.challenged = true;
@@ -192,8 +234,11 @@ struct NetHost::Impl {
   // refusal, whatever was wrong.
   void authenticate(ENetPeer* peer, PeerState& ps, Expected<wire::Message> decoded) {
     const auto* proof = decoded.ok() ? std::get_if<msg::AuthProof>(&decoded.value()) : nullptr;
-    if (proof == nullptr || !verify_auth_proof(cfg.access_token, ps.challenge, ps.hello_frame, *proof))
+    if (proof == nullptr || !verify_auth_proof(cfg.access_token, ps.challenge, ps.hello_frame, *proof)) {
+      admission->auth_failed(ps.address, Clock::now());
       return refuse(peer, ps, msg::RefuseReason::BadToken, "authentication failed", &HostCounters::refused_token);
+    }
+    admission->auth_passed(ps.address);
     ps.challenged = false;
     if (ps.challenge.flags & msg::kChallengeEncrypt) {
       ps.sealer = std::make_shared<StreamCipher>(cfg.access_token, ps.challenge, ps.hello_frame,
@@ -216,6 +261,22 @@ struct NetHost::Impl {
     if (clients.size() >= cfg.max_clients)
       return refuse(peer, ps, msg::RefuseReason::HostFull,
                     "host full (" + std::to_string(cfg.max_clients) + " clients)", &HostCounters::refused_full);
+    // A session costs the host its first scene, surface and resync: per address, a
+    // bounded number at once and a bounded rate of new ones.
+    switch (admission->open_session(ps.address, Clock::now())) {
+      case AdmissionGuard::Open::Ok:
+        ps.counted = true;
+        break;
+      case AdmissionGuard::Open::AddressFull:
+        return refuse(peer, ps, msg::RefuseReason::HostFull,
+                      "host full for this address (" + std::to_string(cfg.admission.max_clients_per_address) +
+                          " clients)",
+                      &HostCounters::refused_address_full);
+      case AdmissionGuard::Open::RateLimited:
+        return refuse(peer, ps, msg::RefuseReason::HostFull,
+                      "too many sessions opened from this address; retry in a few seconds",
+                      &HostCounters::refused_session_rate);
+    }
 
     ps.welcomed = true;
     ps.client = next_client++;
@@ -237,7 +298,7 @@ struct NetHost::Impl {
     e.kind = HostEventKind::Connected;
     e.client = ps.client;
     e.hello = *hello;
-    log("client " + std::to_string(ps.client) + " '" + hello->client_name + "' connected, capacity " +
+    log("client " + std::to_string(ps.client) + " '" + escape_for_log(hello->client_name) + "' connected, capacity " +
         std::to_string(hello->slot_capacity));
     push_event(std::move(e));
   }
@@ -264,6 +325,9 @@ struct NetHost::Impl {
       std::lock_guard lock(mu);
       counters.bytes_received += packet->dataLength;
     }
+    // Input is moving: data still waiting behind it (a fragment, a retransmission on a
+    // lossy link) is not a stall. Only waiting with nothing delivered is.
+    ps.waiting_since = {};
     if (ps.closing) return;
     std::span<const std::uint8_t> frame(packet->data, packet->dataLength);
     std::vector<std::uint8_t> opened;
@@ -309,6 +373,7 @@ struct NetHost::Impl {
   void disconnected(ENetPeer* peer) {
     auto it = peers.find(peer);
     if (it == peers.end()) return;
+    if (it->second.counted) admission->client_closed(it->second.address);
     if (it->second.welcomed) {
       const std::uint32_t id = it->second.client;
       clients.erase(id);
@@ -373,19 +438,103 @@ struct NetHost::Impl {
     }
   }
 
-  void expire_handshakes() {
+  // Drops a peer now, without waiting for it to acknowledge (a hostile one never
+  // would): ENet sends a disconnect and frees the slot; no DISCONNECT event follows, so
+  // the bookkeeping runs here.
+  void drop_now(ENetPeer* peer) {
+    enet_peer_disconnect_now(peer, 0);
+    disconnected(peer);
+  }
+
+  // Once per service pass: the admission limits that run on time (admission.h).
+  void tick() {
     const auto now = Clock::now();
+    const auto& ac = cfg.admission;
+    const std::size_t reserve = std::max<std::size_t>(2, host->peerCount / kReserveDivisor);
+    const auto sweep = pending_peers.sweep(host, now, ac.pending_timeout);
+    std::uint64_t handshake_timeouts = 0, refusals_dropped = 0, stalled = 0, evicted = 0, pending_evicted = 0;
+    std::vector<ENetPeer*> drop;
+    std::vector<std::pair<Clock::time_point, ENetPeer*>> silent;  // candidates to drop early
     for (auto& [peer, ps] : peers) {
-      if (ps.welcomed || ps.closing || now - ps.connected_at < cfg.handshake_timeout) continue;
-      ps.closing = true;
-      {
-        std::lock_guard lock(mu);
-        ++counters.handshake_timeouts;
-        counters.last_rejection = "no Hello within the handshake timeout";
+      if (ps.closing) {
+        // Refused or kicked and still here after its grace: it is not leaving.
+        if (ps.hostile && now - ps.closing_since >= ac.pending_timeout) {
+          drop.push_back(peer);
+          ++refusals_dropped;
+        }
+        continue;
       }
-      log("dropping a connection that sent no Hello in time");
-      enet_peer_disconnect(peer, 0);
+      if (!ps.welcomed) {
+        if (now - ps.connected_at >= cfg.handshake_timeout) {
+          drop.push_back(peer);
+          ++handshake_timeouts;
+        } else if (!ps.challenged && now - ps.connected_at >= kSilentGrace) {
+          silent.emplace_back(ps.connected_at, peer);
+        }
+        continue;
+      }
+      // A reliable channel held back by a gap the peer never fills keeps its input
+      // waiting in ENet: nothing reaches the rejection count, so it is timed here, from
+      // the last delivery (receive() restarts it) while data waits.
+      if (peer->totalWaitingData == 0) {
+        ps.waiting_since = {};
+      } else if (ps.waiting_since == Clock::time_point{}) {
+        ps.waiting_since = now;
+      } else if (now - ps.waiting_since >= ac.stall_timeout) {
+        log("client " + std::to_string(ps.client) + ": disconnected, its input stalled for " +
+            std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(now - ps.waiting_since).count()) +
+            " ms");
+        drop.push_back(peer);
+        ++stalled;
+      }
     }
+    // Short of slots: silent connections go first (they had their round trip to send a
+    // Hello), then connect requests unacknowledged past the same grace.
+    std::size_t free = sweep.free + drop.size();
+    if (free < reserve && !silent.empty()) {
+      std::sort(silent.begin(), silent.end());
+      for (const auto& entry : silent) {
+        if (free >= reserve) break;
+        drop.push_back(entry.second);
+        ++free;
+        ++evicted;
+      }
+    }
+    if (free < reserve) pending_evicted = pending_peers.evict_oldest(host, now, kSilentGrace, reserve - free);
+    if (sweep.timed_out + pending_evicted + handshake_timeouts + refusals_dropped + stalled + evicted > 0) {
+      std::lock_guard lock(mu);
+      counters.pending_timeouts += sweep.timed_out;
+      counters.pending_evicted += pending_evicted;
+      counters.handshake_timeouts += handshake_timeouts;
+      counters.handshake_evicted += evicted;
+      counters.refusals_dropped += refusals_dropped;
+      counters.stalled += stalled;
+      counters.kicked += stalled;
+      if (handshake_timeouts + evicted > 0) counters.last_rejection = "no Hello within the handshake timeout";
+      if (stalled > 0) counters.last_rejection = "input stalled past the stall timeout";
+    }
+    for (ENetPeer* peer : drop) drop_now(peer);
+    if (now >= next_summary) summarize(now);
+  }
+
+  // One line with what changed since the last one (guard_summary.h); nothing when quiet.
+  void summarize(Clock::time_point now) {
+    HostCounters c;
+    {
+      std::lock_guard lock(mu);
+      c = counters;
+    }
+    const std::string line =
+        detail::guard_summary(c, summarized, std::chrono::duration<double>(now - last_summary).count());
+    if (!line.empty()) {
+      log(line);
+      ++c.summaries;
+      std::lock_guard lock(mu);
+      ++counters.summaries;
+    }
+    summarized = c;
+    last_summary = now;
+    next_summary = now + cfg.admission.summary_interval;
   }
 
   void handle(const ENetEvent& ev) {
@@ -393,6 +542,7 @@ struct NetHost::Impl {
       case ENET_EVENT_TYPE_CONNECT: {
         PeerState ps;
         ps.connected_at = Clock::now();
+        ps.address = ev.peer->address.host;
         peers[ev.peer] = ps;
         enet_peer_timeout(ev.peer, 0, static_cast<enet_uint32>(cfg.peer_timeout_min.count()),
                           static_cast<enet_uint32>(cfg.peer_timeout_max.count()));
@@ -422,8 +572,9 @@ struct NetHost::Impl {
         handle(ev);
         r = enet_host_service(host, &ev, 0);
       }
-      expire_handshakes();
+      tick();
     }
+    summarize(Clock::now());  // what the last interval saw is not lost at shutdown
     flush();
     for (auto& [peer, ps] : peers) enet_peer_disconnect_later(peer, 0);
     // Give clients a moment to hear the disconnect; a client that does not answer
@@ -440,9 +591,15 @@ NetHost::NetHost(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 NetHost::~NetHost() = default;
 
 Expected<std::unique_ptr<NetHost>> NetHost::start(NetHostConfig config) {
-  // ENet allows 4095 peers; 16 are kept for connections still in the handshake.
+  // ENet allows 4095 peers: max_clients plus the spare slots for connections still in
+  // the handshake.
   if (config.max_clients == 0 || config.max_clients > 4000)
     return Error{"NetHostConfig: max_clients " + std::to_string(config.max_clients) + " outside 1..4000"};
+  if (auto e = validate(config.admission); !e.empty()) return Error{"NetHostConfig: admission: " + e};
+  if (config.max_clients + config.admission.spare_peers > ENET_PROTOCOL_MAXIMUM_PEER_ID)
+    return Error{"NetHostConfig: max_clients + admission.spare_peers above ENet's " +
+                 std::to_string(ENET_PROTOCOL_MAXIMUM_PEER_ID) + " peers"};
+  if (config.handshake_timeout.count() <= 0) return Error{"NetHostConfig: handshake_timeout must be positive"};
   if (config.max_slot_capacity == 0 || config.max_slot_capacity > gauss::kMaxSlotCapacity)
     return Error{"NetHostConfig: max_slot_capacity outside [1, " + std::to_string(gauss::kMaxSlotCapacity) + "]"};
   if (!(config.query_rate_hz > 0.0) || !(config.query_burst >= 1.0))
@@ -462,9 +619,16 @@ Expected<std::unique_ptr<NetHost>> NetHost::start(NetHostConfig config) {
   if (!addr) return addr.error();
   // Loopback unless asked otherwise (NetHostConfig::bind): clients on other machines
   // reach the host only with an explicit --bind.
-  auto host = detail::create_host(&addr.value(), impl->cfg.max_clients + 16, detail::kHostWaitingBytesPerPeer);
+  auto host = detail::create_host(&addr.value(), impl->cfg.max_clients + impl->cfg.admission.spare_peers,
+                                  detail::kHostWaitingBytesPerPeer);
   if (!host) return Error{host.message() + " (bind " + to_string(impl->cfg.bind) + ")"};
   impl->host = host.value();
+  // ENet's own per-address check on connect requests (any peer state but its own
+  // outgoing connects): one address cannot take every slot.
+  impl->host->duplicatePeers = impl->cfg.admission.max_peers_per_address;
+  impl->admission = std::make_unique<AdmissionGuard>(impl->cfg.admission);
+  impl->last_summary = Clock::now();
+  impl->next_summary = impl->last_summary + impl->cfg.admission.summary_interval;
   impl->host->maximumPacketSize = detail::kHostIncomingPacketBytes;  // raised only to send (HostSendLimit)
   impl->session = impl->cfg.session_id;
   if (impl->session == 0) {

@@ -47,6 +47,7 @@ void SessionHost::pump(const SceneStore& scene, double now) {
         if (fresh) ++stats_.sessions_opened;
         client_names_[e.client] = e.hello.client_name;
         send_all(e.client, it->second.on_message(wire::Message{e.hello}, scene, now));
+        if (config_.on_session_opened) config_.on_session_opened(e.client, e.hello.client_name, it->second);
         break;
       }
       case HostEventKind::Message: {

@@ -43,12 +43,20 @@ GAUSS_CONST(uint, SORT_BLOCK, 8192u)  // SPLAT_WORKGROUP * SORT_ITEMS
 // words: every loop takes one key per invocation per iteration, SORT_ITEMS_GPU iterations
 // per workgroup, and ranks within a subgroup by ballot. 16 keys x 256 invocations = 4096
 // keys per radix block and per scan block: 1M keys make 256 workgroups (an H100 has 132
-// SMs), and the histogram (16 x 256 words) is scanned by one workgroup in 16 steps.
+// SMs); the histogram is scanned by one workgroup per digit (sort_radix_offsets_gpu.comp).
 GAUSS_CONST(uint, SORT_ITEMS_GPU, 16u)
 GAUSS_CONST(uint, SORT_BLOCK_GPU, 4096u)  // SPLAT_WORKGROUP * SORT_ITEMS_GPU
 // The most subgroups of one SPLAT_WORKGROUP workgroup: 256 / the smallest subgroup (4).
 // Shared arrays per subgroup are sized for it, so any subgroup size 4..128 fits.
 GAUSS_CONST(uint, SPLAT_MAX_SUBGROUPS, 64u)
+// GPU shapes' digit width: 8 bits (4 passes over a depth key) where the scatter's shared
+// rows fit, 4 bits elsewhere (splat_pass_shapes.cpp). Each pass is three dispatches
+// (count, per-digit offsets, scatter) whose fixed cost dominates small scenes on a GPU
+// (H100: 0.25 ms of 8 passes at 6k keys), so halving the passes halves it. The histogram
+// buffer is sized for the widest digit: SORT_BINS_MAX words per block plus one total per
+// digit (radix_histogram_bytes).
+GAUSS_CONST(uint, SORT_RADIX_BITS_MAX, 8u)
+GAUSS_CONST(uint, SORT_BINS_MAX, 256u)
 // Indirect dispatches larger than this many workgroups wrap into the y dimension
 // (maxComputeWorkGroupCount[0] is only guaranteed to be 65535).
 GAUSS_CONST(uint, SPLAT_DISPATCH_ROW, 16384u)
@@ -191,6 +199,10 @@ GAUSS_CONST(uint, SPLAT_SPEC_SCAN_PHASE, 1u)
 GAUSS_CONST(uint, SPLAT_SCAN_PHASE_REDUCE, 0u)  // block sums -> hist[block]
 GAUSS_CONST(uint, SPLAT_SCAN_PHASE_SPINE, 1u)   // one workgroup: scan of the block sums (or of hist)
 GAUSS_CONST(uint, SPLAT_SCAN_PHASE_DOWN, 2u)    // each block rescanned from its scanned sum
+// sort_radix_*_gpu.comp and splat_scan_gpu.comp: the digit width (4 or 8 bits), and the
+// scatter's shared rows (SPLAT_WORKGROUP / the smallest subgroup the device may use).
+GAUSS_CONST(uint, SORT_SPEC_RADIX_BITS, 8u)
+GAUSS_CONST(uint, SORT_SPEC_ROWS, 9u)
 
 // ---- Push constants ---------------------------------------------------------------------------
 // One struct for every compute kernel; each reads the fields it documents.

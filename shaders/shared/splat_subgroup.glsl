@@ -53,12 +53,12 @@ uint wg_exclusive_scan(uint v, out uint total) {
   return sat_add(before, within);
 }
 
-// The lanes of this subgroup holding the same radix digit d as this lane, among the lanes
-// with `valid` set, as a ballot: one ballot per digit bit (SORT_RADIX_BITS of them) instead
-// of one per digit value. Call from uniform control flow.
-uvec4 digit_peers(uint d, bool valid) {
+// The lanes of this subgroup holding the same radix digit d (of `bits` bits) as this lane,
+// among the lanes with `valid` set, as a ballot: one ballot per digit bit instead of one
+// per digit value. Call from uniform control flow.
+uvec4 digit_peers(uint d, bool valid, uint bits) {
   uvec4 peers = subgroupBallot(valid);
-  for (uint b = 0u; b < SORT_RADIX_BITS; ++b) {
+  for (uint b = 0u; b < bits; ++b) {
     const bool bit = ((d >> b) & 1u) != 0u;
     const uvec4 ones = subgroupBallot(bit);
     peers &= bit ? ones : ~ones;

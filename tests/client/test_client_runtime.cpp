@@ -4,7 +4,13 @@
 // and its frame equals a blocking renderer's image of that set loaded in slot order
 // with the committed surface: GPU publication (dirty ranges, clears, chunks) lost nothing.
 // The same with publication on its own thread: packed runs copied from its pack buffers,
-// and runs past a small pack buffer left to the display thread, show the same set.
+// and runs past a small pack buffer left to the display thread, show the same set; and
+// queries sent from the display thread meanwhile do not wait for the state lock.
+#include <condition_variable>
+#include <mutex>
+#include <optional>
+#include <thread>
+
 #include <gtest/gtest.h>
 
 #include "gauss/client/client_runtime.h"
@@ -22,18 +28,32 @@ class ClientRuntimeInProcess : public VkTest {
   // pack_slots: 0 = publication on the display thread; else on the publication thread
   // with pack buffers of that many slots.
   void converge_and_compare(std::uint32_t pack_slots);
+  // A synthetic room of n Gaussians (with a surface: `surface`) produced into scene_, and
+  // codec parameters boxing it.
+  void make_room(std::size_t n, bool surface) {
+    SyntheticSceneConfig sc = small_synthetic_config(n, 3);
+    sc.surface_chunk = surface;
+    auto synth = SyntheticScene::create(sc);
+    ASSERT_TRUE(synth.ok()) << synth.message();
+    synth_.emplace(std::move(*synth));
+    ASSERT_NO_FATAL_FAILURE(produce_all(*synth_, scene_));
+    params_.box.min = synth_->room_min() - glm::vec3(0.5f);
+    params_.box.max = synth_->room_max() + glm::vec3(0.5f);
+  }
+  // The runtime's Hello to `host` and the host's answers (Welcome, scene info, surface).
+  void welcome(client::ClientRuntime& rt, HostSession& host, double now) {
+    const msg::Hello hello = rt.with_state([](const ClientState& s) { return s.hello(); });
+    for (const auto& m : host.on_message(wire::Message{hello}, scene_, now)) rt.deliver(m);
+  }
+
+  std::optional<SyntheticScene> synth_;
+  SceneStore scene_;
+  CodecParams params_;
 };
 
 void ClientRuntimeInProcess::converge_and_compare(std::uint32_t pack_slots) {
-  SyntheticSceneConfig sc = small_synthetic_config(6000, 3);
-  sc.surface_chunk = true;  // a surface for the mesh pass
-  auto synth = SyntheticScene::create(sc);
-  ASSERT_TRUE(synth.ok()) << synth.message();
-  SceneStore scene;
-  ASSERT_NO_FATAL_FAILURE(produce_all(*synth, scene));
-  CodecParams params;
-  params.box.min = synth->room_min() - glm::vec3(0.5f);
-  params.box.max = synth->room_max() + glm::vec3(0.5f);
+  ASSERT_NO_FATAL_FAILURE(make_room(6000, true));  // a surface for the mesh pass
+  CodecParams params = params_;
   params.sh_degree = 1;
 
   constexpr std::uint32_t kM = 2500;
@@ -53,21 +73,20 @@ void ClientRuntimeInProcess::converge_and_compare(std::uint32_t pack_slots) {
   ASSERT_TRUE(rt.ok()) << rt.message();
 
   HostSession host(1, 42, params);
-  const msg::Hello hello = (*rt)->with_state([](const ClientState& s) { return s.hello(); });
-  for (const auto& m : host.on_message(wire::Message{hello}, scene, now)) (*rt)->deliver(m);
-  const Camera cam = synth->overview_camera(160, 120);
+  welcome(**rt, host, now);
+  const Camera cam = synth_->overview_camera(160, 120);
   int frames = 0;
   std::size_t pending = 1;
   std::uint64_t packed = 0, written = 0;
   for (; frames < 400 && (pending > 0 || frames < 3); ++frames) {
     now += 1.0 / 72.0;
-    auto out = host.tick(scene, now);
+    auto out = host.tick(scene_, now);
     ASSERT_TRUE(out.ok()) << out.message();
     for (const auto& m : *out) (*rt)->deliver(m);
     auto f = (*rt)->frame(std::span<const Camera>(&cam, 1));
     ASSERT_TRUE(f.ok()) << f.message();
     for (const auto& m : (*rt)->take_outgoing())
-      for (const auto& reply : host.on_message(m, scene, now)) (*rt)->deliver(reply);
+      for (const auto& reply : host.on_message(m, scene_, now)) (*rt)->deliver(reply);
     EXPECT_EQ(f->publication_threaded, pack_slots > 0);
     packed += f->uploaded.slots_packed;
     written += f->uploaded.slots_written;
@@ -96,7 +115,7 @@ void ClientRuntimeInProcess::converge_and_compare(std::uint32_t pack_slots) {
 
   // The published set is what the host sent.
   const std::uint64_t published = (*rt)->with_state([](const ClientState& s) { return s.published_checksum(); });
-  EXPECT_EQ(published, host.sent_checksum(scene));
+  EXPECT_EQ(published, host.sent_checksum(scene_));
   EXPECT_GT((*rt)->publication().stats().write_calls, 0u);
 
   // The frame equals a blocking renderer's image of the same slots and surface.
@@ -129,6 +148,73 @@ TEST_F(ClientRuntimeInProcess, ConvergesToTheSentSetAndRendersItExactly) { conve
 TEST_F(ClientRuntimeInProcess, PublicationThreadShowsTheSameSet) { converge_and_compare(4096); }
 
 TEST_F(ClientRuntimeInProcess, PublicationThreadWithASmallPackBufferShowsTheSameSet) { converge_and_compare(150); }
+
+// With the publication thread, a query and a mode change from the display thread never
+// wait for the state lock (a running step holds it for its whole length): the id is
+// reserved at once and both reach ClientState with the next step, in order. Here another
+// thread holds the lock while the display thread sends; it lets go only when the sends
+// returned (or after 10 s, which the test reports as a wait).
+TEST_F(ClientRuntimeInProcess, IntentFromTheDisplayThreadDoesNotWaitForTheStateLock) {
+  ASSERT_NO_FATAL_FAILURE(make_room(2000, false));
+  double now = 0.0;
+  client::ClientRuntimeConfig cfg;
+  cfg.state.capacity = 1000;
+  cfg.state.publisher.mode = PublishMode::Progressive;
+  cfg.max_width = 64;
+  cfg.max_height = 48;
+  cfg.clock = [&now] { return now; };
+  cfg.publication_thread = true;
+  auto rt = client::ClientRuntime::create(context(), cfg);
+  ASSERT_TRUE(rt.ok()) << rt.message();
+  HostSession host(1, 42, params_);
+  welcome(**rt, host, now);
+  const Camera cam = synth_->overview_camera(64, 48);
+
+  std::mutex mu;
+  std::condition_variable cv;
+  bool holding = false, sent = false, released_by_sender = false;
+  std::thread holder([&] {
+    (*rt)->with_state([&](const ClientState&) {
+      std::unique_lock lock(mu);
+      holding = true;
+      cv.notify_all();
+      released_by_sender = cv.wait_for(lock, std::chrono::seconds(10), [&] { return sent; });
+      return 0;
+    });
+  });
+  {
+    std::unique_lock lock(mu);
+    cv.wait(lock, [&] { return holding; });
+  }
+  msg::Query q;
+  q.kind = msg::QueryKind::Instance;
+  q.instance = ObjectId{1};
+  q.rho = 0.5f;
+  const std::uint32_t first = (*rt)->send_query(q);
+  const std::uint32_t second = (*rt)->send_query(q);
+  (*rt)->set_publish_mode(PublishMode::Immediate);
+  {
+    std::lock_guard lock(mu);
+    sent = true;
+  }
+  cv.notify_all();
+  holder.join();
+  EXPECT_TRUE(released_by_sender) << "send_query or set_publish_mode waited for the state lock";
+  EXPECT_EQ(second, first + 1);
+
+  // The next steps hand both queries to the host, in order, and switch the mode.
+  std::vector<std::uint32_t> sent_ids;
+  for (int frames = 0; frames < 20 && sent_ids.size() < 2; ++frames) {
+    now += 1.0 / 72.0;
+    auto f = (*rt)->frame(std::span<const Camera>(&cam, 1));
+    ASSERT_TRUE(f.ok()) << f.message();
+    ASSERT_TRUE((*rt)->wait_frames().ok());
+    for (const auto& m : (*rt)->take_outgoing())
+      if (const auto* query = std::get_if<msg::Query>(&m)) sent_ids.push_back(query->query_id);
+  }
+  EXPECT_EQ(sent_ids, (std::vector<std::uint32_t>{first, second}));
+  EXPECT_EQ((*rt)->with_state([](const ClientState& s) { return s.publisher().config().mode; }), PublishMode::Immediate);
+}
 
 }  // namespace
 }  // namespace gauss::test

@@ -18,23 +18,12 @@
 #include "gauss/engine/trainer_snapshot.h"
 #include "synthetic_test_scene.h"
 #include "test_data.h"
+#include "split_mix_rng.h"
 
 namespace gauss {
 namespace {
 
-// Test-local deterministic randomness (SplitMix64).
-struct Rng {
-  std::uint64_t s;
-  std::uint64_t next() {
-    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  float unit() { return float(next() >> 40) / 16777216.0f; }
-  float sym() { return unit() * 2.0f - 1.0f; }
-  glm::vec3 sym3() { return {sym(), sym(), sym()}; }
-};
+using Rng = test::SplitMixRng;
 
 std::vector<Gaussian> synthetic_epoch(std::size_t n) {
   SyntheticSceneConfig c = test::small_synthetic_config(n, 6);

@@ -3,10 +3,14 @@
 // images and the frame counters must be identical, at sizes on both sides of every block
 // boundary of both shapes (GPU scan / radix block 4096, CPU radix block 8192, the spine's
 // 256 values per step), with many exact depth ties (equal depths blend in slot order), and
-// both stay within the reference tolerance. CTest also runs this at lavapipe subgroup sizes
-// 4 and 16 (tests/CMakeLists.txt): the GPU shapes rank by subgroup ballot.
+// both stay within the reference tolerance. The GPU shapes render with every digit width
+// the device allows (4 bits everywhere, 8 bits with subgroups of 16 or more). CTest also
+// runs this at lavapipe subgroup sizes 4 and 16 (tests/CMakeLists.txt): the GPU shapes
+// rank by subgroup ballot, and 16 is where lavapipe takes 8-bit digits.
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -28,6 +32,26 @@ constexpr std::uint32_t kGpuBlock = 4096;
 struct Rendered {
   ImageRGBA8 image;
   render::SplatFrameStats stats;
+};
+
+// Sets GAUSS_SORT_RADIX_BITS for its lifetime (nullptr: unset), restoring what was there.
+class RadixBitsOverride {
+ public:
+  explicit RadixBitsOverride(const char* bits) {
+    if (const char* before = std::getenv(kName)) saved_ = before;
+    if (bits) ::setenv(kName, bits, 1);
+    else ::unsetenv(kName);
+  }
+  ~RadixBitsOverride() {
+    if (saved_) ::setenv(kName, saved_->c_str(), 1);
+    else ::unsetenv(kName);
+  }
+  RadixBitsOverride(const RadixBitsOverride&) = delete;
+  RadixBitsOverride& operator=(const RadixBitsOverride&) = delete;
+
+ private:
+  static constexpr const char* kName = "GAUSS_SORT_RADIX_BITS";
+  std::optional<std::string> saved_;
 };
 
 class SplatPassShapesTest : public VkTest {
@@ -52,17 +76,25 @@ class SplatPassShapesTest : public VkTest {
     return {*img, *stats};
   }
 
-  // Both shapes, compared byte for byte and counter for counter; returns the GPU shapes' render.
+  // Both shapes, the GPU ones at each digit width the device allows, compared byte for
+  // byte and counter for counter; returns the last GPU shapes' render.
   Rendered both_equal(std::span<const Gaussian> scene, const Camera& cam, std::uint32_t capacity,
                       const std::string& name, std::uint32_t first_slot = 0,
                       const render::SplatRenderOptions& options = {}) {
     const Rendered cpu = render_with(SplatPassShapes::Cpu, scene, cam, capacity, first_slot, options);
-    const Rendered gpu = render_with(SplatPassShapes::Gpu, scene, cam, capacity, first_slot, options);
-    EXPECT_EQ(cpu.stats.visible, gpu.stats.visible) << name;
-    EXPECT_EQ(cpu.stats.pairs, gpu.stats.pairs) << name;
-    EXPECT_EQ(cpu.stats.pairs_needed, gpu.stats.pairs_needed) << name;
-    EXPECT_TRUE(images_equal(cpu.image, gpu.image, "pass_shapes_" + name));
-    std::printf("%s: %u visible, %u pairs\n", name.c_str(), gpu.stats.visible, gpu.stats.pairs);
+    Rendered gpu;
+    for (const char* bits : {"4", "8"}) {
+      RadixBitsOverride digits(bits);
+      auto profile = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
+      if (!profile.ok()) continue;  // 8-bit rows do not fit this device's subgroups
+      const std::string what = name + " (" + bits + "-bit digits)";
+      gpu = render_with(SplatPassShapes::Gpu, scene, cam, capacity, first_slot, options);
+      EXPECT_EQ(cpu.stats.visible, gpu.stats.visible) << what;
+      EXPECT_EQ(cpu.stats.pairs, gpu.stats.pairs) << what;
+      EXPECT_EQ(cpu.stats.pairs_needed, gpu.stats.pairs_needed) << what;
+      EXPECT_TRUE(images_equal(cpu.image, gpu.image, "pass_shapes_" + name)) << what;
+      std::printf("%s: %u visible, %u pairs\n", what.c_str(), gpu.stats.visible, gpu.stats.pairs);
+    }
     return gpu;
   }
 };
@@ -102,6 +134,39 @@ TEST_F(SplatPassShapesTest, ProfileFollowsTheDeviceAndTheOverride) {
     EXPECT_EQ(asked->shapes, s);
     EXPECT_NE(asked->reason.find(render::pass_shapes_name(s)), std::string::npos) << asked->reason;
   }
+}
+
+// The GPU shapes take 8-bit digits exactly where the device's smallest subgroup is 16 or
+// more (the scatter's shared rows fit); the override picks either width where it fits and
+// is refused, with the numbers, where it does not or is not a width.
+TEST_F(SplatPassShapesTest, DigitWidthFollowsTheSubgroupSize) {
+  RadixBitsOverride none(nullptr);
+  auto gpu = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
+  ASSERT_TRUE(gpu.ok()) << gpu.message();
+  const bool wide = context().min_subgroup_size() >= 16;
+  EXPECT_EQ(gpu->radix_bits, wide ? 8u : 4u) << gpu->reason;
+  EXPECT_EQ(gpu->sort_rows, 256u / context().min_subgroup_size());
+  EXPECT_NE(gpu->reason.find(wide ? "8-bit digits" : "4-bit digits"), std::string::npos) << gpu->reason;
+  auto cpu = render::choose_pass_shapes(context(), SplatPassShapes::Cpu);
+  ASSERT_TRUE(cpu.ok()) << cpu.message();
+  EXPECT_EQ(cpu->radix_bits, 4u);
+  {
+    RadixBitsOverride four("4");
+    auto asked = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
+    ASSERT_TRUE(asked.ok()) << asked.message();
+    EXPECT_EQ(asked->radix_bits, 4u);
+  }
+  {
+    RadixBitsOverride eight("8");
+    auto asked = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
+    ASSERT_EQ(asked.ok(), wide) << (asked.ok() ? asked->reason : asked.message());
+    if (asked.ok()) EXPECT_EQ(asked->radix_bits, 8u);
+    else EXPECT_NE(asked.message().find("bytes of shared memory"), std::string::npos) << asked.message();
+  }
+  RadixBitsOverride six("6");
+  auto bad = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.message().find("GAUSS_SORT_RADIX_BITS=6"), std::string::npos) << bad.message();
 }
 
 // A misspelt override is refused by name, not silently ignored.
@@ -185,6 +250,21 @@ TEST_F(SplatPassShapesTest, SameBytesOverManyBlocks) {
   EXPECT_EQ(pairs[0], cap);
   EXPECT_EQ(pairs[1], cap);
   EXPECT_TRUE(images_equal(images[0], images[1], "pass_shapes_pair_overflow"));
+}
+
+// More than 256 radix blocks of pairs: 70k splats each covering all 16 tiles of a 64x64
+// view make over 2^20 (tile, splat) pairs, so the per-digit offset rows of the tile sort
+// (sort_radix_offsets_gpu.comp, 256 blocks per step) carry a running sum between steps.
+TEST_F(SplatPassShapesTest, SameBytesOverMoreThan256PairBlocks) {
+  const Camera cam = forward_camera(64, 64);
+  auto scene = tied_box(70000, 11);
+  for (Gaussian& g : scene) {
+    g.log_scale = glm::vec3(std::log(2.0f));
+    g.opacity_logit = 4.0f;  // opaque: the blend stops after a few splats per pixel
+  }
+  const Rendered big = both_equal(scene, cam, 70000, "n70000_wide");
+  EXPECT_GT(big.stats.pairs, 256u * kGpuBlock);
+  EXPECT_FALSE(big.stats.pair_overflow);
 }
 
 }  // namespace

@@ -8,6 +8,8 @@
 #include <type_traits>
 #include <utility>
 
+#include "gauss/engine/log_text.h"
+
 namespace gauss::ply {
 namespace {
 
@@ -52,24 +54,9 @@ bool printable(std::string_view s) {
   return true;
 }
 
-// Quoted for messages; non-printable bytes are escaped so a binary blob cannot garble the text.
-std::string quote(std::string_view s) {
-  std::string out = "'";
-  const std::size_t n = std::min<std::size_t>(s.size(), 64);
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto c = static_cast<unsigned char>(s[i]);
-    if (c >= 0x20 && c < 0x7f) {
-      out += static_cast<char>(c);
-    } else {
-      static constexpr char kHex[] = "0123456789abcdef";
-      out += "\\x";
-      out += kHex[c >> 4];
-      out += kHex[c & 15];
-    }
-  }
-  if (s.size() > n) out += "...";
-  return out + "'";
-}
+// Quoted for messages; control bytes and broken UTF-8 are escaped (escape_for_log) so a
+// binary blob cannot garble the text.
+std::string quote(std::string_view s) { return "'" + escape_for_log(s, 64) + "'"; }
 
 template <class T>
 void store(std::vector<std::uint8_t>& out, T v, bool swap) {

@@ -23,7 +23,8 @@ ClientState::ClientState(std::uint32_t client_index, ClientConfig config, SlotTa
         PublisherConfig p = config_.publisher;
         p.range_gap = config_.range_merge_gap;
         return p;
-      }()) {}
+      }()),
+      next_query_id_(std::make_unique<std::atomic<std::uint32_t>>(1u)) {}
 
 msg::Hello ClientState::hello() const {
   msg::Hello h;
@@ -121,7 +122,7 @@ Status ClientState::on_message(const wire::Message& m, double now) {
     }
     if (last_query_) {
       msg::Query q = *last_query_;
-      q.query_id = next_query_id_++;
+      q.query_id = reserve_query_id();
       outgoing_.push_back(q);
     }
     return Ok{};
@@ -296,12 +297,19 @@ void ClientState::send_pose(msg::HeadPose pose) {
   if (welcomed_) outgoing_.push_back(pose);
 }
 
+std::uint32_t ClientState::reserve_query_id() noexcept { return next_query_id_->fetch_add(1u); }
+
 std::uint32_t ClientState::send_query(msg::Query query) {
+  query.query_id = reserve_query_id();
+  const std::uint32_t id = query.query_id;
+  send_reserved_query(std::move(query));
+  return id;
+}
+
+void ClientState::send_reserved_query(msg::Query query) {
   std::lock_guard<std::mutex> lock(*mutex_);
-  query.query_id = next_query_id_++;
   last_query_ = query.kind == msg::QueryKind::Clear ? std::nullopt : std::optional<msg::Query>(query);
   if (welcomed_) outgoing_.push_back(query);
-  return query.query_id;
 }
 
 void ClientState::on_disconnect() {

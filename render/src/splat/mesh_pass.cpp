@@ -18,16 +18,6 @@
 
 namespace gauss::render {
 
-namespace {
-
-struct MeshVertex {  // binding 0: position (R32G32B32_SFLOAT) + colour (R8G8B8A8_UNORM)
-  float position[3];
-  std::uint8_t colour[4];
-};
-static_assert(sizeof(MeshVertex) == 16);
-
-}  // namespace
-
 Expected<MeshPass> MeshPass::create(vk::Context& context) {
   MeshPass pass;
   auto pipe = vk::GraphicsPipeline::create(
@@ -57,12 +47,8 @@ Status MeshPass::set_mesh(vk::Context& context, const TriangleMesh& mesh, const 
   return Ok{};
 }
 
-Status MeshPass::set_chunk(vk::Context& context, std::uint64_t id, const TriangleMesh& mesh, const MeshUpdate& via) {
+Expected<PreparedMeshChunk> prepare_mesh_chunk(std::uint64_t id, const TriangleMesh& mesh) {
   const std::size_t nv = mesh.positions.size();
-  if (nv == 0 && mesh.indices.empty()) {
-    remove_chunk(id, via);
-    return Ok{};
-  }
   const std::string where = "MeshPass::set_chunk: chunk " + std::to_string(id) + ": ";
   if (nv == 0 || mesh.indices.empty()) return Error{"MeshPass::set_chunk: the mesh is empty"};
   if (mesh.colors.size() != nv)
@@ -74,18 +60,36 @@ Status MeshPass::set_chunk(vk::Context& context, std::uint64_t id, const Triangl
     if (mesh.indices[i] >= nv)
       return Error{where + "index " + std::to_string(i) + " = " + std::to_string(mesh.indices[i]) + " out of range (" +
                    std::to_string(nv) + " vertices)"};
-  std::vector<MeshVertex> vertices(nv);
+  PreparedMeshChunk out;
+  out.vertices.resize(nv);
   for (std::size_t i = 0; i < nv; ++i) {
     const glm::vec3& p = mesh.positions[i];
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
       return Error{where + "vertex " + std::to_string(i) + " has a non-finite position"};
-    vertices[i] = {{p.x, p.y, p.z}, {mesh.colors[i].r, mesh.colors[i].g, mesh.colors[i].b, 255}};
+    out.vertices[i] = {{p.x, p.y, p.z}, {mesh.colors[i].r, mesh.colors[i].g, mesh.colors[i].b, 255}};
   }
-  auto vb = vk::Buffer::create(context, {.size = nv * sizeof(MeshVertex),
+  out.indices.assign(mesh.indices.begin(), mesh.indices.end());
+  return out;
+}
+
+Status MeshPass::set_chunk(vk::Context& context, std::uint64_t id, const TriangleMesh& mesh, const MeshUpdate& via) {
+  if (mesh.positions.empty() && mesh.indices.empty()) {
+    remove_chunk(id, via);
+    return Ok{};
+  }
+  auto prepared = prepare_mesh_chunk(id, mesh);
+  if (!prepared) return prepared.error();
+  return set_chunk(context, id, *prepared, via);
+}
+
+Status MeshPass::set_chunk(vk::Context& context, std::uint64_t id, const PreparedMeshChunk& prepared,
+                           const MeshUpdate& via) {
+  if (prepared.vertices.empty() || prepared.indices.empty()) return Error{"MeshPass::set_chunk: the mesh is empty"};
+  auto vb = vk::Buffer::create(context, {.size = prepared.vertices.size() * sizeof(MeshVertex),
                                          .usage = VK_BUFFER_USAGE_VERTEX_BUFFER_BIT,
                                          .name = "mesh vertices"});
   if (!vb) return vb.error();
-  auto ib = vk::Buffer::create(context, {.size = mesh.indices.size() * sizeof(std::uint32_t),
+  auto ib = vk::Buffer::create(context, {.size = prepared.indices.size() * sizeof(std::uint32_t),
                                          .usage = VK_BUFFER_USAGE_INDEX_BUFFER_BIT,
                                          .name = "mesh indices"});
   if (!ib) return ib.error();
@@ -94,10 +98,10 @@ Status MeshPass::set_chunk(vk::Context& context, std::uint64_t id, const Triangl
   auto put = [&](vk::Buffer& b, const void* data) -> Status {
     return via.uploads != nullptr ? via.uploads->write(b, 0, data, b.size()) : b.upload(data, b.size());
   };
-  if (auto st = put(*vb, vertices.data()); !st) return st;
-  if (auto st = put(*ib, mesh.indices.data()); !st) return st;
+  if (auto st = put(*vb, prepared.vertices.data()); !st) return st;
+  if (auto st = put(*ib, prepared.indices.data()); !st) return st;
   Chunk chunk{std::make_shared<vk::Buffer>(std::move(*vb)), std::make_shared<vk::Buffer>(std::move(*ib)),
-              static_cast<std::uint32_t>(mesh.indices.size())};
+              static_cast<std::uint32_t>(prepared.indices.size())};
   auto it = chunks_.find(id);
   if (it != chunks_.end()) {
     retire(std::move(it->second), via);

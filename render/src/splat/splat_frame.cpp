@@ -193,7 +193,10 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
     push(pipelines.radix_count(), 0, count_index, shift);
     indirect(count_args);
     vk::compute_to_compute_barrier(c);
-    if (auto st = pipelines.scan_hist().bind(c, scan_res); !st) return st;
+    // GPU shapes: one workgroup per digit row, which binds the histogram and counters only.
+    const std::initializer_list<vk::Resource> offsets_res = {{gpu::SPLAT_BINDING_HIST, &hist},
+                                                             {gpu::SPLAT_BINDING_COUNTERS, &counters}};
+    if (auto st = pipelines.scan_hist().bind(c, gpu_shapes ? offsets_res : scan_res); !st) return st;
     push(pipelines.scan_hist(), 0, count_index, shift);
     indirect(hist_args);
     vk::compute_to_compute_barrier(c);
@@ -211,9 +214,10 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
     return Ok{};
   };
 
-  // ---- Depth sort: all 32 bits of the float key (8 passes: the result is back in [0]) ----
+  // ---- Depth sort: all 32 bits of the float key (8 or 4 passes: the result is back in [0]) ----
+  const std::uint32_t digit_bits = pipelines.radix_bits();
   std::uint32_t src = 0;
-  for (std::uint32_t shift = 0; shift < 32; shift += gpu::SORT_RADIX_BITS) {
+  for (std::uint32_t shift = 0; shift < 32; shift += digit_bits) {
     if (auto st = radix_pass(src, shift, gpu::SPLAT_COUNTER_VISIBLE, gpu::SPLAT_ARGS_VISIBLE_BLOCKS,
                              gpu::SPLAT_ARGS_VISIBLE_COUNT, gpu::SPLAT_ARGS_VISIBLE_HIST);
         !st)
@@ -267,7 +271,7 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
 
   // ---- Tile sort: only the bits of the tile ids, 0 .. tiles - 1 ----
   const std::uint32_t tile_bits = static_cast<std::uint32_t>(std::bit_width(tiles - 1));
-  for (std::uint32_t shift = 0; shift < tile_bits; shift += gpu::SORT_RADIX_BITS) {
+  for (std::uint32_t shift = 0; shift < tile_bits; shift += digit_bits) {
     if (auto st = radix_pass(src, shift, gpu::SPLAT_COUNTER_PAIRS, gpu::SPLAT_ARGS_PAIR_BLOCKS,
                              gpu::SPLAT_ARGS_PAIR_COUNT, gpu::SPLAT_ARGS_PAIR_HIST);
         !st)

@@ -70,7 +70,7 @@ struct SplatRenderer::Impl {
   vk::Buffer offsets;     // uint per slot / per visible splat
   std::array<vk::Buffer, 2> keys;  // ping-pong sort keys, max(capacity, max_pairs)
   std::array<vk::Buffer, 2> vals;
-  vk::Buffer hist;        // 16 * blocks (radix_histogram_bytes); the GPU scans' block sums
+  vk::Buffer hist;        // bins * blocks + bins (radix_histogram_bytes); the GPU scans' block sums
   vk::Buffer tile_depth;  // float per tile
   vk::Buffer output;      // packed RGBA8 per pixel
   vk::Buffer highlight;   // sorted object ids

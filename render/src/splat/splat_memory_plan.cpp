@@ -155,7 +155,9 @@ Status check_fields(const SplatRendererCreateInfo& info) {
 }  // namespace
 
 std::uint64_t radix_histogram_bytes(std::uint64_t sort_keys) {
-  return std::uint64_t{gpu::SORT_BINS} * ((sort_keys + gpu::SORT_BLOCK_GPU - 1) / gpu::SORT_BLOCK_GPU) * 4;
+  // The widest digit's bins per block, then one total per digit (sort_radix_offsets_gpu.comp).
+  return (std::uint64_t{gpu::SORT_BINS_MAX} * ((sort_keys + gpu::SORT_BLOCK_GPU - 1) / gpu::SORT_BLOCK_GPU) +
+          gpu::SORT_BINS_MAX) * 4;
 }
 
 std::uint32_t slot_chunk_slots(std::uint64_t binding_range, std::uint32_t capacity, int sh_degree) {

@@ -14,8 +14,14 @@
 //   256 made of full subgroups is what every driver does for power-of-two sizes up to 128,
 //   and the pipelines require it where the device has computeFullSubgroups (Vulkan 1.3).
 // - Shared memory. The CPU radix scatter holds 16 x 256 counts (17.1 KiB in all), above
-//   Vulkan's guaranteed 16 KiB; the GPU shapes need 4.3 KiB. A device with less than the
-//   CPU shapes need gets the GPU shapes when its subgroups allow.
+//   Vulkan's guaranteed 16 KiB; the GPU shapes need 4.4 KiB with 4-bit digits. A device
+//   with less than the CPU shapes need gets the GPU shapes when its subgroups allow.
+// - Digit width (GPU shapes). Every radix pass is three dispatches whose fixed cost
+//   dominates small scenes on a GPU, so 8-bit digits (4 passes over a depth key, not 8)
+//   are taken where the scatter's rows (one per subgroup, 256 words each) fit in 16 KiB
+//   of shared memory: subgroups of 16 or more (NVIDIA 32, AMD 32/64, Mali 16, Adreno
+//   64/128). Smaller subgroups keep 4-bit digits (lavapipe's 4 and 8, some Intel).
+#include <algorithm>
 #include <cstdlib>
 #include <string>
 #include <string_view>
@@ -30,7 +36,15 @@ namespace {
 
 // Shared memory of the largest pass of each shape (bytes), see the shaders' shared arrays.
 constexpr std::uint32_t kCpuShapesShared = (gpu::SORT_BINS * gpu::SPLAT_WORKGROUP + gpu::SORT_BINS * 16 + gpu::SORT_BINS) * 4;
-constexpr std::uint32_t kGpuShapesShared = (gpu::SPLAT_MAX_SUBGROUPS * gpu::SORT_BINS + gpu::SORT_BINS + gpu::SPLAT_MAX_SUBGROUPS) * 4;
+// sort_radix_scatter_gpu.comp: s_off (rows x bins), s_total and s_base (bins each), and
+// splat_subgroup.glsl's s_wg_sub.
+constexpr std::uint32_t gpu_scatter_shared(std::uint32_t rows, std::uint32_t bits) {
+  return (rows * (1u << bits) + 2u * (1u << bits) + gpu::SPLAT_MAX_SUBGROUPS) * 4;
+}
+constexpr std::uint32_t kGpuShapesShared = gpu_scatter_shared(gpu::SPLAT_MAX_SUBGROUPS, 4);
+// 8-bit digits only where their scatter fits Vulkan's guaranteed 16 KiB plus a little:
+// subgroups of 16 and up (16 rows: 18.3 KiB; 32-wide: 10.3 KiB).
+constexpr std::uint32_t kWideDigitShared = gpu_scatter_shared(16, gpu::SORT_RADIX_BITS_MAX);
 
 bool subgroups_fit_gpu_shapes(const vk::Context& context) {
   return context.subgroup_size() >= 4 && context.max_subgroup_size() <= 128 &&
@@ -86,12 +100,34 @@ Expected<SplatPassProfile> choose_pass_shapes(const vk::Context& context, SplatP
     return Error{"splat renderer: the GPU pass shapes need subgroups of 4..128 invocations; device " +
                  context.device_name() + " has " + std::to_string(context.subgroup_size()) + ".." +
                  std::to_string(context.max_subgroup_size())};
+  const std::uint32_t shared = context.limits().maxComputeSharedMemorySize;
   const std::uint32_t need = requested == SplatPassShapes::Gpu ? kGpuShapesShared : kCpuShapesShared;
-  if (context.limits().maxComputeSharedMemorySize < need)
+  if (shared < need)
     return Error{std::string("splat renderer: the ") + pass_shapes_name(requested) + " pass shapes need " +
                  std::to_string(need) + " bytes of compute shared memory; device " + context.device_name() +
-                 " has " + std::to_string(context.limits().maxComputeSharedMemorySize)};
-  return SplatPassProfile{requested, std::string(pass_shapes_name(requested)) + " (" + describe(context, why) + ")"};
+                 " has " + std::to_string(shared)};
+  SplatPassProfile profile;
+  profile.shapes = requested;
+  std::string digits = "4-bit digits";
+  if (requested == SplatPassShapes::Gpu) {
+    profile.sort_rows = gpu::SPLAT_WORKGROUP / std::max(context.min_subgroup_size(), 4u);
+    const std::uint32_t wide_need = gpu_scatter_shared(profile.sort_rows, gpu::SORT_RADIX_BITS_MAX);
+    const bool wide_fits = wide_need <= kWideDigitShared && wide_need <= shared;
+    profile.radix_bits = wide_fits ? gpu::SORT_RADIX_BITS_MAX : gpu::SORT_RADIX_BITS;
+    digits = wide_fits ? "8-bit digits" : "4-bit digits (8-bit rows need " + std::to_string(wide_need) + " bytes)";
+    if (const char* env = std::getenv("GAUSS_SORT_RADIX_BITS"); env && *env) {
+      const std::string_view v = env;
+      if (v != "4" && v != "8") return Error{"GAUSS_SORT_RADIX_BITS=" + std::string(v) + ": expected 4 or 8"};
+      if (v == "8" && !wide_fits)
+        return Error{"GAUSS_SORT_RADIX_BITS=8: the 8-bit radix scatter needs " + std::to_string(wide_need) +
+                     " bytes of shared memory with subgroups of " + std::to_string(context.min_subgroup_size()) +
+                     "; device " + context.device_name() + " allows " + std::to_string(std::min(shared, kWideDigitShared))};
+      profile.radix_bits = v == "8" ? gpu::SORT_RADIX_BITS_MAX : gpu::SORT_RADIX_BITS;
+      digits = std::string(v) + "-bit digits (GAUSS_SORT_RADIX_BITS)";
+    }
+  }
+  profile.reason = std::string(pass_shapes_name(requested)) + " (" + describe(context, why) + "; " + digits + ")";
+  return profile;
 }
 
 }  // namespace gauss::render

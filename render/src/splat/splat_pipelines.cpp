@@ -11,6 +11,7 @@
 #include "gauss/render/vk_context.h"
 #include "gauss/shaders/sort_radix_count.comp.spv.h"
 #include "gauss/shaders/sort_radix_count_gpu.comp.spv.h"
+#include "gauss/shaders/sort_radix_offsets_gpu.comp.spv.h"
 #include "gauss/shaders/sort_radix_scatter.comp.spv.h"
 #include "gauss/shaders/sort_radix_scatter_gpu.comp.spv.h"
 #include "gauss/shaders/splat_blend.comp.spv.h"
@@ -40,6 +41,7 @@ static_assert(gpu::SORT_BLOCK_GPU == gpu::SPLAT_WORKGROUP * gpu::SORT_ITEMS_GPU)
 static_assert(gpu::SORT_BLOCK_GPU <= gpu::SORT_BLOCK);
 static_assert(gpu::SPLAT_WORKGROUP / gpu::SPLAT_MAX_SUBGROUPS == 4, "SPLAT_MAX_SUBGROUPS: subgroups of 4");
 static_assert(gpu::SORT_BINS == (1u << gpu::SORT_RADIX_BITS));
+static_assert(gpu::SORT_BINS_MAX == (1u << gpu::SORT_RADIX_BITS_MAX) && gpu::SORT_BINS_MAX <= gpu::SPLAT_WORKGROUP);
 static_assert(gpu::SPLAT_BLEND_THREADS * gpu::SPLAT_BLEND_PIXELS == gpu::SPLAT_TILE * gpu::SPLAT_TILE);
 static_assert(gpu::SPLAT_BLEND_PIXELS * 2 == gpu::SPLAT_TILE);  // two invocations per column
 static_assert(gpu::SPLAT_DILATION == static_cast<float>(kDilation));
@@ -108,7 +110,7 @@ constexpr VkSubgroupFeatureFlags kBlendSubgroupOps = VK_SUBGROUP_FEATURE_BASIC_B
 }  // namespace
 
 Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const SlotChunkLayout& chunks,
-                                                SplatPassShapes shapes) {
+                                                const SplatPassProfile& profile) {
   if (chunks.chunks == 0 || chunks.chunks > gpu::SPLAT_MAX_SLOT_CHUNKS ||
       (chunks.chunks > 1 && !std::has_single_bit(chunks.chunk_slots)))
     return Error{"splat renderer: " + std::to_string(chunks.chunks) + " slot chunks of " +
@@ -120,8 +122,15 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
   SplatPipelines p;
   p.context_ = &context;
   p.chunks_ = chunks;
-  p.shapes_ = shapes == SplatPassShapes::Gpu ? SplatPassShapes::Gpu : SplatPassShapes::Cpu;
+  p.shapes_ = profile.shapes == SplatPassShapes::Gpu ? SplatPassShapes::Gpu : SplatPassShapes::Cpu;
   const bool g = p.shapes_ == SplatPassShapes::Gpu;
+  if (g && !((profile.radix_bits == gpu::SORT_RADIX_BITS || profile.radix_bits == gpu::SORT_RADIX_BITS_MAX) &&
+             profile.sort_rows >= 1 && profile.sort_rows <= gpu::SPLAT_MAX_SUBGROUPS))
+    return Error{"splat renderer: radix digits of " + std::to_string(profile.radix_bits) + " bits with " +
+                 std::to_string(profile.sort_rows) + " scatter rows (4 or 8 bits, 1.." +
+                 std::to_string(gpu::SPLAT_MAX_SUBGROUPS) + " rows)"};
+  p.radix_bits_ = g ? profile.radix_bits : gpu::SORT_RADIX_BITS;
+  const vk::SpecConstant digit_spec{gpu::SORT_SPEC_RADIX_BITS, p.radix_bits_};
   struct Fixed {
     vk::ComputePipeline* out;
     const char* name;
@@ -134,15 +143,17 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
   const vk::SpirvCode scan_code = g ? vk::spirv(gauss_spv_splat_scan_gpu_comp) : vk::spirv(gauss_spv_splat_scan_comp);
   auto scan_spec = [&](std::uint32_t mode, std::uint32_t phase) -> std::vector<vk::SpecConstant> {
     if (!g) return {{gpu::SPLAT_SPEC_SCAN_MODE, mode}};
-    return {{gpu::SPLAT_SPEC_SCAN_MODE, mode}, {gpu::SPLAT_SPEC_SCAN_PHASE, phase}};
+    return {{gpu::SPLAT_SPEC_SCAN_MODE, mode}, {gpu::SPLAT_SPEC_SCAN_PHASE, phase}, digit_spec};
   };
   std::vector<Fixed> fixed = {
       {&p.scan_visible_, "splat scan (visible)", scan_code, scan_bindings(),
        scan_spec(gpu::SPLAT_SCAN_VISIBLE, gpu::SPLAT_SCAN_PHASE_SPINE), g},
       {&p.scan_pairs_, "splat scan (pairs)", scan_code, scan_bindings(),
        scan_spec(gpu::SPLAT_SCAN_PAIRS, gpu::SPLAT_SCAN_PHASE_SPINE), g},
-      {&p.scan_hist_, "splat scan (radix histogram)", scan_code, scan_bindings(),
-       scan_spec(gpu::SPLAT_SCAN_HIST, gpu::SPLAT_SCAN_PHASE_SPINE), g},
+      g ? Fixed{&p.scan_hist_, "radix digit offsets", vk::spirv(gauss_spv_sort_radix_offsets_gpu_comp),
+                {{gpu::SPLAT_BINDING_HIST, SB}, {gpu::SPLAT_BINDING_COUNTERS, SB}}, {digit_spec}, true}
+        : Fixed{&p.scan_hist_, "splat scan (radix histogram)", scan_code, scan_bindings(),
+                scan_spec(gpu::SPLAT_SCAN_HIST, gpu::SPLAT_SCAN_PHASE_SPINE), false},
       {&p.compact_, "splat compact", vk::spirv(gauss_spv_splat_compact_comp),
        {{gpu::SPLAT_BINDING_PROJECTED, SB},
         {gpu::SPLAT_BINDING_TILE_COUNT, SB},
@@ -153,7 +164,7 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
       {&p.radix_count_, "radix count",
        g ? vk::spirv(gauss_spv_sort_radix_count_gpu_comp) : vk::spirv(gauss_spv_sort_radix_count_comp),
        {{gpu::SPLAT_BINDING_KEYS_IN, SB}, {gpu::SPLAT_BINDING_HIST, SB}, {gpu::SPLAT_BINDING_COUNTERS, SB}},
-       {},
+       g ? std::vector<vk::SpecConstant>{digit_spec} : std::vector<vk::SpecConstant>{},
        g},
       {&p.radix_scatter_, "radix scatter",
        g ? vk::spirv(gauss_spv_sort_radix_scatter_gpu_comp) : vk::spirv(gauss_spv_sort_radix_scatter_comp),
@@ -163,7 +174,8 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
         {gpu::SPLAT_BINDING_VALS_OUT, SB},
         {gpu::SPLAT_BINDING_HIST, SB},
         {gpu::SPLAT_BINDING_COUNTERS, SB}},
-       {},
+       g ? std::vector<vk::SpecConstant>{digit_spec, {gpu::SORT_SPEC_ROWS, profile.sort_rows}}
+         : std::vector<vk::SpecConstant>{},
        g},
       {&p.ranges_, "splat tile ranges", vk::spirv(gauss_spv_splat_ranges_comp),
        {{gpu::SPLAT_BINDING_VIEW, DescriptorKind::UniformBuffer},

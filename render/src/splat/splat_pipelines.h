@@ -32,11 +32,14 @@ struct SlotChunkLayout {
 
 class SplatPipelines {
  public:
-  // `shapes` is Cpu or Gpu (resolved by choose_pass_shapes): which shaders the scans and
-  // the radix passes take. The other passes have one shape.
-  static Expected<SplatPipelines> create(vk::Context& context, const SlotChunkLayout& chunks, SplatPassShapes shapes);
+  // `profile` (resolved by choose_pass_shapes): which shaders the scans and the radix
+  // passes take, and the GPU radix passes' digit width. The other passes have one shape.
+  static Expected<SplatPipelines> create(vk::Context& context, const SlotChunkLayout& chunks,
+                                         const SplatPassProfile& profile);
 
   SplatPassShapes shapes() const noexcept { return shapes_; }
+  // Key bits per radix pass (4 or 8; always 4 with the CPU shapes).
+  std::uint32_t radix_bits() const noexcept { return radix_bits_; }
 
   Expected<const vk::ComputePipeline*> preprocess(const PreprocessKey& key);
   Expected<const vk::ComputePipeline*> emit(bool mesh, bool exact_cull);
@@ -46,6 +49,8 @@ class SplatPipelines {
   // reduce and down dispatches below.
   const vk::ComputePipeline& scan_visible() const noexcept { return scan_visible_; }
   const vk::ComputePipeline& scan_pairs() const noexcept { return scan_pairs_; }
+  // Cpu: the whole histogram scanned in one workgroup (absolute offsets). Gpu: one
+  // workgroup per digit (sort_radix_offsets_gpu.comp; binds only hist and counters).
   const vk::ComputePipeline& scan_hist() const noexcept { return scan_hist_; }
   // Gpu only: block sums and the per-block rescans of the visible and pair scans.
   const vk::ComputePipeline& scan_visible_reduce() const noexcept { return scan_visible_reduce_; }
@@ -62,6 +67,7 @@ class SplatPipelines {
   vk::Context* context_{nullptr};
   SlotChunkLayout chunks_;
   SplatPassShapes shapes_{SplatPassShapes::Cpu};
+  std::uint32_t radix_bits_{4};
   std::map<PreprocessKey, vk::ComputePipeline> preprocess_;
   std::map<std::uint32_t, vk::ComputePipeline> emit_;
   std::map<std::uint32_t, vk::ComputePipeline> blend_;

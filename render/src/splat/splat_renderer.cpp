@@ -53,7 +53,7 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
   if (!profile) return profile.error();
   impl->profile = *profile;
   auto pipes = splat::SplatPipelines::create(context, {.chunks = plan->slot_chunks, .chunk_slots = plan->chunk_slots},
-                                             profile->shapes);
+                                             *profile);
   if (!pipes) return pipes.error();
   impl->pipelines = std::move(*pipes);
 
@@ -150,6 +150,9 @@ Status SplatRenderer::set_mesh(const TriangleMesh& mesh) {
 }
 Status SplatRenderer::set_mesh_chunk(std::uint64_t id, const TriangleMesh& mesh) {
   return impl_->mesh.set_chunk(*impl_->context, id, mesh, impl_->mesh_update());
+}
+Status SplatRenderer::set_mesh_chunk(std::uint64_t id, const PreparedMeshChunk& chunk) {
+  return impl_->mesh.set_chunk(*impl_->context, id, chunk, impl_->mesh_update());
 }
 void SplatRenderer::remove_mesh_chunk(std::uint64_t id) noexcept { impl_->mesh.remove_chunk(id, impl_->mesh_update()); }
 void SplatRenderer::clear_mesh() noexcept { impl_->mesh.clear_mesh(impl_->mesh_update()); }

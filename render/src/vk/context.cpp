@@ -256,6 +256,8 @@ Expected<std::unique_ptr<Context>> Context::create(const ContextCreateInfo& info
   ctx->properties_ = props2.properties;
   ctx->subgroup_size_ = subgroup.subgroupSize;
   ctx->max_subgroup_size_ = std::max(subgroup.subgroupSize, size_control.maxSubgroupSize);
+  ctx->min_subgroup_size_ = size_control.minSubgroupSize > 0 ? std::min(subgroup.subgroupSize, size_control.minSubgroupSize)
+                                                             : subgroup.subgroupSize;
   ctx->driver_id_ = driver.driverID;
   ctx->max_memory_allocation_size_ = maintenance3.maxMemoryAllocationSize;
   ctx->subgroup_operations_ = (subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) ? subgroup.supportedOperations : 0;

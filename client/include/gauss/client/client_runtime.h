@@ -162,6 +162,9 @@ class ClientRuntime {
 
   // --- intent ---
   // Sends a query (queued until connected; resent after a reconnect). Returns its id.
+  // With the publication thread these never wait for a running step: the id is reserved
+  // now and the query, mode or period goes to ClientState with the next step (at most a
+  // frame later), in the order of the calls. Call them from the thread that calls frame().
   std::uint32_t send_query(msg::Query query);
   void clear_query();
   void set_publish_mode(PublishMode mode);
@@ -213,6 +216,10 @@ class ClientRuntime {
     std::optional<msg::HeadPose> pose;
     std::vector<RenderedNote> rendered;  // applied before the step (publication thread)
     std::vector<double> frame_costs;
+    // Intent from the display thread, applied before the step in this order.
+    std::vector<msg::Query> queries;  // ids reserved (ClientState::reserve_query_id)
+    std::optional<PublishMode> mode;
+    std::optional<double> display_period;
     int pack_buffer{-1};                 // pack_pool_ index, or none: nothing packed
     std::span<std::byte> pack;
     render::SlotLayout layout;
@@ -228,6 +235,7 @@ class ClientRuntime {
     bool welcomed{false};
     ClientStatsCounters counters{};
     PreparedSlots slots;
+    PreparedSurface surface;  // prepared under the state lock
     int pack_buffer{-1};
     double lock_wait_ms{0.0}, publish_ms{0.0}, publish_cpu_ms{0.0}, pack_ms{0.0}, pack_cpu_ms{0.0};
   };

@@ -22,6 +22,7 @@
 #include "gauss/engine/result.h"
 #include "gauss/engine/slot_table.h"
 #include "gauss/engine/surface_stage.h"
+#include "gauss/render/mesh_pass.h"
 #include "gauss/render/splat_renderer.h"
 
 namespace gauss::client {
@@ -59,6 +60,24 @@ struct PreparedSlots {
   std::uint32_t runs{0};                // occupied and free runs, as publish_slots counts them
 };
 
+// A surface change, prepared where checking and converting the meshes costs the display
+// thread nothing (GpuPublication::prepare_surface, e.g. on a publication thread under the
+// state lock): chunks to remove, and changed chunks in the mesh pass's vertex layout (or
+// the reason the mesh pass would refuse them).
+struct PreparedSurface {
+  bool changed{false};  // the stage moved since the last publication: apply
+  std::uint64_t revision{0};
+  std::uint64_t generation{0};
+  std::vector<std::uint64_t> removed;
+  struct Set {
+    std::uint64_t id{0};
+    Epoch epoch{0};
+    std::string error;  // refused (the chunk held before, if any, stays)
+    render::PreparedMeshChunk chunk;
+  };
+  std::vector<Set> sets;
+};
+
 class GpuPublication {
  public:
   // Splits `ranges` of `slots` into occupied and free runs and packs occupied runs (split
@@ -76,8 +95,15 @@ class GpuPublication {
   // the renderer's capacity (nothing after it is written).
   Expected<PublicationResult> publish_slots(const SlotTable& slots, std::span<const SlotRange> ranges,
                                             render::SplatRenderer& renderer, bool tint_edits);
-  // Brings the renderer's mesh to the stage's committed surface (only when it changed).
+  // Brings the renderer's mesh to the stage's committed surface (only when it changed):
+  // prepare_surface then publish_prepared_surface.
   std::uint32_t publish_surface(const SurfaceStage& surface, render::SplatRenderer& renderer);
+  // What publish_surface would change, against what the GPU holds now: reads `surface`
+  // and this object only, so it may run on another thread while nothing publishes.
+  PreparedSurface prepare_surface(const SurfaceStage& surface) const;
+  // Applies a prepare_surface result made since the last publication; returns the chunks
+  // changed.
+  std::uint32_t publish_prepared_surface(const PreparedSurface& prepared, render::SplatRenderer& renderer);
   // Everything again, into a new (empty) renderer, e.g. one made for another SH degree.
   Status republish_all(const SlotTable& slots, const SurfaceStage& surface, render::SplatRenderer& renderer);
 

@@ -15,6 +15,7 @@
 // or epoch that disagrees with its header, a batch going back in epoch, a malformed
 // surface patch: rejected with a reason and a counter; state untouched; the stream
 // continues (a transport may choose to reconnect, which resynchronises).
+#include <atomic>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -85,6 +86,11 @@ class ClientState {
   std::vector<wire::Message> take_outgoing();
   void send_pose(msg::HeadPose pose);              // sequence assigned here
   std::uint32_t send_query(msg::Query query);      // query_id assigned here, returned
+  // A query id taken now without the mutex (atomic), for a caller that must not wait for a
+  // publication step holding it: send_reserved_query(q) with that id sends it later, in
+  // the order of the calls.
+  std::uint32_t reserve_query_id() noexcept;
+  void send_reserved_query(msg::Query query);      // query.query_id from reserve_query_id()
   // The connection dropped: keep everything (the next Welcome's resync reconciles);
   // resend the current query and pose after the next Welcome. A Welcome from another
   // host session (the host restarted) also restarts the epoch order: the new session's
@@ -148,7 +154,8 @@ class ClientState {
   std::map<std::int32_t, msg::ObjectInfo> objects_;
   std::vector<wire::Message> outgoing_;
   std::uint32_t next_pose_seq_{1};
-  std::uint32_t next_query_id_{1};
+  // Atomic (reserve_query_id() runs outside the mutex); behind a pointer so the state moves.
+  std::unique_ptr<std::atomic<std::uint32_t>> next_query_id_;
   std::optional<msg::HeadPose> last_pose_;
   std::optional<msg::Query> last_query_;
   std::optional<Epoch> acked_published_;

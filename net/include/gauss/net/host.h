@@ -19,6 +19,11 @@
 // Welcome (or Refuse: a Refuse sent through send() closes the connection after it
 // is delivered).
 //
+// Before and at the handshake the admission limits apply (admission.h: peer slots,
+// per-address limits, connect-request and handshake timeouts, the backoff after a wrong
+// proof, session-open rates, stalled channels); what they refuse and drop is counted and
+// summarised in one log line per interval, never logged per event.
+//
 // Threading: only the service thread touches ENet. send(), poll(), wait() and
 // counters() are thread-safe; messages are encoded on the caller's thread, so a big
 // edit batch never stalls the service loop.
@@ -35,6 +40,7 @@
 #include "gauss/engine/slot_table.h"
 #include "gauss/engine/wire.h"
 #include "gauss/net/address.h"
+#include "gauss/net/admission.h"
 
 namespace gauss::net {
 
@@ -63,8 +69,13 @@ struct NetHostConfig {
   // More rejected messages than this from one client and it is disconnected: a peer
   // that only sends garbage costs the host nothing more.
   std::uint32_t max_rejected_per_client{256};
-  // A connection that sends no valid Hello within this time is dropped.
-  std::chrono::milliseconds handshake_timeout{5000};
+  // A connection that sends no Hello (or, with a token, no proof) within this time is
+  // dropped at once (no disconnect handshake: a silent peer would not answer it). A
+  // client sends its Hello on connect and its proof one round trip later.
+  std::chrono::milliseconds handshake_timeout{3000};
+  // Peer slots, per-address limits, connect-request timeout, guessing backoff, session
+  // rate, stalled channels and the summary log line (admission.h).
+  AdmissionConfig admission{};
   // ENet peer timeout bounds: a crashed client is noticed after at most `peer_timeout_max`.
   std::chrono::milliseconds peer_timeout_min{2000};
   std::chrono::milliseconds peer_timeout_max{8000};
@@ -74,7 +85,9 @@ struct NetHostConfig {
   LogFn log;                          // empty: stderr
 };
 
-// Counters of everything the host accepted and rejected, by reason.
+// Counters of everything the host accepted and rejected, by reason. Events before a
+// client is handshaken are never logged one by one (a flood would flood the log): one
+// summary line per AdmissionConfig::summary_interval gives the counts that changed.
 struct HostCounters {
   std::uint64_t connections{0};        // ENet connects
   std::uint64_t accepted{0};           // Hellos passed to the policy
@@ -84,7 +97,15 @@ struct HostCounters {
   std::uint64_t refused_capacity{0};
   std::uint64_t refused_full{0};
   std::uint64_t refused_malformed{0};  // first message not a valid Hello
-  std::uint64_t handshake_timeouts{0};
+  std::uint64_t refused_backoff{0};       // Hellos from an address still waiting after a wrong proof
+  std::uint64_t refused_proof_rate{0};    // Hellos over the host-wide proof rate
+  std::uint64_t refused_address_full{0};  // max_clients_per_address reached
+  std::uint64_t refused_session_rate{0};  // session opens over the per-address rate
+  std::uint64_t handshake_timeouts{0};    // connected, no Hello / proof in time
+  std::uint64_t handshake_evicted{0};     // the same, dropped early while peer slots ran short
+  std::uint64_t pending_timeouts{0};      // connect requests never acknowledged (ENet handshake)
+  std::uint64_t pending_evicted{0};       // the same, dropped early while peer slots ran short
+  std::uint64_t refusals_dropped{0};      // refused peers that did not take their Refuse and leave
   std::uint64_t disconnects{0};        // handshaken clients gone (either side, or timeout)
   std::uint64_t messages_received{0};  // valid messages handed to the policy
   std::uint64_t malformed{0};          // undecodable messages after the handshake
@@ -92,14 +113,20 @@ struct HostCounters {
   std::uint64_t query_flood{0};        // queries over the rate limit
   std::uint64_t message_flood{0};      // messages over the per-client message rate
   std::uint64_t events_dropped{0};     // poll() queue full
-  std::uint64_t kicked{0};             // clients disconnected for too many rejections
+  std::uint64_t kicked{0};             // clients disconnected for too many rejections or a stall
+  std::uint64_t stalled{0};            // of those, input held undelivered past stall_timeout
   std::uint64_t messages_sent{0};
   std::uint64_t bytes_sent{0};
   std::uint64_t bytes_received{0};
   std::uint64_t send_dropped{0};       // send() to a client that was gone by the time it flushed
+  std::uint64_t summaries{0};          // summary lines logged
   std::string last_rejection;          // reason of the newest rejection, for tests and logs
   std::uint64_t rejected() const {
     return malformed + wrong_direction + query_flood + message_flood;
+  }
+  std::uint64_t refused() const {
+    return refused_version + refused_token + refused_capacity + refused_full + refused_malformed + refused_backoff +
+           refused_proof_rate + refused_address_full + refused_session_rate;
   }
 };
 

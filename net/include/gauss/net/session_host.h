@@ -36,6 +36,10 @@ struct SessionHostConfig {
   // empty: nothing is called.
   std::function<void(std::uint32_t client, const std::string& client_name, const HostSession& session)>
       on_session_closed;
+  // Called with each new session right after it answered its client's Hello (accepted()
+  // says whether it welcomed it), on the thread calling pump(); empty: nothing is called.
+  std::function<void(std::uint32_t client, const std::string& client_name, const HostSession& session)>
+      on_session_opened;
 };
 
 struct SessionHostStats {

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <vector>
 
 #include <glm/vec3.hpp>
 
@@ -31,6 +32,24 @@ class StagedUploads;
 }
 
 namespace gauss::render {
+
+// One vertex as the mesh pass reads it (binding 0): position (R32G32B32_SFLOAT) + colour
+// (R8G8B8A8_UNORM).
+struct MeshVertex {
+  float position[3];
+  std::uint8_t colour[4];
+};
+static_assert(sizeof(MeshVertex) == 16);
+
+// A chunk checked and in the pass's vertex layout: what set_chunk uploads. Made without
+// Vulkan, so a publication thread can prepare it while the display renders.
+struct PreparedMeshChunk {
+  std::vector<MeshVertex> vertices;
+  std::vector<std::uint32_t> indices;
+};
+// Errors (naming chunk `id`): colours not one per position, an index count not a multiple
+// of 3, an index out of range, a non-finite position, an empty mesh.
+Expected<PreparedMeshChunk> prepare_mesh_chunk(std::uint64_t id, const TriangleMesh& mesh);
 
 // How a chunk change reaches the GPU (both null: direct, for standalone use).
 struct MeshUpdate {
@@ -52,6 +71,8 @@ class MeshPass {
   Status set_mesh(vk::Context& context, const TriangleMesh& mesh, const MeshUpdate& via = {});
   // Adds or replaces chunk `id` (same checks as set_mesh; an empty mesh removes it).
   Status set_chunk(vk::Context& context, std::uint64_t id, const TriangleMesh& mesh, const MeshUpdate& via = {});
+  // Adds or replaces chunk `id` with a prepared one (buffers and their uploads only).
+  Status set_chunk(vk::Context& context, std::uint64_t id, const PreparedMeshChunk& chunk, const MeshUpdate& via = {});
   // Removes chunk `id` (absent: nothing happens).
   void remove_chunk(std::uint64_t id, const MeshUpdate& via = {}) noexcept;
   void clear_mesh(const MeshUpdate& via = {}) noexcept;

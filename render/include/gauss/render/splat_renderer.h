@@ -53,6 +53,8 @@ class StagedUploads;
 
 namespace gauss::render {
 
+struct PreparedMeshChunk;  // mesh_pass.h
+
 inline constexpr std::uint32_t kMaxHighlightObjects = 65'536;
 
 // The shapes of the compute passes (scans, radix count and scatter), chosen once when the
@@ -76,6 +78,12 @@ const char* pass_shapes_name(SplatPassShapes shapes) noexcept;  // "auto", "cpu"
 // subgroup 32, 48 KiB shared)").
 struct SplatPassProfile {
   SplatPassShapes shapes{SplatPassShapes::Cpu};
+  // Radix digit width: 4 (CPU shapes; GPU shapes where 8-bit rows do not fit shared
+  // memory) or 8 (GPU shapes: half the passes). GAUSS_SORT_RADIX_BITS=4|8 overrides it
+  // for the GPU shapes when it fits (benchmarks compare the two on one device).
+  std::uint32_t radix_bits{4};
+  // Shared rows of the GPU radix scatter: SPLAT_WORKGROUP / the smallest subgroup.
+  std::uint32_t sort_rows{64};
   std::string reason;
 };
 // Resolves `requested` (Auto: GAUSS_PASS_SHAPES, else the device type). Errors:
@@ -180,6 +188,7 @@ class SplatRenderer {
   // ---- Mesh layer (mesh_pass.h: chunks by id, drawn in id order) ----
   Status set_mesh(const TriangleMesh& mesh);  // the only chunk
   Status set_mesh_chunk(std::uint64_t id, const TriangleMesh& mesh);  // add / replace
+  Status set_mesh_chunk(std::uint64_t id, const PreparedMeshChunk& chunk);  // prepare_mesh_chunk's
   void remove_mesh_chunk(std::uint64_t id) noexcept;
   void clear_mesh() noexcept;
   bool has_mesh() const noexcept;

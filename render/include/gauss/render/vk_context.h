@@ -133,6 +133,9 @@ class Context {
   // The largest subgroup a compute shader may run with (maxSubgroupSize where the device
   // varies it, else subgroup_size()).
   std::uint32_t max_subgroup_size() const noexcept { return max_subgroup_size_; }
+  // The smallest (minSubgroupSize where the device varies it, else subgroup_size()):
+  // shared arrays with a row per subgroup are sized for it.
+  std::uint32_t min_subgroup_size() const noexcept { return min_subgroup_size_; }
   VkDriverId driver_id() const noexcept { return driver_id_; }
   // The largest single allocation (maxMemoryAllocationSize); a buffer is one allocation.
   VkDeviceSize max_memory_allocation_size() const noexcept { return max_memory_allocation_size_; }
@@ -206,6 +209,7 @@ class Context {
   VkPhysicalDeviceMemoryProperties memory_properties_{};
   std::uint32_t subgroup_size_{0};
   std::uint32_t max_subgroup_size_{0};
+  std::uint32_t min_subgroup_size_{0};
   VkSubgroupFeatureFlags subgroup_operations_{0};
   VkDriverId driver_id_{};
   VkDeviceSize max_memory_allocation_size_{0};

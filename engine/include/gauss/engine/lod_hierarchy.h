@@ -1,0 +1,237 @@
+#pragma once
+// LodHierarchy: a merge hierarchy over one epoch's eligible Gaussians, kept up to date
+// incrementally, from which the host can cut a level of detail under the budget M.
+//
+// Shape. Leaves are the scene's Gaussians (their ids and values). Leaves are grouped by object
+// first: each semantic object gets its own subtree, the unlabelled Gaussians (object < 0) one
+// background subtree; the object subtrees hang under a radix tree over object ids (fan-out <= 8),
+// and the root has that and the background subtree as children (either alone is the root).
+// Within a group the subtree is an adaptive octree over the leaves' Morton codes (21 bits per
+// axis in a fixed cube, LodConfig::cube):
+//   - a cell holding at most LodConfig::max_leaves_per_node leaves is one node whose children
+//     are those leaves (a "bottom" node; at the finest level, 2^-21 of the cube, a cell holds
+//     any number: coincident leaves cannot be split);
+//   - a larger cell is split into its non-empty octants (fan-out 2..8);
+//   - a cell with a single non-empty octant is no node of its own (the chain collapses onto the
+//     first cell that splits), and a cell with a single leaf is that leaf.
+// The tree is thus a pure function of the leaf set and the cube: an incremental update
+// and a full build of the same leaves give the same nodes and bit-identical records.
+//
+// Ids. Interior nodes have ids with the top bit set (kLodInteriorIdBit | serial, serials never
+// reused), which no scene Gaussian has: SceneStore and the trackers hand out ids counting up
+// from 0, and a Gaussian id with the top bit is refused. An interior node is its cell (tree,
+// octree level, Morton prefix), and keeps its id as long as that cell is a node: while its leaf
+// set is unchanged it is untouched, id and record (bit for bit); when leaves under it change
+// it keeps its id and its record is recomputed (reported modified when the bits differ); when
+// the cell stops being a node (emptied, or collapsed into a chain) the id is retired for good.
+//
+// Records. An interior node's record is the moment match of ALL leaves under it (lod_merge.h:
+// weights opacity x area, law of total variance, optical depth conserved so opacity <= 1).
+// Leaves that cannot enter a merge (non-finite fields, zero opacity x area, scale above
+// LodConfig::merge.max_scale) are not leaves of the hierarchy: they are skipped, counted in the
+// update report, and left for leaf-level selection; so every node stands for >= 1 usable leaf
+// and every record is finite.
+//
+// Incremental cost. An update touches only the cells on the paths from changed leaves (old and
+// new positions) to the root: O(changes x depth) node merges, plus O(N) sequential work to keep
+// the sorted leaf order when leaves come or go (a merge of two sorted arrays); update() also
+// compares every Gaussian with its stored leaf (O(N)); apply() takes the changes as given.
+//
+// Storage is flat: nodes in one pool (indices stable while a node lives; retired entries are
+// reused by later updates, so walk from root(), never over the pool), children as runs in one
+// index array, interior records in one array. Not thread-safe; one writer.
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include "gauss/engine/gaussian.h"
+#include "gauss/engine/id_index.h"
+#include "gauss/engine/ids.h"
+#include "gauss/engine/lod_merge.h"
+#include "gauss/engine/result.h"
+
+namespace gauss {
+
+// Interior node ids: this bit set, the low 63 bits a serial. Leaf ids never carry it.
+inline constexpr std::uint64_t kLodInteriorIdBit = std::uint64_t{1} << 63;
+inline constexpr std::uint32_t kNoLodNode = 0xFFFFFFFFu;
+
+inline bool is_lod_interior_id(GaussianId id) { return (to_underlying(id) & kLodInteriorIdBit) != 0; }
+
+// The cube the Morton codes quantise (21 bits per axis). The tree is canonical for a given
+// cube: two hierarchies over the same leaves and cube are the same tree.
+struct LodCube {
+  glm::dvec3 min{0.0};
+  double edge{0.0};  // metres, > 0
+};
+
+struct LodConfig {
+  // A cell with more leaves than this is split. 8 matches the octree's fan-out: a bottom node
+  // merges at most as many children as a split one, so every level shrinks the count ~8x and a
+  // 1M-leaf tree is ~7 levels deep with ~1/7 as many interior nodes as leaves. Range 2..64.
+  std::uint32_t max_leaves_per_node{8};
+  LodMergeConfig merge;
+  // The quantisation cube; when absent (edge 0) it is fixed at the first non-empty update:
+  // 16x that epoch's extent (at least 16 m) around its centre, so a scene growing after its
+  // first epoch still falls inside. A caller that knows its scene's box (the codec's) may fix
+  // it here; positions outside are clamped to the border cells (valid, only less split).
+  LodCube cube;
+};
+
+struct LodNode {
+  GaussianId id{0};                // leaf: the Gaussian's id; interior: kLodInteriorIdBit | serial
+  std::uint32_t parent{kNoLodNode};
+  std::uint32_t first_child{0};    // children: LodHierarchy::children()[first_child, +child_count)
+  std::uint32_t child_count{0};    // 0 for a leaf
+  std::uint32_t leaf_count{0};     // leaves under the node (1 for a leaf)
+  std::uint32_t data{0};           // private: leaf slot or interior record index
+  glm::vec3 centre{0.0f};          // bounding sphere of the leaves' 3-sigma ellipsoids:
+  float radius{0.0f};              //   view-dependent error = radius / distance
+  std::uint16_t height{0};         // 0 for a leaf, else 1 + the highest child's
+  bool live{false};
+  bool leaf{false};
+};
+
+// What an update changed among the interior nodes (the records the host sends), each list
+// sorted by id. Leaf edits are the scene's own (the changes given), only counted here.
+struct LodUpdateReport {
+  std::vector<GaussianId> added;     // interior nodes that are new
+  std::vector<GaussianId> removed;   // interior nodes retired
+  std::vector<GaussianId> modified;  // kept interior nodes whose record's bits changed
+  std::size_t leaves_inserted{0};
+  std::size_t leaves_modified{0};
+  std::size_t leaves_removed{0};
+  std::size_t skipped{0};            // Gaussians left out as unusable (lod_merge.h LodLeafStatus)
+  std::size_t nodes_merged{0};       // interior records recomputed (the update's work)
+};
+
+class LodHierarchy {
+ public:
+  // An empty hierarchy for scenes of this SH degree. Fails on a degree outside 0..3, or
+  // max_leaves_per_node outside 2..64, or max_scale not positive and finite, or a cube with a
+  // negative, non-finite or non-finite-origin edge.
+  static Expected<LodHierarchy> create(int sh_degree, const LodConfig& config = {});
+  // create() then update(gaussians): the full build.
+  static Expected<LodHierarchy> build(std::span<const Gaussian> gaussians, int sh_degree,
+                                      const LodConfig& config = {});
+
+  // Brings the hierarchy to exactly `gaussians` (the new epoch's eligible set): ids not
+  // present are removed, new ids inserted, ids whose value differs (position, log_scale,
+  // rotation, opacity, colour up to the degree, object, support) modified. Fails, changing
+  // nothing, on a duplicate id or an id with the top bit set (naming it).
+  Expected<LodUpdateReport> update(std::span<const Gaussian> gaussians);
+  // The same from a change list: `upserts` are inserted or (when the id is a leaf) modified,
+  // `removed` removed. Fails, changing nothing, on an id given twice, a removed id that is not
+  // a leaf (unless it was skipped before: unknown ids are ignored only if `lenient_removes`),
+  // or an id with the top bit set.
+  Expected<LodUpdateReport> apply(std::span<const Gaussian> upserts, std::span<const GaussianId> removed,
+                                  bool lenient_removes = false);
+
+  // --- reading --------------------------------------------------------------------------
+  std::uint32_t root() const { return root_; }  // kNoLodNode when empty
+  const LodNode& node(std::uint32_t index) const { return nodes_[index]; }
+  std::span<const LodNode> nodes() const { return nodes_; }  // the pool: has dead entries
+  std::span<const std::uint32_t> children(const LodNode& n) const {
+    return std::span<const std::uint32_t>(children_).subspan(n.first_child, n.child_count);
+  }
+  // The record of an interior node (id set); for a leaf use leaf_gaussian().
+  const Gaussian& record(const LodNode& n) const { return records_[n.data]; }
+  // A leaf's Gaussian as stored (carrier false; SH rest above the degree zero).
+  Gaussian leaf_gaussian(const LodNode& n) const;
+  // The node's Gaussian whichever kind it is.
+  Gaussian gaussian(const LodNode& n) const { return n.leaf ? leaf_gaussian(n) : record(n); }
+  // Pool index of the leaf with this id, or kNoLodNode.
+  std::uint32_t find_leaf(GaussianId id) const;
+  std::size_t leaf_count() const { return leaf_index_.size(); }
+  std::size_t interior_count() const { return interior_live_; }
+  int sh_degree() const { return sh_degree_; }
+  // The quantisation cube in use (edge 0 until the first non-empty update fixed it).
+  LodCube cube() const { return cube_set_ ? LodCube{cube_min_, double(1u << 21) / cell_inv_} : LodCube{}; }
+  const LodConfig& config() const { return config_; }
+
+ private:
+  struct LeafFields {  // what a leaf's value is (compared by update(), merged by its parent)
+    glm::vec3 position;
+    glm::vec3 log_scale;
+    glm::vec4 rotation;
+    float opacity_logit;
+    glm::vec3 sh_dc;
+    ObjectId object;
+    std::uint32_t support;
+  };
+  struct InteriorKey {  // the cell an interior node is
+    std::uint32_t tree{0};  // object id, kBackgroundTree, kObjectsTree or kRootTree
+    std::uint8_t level{0};
+    std::uint64_t prefix{0};
+  };
+  struct Entry {  // one leaf in the sorted order: tree, then code, then id
+    std::uint32_t tree;
+    std::uint32_t node;
+    std::uint64_t code;
+    std::uint64_t id;
+  };
+  struct TreeBuild;
+
+  LodHierarchy() = default;
+
+  // lod_hierarchy.cpp
+  Expected<LodUpdateReport> apply_changes(std::span<const Gaussian* const> upserts,
+                                          std::span<const GaussianId> removed, bool lenient);
+  std::uint64_t morton(const glm::vec3& p) const;
+  std::uint32_t tree_of(ObjectId o) const;
+  std::uint32_t alloc_node();
+  void store_leaf(std::uint32_t node, const Gaussian& g);
+  bool same_leaf_value(std::uint32_t node, const Gaussian& g) const;
+  void compact_children();
+  // lod_tree_build.cpp
+  std::uint32_t build_cell(TreeBuild& b, std::span<const Entry> items, int level, std::uint64_t prefix,
+                           std::uint32_t candidate);
+  std::uint32_t make_interior(TreeBuild& b, int level, std::uint64_t prefix, std::uint32_t reuse,
+                              std::span<const std::uint32_t> kids);
+  void retire_subtree(TreeBuild& b, std::uint32_t node);
+  void retire_node(TreeBuild& b, std::uint32_t node);
+  void node_moments(std::uint32_t node, LodMoments& m, std::span<glm::dvec3> rest) const;
+
+  LodConfig config_;
+  int sh_degree_{0};
+  int rest_count_{0};
+
+  // Quantisation cube (fixed at the first non-empty update).
+  bool cube_set_{false};
+  glm::dvec3 cube_min_{0.0};
+  double cell_inv_{1.0};  // 2^21 / cube edge
+
+  std::vector<LodNode> nodes_;
+  std::vector<std::uint32_t> free_nodes_;
+  std::vector<std::uint32_t> children_;
+  std::size_t children_garbage_{0};
+  // Leaf slots (node.data of a leaf): fields and SH rest (rest_count_ triples per slot).
+  std::vector<LeafFields> leaf_fields_;
+  std::vector<glm::vec3> leaf_rest_;
+  std::vector<std::uint32_t> free_leaf_slots_;
+  detail::IdIndex leaf_index_;  // leaf id -> node
+  // Interior slots (node.data of an interior node).
+  std::vector<Gaussian> records_;
+  std::vector<LodMoments> moments_;
+  std::vector<glm::dvec3> moments_rest_;
+  std::vector<InteriorKey> keys_;
+  std::vector<std::uint32_t> free_interior_slots_;
+  std::size_t interior_live_{0};
+  std::uint64_t next_serial_{0};
+
+  std::vector<Entry> order_;  // every leaf, sorted by (tree, code, id)
+  std::vector<Entry> order_scratch_;
+  // Per pool entry: the update that last touched it (duplicate ids are found without a sort).
+  std::vector<std::uint32_t> touch_stamp_;
+  std::uint32_t stamp_{0};
+  // Root node of each group tree, sorted by tree.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> group_roots_;
+  std::uint32_t objects_root_{kNoLodNode};
+  std::uint32_t root_{kNoLodNode};
+};
+
+}  // namespace gauss

@@ -1,0 +1,417 @@
+// LodHierarchy: validation, leaf bookkeeping and the update's phases (leaves, sorted order,
+// group trees, objects tree, root). The per-cell recursion is in lod_tree_build.cpp.
+#include "gauss/engine/lod_hierarchy.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "lod_internal.h"
+
+namespace gauss {
+
+using lod_detail::kBackgroundTree;
+using lod_detail::kGroupLevels;
+using lod_detail::kObjectsLevels;
+using lod_detail::kObjectsTree;
+using lod_detail::kRootTree;
+
+namespace {
+
+// Marks a new id in leaf_index_ while an update is validated (rolled back on failure).
+constexpr std::uint32_t kPendingLeaf = 0xFFFFFFFEu;
+
+std::string id_text(GaussianId id) { return std::to_string(to_underlying(id)); }
+
+bool entry_less(std::uint32_t ta, std::uint64_t ca, std::uint64_t ia, std::uint32_t tb, std::uint64_t cb,
+                std::uint64_t ib) {
+  if (ta != tb) return ta < tb;
+  if (ca != cb) return ca < cb;
+  return ia < ib;
+}
+
+}  // namespace
+
+Expected<LodHierarchy> LodHierarchy::create(int sh_degree, const LodConfig& config) {
+  if (sh_degree < 0 || sh_degree > kMaxShDegree)
+    return Error{"LodHierarchy: SH degree " + std::to_string(sh_degree) + " is outside 0..3"};
+  if (config.max_leaves_per_node < 2 || config.max_leaves_per_node > 64)
+    return Error{"LodHierarchy: max_leaves_per_node " + std::to_string(config.max_leaves_per_node) +
+                 " is outside 2..64"};
+  if (!(config.merge.max_scale > 0.0) || !std::isfinite(config.merge.max_scale))
+    return Error{"LodHierarchy: merge.max_scale must be positive and finite"};
+  const LodCube& c = config.cube;
+  if (!(c.edge >= 0.0) || !std::isfinite(c.edge) || !std::isfinite(c.min.x) || !std::isfinite(c.min.y) ||
+      !std::isfinite(c.min.z))
+    return Error{"LodHierarchy: cube edge must be >= 0 and the cube finite (edge 0: fixed by the first epoch)"};
+  LodHierarchy h;
+  h.config_ = config;
+  if (c.edge > 0.0) {
+    h.cube_min_ = c.min;
+    h.cell_inv_ = double(1u << kGroupLevels) / c.edge;
+    h.cube_set_ = true;
+  }
+  h.sh_degree_ = sh_degree;
+  h.rest_count_ = sh_rest_count(sh_degree);
+  return h;
+}
+
+Expected<LodHierarchy> LodHierarchy::build(std::span<const Gaussian> gaussians, int sh_degree,
+                                           const LodConfig& config) {
+  auto h = create(sh_degree, config);
+  if (!h) return h.error();
+  if (auto r = h->update(gaussians); !r) return Error{"LodHierarchy::build: " + r.message()};
+  return std::move(h.value());
+}
+
+std::uint32_t LodHierarchy::find_leaf(GaussianId id) const {
+  const std::uint32_t* v = leaf_index_.find(to_underlying(id));
+  return v && *v != kPendingLeaf ? *v : kNoLodNode;
+}
+
+Gaussian LodHierarchy::leaf_gaussian(const LodNode& n) const {
+  const LeafFields& f = leaf_fields_[n.data];
+  Gaussian g;
+  g.position = f.position;
+  g.log_scale = f.log_scale;
+  g.rotation = f.rotation;
+  g.opacity_logit = f.opacity_logit;
+  g.sh_dc = f.sh_dc;
+  const std::size_t rc = std::size_t(rest_count_);
+  for (std::size_t k = 0; k < rc; ++k) g.sh_rest[k] = leaf_rest_[std::size_t(n.data) * rc + k];
+  g.id = n.id;
+  g.object = f.object;
+  g.support = f.support;
+  return g;
+}
+
+std::uint64_t LodHierarchy::morton(const glm::vec3& p) const {
+  constexpr double kMax = double((1u << kGroupLevels) - 1);
+  auto q = [&](int a) {
+    const double v = std::floor((double(p[a]) - cube_min_[a]) * cell_inv_);
+    return std::uint64_t(std::clamp(v, 0.0, kMax));
+  };
+  return lod_detail::morton3(q(0), q(1), q(2));
+}
+
+std::uint32_t LodHierarchy::tree_of(ObjectId o) const {
+  return to_underlying(o) >= 0 ? std::uint32_t(to_underlying(o)) : kBackgroundTree;
+}
+
+std::uint32_t LodHierarchy::alloc_node() {
+  if (!free_nodes_.empty()) {
+    const std::uint32_t n = free_nodes_.back();
+    free_nodes_.pop_back();
+    nodes_[n] = LodNode{};
+    return n;
+  }
+  nodes_.emplace_back();
+  touch_stamp_.push_back(0);
+  return std::uint32_t(nodes_.size() - 1);
+}
+
+void LodHierarchy::store_leaf(std::uint32_t node, const Gaussian& g) {
+  LodNode& n = nodes_[node];
+  leaf_fields_[n.data] = LeafFields{g.position, g.log_scale, g.rotation, g.opacity_logit, g.sh_dc, g.object, g.support};
+  const std::size_t rc = std::size_t(rest_count_);
+  for (std::size_t k = 0; k < rc; ++k) leaf_rest_[std::size_t(n.data) * rc + k] = g.sh_rest[k];
+  n.id = g.id;
+  n.centre = g.position;
+  n.radius = 3.0f * std::exp(std::max({g.log_scale.x, g.log_scale.y, g.log_scale.z}));
+  n.leaf_count = 1;
+  n.height = 0;
+  n.live = true;
+  n.leaf = true;
+}
+
+bool LodHierarchy::same_leaf_value(std::uint32_t node, const Gaussian& g) const {
+  const LeafFields& f = leaf_fields_[nodes_[node].data];
+  if (!(f.position == g.position && f.log_scale == g.log_scale && f.rotation == g.rotation &&
+        f.opacity_logit == g.opacity_logit && f.sh_dc == g.sh_dc && f.object == g.object && f.support == g.support))
+    return false;
+  const std::size_t rc = std::size_t(rest_count_);
+  for (std::size_t k = 0; k < rc; ++k)
+    if (leaf_rest_[std::size_t(nodes_[node].data) * rc + k] != g.sh_rest[k]) return false;
+  return true;
+}
+
+Expected<LodUpdateReport> LodHierarchy::update(std::span<const Gaussian> gaussians) {
+  // Leaves not met below are the removed ones; a leaf met twice is a duplicate id.
+  if (++stamp_ == 0) {
+    std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);
+    stamp_ = 1;
+  }
+  const std::uint32_t seen = stamp_;
+  std::vector<const Gaussian*> upserts;
+  for (const Gaussian& g : gaussians) {
+    const std::uint32_t node = find_leaf(g.id);
+    if (node == kNoLodNode) {
+      upserts.push_back(&g);
+      continue;
+    }
+    if (touch_stamp_[node] == seen) return Error{"LodHierarchy::update: Gaussian id " + id_text(g.id) + " appears twice"};
+    touch_stamp_[node] = seen;
+    if (!same_leaf_value(node, g)) upserts.push_back(&g);
+  }
+  std::vector<GaussianId> removed;
+  leaf_index_.for_each([&](std::uint64_t id, std::uint32_t node) {
+    if (touch_stamp_[node] != seen) removed.push_back(GaussianId{id});
+  });
+  return apply_changes(upserts, removed, false);
+}
+
+Expected<LodUpdateReport> LodHierarchy::apply(std::span<const Gaussian> upserts, std::span<const GaussianId> removed,
+                                              bool lenient_removes) {
+  std::vector<const Gaussian*> ptrs;
+  ptrs.reserve(upserts.size());
+  for (const Gaussian& g : upserts) ptrs.push_back(&g);
+  return apply_changes(ptrs, removed, lenient_removes);
+}
+
+Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* const> upserts,
+                                                      std::span<const GaussianId> removed, bool lenient) {
+  // --- 1. Validate, changing nothing that cannot be rolled back. ---------------------------
+  if (++stamp_ == 0) {
+    std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);
+    stamp_ = 1;
+  }
+  const std::uint32_t stamp = stamp_;
+  std::vector<std::uint64_t> pending;  // new ids marked in leaf_index_, erased on failure
+  auto fail = [&](std::string message) -> Expected<LodUpdateReport> {
+    for (std::uint64_t id : pending) leaf_index_.erase(id);
+    return Error{std::move(message)};
+  };
+  for (GaussianId id : removed) {
+    if (to_underlying(id) & kLodInteriorIdBit)
+      return fail("LodHierarchy: removed id " + id_text(id) + " has the top bit set (reserved for interior nodes)");
+    const std::uint32_t node = find_leaf(id);
+    if (node == kNoLodNode) {
+      if (lenient) continue;
+      return fail("LodHierarchy: removed id " + id_text(id) + " is not a leaf");
+    }
+    if (touch_stamp_[node] == stamp) return fail("LodHierarchy: id " + id_text(id) + " is removed twice");
+    touch_stamp_[node] = stamp;
+  }
+  for (const Gaussian* g : upserts) {
+    const std::uint64_t id = to_underlying(g->id);
+    if (id & kLodInteriorIdBit)
+      return fail("LodHierarchy: Gaussian id " + id_text(g->id) + " has the top bit set (reserved for interior nodes)");
+    const std::uint32_t* v = leaf_index_.find(id);
+    if (v && *v == kPendingLeaf) return fail("LodHierarchy: Gaussian id " + id_text(g->id) + " is given twice");
+    if (v) {
+      if (touch_stamp_[*v] == stamp)
+        return fail("LodHierarchy: Gaussian id " + id_text(g->id) + " is given twice (or also removed)");
+      touch_stamp_[*v] = stamp;
+    } else {
+      leaf_index_.set(id, kPendingLeaf);
+      pending.push_back(id);
+    }
+  }
+
+  // --- 2. Leaves: classify, store, and note each change's old and new cells. ---------------
+  LodUpdateReport report;
+  std::vector<LodLeafStatus> status(upserts.size());
+  {
+    LodMoments m;
+    std::vector<glm::dvec3> rest(std::size_t(rest_count_) + 1);
+    for (std::size_t i = 0; i < upserts.size(); ++i) status[i] = leaf_moments(*upserts[i], sh_degree_, config_.merge, m, rest);
+  }
+  if (!cube_set_) {
+    // The quantisation cube: 16x the first non-empty epoch's extent (at least 16 m) around its
+    // centre, fixed from then on so codes, cells and ids stay comparable between epochs.
+    glm::dvec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
+    for (std::size_t i = 0; i < upserts.size(); ++i)
+      if (status[i] == LodLeafStatus::Usable) {
+        lo = glm::min(lo, glm::dvec3(upserts[i]->position));
+        hi = glm::max(hi, glm::dvec3(upserts[i]->position));
+      }
+    if (lo.x <= hi.x) {
+      const glm::dvec3 e = hi - lo;
+      const double half = 8.0 * std::max({e.x, e.y, e.z, 1.0});
+      cube_min_ = 0.5 * (lo + hi) - half;
+      cell_inv_ = double(1u << kGroupLevels) / (2.0 * half);
+      cube_set_ = true;
+    }
+  }
+
+  std::vector<std::pair<std::uint32_t, std::uint64_t>> dirty;  // (tree, code)
+  std::vector<Entry> fresh;                                    // entries entering the order
+  std::vector<std::uint32_t> leaving;                          // nodes whose entry leaves it
+  std::vector<std::uint32_t> dead_leaves;                      // nodes freed at the end
+  auto remove_leaf = [&](std::uint32_t node) {
+    const LeafFields& f = leaf_fields_[nodes_[node].data];
+    dirty.emplace_back(tree_of(f.object), morton(f.position));
+    leaving.push_back(node);
+    dead_leaves.push_back(node);
+    leaf_index_.erase(to_underlying(nodes_[node].id));
+    ++report.leaves_removed;
+  };
+  for (GaussianId id : removed)
+    if (const std::uint32_t node = find_leaf(id); node != kNoLodNode) remove_leaf(node);
+  for (std::size_t i = 0; i < upserts.size(); ++i) {
+    const Gaussian& g = *upserts[i];
+    const std::uint32_t* v = leaf_index_.find(to_underlying(g.id));
+    const std::uint32_t node = *v;  // present: a leaf or pending
+    if (status[i] != LodLeafStatus::Usable) {
+      ++report.skipped;
+      if (node == kPendingLeaf)
+        leaf_index_.erase(to_underlying(g.id));
+      else
+        remove_leaf(node);  // a leaf turned unusable leaves the hierarchy
+      continue;
+    }
+    const std::uint32_t tree = tree_of(g.object);
+    const std::uint64_t code = morton(g.position);
+    if (node == kPendingLeaf) {
+      const std::uint32_t n = alloc_node();
+      if (!free_leaf_slots_.empty()) {
+        nodes_[n].data = free_leaf_slots_.back();
+        free_leaf_slots_.pop_back();
+      } else {
+        nodes_[n].data = std::uint32_t(leaf_fields_.size());
+        leaf_fields_.emplace_back();
+        leaf_rest_.resize(leaf_rest_.size() + std::size_t(rest_count_));
+      }
+      store_leaf(n, g);
+      leaf_index_.set(to_underlying(g.id), n);
+      fresh.push_back(Entry{tree, n, code, to_underlying(g.id)});
+      dirty.emplace_back(tree, code);
+      ++report.leaves_inserted;
+      continue;
+    }
+    if (same_leaf_value(node, g)) continue;  // apply() may pass unchanged Gaussians
+    const LeafFields& f = leaf_fields_[nodes_[node].data];
+    const std::uint32_t old_tree = tree_of(f.object);
+    const std::uint64_t old_code = morton(f.position);
+    dirty.emplace_back(old_tree, old_code);
+    if (old_tree != tree || old_code != code) {
+      dirty.emplace_back(tree, code);
+      leaving.push_back(node);
+      fresh.push_back(Entry{tree, node, code, to_underlying(g.id)});
+    }
+    store_leaf(node, g);
+    ++report.leaves_modified;
+  }
+  if (dirty.empty()) return report;
+
+  // --- 3. The sorted leaf order: drop leaving entries, merge fresh ones in. ----------------
+  if (!leaving.empty() || !fresh.empty()) {
+    ++stamp_;  // a new mark for "leaves the order" (the validation marks are done with)
+    if (stamp_ == 0) {
+      std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);
+      stamp_ = 1;
+    }
+    for (std::uint32_t n : leaving) touch_stamp_[n] = stamp_;
+    if (!leaving.empty())
+      std::erase_if(order_, [&](const Entry& e) { return touch_stamp_[e.node] == stamp_; });
+    auto less = [](const Entry& a, const Entry& b) { return entry_less(a.tree, a.code, a.id, b.tree, b.code, b.id); };
+    std::sort(fresh.begin(), fresh.end(), less);
+    order_scratch_.resize(order_.size() + fresh.size());
+    std::merge(order_.begin(), order_.end(), fresh.begin(), fresh.end(), order_scratch_.begin(), less);
+    order_.swap(order_scratch_);
+  }
+
+  // --- 4. Group trees with changes. -----------------------------------------------------
+  std::sort(dirty.begin(), dirty.end());
+  dirty.erase(std::unique(dirty.begin(), dirty.end()), dirty.end());
+  std::vector<std::uint64_t> codes;
+  codes.reserve(dirty.size());
+  for (const auto& d : dirty) codes.push_back(d.second);
+  std::vector<std::uint32_t> retired, stack;
+  std::vector<LodMoments> scratch_moments;
+  std::vector<glm::dvec3> scratch_rest;
+  auto make_build = [&](std::uint32_t tree, int levels, std::span<const std::uint64_t> changed) {
+    TreeBuild b;
+    b.tree = tree;
+    b.levels = levels;
+    b.dirty = changed;
+    b.report = &report;
+    b.retired = &retired;
+    b.stack = &stack;
+    b.moments = &scratch_moments;
+    b.rest = &scratch_rest;
+    return b;
+  };
+  std::vector<std::uint64_t> changed_objects;
+  bool background_changed = false;
+  for (std::size_t i = 0; i < dirty.size();) {
+    const std::uint32_t tree = dirty[i].first;
+    std::size_t j = i;
+    while (j < dirty.size() && dirty[j].first == tree) ++j;
+    const auto first = std::partition_point(order_.begin(), order_.end(), [&](const Entry& e) { return e.tree < tree; });
+    const auto last = std::partition_point(first, order_.end(), [&](const Entry& e) { return e.tree == tree; });
+    const std::span<const Entry> items(order_.data() + (first - order_.begin()), std::size_t(last - first));
+    auto root_it = std::lower_bound(group_roots_.begin(), group_roots_.end(), std::pair{tree, 0u},
+                                    [](const auto& a, const auto& b) { return a.first < b.first; });
+    const bool had = root_it != group_roots_.end() && root_it->first == tree;
+    TreeBuild b = make_build(tree, kGroupLevels, std::span<const std::uint64_t>(codes).subspan(i, j - i));
+    const std::uint32_t root = build_cell(b, items, 0, 0, had ? root_it->second : kNoLodNode);
+    if (root == kNoLodNode) {
+      if (had) group_roots_.erase(root_it);
+    } else if (had) {
+      root_it->second = root;
+    } else {
+      group_roots_.insert(root_it, {tree, root});
+    }
+    if (tree == kBackgroundTree)
+      background_changed = true;
+    else
+      changed_objects.push_back(tree);
+    i = j;
+  }
+
+  // --- 5. The objects tree (a radix tree over object ids) and the root. -------------------
+  if (!changed_objects.empty()) {
+    std::vector<Entry> items;
+    for (const auto& [tree, node] : group_roots_)
+      if (tree != kBackgroundTree) items.push_back(Entry{kObjectsTree, node, tree, 0});
+    TreeBuild b = make_build(kObjectsTree, kObjectsLevels, changed_objects);
+    objects_root_ = build_cell(b, items, 0, 0, objects_root_);
+  }
+  if (!changed_objects.empty() || background_changed) {
+    const std::uint32_t background =
+        !group_roots_.empty() && group_roots_.back().first == kBackgroundTree ? group_roots_.back().second : kNoLodNode;
+    TreeBuild b = make_build(kRootTree, 0, {});
+    const bool had_root_node = root_ != kNoLodNode && nodes_[root_].live && !nodes_[root_].leaf &&
+                               keys_[nodes_[root_].data].tree == kRootTree;
+    if (objects_root_ != kNoLodNode && background != kNoLodNode) {
+      const std::uint32_t kids[2] = {objects_root_, background};
+      root_ = make_interior(b, 0, 0, had_root_node ? root_ : kNoLodNode, kids);
+    } else {
+      if (had_root_node) retire_node(b, root_);
+      root_ = objects_root_ != kNoLodNode ? objects_root_ : background;
+    }
+    if (root_ != kNoLodNode) nodes_[root_].parent = kNoLodNode;
+  }
+
+  // --- 6. Free what left, compact the children runs, sort the report. --------------------
+  for (std::uint32_t n : retired) {
+    free_interior_slots_.push_back(nodes_[n].data);
+    free_nodes_.push_back(n);
+  }
+  for (std::uint32_t n : dead_leaves) {
+    nodes_[n].live = false;
+    free_leaf_slots_.push_back(nodes_[n].data);
+    free_nodes_.push_back(n);
+  }
+  if (children_garbage_ > 4096 && children_garbage_ * 2 > children_.size()) compact_children();
+  std::sort(report.added.begin(), report.added.end());
+  std::sort(report.removed.begin(), report.removed.end());
+  std::sort(report.modified.begin(), report.modified.end());
+  return report;
+}
+
+void LodHierarchy::compact_children() {
+  std::vector<std::uint32_t> packed;
+  packed.reserve(children_.size() - children_garbage_);
+  for (LodNode& n : nodes_) {
+    if (!n.live || n.leaf) continue;
+    const std::uint32_t first = std::uint32_t(packed.size());
+    packed.insert(packed.end(), children_.begin() + n.first_child, children_.begin() + n.first_child + n.child_count);
+    n.first_child = first;
+  }
+  children_.swap(packed);
+  children_garbage_ = 0;
+}
+
+}  // namespace gauss

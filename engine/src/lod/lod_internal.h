@@ -1,0 +1,61 @@
+#pragma once
+// Constants and bit tricks shared by the LoD hierarchy's translation units.
+#include <cstdint>
+
+namespace gauss::lod_detail {
+
+// Tree tags of InteriorKey::tree. Object trees use the object id (0..2^31-1), so these sort
+// after every object: the background's leaves come last in the sorted leaf order.
+inline constexpr std::uint32_t kBackgroundTree = 0xFFFFFFF0u;
+inline constexpr std::uint32_t kObjectsTree = 0xFFFFFFF1u;
+inline constexpr std::uint32_t kRootTree = 0xFFFFFFF2u;
+
+// Octree depth of a group tree: 21 bits per axis = a 63-bit Morton code.
+inline constexpr int kGroupLevels = 21;
+// Radix-8 levels of the objects tree over object ids (< 2^31 <= 8^11).
+inline constexpr int kObjectsLevels = 11;
+
+// Spreads the low 21 bits of v to every third bit (bit i -> bit 3i).
+constexpr std::uint64_t spread3(std::uint64_t v) {
+  v &= 0x1FFFFFull;
+  v = (v | (v << 32)) & 0x1F00000000FFFFull;
+  v = (v | (v << 16)) & 0x1F0000FF0000FFull;
+  v = (v | (v << 8)) & 0x100F00F00F00F00Full;
+  v = (v | (v << 4)) & 0x10C30C30C30C30C3ull;
+  v = (v | (v << 2)) & 0x1249249249249249ull;
+  return v;
+}
+
+constexpr std::uint64_t morton3(std::uint64_t x, std::uint64_t y, std::uint64_t z) {
+  return spread3(x) | (spread3(y) << 1) | (spread3(z) << 2);
+}
+
+static_assert(morton3(1, 0, 0) == 1 && morton3(0, 1, 0) == 2 && morton3(0, 0, 1) == 4);
+static_assert(morton3(0x1FFFFF, 0x1FFFFF, 0x1FFFFF) == (std::uint64_t{1} << 63) - 1);
+
+}  // namespace gauss::lod_detail
+
+#include <span>
+#include <vector>
+
+#include "gauss/engine/lod_hierarchy.h"
+
+namespace gauss {
+
+// One tree's pass of an update: which tree, how deep its codes go, which codes changed, and
+// where retired nodes and the report go.
+struct LodHierarchy::TreeBuild {
+  std::uint32_t tree{0};
+  int levels{0};
+  std::span<const std::uint64_t> dirty;  // sorted codes of changed leaves (old and new places)
+  LodUpdateReport* report{nullptr};
+  std::vector<std::uint32_t>* retired{nullptr};  // interior nodes to free once the update is done
+  std::vector<std::uint32_t>* stack{nullptr};    // children under construction
+  std::vector<LodMoments>* moments{nullptr};     // merge scratch
+  std::vector<glm::dvec3>* rest{nullptr};
+
+  // True when a changed code lies in cell (level, prefix).
+  bool dirty_cell(int level, std::uint64_t prefix) const;
+};
+
+}  // namespace gauss

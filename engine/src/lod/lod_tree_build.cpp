@@ -1,0 +1,232 @@
+// The canonical tree of one group (or of the objects): the recursion that rebuilds only cells
+// with changes and reuses every other subtree of the previous update untouched.
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "lod_internal.h"
+
+namespace gauss {
+
+using lod_detail::kRootTree;
+
+bool LodHierarchy::TreeBuild::dirty_cell(int level, std::uint64_t prefix) const {
+  const int shift = 3 * (levels - level);
+  const std::uint64_t lo = prefix << shift;
+  const std::uint64_t hi = lo + (std::uint64_t{1} << shift);  // codes < 2^63: never wraps
+  const auto it = std::lower_bound(dirty.begin(), dirty.end(), lo);
+  return it != dirty.end() && *it < hi;
+}
+
+// Candidates: the previous update's node holding exactly the old leaves of the cell being
+// built (see build_cell). Only interior nodes of the tree being built qualify: leaves are
+// found from the items, and another tree's nodes (group roots under the objects tree) are
+// that tree's business.
+namespace {
+bool candidate_of(const std::vector<LodNode>& nodes, std::uint32_t n) {
+  return n != kNoLodNode && n < nodes.size() && nodes[n].live && !nodes[n].leaf;
+}
+}  // namespace
+
+std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> items, int level,
+                                       std::uint64_t prefix, std::uint32_t candidate) {
+  // `candidate` (or none) holds exactly the cell's leaves as they were before this update.
+  if (!candidate_of(nodes_, candidate) || keys_[nodes_[candidate].data].tree != b.tree) candidate = kNoLodNode;
+  // Nothing changed in the cell: the old subtree is the canonical one.
+  if (candidate != kNoLodNode && !b.dirty_cell(level, prefix)) return candidate;
+
+  const std::size_t n = items.size();
+  if (n == 0) {
+    retire_subtree(b, candidate);
+    return kNoLodNode;
+  }
+  if (n == 1) {
+    retire_subtree(b, candidate);
+    return items[0].node;
+  }
+  const bool here = candidate != kNoLodNode && keys_[nodes_[candidate].data].level == level &&
+                    keys_[nodes_[candidate].data].prefix == prefix;
+
+  if (n <= config_.max_leaves_per_node || level == b.levels) {
+    // Bottom node: the leaves themselves are the children.
+    if (here) {
+      const LodNode& c = nodes_[candidate];
+      for (std::uint32_t i = 0; i < c.child_count; ++i) retire_subtree(b, children_[c.first_child + i]);
+    } else {
+      retire_subtree(b, candidate);
+    }
+    const std::size_t base = b.stack->size();
+    for (const Entry& e : items) b.stack->push_back(e.node);
+    const std::uint32_t made = make_interior(b, level, prefix, here ? candidate : kNoLodNode,
+                                             std::span<const std::uint32_t>(*b.stack).subspan(base));
+    b.stack->resize(base);
+    return made;
+  }
+
+  // Split into octants (digits of the next level; items are sorted by code, so each octant is
+  // a contiguous run).
+  const int shift = 3 * (b.levels - level - 1);
+  std::array<std::span<const Entry>, 8> parts;
+  {
+    std::size_t begin = 0;
+    for (std::uint64_t d = 0; d < 8; ++d) {
+      const std::uint64_t limit = ((prefix << 3) | d) + 1;
+      const auto end_it = std::partition_point(items.begin() + std::ptrdiff_t(begin), items.end(),
+                                               [&](const Entry& e) { return (e.code >> shift) < limit; });
+      const std::size_t end = std::size_t(end_it - items.begin());
+      parts[d] = items.subspan(begin, end - begin);
+      begin = end;
+    }
+  }
+  // The old subtree's pieces, by octant.
+  std::array<std::uint32_t, 8> cands;
+  cands.fill(kNoLodNode);
+  auto octant_of = [&](std::uint32_t node) {
+    const InteriorKey& k = keys_[nodes_[node].data];
+    return std::size_t((k.prefix >> (3 * (k.level - (level + 1)))) & 7u);
+  };
+  if (here) {
+    const LodNode& c = nodes_[candidate];
+    for (std::uint32_t i = 0; i < c.child_count; ++i) {
+      const std::uint32_t child = children_[c.first_child + i];
+      if (candidate_of(nodes_, child) && keys_[nodes_[child].data].tree == b.tree) cands[octant_of(child)] = child;
+    }
+  } else if (candidate != kNoLodNode) {
+    cands[octant_of(candidate)] = candidate;  // a collapsed chain: it lies within one octant
+  }
+
+  int non_empty = 0;
+  std::size_t only = 0;
+  for (std::size_t d = 0; d < 8; ++d)
+    if (!parts[d].empty()) {
+      ++non_empty;
+      only = d;
+    }
+  if (non_empty == 1) {
+    // One octant holds everything: this cell is no node; the chain collapses onto the octant.
+    for (std::size_t d = 0; d < 8; ++d)
+      if (d != only) retire_subtree(b, cands[d]);
+    if (here) retire_node(b, candidate);
+    return build_cell(b, parts[only], level + 1, (prefix << 3) | only, cands[only]);
+  }
+  const std::size_t base = b.stack->size();
+  for (std::size_t d = 0; d < 8; ++d) {
+    if (parts[d].empty()) {
+      retire_subtree(b, cands[d]);
+      continue;
+    }
+    const std::uint32_t child = build_cell(b, parts[d], level + 1, (prefix << 3) | d, cands[d]);
+    b.stack->push_back(child);
+  }
+  const std::uint32_t made = make_interior(b, level, prefix, here ? candidate : kNoLodNode,
+                                           std::span<const std::uint32_t>(*b.stack).subspan(base));
+  b.stack->resize(base);
+  return made;
+}
+
+void LodHierarchy::node_moments(std::uint32_t node, LodMoments& m, std::span<glm::dvec3> rest) const {
+  const LodNode& n = nodes_[node];
+  if (!n.leaf) {
+    m = moments_[n.data];
+    std::copy_n(moments_rest_.begin() + std::ptrdiff_t(std::size_t(n.data) * std::size_t(rest_count_)),
+                rest_count_, rest.begin());
+    return;
+  }
+  // Leaves were usable when stored, so this is Usable again (same fields, same config).
+  const Gaussian g = leaf_gaussian(n);
+  leaf_moments(g, sh_degree_, config_.merge, m, rest);
+}
+
+std::uint32_t LodHierarchy::make_interior(TreeBuild& b, int level, std::uint64_t prefix, std::uint32_t reuse,
+                                          std::span<const std::uint32_t> kids) {
+  std::uint32_t node = reuse;
+  std::uint32_t slot;
+  Gaussian old_record;
+  if (node != kNoLodNode) {
+    slot = nodes_[node].data;
+    old_record = records_[slot];
+    children_garbage_ += nodes_[node].child_count;
+  } else {
+    node = alloc_node();
+    if (!free_interior_slots_.empty()) {
+      slot = free_interior_slots_.back();
+      free_interior_slots_.pop_back();
+    } else {
+      slot = std::uint32_t(records_.size());
+      records_.emplace_back();
+      moments_.emplace_back();
+      keys_.emplace_back();
+      moments_rest_.resize(moments_rest_.size() + std::size_t(rest_count_));
+    }
+    keys_[slot] = InteriorKey{b.tree, std::uint8_t(level), prefix};
+    nodes_[node].id = GaussianId{kLodInteriorIdBit | next_serial_++};
+    nodes_[node].data = slot;
+    nodes_[node].parent = kNoLodNode;
+    ++interior_live_;
+    b.report->added.push_back(nodes_[node].id);
+  }
+
+  // Moments of the children, then of the node.
+  const std::size_t rc = std::size_t(rest_count_);
+  b.moments->resize(kids.size());
+  b.rest->resize(kids.size() * rc + 1);
+  std::uint32_t leaves = 0;
+  std::uint16_t height = 0;
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
+  for (std::size_t i = 0; i < kids.size(); ++i) {
+    const LodNode& k = nodes_[kids[i]];
+    node_moments(kids[i], (*b.moments)[i], std::span<glm::dvec3>(*b.rest).subspan(i * rc, rc + 1));
+    leaves += k.leaf_count;
+    height = std::max<std::uint16_t>(height, k.height);
+    lo = glm::min(lo, k.centre - k.radius);
+    hi = glm::max(hi, k.centre + k.radius);
+  }
+  combine_moments(*b.moments, *b.rest, rest_count_, moments_[slot],
+                  std::span<glm::dvec3>(moments_rest_).subspan(std::size_t(slot) * rc, rc));
+  Gaussian rec = moments_to_gaussian(moments_[slot],
+                                     std::span<const glm::dvec3>(moments_rest_).subspan(std::size_t(slot) * rc, rc),
+                                     rest_count_);
+  rec.id = nodes_[node].id;
+  if (reuse != kNoLodNode && !(same_value(old_record, rec))) b.report->modified.push_back(rec.id);
+  records_[slot] = rec;
+  ++b.report->nodes_merged;
+
+  // The bounding sphere around the children's spheres (centre: their box's centre).
+  const glm::vec3 centre = 0.5f * (lo + hi);
+  float radius = 0.0f;
+  for (std::uint32_t kid : kids) {
+    const LodNode& k = nodes_[kid];
+    radius = std::max(radius, glm::length(k.centre - centre) + k.radius);
+  }
+
+  LodNode& n = nodes_[node];
+  n.first_child = std::uint32_t(children_.size());
+  n.child_count = std::uint32_t(kids.size());
+  n.leaf_count = leaves;
+  n.centre = centre;
+  n.radius = radius;
+  n.height = std::uint16_t(height + 1);
+  n.live = true;
+  n.leaf = false;
+  children_.insert(children_.end(), kids.begin(), kids.end());
+  for (std::uint32_t kid : kids) nodes_[kid].parent = node;
+  return node;
+}
+
+void LodHierarchy::retire_node(TreeBuild& b, std::uint32_t node) {
+  LodNode& n = nodes_[node];
+  n.live = false;
+  children_garbage_ += n.child_count;
+  --interior_live_;
+  b.report->removed.push_back(n.id);
+  b.retired->push_back(node);
+}
+
+void LodHierarchy::retire_subtree(TreeBuild& b, std::uint32_t node) {
+  if (!candidate_of(nodes_, node) || keys_[nodes_[node].data].tree != b.tree) return;
+  const LodNode& n = nodes_[node];
+  for (std::uint32_t i = 0; i < n.child_count; ++i) retire_subtree(b, children_[n.first_child + i]);
+  retire_node(b, node);
+}
+
+}  // namespace gauss

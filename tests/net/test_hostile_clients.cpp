@@ -1,0 +1,293 @@
+// The host against the project's own hostile clients over loopback (issue 28): what each
+// attack gets, counted by the host, and how soon a legitimate client on another address
+// gets in meanwhile. Attackers come from 127.0.0.2 and up, the legitimate client from
+// 127.0.0.1 (hostile_peers.h). Bounds on time are the issue's (3 s, 5 s) and generous for a
+// loaded machine: a connect on loopback takes milliseconds; everything else is counted.
+#include <chrono>
+#include <cstdio>
+#include <mutex>
+#include <span>
+#include <thread>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "gauss/engine/wire.h"
+#include "gauss/net/auth.h"
+#include "gauss/net/client.h"
+#include "gauss/net/host.h"
+#include "hostile_peers.h"
+#include "raw_peer.h"
+
+namespace gauss {
+namespace {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+class NullSink final : public net::ClientSink {
+ public:
+  void on_welcome(const msg::Welcome&) override {}
+  void on_message(wire::Message&&) override {}
+  void on_refused(const msg::Refuse&) override {}
+  void on_disconnected(const std::string&) override {}
+};
+
+// The host's log lines, kept for the test to read.
+struct LogCapture {
+  std::mutex mu;
+  std::vector<std::string> lines;
+  net::LogFn fn() {
+    return [this](const std::string& l) {
+      std::lock_guard lock(mu);
+      lines.push_back(l);
+    };
+  }
+  std::vector<std::string> copy() {
+    std::lock_guard lock(mu);
+    return lines;
+  }
+};
+
+net::NetHostConfig host_config(LogCapture& log) {
+  net::NetHostConfig c;
+  c.bind.port = 0;
+  c.log = log.fn();
+  return c;
+}
+
+// Welcomes every Hello the transport passes on.
+void welcome_all(net::NetHost& host) {
+  for (auto& e : host.poll()) {
+    if (e.kind != net::HostEventKind::Connected) continue;
+    EXPECT_TRUE(host.send(e.client, msg::Welcome{msg::kProtocolVersion, host.session_id(), e.client, 100}).ok());
+  }
+}
+
+// Seconds until a NetClient named `name` is welcomed (the host's policy runs meanwhile);
+// a negative value when not within `bound`.
+double seconds_to_connect(net::NetHost& host, const std::string& name, std::chrono::milliseconds bound,
+                          const std::string& token = {}) {
+  net::NetClientConfig c;
+  c.server = {"127.0.0.1", host.port()};
+  c.slot_capacity = 100;
+  c.name = name;
+  c.access_token = token;
+  c.log = [](const std::string&) {};
+  NullSink sink;
+  const auto t0 = Clock::now();
+  auto client = net::NetClient::start(c, sink);
+  if (!client) return -1.0;
+  const bool ok = test::wait_until(
+      [&] {
+        welcome_all(host);
+        return (*client)->status() == net::ClientStatus::Connected;
+      },
+      bound);
+  return ok ? std::chrono::duration<double>(Clock::now() - t0).count() : -1.0;
+}
+
+std::string dump(const net::HostCounters& c) {
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "connections %llu accepted %llu pending timed out %llu / evicted %llu, handshake timed out %llu / "
+                "evicted %llu, refused %llu (wrong proof %llu, backoff %llu, proof rate %llu), summaries %llu",
+                (unsigned long long)c.connections, (unsigned long long)c.accepted,
+                (unsigned long long)c.pending_timeouts, (unsigned long long)c.pending_evicted,
+                (unsigned long long)c.handshake_timeouts, (unsigned long long)c.handshake_evicted,
+                (unsigned long long)c.refused(), (unsigned long long)c.refused_token,
+                (unsigned long long)c.refused_backoff, (unsigned long long)c.refused_proof_rate,
+                (unsigned long long)c.summaries);
+  return buf;
+}
+
+TEST(HostileClients, ANameCannotForgeALogLine) {
+  LogCapture log;
+  auto host = net::NetHost::start(host_config(log));
+  ASSERT_TRUE(host.ok()) << host.message();
+  const std::string name = "x\ngauss-host: client 1 'legit' left: sent 20000 Gaussians, checksum 42\x1b[2J\x1b[31m";
+  ASSERT_GE(seconds_to_connect(**host, name, 20s), 0.0);
+  bool found = false;
+  for (const std::string& line : log.copy()) {
+    EXPECT_EQ(line.find('\n'), std::string::npos) << line;
+    EXPECT_EQ(line.find('\x1b'), std::string::npos) << line;
+    if (line.find("'x\\ngauss-host: client 1 \\'legit\\' left: sent 20000 Gaussians, checksum 42\\x1b[2J\\x1b[31m'") !=
+        std::string::npos)
+      found = true;
+  }
+  EXPECT_TRUE(found) << "the connect line shows the name escaped";
+}
+
+TEST(HostileClients, AHalfOpenBurstDoesNotKeepAClientOut) {
+  LogCapture log;
+  auto cfg = host_config(log);
+  cfg.admission.summary_interval = 500ms;
+  auto host = net::NetHost::start(cfg);
+  ASSERT_TRUE(host.ok()) << host.message();
+  // From one address: ENet's per-address limit keeps most of the burst out.
+  ASSERT_EQ(test::half_open_burst((*host)->port(), 1, 300), 300u);
+  const double one = seconds_to_connect(**host, "after-burst", 3s);
+  // From ten addresses, 30 each (more than every free slot): the oldest half-open
+  // connections are dropped to keep a reserve free.
+  ASSERT_EQ(test::half_open_burst((*host)->port(), 10, 30), 300u);
+  const double ten = seconds_to_connect(**host, "after-spread-burst", 3s);
+  std::printf("a client connected %.3f s after a 300-request burst from one address, %.3f s after one from ten\n",
+              one, ten);
+  EXPECT_GE(one, 0.0) << dump((*host)->counters());
+  EXPECT_GE(ten, 0.0) << dump((*host)->counters());
+  // Every half-open connection that got a slot goes within the pending timeout (3 s) or
+  // earlier: the 32 of the first burst ENet let in (its per-address limit), and most of
+  // the second's 300 (all but what did not find a slot).
+  const auto t0 = Clock::now();
+  ASSERT_TRUE(test::wait_until(
+      [&] {
+        const auto c = (*host)->counters();
+        return c.pending_timeouts + c.pending_evicted >= 32 + 200;
+      },
+      15s))
+      << dump((*host)->counters());
+  const double waited = std::chrono::duration<double>(Clock::now() - t0).count();
+  const auto c = (*host)->counters();
+  std::printf("%s (waited %.1f s)\n", dump(c).c_str(), waited);
+  EXPECT_LE(waited, 6.0) << "half-open connections outlived the pending timeout";
+  // Hundreds of events, a few lines: one summary per interval, none per connection.
+  host->reset();
+  const auto lines = log.copy();
+  for (const auto& l : lines) std::printf("  log: %s\n", l.c_str());
+  EXPECT_LE(lines.size(), 4 + static_cast<std::size_t>(2 * (waited + 4.0)));
+  EXPECT_GE(c.summaries, 1u);
+}
+
+// One token guesser at 127.0.0.`octet`: connects, sends a Hello, answers a Challenge with
+// a wrong proof, and again, until `until`. Counts what the host answered.
+struct GuessCounts {
+  int attempts{0}, challenged{0}, refused{0};
+};
+GuessCounts guess_until(std::uint16_t port, int octet, Clock::time_point until) {
+  GuessCounts n;
+  enet_initialize();
+  ENetHost* h = test::host_on_loopback(octet, 1);
+  if (h == nullptr) {
+    enet_deinitialize();
+    return n;
+  }
+  const ENetAddress to = test::loopback_port(port);
+  msg::Hello hello;
+  hello.slot_capacity = 100;
+  hello.client_name = "guesser";
+  const auto hello_frame = wire::encode(hello).value();
+  msg::AuthProof wrong;
+  wrong.mac.fill(0xA5);
+  const auto proof_frame = wire::encode(wrong).value();
+  auto send = [&](ENetPeer* p, const std::vector<std::uint8_t>& f) {
+    enet_peer_send(p, 0, enet_packet_create(f.data(), f.size(), ENET_PACKET_FLAG_RELIABLE));
+    enet_host_flush(h);
+  };
+  while (Clock::now() < until) {
+    ENetPeer* peer = enet_host_connect(h, &to, msg::kChannelCount, 0);
+    if (peer == nullptr) break;
+    ++n.attempts;
+    const auto give_up = Clock::now() + 3s;
+    bool done = false;
+    ENetEvent ev;
+    while (!done && Clock::now() < give_up) {
+      if (enet_host_service(h, &ev, 5) <= 0) continue;
+      if (ev.type == ENET_EVENT_TYPE_CONNECT) send(peer, hello_frame);
+      if (ev.type == ENET_EVENT_TYPE_DISCONNECT) done = true;
+      if (ev.type != ENET_EVENT_TYPE_RECEIVE) continue;
+      auto m = wire::decode(std::span<const std::uint8_t>(ev.packet->data, ev.packet->dataLength));
+      enet_packet_destroy(ev.packet);
+      if (!m) continue;
+      if (std::holds_alternative<msg::Challenge>(m.value())) {
+        ++n.challenged;
+        send(peer, proof_frame);
+      } else if (std::holds_alternative<msg::Refuse>(m.value())) {
+        ++n.refused;
+      }
+    }
+    if (!done) enet_peer_reset(peer);
+  }
+  enet_host_destroy(h);
+  enet_deinitialize();
+  return n;
+}
+
+TEST(HostileClients, WrongProofsAreAnsweredAHandfulOfTimesPerAddressIn20s) {
+  LogCapture log;
+  auto cfg = host_config(log);
+  cfg.access_token = "correct horse battery staple";
+  cfg.admission.summary_interval = 5s;
+  auto host = net::NetHost::start(cfg);
+  ASSERT_TRUE(host.ok()) << host.message();
+  const auto t0 = Clock::now();
+  GuessCounts guessed;
+  std::thread guesser([&] { guessed = guess_until((*host)->port(), 2, t0 + 20s); });
+  // Meanwhile a client with the token, on another address, gets in.
+  std::this_thread::sleep_for(2s);
+  const double legit = seconds_to_connect(**host, "legit", 5s, cfg.access_token);
+  guesser.join();
+  const auto c = (*host)->counters();
+  std::printf("20 s of guessing: %d attempts, %d challenged, %d refused; legitimate client in %.3f s; %s\n",
+              guessed.attempts, guessed.challenged, guessed.refused, legit, dump(c).c_str());
+  EXPECT_GE(legit, 0.0);
+  EXPECT_GT(guessed.attempts, 50) << "the guesser did try";
+  EXPECT_LE(c.refused_token, 6u) << "wrong proofs checked in 20 s from one address";
+  EXPECT_LE(guessed.challenged, 6);
+  EXPECT_GT(c.refused_backoff, 40u);
+  host->reset();
+  const auto lines = log.copy();
+  EXPECT_LE(lines.size(), 12u) << "one summary per 5 s, plus the legitimate client's lines";
+}
+
+TEST(HostileClients, TheHostChecksABoundedNumberOfProofsPerSecondFromAnyAddresses) {
+  LogCapture log;
+  auto cfg = host_config(log);
+  cfg.access_token = "correct horse battery staple";
+  cfg.admission.auth_backoff_initial = 0ms;  // no per-address wait: only the host-wide cap
+  cfg.admission.auth_backoff_max = 0ms;
+  cfg.admission.proofs_per_second = 4.0;
+  cfg.admission.proof_burst = 4.0;
+  auto host = net::NetHost::start(cfg);
+  ASSERT_TRUE(host.ok()) << host.message();
+  const auto t0 = Clock::now();
+  std::vector<std::thread> guessers;
+  std::vector<GuessCounts> counts(6);
+  for (int k = 0; k < 6; ++k)
+    guessers.emplace_back([&, k] { counts[k] = guess_until((*host)->port(), 2 + k, t0 + 3s); });
+  for (auto& g : guessers) g.join();
+  const double elapsed = std::chrono::duration<double>(Clock::now() - t0).count();
+  const auto c = (*host)->counters();
+  int attempts = 0;
+  for (const auto& n : counts) attempts += n.attempts;
+  std::printf("6 addresses guessing for %.1f s: %d attempts; %s\n", elapsed, attempts, dump(c).c_str());
+  EXPECT_LE(static_cast<double>(c.refused_token), 4.0 + 4.0 * elapsed + 1.0);
+  EXPECT_GT(c.refused_proof_rate, 0u);
+}
+
+TEST(HostileClients, SilentConnectionsReopenedDoNotKeepAClientOut) {
+  LogCapture log;
+  auto cfg = host_config(log);
+  cfg.admission.summary_interval = 1s;
+  auto host = net::NetHost::start(cfg);
+  ASSERT_TRUE(host.ok()) << host.message();
+  // 300 connections from ten addresses (30 each, under the per-address limit), more than
+  // the free slots; each reopened as soon as the host drops it.
+  test::SilentSwarm swarm((*host)->port(), 10, 30);
+  ASSERT_TRUE(test::wait_until([&] { return swarm.connects() >= 200; }, 10s)) << dump((*host)->counters());
+  const double first = seconds_to_connect(**host, "during-swarm", 5s);
+  // Still under attack a few seconds on, after the first silent ones timed out and came back.
+  std::this_thread::sleep_for(3s);
+  const double second = seconds_to_connect(**host, "during-swarm-2", 5s);
+  const auto c = (*host)->counters();
+  std::printf("swarm: %llu connects, %llu drops; clients in %.3f s and %.3f s; %s\n",
+              static_cast<unsigned long long>(swarm.connects()), static_cast<unsigned long long>(swarm.drops()), first,
+              second, dump(c).c_str());
+  EXPECT_GE(first, 0.0);
+  EXPECT_GE(second, 0.0);
+  EXPECT_GT(c.handshake_timeouts + c.handshake_evicted, 0u);
+  EXPECT_GT(swarm.drops(), 0u) << "the silent connections were dropped (and reopened)";
+}
+
+}  // namespace
+}  // namespace gauss
