@@ -209,8 +209,9 @@ struct Settle {
   std::vector<double> step_publish_cpu_ms, step_pack_cpu_ms;
   std::vector<std::uint32_t> slot_writes;  // slots written or cleared per frame
   // Work per frame: arrivals ranked, ranked candidates touched by the upkeep, slots the
-  // upload wrote or cleared, buffer copy regions recorded.
-  std::vector<double> ranked, touched, slots_uploaded, copy_regions;
+  // upload wrote or cleared, buffer copy regions recorded, and the pieces the compute
+  // scatter copied instead (StagedUploads applies many-region groups so).
+  std::vector<double> ranked, touched, slots_uploaded, copy_regions, scatter_pieces;
   // GPU side, per finished frame (in frame order): the view's whole GPU time, its blend
   // pass, and the splats it binned and the (tile, splat) pairs it blended.
   std::vector<double> gpu_ms, blend_ms;
@@ -253,6 +254,7 @@ Settle run_until_settled(client::ClientRuntime& rt, const Camera& cam, double ti
     s.touched.push_back(f->publish.touched);
     s.slots_uploaded.push_back(f->uploaded.slots_written + f->uploaded.slots_cleared);
     s.copy_regions.push_back(f->copy_regions);
+    s.scatter_pieces.push_back(f->scatter_pieces);
     const std::uint64_t edits = rt.with_state([](const ClientState& st) { return st.stats().edits_received; });
     const double t = 1e-3 * ms_since(t0);
     const bool idle = f->pending == 0 && f->publish.slot_writes() == 0 && f->desired > 0;
@@ -316,7 +318,7 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
   // Far teleports A -> B -> A ...: the streaming frames of all of them are pooled, and so
   // are the idle frames after each, so a p99 rests on more than a few dozen frames.
   std::vector<double> streaming, idle_after, publish, upload, lock_wait, convergence, net_cpu;
-  std::vector<double> publish_cpu, upload_cpu, ranked, touched, slots_uploaded, copy_regions;
+  std::vector<double> publish_cpu, upload_cpu, ranked, touched, slots_uploaded, copy_regions, scatter_pieces;
   std::vector<double> step_publish_cpu, step_pack_cpu;
   json series = json::array();
   for (std::uint32_t t = 0; t < o.teleports; ++t) {
@@ -338,10 +340,12 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
     touched.insert(touched.end(), tele.touched.begin(), tele.touched.end());
     slots_uploaded.insert(slots_uploaded.end(), tele.slots_uploaded.begin(), tele.slots_uploaded.end());
     copy_regions.insert(copy_regions.end(), tele.copy_regions.begin(), tele.copy_regions.end());
+    scatter_pieces.insert(scatter_pieces.end(), tele.scatter_pieces.begin(), tele.scatter_pieces.end());
     series.push_back(json{{"frame_ms", tele.frame_ms}, {"publish_ms", tele.publish_ms}, {"upload_ms", tele.upload_ms},
                           {"lock_wait_ms", tele.lock_wait_ms}, {"publish_thread_cpu_ms", tele.publish_cpu_ms},
                           {"upload_thread_cpu_ms", tele.upload_cpu_ms}, {"ranked", tele.ranked},
                           {"touched", tele.touched}, {"copy_regions", tele.copy_regions},
+                          {"scatter_pieces", tele.scatter_pieces},
                           {"slot_writes", tele.slot_writes}, {"gpu_ms", tele.gpu_ms}, {"blend_ms", tele.blend_ms},
                           {"visible", tele.visible}, {"pairs", tele.pairs}});
     const std::vector<double> idle = idle_frames(**rt, to, o.idle_frames);
@@ -356,9 +360,9 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
               percentile(upload_cpu, 0.5), percentile(upload_cpu, 0.99), median(net_cpu));
   auto worst = [](const std::vector<double>& v) { return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end()); };
   std::printf("   %-12s work per frame p99/max: ranked %.0f/%.0f, touched %.0f/%.0f, slots uploaded %.0f/%.0f, "
-              "copy regions %.0f/%.0f\n", "", percentile(ranked, 0.99), worst(ranked), percentile(touched, 0.99),
-              worst(touched), percentile(slots_uploaded, 0.99), worst(slots_uploaded), percentile(copy_regions, 0.99),
-              worst(copy_regions));
+              "copy regions %.0f/%.0f, scatter pieces %.0f/%.0f\n", "", percentile(ranked, 0.99), worst(ranked),
+              percentile(touched, 0.99), worst(touched), percentile(slots_uploaded, 0.99), worst(slots_uploaded),
+              percentile(copy_regions, 0.99), worst(copy_regions), percentile(scatter_pieces, 0.99), worst(scatter_pieces));
   std::printf("   %-12s wall ms p99/max: publish %.2f/%.2f (lock wait %.2f/%.2f), upload %.2f/%.2f\n", "",
               percentile(publish, 0.99), worst(publish), percentile(lock_wait, 0.99), worst(lock_wait),
               percentile(upload, 0.99), worst(upload));
@@ -389,7 +393,8 @@ json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, Publ
                {{"arrivals_ranked", pct_max(ranked)},
                 {"backlog_items_touched", pct_max(touched)},
                 {"slots_written", pct_max(slots_uploaded)},
-                {"copy_regions", pct_max(copy_regions)}}},
+                {"copy_regions", pct_max(copy_regions)},
+                {"scatter_pieces", pct_max(scatter_pieces)}}},
               {"lock_wait_ms_streaming", pct_max(lock_wait)},
               {"network_thread_cpu_ms_each", net_cpu},
               {"p99_over_idle_p99", percentile(streaming, 0.99) / std::max(1e-9, percentile(idle_after, 0.99))},
@@ -507,7 +512,7 @@ json bench_throughput(vk::Context& ctx) {
   auto slow_dst = vk::Buffer::create(ctx, {.size = total, .name = "throughput destination (no map)", .never_map = true});
   auto ring = vk::FrameRing::create(ctx, 2);
   if (!dst || !slow_dst || !ring) return json{{"error", "allocation failed"}};
-  auto up = vk::StagedUploads::create(ctx, **ring, total + (1 << 20));
+  auto up = vk::StagedUploads::create(ctx, **ring, {.initial_bytes = total + (1 << 20)});
   if (!up) return json{{"error", up.message()}};
   std::vector<std::uint8_t> src(total);
   std::iota(src.begin(), src.end(), std::uint8_t{0});

@@ -77,7 +77,8 @@ Status ClientRuntime::make_renderer(int sh_degree) {
                                                      .sh_degree = sh_degree,
                                                      .max_width = config_.max_width,
                                                      .max_height = config_.max_height,
-                                                     .frames_in_flight = config_.frames_in_flight});
+                                                     .frames_in_flight = config_.frames_in_flight,
+                                                     .upload_scatter_min_regions = config_.upload_scatter_min_regions});
   if (!r) return Error{"ClientRuntime: " + r.message()};
   renderer_ = std::move(*r);
   gpu_stats_.clear();
@@ -90,10 +91,13 @@ Status ClientRuntime::make_renderer(int sh_degree) {
     const std::uint32_t slots = config_.pack_slots_per_step == 0 ? config_.state.capacity
                                                                  : std::min(config_.state.capacity, config_.pack_slots_per_step);
     for (std::uint32_t i = 0; i <= config_.frames_in_flight; ++i) {
+      // Storage usage: a step's many runs reach the slots through StagedUploads' compute
+      // scatter, which binds a window of the pack buffer (so it may exceed one binding).
       auto b = vk::Buffer::create(*context_, {.size = VkDeviceSize{slots} * layout.bytes_per_slot(),
-                                              .usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                              .usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                               .memory = vk::MemoryUsage::HostVisible,
-                                              .name = "publication pack buffer " + std::to_string(i)});
+                                              .name = "publication pack buffer " + std::to_string(i),
+                                              .allow_larger_than_binding_range = true});
       if (!b) return Error{"ClientRuntime: " + b.message()};
       pack_pool_.push_back(PackBuffer{std::move(*b)});
     }
@@ -302,7 +306,7 @@ Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, 
 
   // --- render ---
   const auto t2 = std::chrono::steady_clock::now();
-  const std::uint64_t regions_before = renderer_->uploads().stats().copy_regions;
+  const vk::StagedUploadStats uploads_before = renderer_->uploads().stats();
   auto serial = renderer_->render_frame(views, config_.render, hooks);
   if (!serial) return serial.error();
   for (int b : unsubmitted_) {
@@ -310,7 +314,10 @@ Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, 
     pack_buffer(b).taken = false;
   }
   unsubmitted_.clear();
-  out.copy_regions = static_cast<std::uint32_t>(renderer_->uploads().stats().copy_regions - regions_before);
+  const vk::StagedUploadStats& uploads_after = renderer_->uploads().stats();
+  out.copy_regions = static_cast<std::uint32_t>(uploads_after.copy_regions - uploads_before.copy_regions);
+  out.scatter_regions = static_cast<std::uint32_t>(uploads_after.scatter_regions - uploads_before.scatter_regions);
+  out.scatter_pieces = static_cast<std::uint32_t>(uploads_after.scatter_pieces - uploads_before.scatter_pieces);
   out.serial = *serial;
   out.render_ms = ms_since(t2);
   gpu_stats_.submitted(*serial, frame_index_, static_cast<std::uint32_t>(views.size()));

@@ -26,8 +26,10 @@ namespace {
 class ClientRuntimeInProcess : public VkTest {
  protected:
   // pack_slots: 0 = publication on the display thread; else on the publication thread
-  // with pack buffers of that many slots.
-  void converge_and_compare(std::uint32_t pack_slots);
+  // with pack buffers of that many slots. scatter_min_regions: the renderer's upload
+  // scatter threshold (0: every upload group goes through the compute scatter).
+  void converge_and_compare(std::uint32_t pack_slots,
+                            std::uint32_t scatter_min_regions = vk::kDefaultScatterMinRegions);
   // A synthetic room of n Gaussians (with a surface: `surface`) produced into scene_, and
   // codec parameters boxing it.
   void make_room(std::size_t n, bool surface) {
@@ -51,7 +53,7 @@ class ClientRuntimeInProcess : public VkTest {
   CodecParams params_;
 };
 
-void ClientRuntimeInProcess::converge_and_compare(std::uint32_t pack_slots) {
+void ClientRuntimeInProcess::converge_and_compare(std::uint32_t pack_slots, std::uint32_t scatter_min_regions) {
   ASSERT_NO_FATAL_FAILURE(make_room(6000, true));  // a surface for the mesh pass
   CodecParams params = params_;
   params.sh_degree = 1;
@@ -69,6 +71,7 @@ void ClientRuntimeInProcess::converge_and_compare(std::uint32_t pack_slots) {
   cfg.clock = [&now] { return now; };
   cfg.publication_thread = pack_slots > 0;
   cfg.pack_slots_per_step = pack_slots;
+  cfg.upload_scatter_min_regions = scatter_min_regions;
   auto rt = client::ClientRuntime::create(context(), cfg);
   ASSERT_TRUE(rt.ok()) << rt.message();
 
@@ -77,7 +80,7 @@ void ClientRuntimeInProcess::converge_and_compare(std::uint32_t pack_slots) {
   const Camera cam = synth_->overview_camera(160, 120);
   int frames = 0;
   std::size_t pending = 1;
-  std::uint64_t packed = 0, written = 0;
+  std::uint64_t packed = 0, written = 0, scattered = 0;
   for (; frames < 400 && (pending > 0 || frames < 3); ++frames) {
     now += 1.0 / 72.0;
     auto out = host.tick(scene_, now);
@@ -90,9 +93,17 @@ void ClientRuntimeInProcess::converge_and_compare(std::uint32_t pack_slots) {
     EXPECT_EQ(f->publication_threaded, pack_slots > 0);
     packed += f->uploaded.slots_packed;
     written += f->uploaded.slots_written;
+    scattered += f->scatter_regions;
     pending = f->pending + (f->published_epoch ? 0 : 1);
   }
   ASSERT_LT(frames, 400) << "did not converge";
+  if (scatter_min_regions == 0) {
+    // Every group scattered but those the scatter cannot take: the mesh chunks' vertex
+    // and index buffers have no storage usage.
+    EXPECT_GT(scattered, 0u);
+    const vk::StagedUploadStats& up = (*rt)->renderer().uploads().stats();
+    EXPECT_EQ(up.copy_groups, up.scatter_fallbacks);
+  }
   EXPECT_GT(frames, 6) << "progressive publication at 400 edits per frame needs several frames for 2500";
   if (pack_slots == 0) {
     EXPECT_EQ(packed, 0u);
@@ -148,6 +159,14 @@ TEST_F(ClientRuntimeInProcess, ConvergesToTheSentSetAndRendersItExactly) { conve
 TEST_F(ClientRuntimeInProcess, PublicationThreadShowsTheSameSet) { converge_and_compare(4096); }
 
 TEST_F(ClientRuntimeInProcess, PublicationThreadWithASmallPackBufferShowsTheSameSet) { converge_and_compare(150); }
+
+// The same through StagedUploads' compute scatter (slot runs, clears, the pack buffers'
+// runs): publication fills slots in long runs here, under the default threshold.
+TEST_F(ClientRuntimeInProcess, EveryUploadScatteredShowsTheSameSet) { converge_and_compare(0, 0); }
+
+TEST_F(ClientRuntimeInProcess, PublicationThreadWithEveryUploadScatteredShowsTheSameSet) {
+  converge_and_compare(150, 0);
+}
 
 // With the publication thread, a query and a mode change from the display thread never
 // wait for the state lock (a running step holds it for its whole length): the id is

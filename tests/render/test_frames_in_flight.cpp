@@ -89,7 +89,7 @@ TEST_F(FramesInFlight, DeferredDestructionWaitsForTheFramesThatCouldUseTheObject
 TEST_F(FramesInFlight, OverlappingWritesLandInTheOrderTheyWereMade) {
   auto r = ring(2);
   ASSERT_TRUE(r);
-  auto up = vk::StagedUploads::create(context(), *r, 64 * 1024);
+  auto up = vk::StagedUploads::create(context(), *r, {.initial_bytes = 64 * 1024});
   ASSERT_TRUE(up.ok()) << up.message();
   vk::Buffer dst = buffer(256);
   std::vector<std::uint8_t> a(128, 0xAA), b(64, 0xBB), c(16, 0xCC);
@@ -122,7 +122,7 @@ TEST_F(FramesInFlight, OverlappingWritesLandInTheOrderTheyWereMade) {
 TEST_F(FramesInFlight, TheRingWrapsAndGrowsWithoutLosingBytes) {
   auto r = ring(2);
   ASSERT_TRUE(r);
-  auto up = vk::StagedUploads::create(context(), *r, 64 * 1024);
+  auto up = vk::StagedUploads::create(context(), *r, {.initial_bytes = 64 * 1024});
   ASSERT_TRUE(up.ok());
   vk::Buffer dst = buffer(1 << 20);
   std::vector<std::uint32_t> words((1 << 20) / 4);

@@ -39,7 +39,7 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
   auto ring = vk::FrameRing::create(context, info.frames_in_flight);
   if (!ring) return Error{"SplatRenderer: " + ring.message()};
   impl->ring = std::move(*ring);
-  auto uploads = vk::StagedUploads::create(context, *impl->ring);
+  auto uploads = vk::StagedUploads::create(context, *impl->ring, {.scatter_min_regions = info.upload_scatter_min_regions});
   if (!uploads) return Error{"SplatRenderer: " + uploads.message()};
   impl->uploads = std::move(*uploads);
   auto slots = SlotBuffer::create(

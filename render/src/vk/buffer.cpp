@@ -31,6 +31,7 @@ Expected<Buffer> Buffer::create(Context& context, const BufferCreateInfo& info) 
   ci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
   ci.size = info.size;
   ci.usage = info.usage | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  b.usage_ = ci.usage;
   ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   GAUSS_VK_TRY(vkCreateBuffer(context.device(), &ci, nullptr, &b.buffer_));
   context.set_debug_name(VK_OBJECT_TYPE_BUFFER, reinterpret_cast<std::uint64_t>(b.buffer_), info.name.c_str());
@@ -58,6 +59,7 @@ Buffer::Buffer(Buffer&& other) noexcept
       buffer_(std::exchange(other.buffer_, VK_NULL_HANDLE)),
       memory_(std::exchange(other.memory_, VK_NULL_HANDLE)),
       size_(std::exchange(other.size_, 0)),
+      usage_(std::exchange(other.usage_, 0)),
       mapped_(std::exchange(other.mapped_, nullptr)),
       name_(std::move(other.name_)) {}
 
@@ -68,6 +70,7 @@ Buffer& Buffer::operator=(Buffer&& other) noexcept {
     buffer_ = std::exchange(other.buffer_, VK_NULL_HANDLE);
     memory_ = std::exchange(other.memory_, VK_NULL_HANDLE);
     size_ = std::exchange(other.size_, 0);
+    usage_ = std::exchange(other.usage_, 0);
     mapped_ = std::exchange(other.mapped_, nullptr);
     name_ = std::move(other.name_);
   }

@@ -1,4 +1,5 @@
-// StagedUploads: the staging ring and the copy groups it feeds (see the header).
+// StagedUploads: the staging ring and the copy groups it feeds, each recorded as a buffer
+// copy or a compute scatter (see the header).
 #include "gauss/render/vk_staged_uploads.h"
 
 #include <algorithm>
@@ -10,6 +11,7 @@
 #include "gauss/render/vk_commands.h"
 #include "gauss/render/vk_context.h"
 #include "gauss/render/vk_frame_ring.h"
+#include "vk/upload_scatter.h"
 
 namespace gauss::vk {
 
@@ -18,20 +20,40 @@ constexpr VkDeviceSize kAlign = 16;
 VkDeviceSize align_up(VkDeviceSize v) { return (v + kAlign - 1) / kAlign * kAlign; }
 }  // namespace
 
+UploadBufferRef upload_buffer_ref(const Buffer& buffer) noexcept {
+  return {buffer.handle(), buffer.size(), (buffer.usage() & VK_BUFFER_USAGE_STORAGE_BUFFER_BIT) != 0};
+}
+
+StagedUploads::StagedUploads(Context& context, FrameRing& ring) : context_(&context), ring_(&ring) {}
+StagedUploads::~StagedUploads() = default;
+
 Expected<std::unique_ptr<StagedUploads>> StagedUploads::create(Context& context, FrameRing& ring,
-                                                                VkDeviceSize initial_bytes) {
+                                                                const StagedUploadsCreateInfo& info) {
   std::unique_ptr<StagedUploads> s(new StagedUploads(context, ring));
-  if (auto st = s->grow(std::max<VkDeviceSize>(initial_bytes, 64 * 1024)); !st) return st.error();
+  s->info_ = info;
+  auto scatter = UploadScatter::create(context, info.scatter_max_binding_bytes);
+  if (!scatter) return Error{"StagedUploads: " + scatter.message()};
+  s->scatter_ = std::make_unique<UploadScatter>(std::move(*scatter));
+  if (auto st = s->grow(std::max<VkDeviceSize>(info.initial_bytes, 64 * 1024)); !st) return st.error();
   s->stats_.ring_grows = 0;
   return s;
 }
 
 Status StagedUploads::grow(VkDeviceSize at_least) {
-  const VkDeviceSize size = std::max<VkDeviceSize>(align_up(at_least), buffer_.valid() ? buffer_.size() * 2 : 0);
+  VkDeviceSize size = std::max<VkDeviceSize>(align_up(at_least), buffer_.valid() ? buffer_.size() * 2 : 0);
+  if (info_.max_ring_bytes != 0) {
+    if (align_up(at_least) > info_.max_ring_bytes)
+      return Error{"StagedUploads: a " + std::to_string(align_up(at_least)) + "-byte staging ring would pass the cap of " +
+                   std::to_string(info_.max_ring_bytes) + " bytes"};
+    size = std::min(size, info_.max_ring_bytes);
+  }
+  // Storage usage: the scatter reads source words and piece tables from the ring. Larger
+  // than one binding is allowed; the scatter binds windows (or falls back to copies).
   auto b = Buffer::create(*context_, {.size = size,
-                                      .usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                      .usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                       .memory = MemoryUsage::HostVisible,
-                                      .name = "staging ring"});
+                                      .name = "staging ring",
+                                      .allow_larger_than_binding_range = true});
   if (!b) return Error{"StagedUploads: cannot allocate a " + std::to_string(size) + "-byte staging ring: " + b.message()};
   if (buffer_.valid()) {
     // Queued copies (recorded into the next frame) and frames in flight still read the old
@@ -100,15 +122,15 @@ Expected<std::span<std::byte>> StagedUploads::reserve(const Buffer& dst, VkDevic
   if (size == 0) return std::span<std::byte>{};
   auto at = allocate(size);
   if (!at) return at.error();
-  const VkBuffer src = buffer_.handle();
+  const UploadBufferRef src = upload_buffer_ref(buffer_);
   // The newest group for `dst` takes the copy unless it reads another staging block or
-  // already writes some of these bytes: then a new group behind a transfer barrier keeps
+  // already writes some of these bytes: then a new group behind a barrier keeps
   // the writes in order.
   auto it = open_group_.find(dst.handle());
   Group* g = nullptr;
   if (it != open_group_.end()) {
     Group& open = groups_[it->second];
-    bool overlaps = open.src != src;
+    bool overlaps = open.src.handle != src.handle;
     if (!overlaps) {
       auto next = open.spans.lower_bound(offset);
       if (next != open.spans.end() && next->first < offset + size) overlaps = true;
@@ -118,7 +140,7 @@ Expected<std::span<std::byte>> StagedUploads::reserve(const Buffer& dst, VkDevic
   }
   if (g == nullptr) {
     const bool after_earlier = it != open_group_.end();
-    groups_.push_back(Group{src, dst.handle(), {}, {}, after_earlier});
+    groups_.push_back(Group{src, upload_buffer_ref(dst), {}, {}, after_earlier});
     open_group_[dst.handle()] = groups_.size() - 1;
     g = &groups_.back();
   }
@@ -162,24 +184,73 @@ Status StagedUploads::copy_from(const Buffer& src, const Buffer& dst, std::span<
   // start a new group behind a barrier (reserve() sees a foreign source as overlapping).
   auto it = open_group_.find(dst.handle());
   const bool after_earlier = it != open_group_.end();
-  groups_.push_back(Group{src.handle(), dst.handle(), {regions.begin(), regions.end()}, {}, after_earlier});
+  groups_.push_back(Group{upload_buffer_ref(src), upload_buffer_ref(dst), {regions.begin(), regions.end()}, {}, after_earlier});
   open_group_[dst.handle()] = groups_.size() - 1;
   stats_.writes += regions.size();
   stats_.bytes += bytes;
   return Ok{};
 }
 
-void StagedUploads::record(VkCommandBuffer cmd) {
-  for (const Group& g : groups_) {
-    if (g.barrier_before)
-      memory_barrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
-    vkCmdCopyBuffer(cmd, g.src, g.dst, static_cast<std::uint32_t>(g.regions.size()), g.regions.data());
-    stats_.copy_regions += g.regions.size();
-    ++stats_.copy_groups;
+struct StagedUploads::StagedScatter {
+  ScatterPlan plan;
+  VkBuffer table;       // the ring block the table lies in
+  VkDeviceSize offset;  // its binding offset there
+};
+
+std::optional<StagedUploads::StagedScatter> StagedUploads::stage_scatter(const Group& g) {
+  if (g.regions.size() < info_.scatter_min_regions) return std::nullopt;
+  auto plan = scatter_->plan(g.src, g.dst, g.regions);
+  if (!plan) {
+    ++stats_.scatter_fallbacks;
+    return std::nullopt;
   }
-  if (!groups_.empty())
-    memory_barrier(cmd, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+  // The ring gives kAlign-aligned bytes; a device wanting coarser binding offsets gets
+  // the slack to round up in.
+  const VkDeviceSize align = scatter_->table_alignment();
+  auto at = allocate(plan->table_bytes() + (align > kAlign ? align - kAlign : 0));
+  if (!at) {  // no staging for the table: the copy still applies every region
+    ++stats_.scatter_fallbacks;
+    return std::nullopt;
+  }
+  const VkDeviceSize offset = (*at + align - 1) / align * align;
+  UploadScatter::write_table(*plan, g.regions, static_cast<std::byte*>(buffer_.mapped()) + offset);
+  return StagedScatter{*plan, buffer_.handle(), offset};
+}
+
+void StagedUploads::record(VkCommandBuffer cmd) {
+  // What has been recorded so far: the writes a barrier before a later group waits for.
+  VkPipelineStageFlags2 written_stages = 0;
+  VkAccessFlags2 written_access = 0;
+  for (const Group& g : groups_) {
+    // Staged before the barrier: a table that finds no room turns the group into a copy.
+    const std::optional<StagedScatter> scatter = stage_scatter(g);
+    if (g.barrier_before) {
+      // Overlapping bytes of one destination: every earlier write (copy or scatter) is done
+      // and visible before this group writes (write after write).
+      if (scatter)
+        memory_barrier(cmd, written_stages, written_access, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+      else
+        memory_barrier(cmd, written_stages, written_access, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                       VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
+    }
+    if (scatter) {
+      stats_.scatter_dispatches += scatter_->record(cmd, scatter->plan, g.src, g.dst, scatter->table, scatter->offset);
+      stats_.scatter_regions += g.regions.size();
+      stats_.scatter_pieces += scatter->plan.pieces;
+      ++stats_.scatter_groups;
+      written_stages |= VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+      written_access |= VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+    } else {
+      vkCmdCopyBuffer(cmd, g.src.handle, g.dst.handle, static_cast<std::uint32_t>(g.regions.size()), g.regions.data());
+      stats_.copy_regions += g.regions.size();
+      ++stats_.copy_groups;
+      written_stages |= VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
+      written_access |= VK_ACCESS_2_TRANSFER_WRITE_BIT;
+    }
+  }
+  if (written_stages != 0)
+    memory_barrier(cmd, written_stages, written_access,
                    VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_VERTEX_INPUT_BIT |
                        VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT |
                        VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,

@@ -54,6 +54,7 @@
 #include "gauss/net/client.h"
 #include "gauss/net/client_state_sink.h"
 #include "gauss/render/splat_renderer.h"
+#include "gauss/render/vk_staged_uploads.h"
 
 namespace gauss::vk {
 class Context;
@@ -78,6 +79,9 @@ struct ClientRuntimeConfig {
   // frames_in_flight + 1 buffers of this many slots); a step writing more leaves the rest
   // to the display thread. 0 = capacity.
   std::uint32_t pack_slots_per_step{65536};
+  // Upload copy groups of at least this many regions go to the GPU as one compute scatter
+  // (SplatRendererCreateInfo::upload_scatter_min_regions); tests force 0 or UINT32_MAX.
+  std::uint32_t upload_scatter_min_regions{vk::kDefaultScatterMinRegions};
   // The client's clock in seconds (arrivals on the network thread and frames share it).
   // Empty: steady time since the runtime was created. A simulation passes virtual time.
   std::function<double()> clock;
@@ -97,7 +101,11 @@ struct DisplayFrameStats {
   // two stages take from the display core, beside their wall time above.
   double publish_cpu_ms{0.0};
   double upload_cpu_ms{0.0};
-  std::uint32_t copy_regions{0};    // buffer copy regions this frame's upload pass recorded
+  // This frame's upload pass: VkBufferCopy regions recorded, and the regions applied by the
+  // compute scatter instead (StagedUploads, many-region groups) with its piece-table entries.
+  std::uint32_t copy_regions{0};
+  std::uint32_t scatter_regions{0};
+  std::uint32_t scatter_pieces{0};
   // Publication thread (ClientRuntimeConfig::publication_thread): whether a step's result
   // reached this frame, and what that step cost the publication thread (ClientState::frame
   // under the lock, and packing its slots), CPU (CLOCK_THREAD_CPUTIME_ID) and wall.

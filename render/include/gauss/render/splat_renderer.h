@@ -43,12 +43,12 @@
 #include "gauss/render/splat_math.h"
 #include "gauss/render/slot_buffer.h"
 #include "gauss/render/splat_memory_plan.h"
+#include "gauss/render/vk_staged_uploads.h"
 
 namespace gauss::vk {
 class Context;
 class FrameRing;
 class OffscreenTarget;
-class StagedUploads;
 }  // namespace gauss::vk
 
 namespace gauss::render {
@@ -109,6 +109,9 @@ struct SplatRendererCreateInfo {
   std::uint64_t max_binding_bytes{0};
   // Pass shapes (see SplatPassShapes); Auto lets the device and GAUSS_PASS_SHAPES decide.
   SplatPassShapes pass_shapes{SplatPassShapes::Auto};
+  // Upload copy groups of at least this many regions are applied by one compute scatter
+  // (vk_staged_uploads.h); UINT32_MAX keeps every group a vkCmdCopyBuffer (to compare).
+  std::uint32_t upload_scatter_min_regions{vk::kDefaultScatterMinRegions};
 };
 
 // What a frame-paced caller adds to a frame of render_frame().

@@ -77,6 +77,9 @@ class Buffer {
   // CPU pointer to the whole buffer (persistently mapped): non-null when host visible.
   void* mapped() const noexcept { return mapped_; }
   bool host_visible() const noexcept { return mapped_ != nullptr; }
+  // Usage the buffer was created with (TRANSFER_SRC | TRANSFER_DST included): lets a user
+  // that may bind someone else's buffer (StagedUploads' scatter) check it may.
+  VkBufferUsageFlags usage() const noexcept { return usage_; }
 
   // Writes bytes at `offset`. Blocking when staging is needed (waits for the copy).
   // Errors: range past the end (names buffer, offset, size), Vulkan failures.
@@ -115,6 +118,7 @@ class Buffer {
   VkBuffer buffer_{VK_NULL_HANDLE};
   VkDeviceMemory memory_{VK_NULL_HANDLE};
   VkDeviceSize size_{0};
+  VkBufferUsageFlags usage_{0};
   void* mapped_{nullptr};
   std::string name_;
 };

@@ -12,14 +12,23 @@
 // staging buffer is allocated per call.
 //
 // Order: writes to overlapping bytes of one destination keep their order (a later write
-// starts a new copy group behind a transfer barrier), so "write slot 5, clear slot 5" in
-// one frame leaves slot 5 clear.
+// starts a new copy group behind a barrier), so "write slot 5, clear slot 5" in one frame
+// leaves slot 5 clear.
+//
+// Many regions: a GPU pays per VkBufferCopy region (an H100's upload pass took p95 3.9 ms
+// for ~2 MB a frame in 8000 scattered slot edits, a region per run and buffer). A group of at least scatter_min_regions regions, all offsets
+// and sizes multiples of 4 bytes, is applied by one compute dispatch (UploadScatter,
+// shaders/upload_scatter.comp) reading a piece table staged in the ring. Anything the
+// scatter cannot take (unaligned bytes, a buffer without STORAGE_BUFFER usage, bytes
+// spanning more than one storage binding covers, no staging for the table) keeps
+// vkCmdCopyBuffer: the same bytes land, in the same order, either way.
 //
 // Errors: a destination range outside its buffer (nothing queued), a staging block that
 // cannot be allocated (the write is not queued; what was queued before stays).
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -32,22 +41,58 @@ namespace gauss::vk {
 
 class Context;
 class FrameRing;
+class UploadScatter;
 
+// A buffer as a queued copy group knows it: the group keeps handles, not Buffer objects
+// (those may move before record()), and what the compute scatter must check.
+struct UploadBufferRef {
+  VkBuffer handle{VK_NULL_HANDLE};
+  VkDeviceSize size{0};
+  bool storage{false};  // created with STORAGE_BUFFER usage
+};
+UploadBufferRef upload_buffer_ref(const Buffer& buffer) noexcept;
+
+// Counts since creation; a frame's are the difference across its record().
 struct StagedUploadStats {
   std::uint64_t writes{0};
   std::uint64_t bytes{0};
-  std::uint64_t copy_regions{0};   // VkBufferCopy regions recorded
-  std::uint64_t copy_groups{0};    // vkCmdCopyBuffer calls recorded
+  std::uint64_t copy_regions{0};        // VkBufferCopy regions recorded
+  std::uint64_t copy_groups{0};         // vkCmdCopyBuffer calls recorded
+  std::uint64_t scatter_groups{0};      // groups applied by the compute scatter
+  std::uint64_t scatter_regions{0};     // their regions (not in copy_regions)
+  std::uint64_t scatter_pieces{0};      // their piece-table entries (a region is 1 or more)
+  std::uint64_t scatter_dispatches{0};  // vkCmdDispatch calls of the scatter
+  std::uint64_t scatter_fallbacks{0};   // groups large enough to scatter that were copied
   std::uint64_t ring_grows{0};
-  VkDeviceSize ring_bytes{0};      // current ring size
+  VkDeviceSize ring_bytes{0};           // current ring size
+};
+
+// Groups with at least this many regions scatter by default. A dispatch with its barrier
+// and descriptor push costs about what some tens of copy regions do, so a handful of
+// regions (mesh chunks, the highlight list, one slot run) stays one vkCmdCopyBuffer. Not
+// measured on a GPU: the H100's slow frames had thousands of regions per group, far above it.
+inline constexpr std::uint32_t kDefaultScatterMinRegions = 32;
+
+struct StagedUploadsCreateInfo {
+  VkDeviceSize initial_bytes{4u << 20};  // first staging ring size (at least 64 KiB)
+  // The ring never grows past this many bytes (0: no cap); a write that needs more fails
+  // (nothing queued) and a piece table that finds no room falls back to copies.
+  VkDeviceSize max_ring_bytes{0};
+  // A word-aligned group of at least this many regions is applied by the compute scatter
+  // (0 scatters every word-aligned group; UINT32_MAX never scatters).
+  std::uint32_t scatter_min_regions{kDefaultScatterMinRegions};
+  // Most bytes one scatter binding covers (0: maxStorageBufferRange). Lower only in tests.
+  VkDeviceSize scatter_max_binding_bytes{0};
 };
 
 class StagedUploads {
  public:
   // `ring` supplies serials and deferred destruction; both must outlive this object.
+  // Errors: the ring's allocation (or an initial size past max_ring_bytes), the scatter
+  // pipeline's creation.
   static Expected<std::unique_ptr<StagedUploads>> create(Context& context, FrameRing& ring,
-                                                          VkDeviceSize initial_bytes = 4u << 20);
-  ~StagedUploads() = default;
+                                                          const StagedUploadsCreateInfo& info = {});
+  ~StagedUploads();
   StagedUploads(const StagedUploads&) = delete;
   StagedUploads& operator=(const StagedUploads&) = delete;
 
@@ -58,17 +103,21 @@ class StagedUploads {
   Expected<std::span<std::byte>> reserve(const Buffer& dst, VkDeviceSize offset, VkDeviceSize size);
   // Queues copies from a caller's host-visible buffer `src` (bytes packed elsewhere, e.g.
   // on another thread) into `dst`, in order with the other writes to `dst` (a copy group
-  // of its own, behind a transfer barrier when `dst` already has writes queued). The
-  // regions must not overlap each other in `dst`. The caller keeps `src` and its bytes
-  // unchanged until the frame that records them has finished (FrameRing serial).
+  // of its own, behind a barrier when `dst` already has writes queued). The regions must
+  // not overlap each other in `dst`. The caller keeps `src` and its bytes unchanged until
+  // the frame that records them has finished (FrameRing serial). Only a `src` with
+  // STORAGE_BUFFER usage can be read by the scatter; other sources are always copied.
   // Errors: a region outside `src` or `dst` (nothing queued).
   Status copy_from(const Buffer& src, const Buffer& dst, std::span<const VkBufferCopy> regions);
 
   bool empty() const noexcept { return groups_.empty(); }
-  // Records every queued copy into `cmd` (the current frame of the ring), then a barrier
-  // making them visible to compute, vertex/index and fragment reads. Nothing is
-  // forgotten until submitted(): a frame abandoned after record() leaves every write
-  // queued for the next frame. No writes between record() and submitted().
+  // Records every queued copy into `cmd` (the current frame of the ring), each group as
+  // vkCmdCopyBuffer or a scatter dispatch, then a barrier making transfer and compute
+  // writes visible to compute, vertex/index, fragment, indirect and transfer access. A
+  // scatter leaves its compute pipeline and descriptors bound. Piece tables are staged
+  // here (the ring may grow). Nothing is forgotten until submitted(): a frame abandoned
+  // after record() leaves every write queued for the next frame. No writes between
+  // record() and submitted().
   void record(VkCommandBuffer cmd);
   // The frame that record() went into was submitted: its copies are done with, and the
   // staging bytes are released once that frame has finished.
@@ -77,13 +126,20 @@ class StagedUploads {
   const StagedUploadStats& stats() const noexcept { return stats_; }
 
  private:
-  StagedUploads(Context& context, FrameRing& ring) : context_(&context), ring_(&ring) {}
+  StagedUploads(Context& context, FrameRing& ring);  // in the .cpp, where UploadScatter is complete
   Expected<VkDeviceSize> allocate(VkDeviceSize size);
   Status grow(VkDeviceSize at_least);
   void reclaim();
+  struct Group;
+  struct StagedScatter;  // a group's piece table, staged in the ring by record()
+  // Plans `g`'s scatter and stages its piece table in the ring; nothing when the group is
+  // under the threshold or must be copied (a fallback is counted).
+  std::optional<StagedScatter> stage_scatter(const Group& g);
 
   Context* context_;
   FrameRing* ring_;
+  StagedUploadsCreateInfo info_;
+  std::unique_ptr<UploadScatter> scatter_;
   Buffer buffer_;
   VkDeviceSize head_{0};  // next free byte
   VkDeviceSize tail_{0};  // oldest byte still read by a frame in flight (or queued)
@@ -96,9 +152,9 @@ class StagedUploads {
   std::vector<Release> releases_;
   VkDeviceSize pending_bytes_{0};  // staged since the last record()
 
-  struct Group {  // copies from the ring into one destination, no two overlapping
-    VkBuffer src;
-    VkBuffer dst;
+  struct Group {  // copies from one source into one destination, no two overlapping
+    UploadBufferRef src;
+    UploadBufferRef dst;
     std::vector<VkBufferCopy> regions;
     std::map<VkDeviceSize, VkDeviceSize> spans;  // dst offset -> end, for overlap checks
     bool barrier_before{false};
