@@ -17,10 +17,10 @@ FramingLens view_lens(double hfov_deg, std::uint32_t width, std::uint32_t height
 }
 
 std::optional<Framing> default_framing(const ViewSource& source, const glm::dvec3& up, double hfov_deg,
-                                       std::uint32_t width, std::uint32_t height) {
+                                       std::uint32_t width, std::uint32_t height, ViewPreset preset) {
   const auto box = source.bounds();
   if (!box) return std::nullopt;
-  return frame_bounds(box->lo, box->hi, up, view_lens(hfov_deg, width, height));
+  return frame_preset(box->lo, box->hi, up, view_lens(hfov_deg, width, height), preset, source.up().capture_position);
 }
 
 }  // namespace gauss::view

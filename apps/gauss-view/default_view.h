@@ -16,9 +16,11 @@ namespace gauss::view {
 // kept beyond the renderer's near cull.
 FramingLens view_lens(double hfov_deg, std::uint32_t width, std::uint32_t height);
 
-// The framing of `source`'s bounds for `up` through view_lens(); nullopt when the source has
-// no bounds (a stream).
+// The framing of `source`'s bounds for `up` through view_lens(), from the side its capture's
+// cameras stood on when it knows (SceneUp::capture_position), or the `preset` view of the
+// same box; nullopt when the source has no bounds (a stream).
 std::optional<Framing> default_framing(const ViewSource& source, const glm::dvec3& up, double hfov_deg,
-                                       std::uint32_t width, std::uint32_t height);
+                                       std::uint32_t width, std::uint32_t height,
+                                       ViewPreset preset = ViewPreset::Front);
 
 }  // namespace gauss::view

@@ -181,7 +181,7 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
   json default_camera = nullptr;
   if (!path) {
     // options.cpp lets only a local scene through without --path; it always has bounds.
-    const auto framing = default_framing(src, src.up().up, opts.fov_deg, in.width, in.height);
+    const auto framing = default_framing(src, src.up().up, opts.fov_deg, in.width, in.height, opts.view);
     if (!framing) {
       std::fprintf(stderr, "gauss-view: %s has no bounds to frame; give --path\n", src.describe().c_str());
       return 1;

@@ -3,6 +3,10 @@
 // by the camera controls (fly_camera.h, orbit_control.h). Keys and mouse that the UI takes
 // (a focused text field, the cursor over a panel) do not reach the camera. No GLFW or
 // Vulkan here, so the controls are tested without a window.
+#include <optional>
+
+#include "gauss/engine/scene_framing.h"
+
 namespace gauss::view {
 
 struct InputState {
@@ -10,7 +14,9 @@ struct InputState {
   bool left{false}, right{false};    // A / D
   bool up{false}, down{false};       // E / Q
   bool fast{false};                  // Shift held
-  bool frame{false};                 // F pressed since the previous poll: frame the scene again
+  // F or 1 / 2 / 3 pressed since the previous poll: frame the scene again from the front /
+  // side / top (scene_framing.h ViewPreset).
+  std::optional<ViewPreset> view;
   bool toggle_orbit{false};          // O pressed since the previous poll: orbit <-> fly
   // Right mouse button held, pressed over the scene: mouse look. The cursor is hidden and
   // unbounded while it lasts.

@@ -59,8 +59,13 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
             auto r = parse_up_axis(in);
             return r ? std::string() : r.message();
           },
-          "AXIS"))
+          ""))
       ->type_name("AXIS");
+  std::string view = "front";
+  app.add_option("--view", view,
+                 "the default camera's view of a local scene: front (the capture's side), side (its right), top "
+                 "(from above)")
+      ->check(CLI::IsMember({"front", "side", "top"}));
   app.add_option("--stereo", o.stereo_ipd, "render both eyes this far apart (metres; 0: one view)")
       ->check(apps::in_range(0.0, 1.0));
   app.add_option("--device", o.device, "Vulkan device index or name substring");
@@ -97,6 +102,7 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
   o.mode = mode == "immediate" ? PublishMode::Immediate : PublishMode::Progressive;
   o.highlight = !no_highlight;
   if (!up.empty()) o.up = *parse_up_axis(up);
+  o.view = view == "side" ? ViewPreset::Side : view == "top" ? ViewPreset::Top : ViewPreset::Front;
   const auto wh = apps::parse_size(size);
   o.width = wh->first;
   o.height = wh->second;

@@ -8,6 +8,7 @@
 #include <glm/vec3.hpp>
 
 #include "gauss/engine/publisher.h"
+#include "gauss/engine/scene_framing.h"
 #include "gauss/net/address.h"
 
 namespace gauss::view {
@@ -30,6 +31,9 @@ struct ViewOptions {
   // The scene's up (--up): unset, a local scene's up is detected (gauss/engine/scene_up.h:
   // the trainer's cameras.json, else the 3DGS default -y) and a stream's is +y.
   std::optional<glm::dvec3> up;
+  // Which of the default camera's views a local scene opens with (--view; the keys F / 1, 2, 3
+  // choose again in the window).
+  ViewPreset view{ViewPreset::Front};
   double stereo_ipd{0.0};              // > 0: render both eyes (headless writes both)
   std::string device;                  // Vulkan device override
 

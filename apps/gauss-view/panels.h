@@ -9,7 +9,8 @@
 //               and class queries with rho, clear, the share of M the query got
 //   timing      scrolling graphs of CPU and GPU milliseconds per pass (panels_view.cpp)
 //   view        the bounds the default camera frames, the scene's up (and where it came
-//               from) with a choice of axis, "frame (F)", fly / orbit, saved viewpoints,
+//               from) with a choice of axis, "frame (F)", the front / side / top views,
+//               fly / orbit, saved viewpoints,
 //               highlight, edit tints, stereo preview + IPD, speed, and every key and
 //               mouse binding (help)
 // A local scene (no stream) shows "local scene (no stream)" where a panel needs one.
@@ -71,8 +72,8 @@ class Panels {
   const ViewSettings& settings() const noexcept { return settings_; }
   // Fly or orbit chosen in the view panel since the last call (true: orbit).
   std::optional<bool> take_mode_request() { return std::exchange(mode_request_, std::nullopt); }
-  // The view panel's "frame" button was pressed since the last call.
-  bool take_frame_request() { return std::exchange(frame_request_, false); }
+  // A view panel button that frames the scene (front, side, top) pressed since the last call.
+  std::optional<ViewPreset> take_view_request() { return std::exchange(view_request_, std::nullopt); }
   // An up chosen in the view panel since the last call.
   std::optional<glm::dvec3> take_up_request() { return std::exchange(up_request_, std::nullopt); }
 
@@ -119,7 +120,7 @@ class Panels {
   std::uint64_t target_resident_{0};
   std::string last_query_;
 
-  bool frame_request_{false};
+  std::optional<ViewPreset> view_request_;
   std::optional<bool> mode_request_;
   std::optional<glm::dvec3> up_request_;
   std::vector<SavedViewpoint> viewpoints_;

@@ -96,6 +96,11 @@ void Panels::draw_view(FlyCamera& camera, bool orbit) {
               p.yaw * 180.0 / 3.14159265358979323846, p.pitch * 180.0 / 3.14159265358979323846,
               up_label(camera.up()).c_str());
   draw_framing(camera);
+  if (ImGui::Button("front (1)")) view_request_ = ViewPreset::Front;
+  ImGui::SameLine();
+  if (ImGui::Button("side (2)")) view_request_ = ViewPreset::Side;
+  ImGui::SameLine();
+  if (ImGui::Button("top (3)")) view_request_ = ViewPreset::Top;
   if (ImGui::RadioButton("fly", !orbit) && orbit) mode_request_ = false;
   ImGui::SameLine();
   if (ImGui::RadioButton("orbit (O)", orbit) && !orbit) mode_request_ = true;
@@ -139,7 +144,8 @@ void Panels::draw_view(FlyCamera& camera, bool orbit) {
     ImGui::TextDisabled("wheel     fly: speed; orbit: zoom");
     ImGui::TextDisabled("left drag   orbit: turn about the pivot");
     ImGui::TextDisabled("middle drag orbit: pan");
-    ImGui::TextDisabled("F         frame the scene again");
+    ImGui::TextDisabled("F or 1    frame the scene again (front)");
+    ImGui::TextDisabled("2 / 3     the side / top view of it");
     ImGui::TextDisabled("O         orbit <-> fly (the view stays)");
   }
   ImGui::End();
@@ -173,7 +179,7 @@ void Panels::draw_framing(FlyCamera& camera) {
     ImGui::EndCombo();
   }
   ImGui::SameLine();
-  if (ImGui::Button("frame (F)")) frame_request_ = true;
+  if (ImGui::Button("frame (F)")) view_request_ = ViewPreset::Front;
   // Wrapped: the detail may name a file's path.
   ImGui::PushTextWrapPos(0.0f);
   ImGui::TextDisabled("scene's up %s, from %s", up_label(detected.up).c_str(), detected.detail.c_str());

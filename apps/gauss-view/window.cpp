@@ -175,13 +175,18 @@ void Window::poll_events() {
     in.down = key_down(GLFW_KEY_Q);
     in.fast = key_down(GLFW_KEY_LEFT_SHIFT) || key_down(GLFW_KEY_RIGHT_SHIFT);
   }
-  // F and O act once per press, not once per frame while held.
-  const bool frame_down = !in.ui_wants_keyboard && key_down(GLFW_KEY_F);
-  in.frame = frame_down && !frame_was_down_;
-  frame_was_down_ = frame_down;
-  const bool orbit_down = !in.ui_wants_keyboard && key_down(GLFW_KEY_O);
-  in.toggle_orbit = orbit_down && !orbit_was_down_;
-  orbit_was_down_ = orbit_down;
+  // F, 1, 2, 3 and O act once per press, not once per frame while held.
+  const auto pressed = [&](int key, bool& was_down) {
+    const bool down = !in.ui_wants_keyboard && key_down(key);
+    const bool edge = down && !was_down;
+    was_down = down;
+    return edge;
+  };
+  const bool f = pressed(GLFW_KEY_F, view_key_was_down_[0]);  // both read: each keeps its edge
+  if (pressed(GLFW_KEY_1, view_key_was_down_[1]) || f) in.view = ViewPreset::Front;
+  if (pressed(GLFW_KEY_2, view_key_was_down_[2])) in.view = ViewPreset::Side;
+  if (pressed(GLFW_KEY_3, view_key_was_down_[3])) in.view = ViewPreset::Top;
+  in.toggle_orbit = pressed(GLFW_KEY_O, orbit_was_down_);
   // Left (orbit) and middle (pan) drags, like mouse look, start only with a press over the
   // scene, so that dragging a panel's slider never turns the view. The cursor stays visible.
   const bool left_down = glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;

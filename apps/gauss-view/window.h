@@ -181,7 +181,7 @@ class Window {
   double last_cursor_x_{0.0}, last_cursor_y_{0.0};
   double scroll_accum_{0.0};
   bool right_was_down_{false};
-  bool frame_was_down_{false};
+  bool view_key_was_down_[4]{};  // F, 1, 2, 3
   bool orbit_was_down_{false};
   bool left_was_down_{false}, middle_was_down_{false};
   double drag_cursor_x_{0.0}, drag_cursor_y_{0.0};

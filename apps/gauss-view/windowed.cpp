@@ -48,9 +48,10 @@ class FrameLoop {
 
  private:
   Status start_pose();
-  // The default camera again (F, the view panel): a local scene's framing for the window's
-  // current size; a stream's box once it is known.
-  void reframe();
+  // The default camera again (F, 1 / 2 / 3, the view panel): a local scene's framing from
+  // `preset`'s side for the window's current size; a stream's box once it is known (a
+  // stream has one view of it).
+  void reframe(ViewPreset preset = ViewPreset::Front);
   void frame_stream_box();
   // Waits until frame slot `slot`'s previous frame finished (its acquire semaphore and the
   // UI's buffers are free again; vk_swapchain.h step 1).
@@ -80,18 +81,18 @@ Status FrameLoop::start_pose() {
     camera_.set_from_camera(*c);
     return Ok{};
   }
-  reframe();
+  reframe(opts_.view);
   return Ok{};
 }
 
-void FrameLoop::reframe() {
+void FrameLoop::reframe(ViewPreset preset) {
   if (source_.runtime() != nullptr) {
     auto_frame_ = true;
     return;
   }
   // The mono view's size and focal length (run() keeps the pixel scale in stereo).
   const VkExtent2D ve = view_extent(window_.framebuffer_extent());
-  if (auto fr = default_framing(source_, camera_.up(), opts_.fov_deg, ve.width, ve.height)) {
+  if (auto fr = default_framing(source_, camera_.up(), opts_.fov_deg, ve.width, ve.height, preset)) {
     camera_.frame(*fr);
     orbit_.frame(*fr);
     framed_centre_ = fr->target;
@@ -180,7 +181,7 @@ int FrameLoop::run() {
       moved = orbit_.update(camera_, in, focal) || moved;
     }
     if (moved) auto_frame_ = false;
-    if (in.frame || panels_.take_frame_request()) reframe();
+    if (const auto asked = panels_.take_view_request(); in.view || asked) reframe(asked ? *asked : *in.view);
     if (auto up = panels_.take_up_request()) {
       // A new up turns the default view with it: frame again, upright for it.
       camera_.set_up(*up);

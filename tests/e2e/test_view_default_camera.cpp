@@ -7,12 +7,15 @@
 //   - the written camera is the library's framing of the scene's robust bounds;
 //   - degenerate scenes (one Gaussian, every opacity zero) still give a finite camera and
 //     exit 0; a file whose centres are not finite is refused by its reader, by name;
-//   - a bad --up and --headless --host without --path are refused with exit 2 and say why.
+//   - --view side / top opens the library's preset framings of the same box;
+//   - a bad --up or --view and --headless --host without --path are refused with exit 2 and
+//     say why.
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -151,6 +154,33 @@ TEST(ViewDefaultCamera, YDownSceneOpensUprightAsTheLibraryFramesIt) {
   ASSERT_TRUE(fimg.ok()) << fimg.message();
   const Rows frows = colour_rows(*fimg);
   EXPECT_GT(frows.red, frows.blue);
+}
+
+// --view picks the preset the scene opens with: the library's side and top framings.
+TEST(ViewDefaultCamera, ViewOptionOpensThePreset) {
+  const fs::path out = fresh_dir("e2e_view_default_camera_preset");
+  const gauss::GaussianCloud cloud = y_down_column();
+  ASSERT_TRUE(gauss::write_gaussian_ply(out / "column.ply", cloud).ok());
+  gauss::FramingLens lens;
+  lens.width = kW;
+  lens.height = kH;
+  lens.fx = lens.fy = 0.5 * kW / std::tan(70.0 * 3.14159265358979323846 / 360.0);
+  const gauss::RobustBounds box = gauss::robust_bounds(cloud.gaussians);
+  const std::string size = std::to_string(kW) + "x" + std::to_string(kH);
+  for (const auto& [name, preset] : {std::pair{"side", gauss::ViewPreset::Side}, std::pair{"top", gauss::ViewPreset::Top}}) {
+    SCOPED_TRACE(name);
+    const ViewRun run = run_view(out, name, {"--scene", (out / "column.ply").string(), "--headless", "--size", size,
+                                             "--view", name, "--out", (out / name).string()});
+    ASSERT_EQ(run.rc, 0) << run.log;
+    auto cam = gauss::read_camera_json(out / name / "final_camera.json");
+    ASSERT_TRUE(cam.ok()) << cam.message();
+    const gauss::Camera expect =
+        gauss::framed_camera(gauss::frame_preset(box.lo, box.hi, gauss::kColmapUp, lens, preset), lens);
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) EXPECT_NEAR(cam->world_to_camera[i][j], expect.world_to_camera[i][j], 1e-9);
+  }
+  const ViewRun bad = run_view(out, "bad", {"--scene", (out / "column.ply").string(), "--headless", "--view", "back"});
+  EXPECT_EQ(bad.rc, 2) << bad.log;
 }
 
 TEST(ViewDefaultCamera, DegenerateScenesGetAFiniteCamera) {

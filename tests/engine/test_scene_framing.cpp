@@ -197,6 +197,52 @@ TEST(Framing, LooksFromTheOriginsSide) {
     EXPECT_NEAR(glm::dot(view_side({3.0, 4.0, -5.0}, {0.1, 0.1, 0.1}, up), up), 0.0, 1e-12);
 }
 
+// Where the capture's cameras stood wins over the origin; from inside the footprint (a 360
+// degree capture's mean) it says nothing and the origin decides.
+TEST(Framing, LooksFromWhereTheCaptureStood) {
+  const FramingLens lens = lens_320x240();
+  const glm::dvec3 lo(-1.0, -1.0, 4.0), hi(1.0, 1.0, 6.0);
+  const Framing fr = frame_bounds(lo, hi, kColmapUp, lens, glm::dvec3(10.0, -1.0, 5.0));
+  EXPECT_GT(fr.eye.x, hi.x) << "from +x, where the cameras were";
+  const Framing inside = frame_bounds(lo, hi, kColmapUp, lens, glm::dvec3(0.1, 0.0, 5.1));
+  EXPECT_LT(inside.eye.z, lo.z) << "the origin's side (-z)";
+}
+
+// The preset views see the same whole box from the front, its right flank and above; each
+// stays upright enough to read (image-up leans toward up) and outside the box.
+TEST(Framing, PresetViewsSeeTheWholeBoxFromTheirSide) {
+  const glm::dvec3 lo(-3.0, 1.0, 10.0), hi(5.0, 2.0, 30.0);
+  for (const char* axis : {"-y", "+y", "+z"}) {
+    SCOPED_TRACE(axis);
+    const glm::dvec3 up = *parse_up_axis(axis);
+    const FramingLens lens = lens_320x240();
+    const Framing front = frame_preset(lo, hi, up, lens, ViewPreset::Front);
+    const Framing same = frame_bounds(lo, hi, up, lens);
+    EXPECT_EQ(front.eye, same.eye);
+    const Framing side = frame_preset(lo, hi, up, lens, ViewPreset::Side);
+    const Framing top = frame_preset(lo, hi, up, lens, ViewPreset::Top);
+    const auto horizontal = [&](const Framing& fr) {
+      const glm::dvec3 d = fr.target - fr.eye;
+      return glm::normalize(d - glm::dot(d, up) * up);
+    };
+    EXPECT_NEAR(glm::dot(horizontal(front), horizontal(side)), 0.0, 1e-9) << "a quarter turn";
+    const Camera fc = framed_camera(front, lens);
+    const glm::dvec3 front_right = glm::dvec3(glm::inverse(fc.world_to_camera)[0]);
+    EXPECT_GT(glm::dot(side.eye - side.target, front_right), 0.0) << "on the front view's right";
+    EXPECT_NEAR(glm::dot(glm::normalize(top.target - top.eye), -up), std::sin(kTopElevation), 1e-9) << "from above";
+    EXPECT_GT(glm::dot(top.eye - top.target, -horizontal(front)), 0.0) << "leaning back toward the front side";
+    for (const Framing* fr : {&front, &side, &top}) {
+      const Camera c = framed_camera(*fr, lens);
+      EXPECT_GT(glm::dot(image_up(c), up), 0.0);
+      EXPECT_FALSE(glm::all(glm::greaterThanEqual(fr->eye, lo)) && glm::all(glm::lessThanEqual(fr->eye, hi)));
+      for (int i = 0; i < 8; ++i) {
+        const glm::dvec3 corner((i & 1) ? hi.x : lo.x, (i & 2) ? hi.y : lo.y, (i & 4) ? hi.z : lo.z);
+        EXPECT_TRUE(project(c, corner).in_view) << "corner " << i;
+      }
+    }
+  }
+}
+
 TEST(Framing, DegenerateScenesGetFiniteCameras) {
   const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
   struct Case {
@@ -300,7 +346,21 @@ TEST(SceneUp, TrainerCamerasAndOptionDecide) {
   const SceneUp up = choose_scene_up(std::nullopt, ply);
   EXPECT_EQ(up.source, UpSource::TrainerCameras) << up.problem;
   EXPECT_TRUE(up.problem.empty());
+  EXPECT_NE(up.detail.find("2 capture cameras"), std::string::npos) << up.detail;
   EXPECT_GT(glm::dot(up.up, glm::dvec3(0, 0, 1)), 0.99);
+  ASSERT_TRUE(up.capture_position.has_value());
+  EXPECT_NEAR(glm::length(*up.capture_position - glm::dvec3(-2.5, 2.5, 1.0)), 0.0, 1e-12);
+  // One camera without a position: the up stands, the mean position is dropped.
+  const fs::path partial = scratch("cameras_without_position");
+  write_text(partial / "cameras.json", R"([
+    {"position": [-5, 0, 1], "rotation": [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]},
+    {"position": [0, "5", 1], "rotation": [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]}
+  ])");
+  auto no_position = read_trainer_capture(partial / "cameras.json");
+  ASSERT_TRUE(no_position.ok()) << no_position.message();
+  EXPECT_GT(glm::dot(no_position->up, glm::dvec3(0, 0, 1)), 0.99);
+  EXPECT_FALSE(no_position->mean_position.has_value());
+  EXPECT_EQ(no_position->cameras, 2u);
   const Camera c = default_camera(cloud.gaussians, up.up);
   EXPECT_GT(glm::dot(image_up(c), glm::dvec3(0, 0, 1)), 0.9);
   EXPECT_LT(project(c, {0, 0, 2}).v, project(c, {0, 0, 0}).v);
@@ -322,7 +382,7 @@ TEST(SceneUp, TrainerCamerasAndOptionDecide) {
   for (const char* text : {"{}", "[]", "not json", "[{\"rotation\": [[1, 0, 0], [0, 1, 0], [0, 0, \"a\"]]}]",
                            "[{\"rotation\": [[1,0,0],[0,1,0],[0,0,1]]}, {\"rotation\": [[1,0,0],[0,-1,0],[0,0,-1]]}]"}) {
     write_text(flat / "cameras.json", text);
-    auto r = read_trainer_capture_up(flat / "cameras.json");
+    auto r = read_trainer_capture(flat / "cameras.json");
     EXPECT_FALSE(r.ok()) << text;
     if (!r.ok()) {
       EXPECT_NE(r.message().find("cameras.json"), std::string::npos) << r.message();
@@ -361,7 +421,7 @@ TEST(SharedScenes, DefaultCameraFramesEveryScene) {
       FramingLens lens = lens_320x240();
       lens.width = w;
       lens.height = h;
-      const Framing fr = frame_bounds(b.lo, b.hi, up.up, lens);
+      const Framing fr = frame_bounds(b.lo, b.hi, up.up, lens, up.capture_position);
       const Camera c = framed_camera(fr, lens);
       double total = 0.0, seen = 0.0;
       std::size_t behind = 0, box_behind = 0;

@@ -47,6 +47,18 @@ TEST(ViewCamera, FramedFlyCameraIsTheLibrarysCamera) {
   EXPECT_GT(glm::dot(glm::normalize(step), glm::dvec3(0, -1, 0)), 0.999);
 }
 
+// The preset views reach the fly camera as the library frames them: the top view's
+// elevation (kTopElevation) is within the fly camera's pitch limit, so nothing is clamped.
+TEST(ViewCamera, PresetViewsAreTheLibrarysCameras) {
+  static_assert(kTopElevation < FlyCamera::kMaxPitch);
+  for (const ViewPreset preset : {ViewPreset::Front, ViewPreset::Side, ViewPreset::Top}) {
+    FlyCamera fly;
+    const Framing fr = frame_preset({-0.5, -4.1, -0.35}, {0.6, 0.0, 0.8}, {0, -1, 0}, lens(), preset);
+    fly.frame(fr);
+    expect_same_view(fly.camera(320, 240, kFocal), framed_camera(fr, lens()));
+  }
+}
+
 TEST(ViewCamera, NewUpKeepsPositionAndDirection) {
   FlyCamera fly;
   fly.frame(guitar_like());
@@ -112,7 +124,7 @@ TEST(ViewCamera, OrbitTurnsAboutAFixedPivotAndSwitchingDoesNotJump) {
   EXPECT_NEAR(orbit.distance(), fr.distance, 1e-9);
 }
 
-TEST(ViewCamera, DragsAndWheelOutsideOrbitInputDoNothing) {
+TEST(ViewCamera, CursorMotionWithoutADragDoesNothing) {
   FlyCamera fly;
   OrbitControl orbit;
   fly.frame(guitar_like());

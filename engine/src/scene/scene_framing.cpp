@@ -61,12 +61,20 @@ void weighted_bounds(const std::vector<glm::vec3>& ps, const std::vector<double>
 
 }  // namespace
 
-glm::dvec3 view_side(const glm::dvec3& centre, const glm::dvec3& half, const glm::dvec3& up) {
+glm::dvec3 view_side(const glm::dvec3& centre, const glm::dvec3& half, const glm::dvec3& up,
+                     const std::optional<glm::dvec3>& seen_from) {
   const auto horizontal = [&](const glm::dvec3& v) { return v - glm::dot(v, up) * up; };
-  const glm::dvec3 to_origin = horizontal(-centre);
   const double footprint = glm::length(horizontal(glm::abs(half)));
-  const double d = glm::length(to_origin);
-  if (std::isfinite(d) && d > footprint && d > 0.0) return to_origin / d;
+  // The unit horizontal direction toward `from`, when `from` stands outside the footprint.
+  const auto toward = [&](const glm::dvec3& from) -> std::optional<glm::dvec3> {
+    const glm::dvec3 side = horizontal(from - centre);
+    const double d = glm::length(side);
+    if (std::isfinite(d) && d > footprint && d > 0.0) return side / d;
+    return std::nullopt;
+  };
+  if (seen_from)
+    if (auto side = toward(*seen_from)) return *side;
+  if (auto side = toward(glm::dvec3(0.0))) return *side;
   return -front_direction(up);
 }
 
@@ -105,7 +113,13 @@ glm::dvec3 front_direction(const glm::dvec3& up) {
   return -glm::cross(right, up);
 }
 
-Framing frame_bounds(const glm::dvec3& lo_in, const glm::dvec3& hi_in, const glm::dvec3& up_in, const FramingLens& lens) {
+Framing frame_bounds(const glm::dvec3& lo, const glm::dvec3& hi, const glm::dvec3& up, const FramingLens& lens,
+                     const std::optional<glm::dvec3>& seen_from) {
+  return frame_preset(lo, hi, up, lens, ViewPreset::Front, seen_from);
+}
+
+Framing frame_preset(const glm::dvec3& lo_in, const glm::dvec3& hi_in, const glm::dvec3& up_in, const FramingLens& lens,
+                     ViewPreset preset, const std::optional<glm::dvec3>& seen_from) {
   Framing fr;
   const double up_len = glm::length(up_in);
   fr.up = std::isfinite(up_len) && up_len > 1e-12 ? up_in / up_len : glm::dvec3(0.0, 1.0, 0.0);
@@ -122,9 +136,12 @@ Framing frame_bounds(const glm::dvec3& lo_in, const glm::dvec3& hi_in, const glm
   fr.target = centre;
 
   // The view direction: from the side the camera stands on, tilted down by the elevation
-  // (clamped short of vertical, where image-up is undefined).
-  const double e = std::clamp(lens.elevation, -1.4, 1.4);
-  const glm::dvec3 f = glm::normalize(-std::cos(e) * view_side(centre, half, fr.up) - std::sin(e) * fr.up);
+  // (clamped short of vertical, where image-up is undefined). The side view stands at the
+  // front view's right: right = f x up for a horizontal f = -side, so up x side.
+  const glm::dvec3 front_side = view_side(centre, half, fr.up, seen_from);
+  const glm::dvec3 side = preset == ViewPreset::Side ? glm::cross(fr.up, front_side) : front_side;
+  const double e = std::clamp(preset == ViewPreset::Top ? kTopElevation : lens.elevation, -kTopElevation, kTopElevation);
+  const glm::dvec3 f = glm::normalize(-std::cos(e) * side - std::sin(e) * fr.up);
   const glm::dvec3 right = glm::normalize(glm::cross(f, fr.up));
   const glm::dvec3 down = glm::cross(f, right);
   // Tangents of the half-angles the box may fill (principal point at the centre).

@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <string>
 
 #include <glm/geometric.hpp>
@@ -19,6 +20,19 @@ namespace {
 using nlohmann::json;
 
 Error up_error(const std::filesystem::path& file, const std::string& what) { return Error{file.string() + ": " + what}; }
+
+// obj[key] as three finite numbers; nullopt when absent or anything else.
+std::optional<glm::dvec3> finite_vec3(const json& obj, const char* key) {
+  const auto it = obj.find(key);
+  if (it == obj.end() || !it->is_array() || it->size() != 3) return std::nullopt;
+  glm::dvec3 v(0.0);
+  for (std::size_t c = 0; c < 3; ++c) {
+    const json& x = (*it)[c];
+    if (!x.is_number() || !std::isfinite(x.get<double>())) return std::nullopt;
+    v[static_cast<int>(c)] = x.get<double>();
+  }
+  return v;
+}
 
 }  // namespace
 
@@ -63,7 +77,7 @@ std::optional<std::filesystem::path> find_trainer_cameras(const std::filesystem:
   return std::nullopt;
 }
 
-Expected<glm::dvec3> read_trainer_capture_up(const std::filesystem::path& file) {
+Expected<TrainerCapture> read_trainer_capture(const std::filesystem::path& file) {
   auto bytes = io::read_file_bytes(file);
   if (!bytes) return bytes.error();
   json j;
@@ -74,7 +88,8 @@ Expected<glm::dvec3> read_trainer_capture_up(const std::filesystem::path& file) 
   }
   if (!j.is_array()) return up_error(file, std::string("expected an array of cameras, got ") + j.type_name());
   if (j.empty()) return up_error(file, "no cameras");
-  glm::dvec3 sum(0.0);
+  glm::dvec3 sum(0.0), position_sum(0.0);
+  bool positions = true;  // every camera so far had a finite position
   for (std::size_t i = 0; i < j.size(); ++i) {
     const std::string at = "camera " + std::to_string(i) + ": ";
     const json& cam = j[i];
@@ -93,6 +108,10 @@ Expected<glm::dvec3> read_trainer_capture_up(const std::filesystem::path& file) 
     const double len = glm::length(down);
     if (!(len > 1e-6)) return up_error(file, at + "the rotation's second column is zero");
     sum -= down / len;
+    // Positions are optional: one camera without a usable one drops the mean, not the up.
+    const auto pos = finite_vec3(cam, "position");
+    if (pos) position_sum += *pos;
+    positions = positions && pos.has_value();
   }
   const double len = glm::length(sum);
   // Cameras looking from every side still agree on up; ups that cancel mean a capture
@@ -100,7 +119,11 @@ Expected<glm::dvec3> read_trainer_capture_up(const std::filesystem::path& file) 
   if (!(len > 0.1 * static_cast<double>(j.size())))
     return up_error(file, "the cameras' up directions do not agree (mean length " +
                               std::to_string(len / static_cast<double>(j.size())) + ")");
-  return sum / len;
+  TrainerCapture out;
+  out.up = sum / len;
+  out.cameras = j.size();
+  if (positions) out.mean_position = position_sum / static_cast<double>(j.size());
+  return out;
 }
 
 SceneUp choose_scene_up(const std::optional<glm::dvec3>& option, const std::filesystem::path& scene) {
@@ -113,14 +136,15 @@ SceneUp choose_scene_up(const std::optional<glm::dvec3>& option, const std::file
   }
   const auto cams = find_trainer_cameras(scene);
   if (!cams) return out;
-  auto up = read_trainer_capture_up(*cams);
-  if (!up) {
-    out.problem = up.message();
+  auto capture = read_trainer_capture(*cams);
+  if (!capture) {
+    out.problem = capture.message();
     return out;
   }
-  out.up = *up;
+  out.up = capture->up;
   out.source = UpSource::TrainerCameras;
-  out.detail = cams->string() + " (the capture's cameras)";
+  out.detail = cams->string() + " (" + std::to_string(capture->cameras) + " capture cameras)";
+  out.capture_position = capture->mean_position;
   return out;
 }
 

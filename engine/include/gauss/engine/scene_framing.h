@@ -15,6 +15,7 @@
 // all at one point) is grown to kPointBoxHalfExtent around its centre.
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 
 #include <glm/vec3.hpp>
@@ -85,16 +86,37 @@ struct Framing {
 glm::dvec3 front_direction(const glm::dvec3& up);
 
 // The horizontal direction (unit, perpendicular to `up`) from a box's centre toward where the
-// default camera stands. Toward the origin when the origin lies outside the box's horizontal
-// footprint (|horizontal half extents|): COLMAP puts its first camera at the origin and
-// 3DGS trainers keep COLMAP's frame, so the origin is a place the subject was photographed
-// from (the shared fruit_drops scene reads mirrored from the other side). Otherwise (a
-// scene centred on the origin, as web tools write them) -front_direction(up).
-glm::dvec3 view_side(const glm::dvec3& centre, const glm::dvec3& half, const glm::dvec3& up);
+// default camera stands: toward `seen_from` (where the capture's cameras stood, from a
+// trainer's cameras.json) when that lies outside the box's horizontal footprint
+// (|horizontal half extents|); else toward the origin when it does: COLMAP puts its first
+// camera at the origin and 3DGS trainers keep COLMAP's frame, so the origin is a place the
+// subject was photographed from (the shared fruit_drops label reads mirrored from the other
+// side); else (a scene centred on the origin, as web tools write them) -front_direction(up).
+glm::dvec3 view_side(const glm::dvec3& centre, const glm::dvec3& half, const glm::dvec3& up,
+                     const std::optional<glm::dvec3>& seen_from = std::nullopt);
 
 // The framing of box [lo, hi] for `up` (normalised here; a zero or non-finite up is taken
-// as +y) through `lens`. Non-finite box corners give the unit box around the origin.
-Framing frame_bounds(const glm::dvec3& lo, const glm::dvec3& hi, const glm::dvec3& up, const FramingLens& lens);
+// as +y) through `lens`, from view_side(..., seen_from). Non-finite box corners give the unit
+// box around the origin. The same as frame_preset(..., ViewPreset::Front, ...).
+Framing frame_bounds(const glm::dvec3& lo, const glm::dvec3& hi, const glm::dvec3& up, const FramingLens& lens,
+                     const std::optional<glm::dvec3>& seen_from = std::nullopt);
+
+// The preset views of a viewer (gauss-view's F / 1, 2, 3), each framing the whole box:
+enum class ViewPreset : std::uint8_t {
+  Front,  // frame_bounds: from view_side, lens.elevation above the horizontal
+  Side,   // a quarter turn about up, from the front view's right: the subject's flank
+  Top,    // from above at kTopElevation; the image's up points away from the front side
+};
+
+// The top view's elevation (radians, 86 degrees): straight down leaves the image's up
+// undefined; below the fly camera's pitch limit (1.55), so a viewer takes it unclamped.
+// Every elevation is clamped to +-kTopElevation.
+inline constexpr double kTopElevation = 1.5;
+
+// frame_bounds() from the side and elevation `preset` names (the box, up and fallbacks as
+// there).
+Framing frame_preset(const glm::dvec3& lo, const glm::dvec3& hi, const glm::dvec3& up, const FramingLens& lens,
+                     ViewPreset preset, const std::optional<glm::dvec3>& seen_from = std::nullopt);
 
 // The OpenCV camera of a framing through `lens` (principal point at the image centre; near
 // and far planes widened where the box needs it: far covers the box from the eye).

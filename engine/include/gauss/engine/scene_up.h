@@ -11,6 +11,7 @@
 //
 // Precedence (choose_scene_up): an explicit --up, then the trainer's cameras.json found
 // beside the scene, then kColmapUp.
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -43,18 +44,27 @@ struct SceneUp {
   std::string detail{"default (3DGS/COLMAP: y down)"};
   // A cameras.json was found but could not be used: the reader's message; else empty.
   std::string problem;
+  // Where the capture's cameras stood on average (cameras.json, when every camera gives a
+  // finite "position"): the side a default camera should look from (scene_framing.h).
+  std::optional<glm::dvec3> capture_position;
 };
 
 // The trainer's cameras.json for a scene file: beside it, or at the run folder of the
 // trainer's layout RUN/point_cloud/iteration_N/point_cloud.ply. nullopt when neither exists.
 std::optional<std::filesystem::path> find_trainer_cameras(const std::filesystem::path& scene);
 
+struct TrainerCapture {
+  glm::dvec3 up{kColmapUp};                // unit
+  std::optional<glm::dvec3> mean_position;  // nullopt unless every camera has a finite one
+  std::size_t cameras{0};
+};
+
 // The capture's up from a trainer cameras.json (a JSON array of {"rotation": 3x3 rows
 // camera-to-world, "position": [x, y, z], ...}, as 3DGS writes it): the normalised mean of
-// -rotation's second column over the cameras. Errors name the file and the first bad camera
-// (not an array, no cameras, a rotation that is not 3 rows of 3 finite numbers) or say the
-// cameras' up directions cancel out.
-Expected<glm::dvec3> read_trainer_capture_up(const std::filesystem::path& cameras_json);
+// -rotation's second column over the cameras, and the cameras' mean position. Errors name
+// the file and the first bad camera (not an array, no cameras, a rotation that is not 3 rows
+// of 3 finite numbers) or say the cameras' up directions cancel out.
+Expected<TrainerCapture> read_trainer_capture(const std::filesystem::path& cameras_json);
 
 // The up for a scene file by the precedence above. A cameras.json that cannot be read falls
 // back to the default, and `problem` says why (the scene itself still opens).
