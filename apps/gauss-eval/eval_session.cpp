@@ -46,6 +46,7 @@ Expected<std::unique_ptr<EvalSession>> EvalSession::create(vk::Context& context,
   rc.max_width = config.width;
   rc.max_height = config.height;
   rc.highlight_query = false;  // images with a query are measured, not tinted
+  rc.publication_thread = rc.publication_lockstep = config.publication_thread;
   EvalSession* self = s.get();
   rc.clock = [self] { return self->now_; };
   auto rt = client::ClientRuntime::create(context, rc);

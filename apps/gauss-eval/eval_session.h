@@ -45,6 +45,10 @@ struct EvalSessionConfig {
   sim::LinkConditions down{}, up{};
   std::uint64_t seed{1};          // link model seed
   double default_rho{0.9};        // the host's rho when a query leaves it to the host
+  // Publication on the client's own thread in lock step (ClientRuntimeConfig::
+  // publication_lockstep): the display thread's frame time is a threaded client's, and the
+  // run stays deterministic; a step shows one frame later than inline.
+  bool publication_thread{false};
 };
 
 // One settled view (settle()).

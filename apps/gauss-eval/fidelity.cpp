@@ -55,9 +55,10 @@ EvalSessionConfig session_config(const Options& o, std::uint32_t budget, Publish
   return sc;
 }
 
-Expected<Stream> open_stream(Room& room, std::uint32_t budget, PublishMode mode) {
+Expected<Stream> open_stream(Room& room, std::uint32_t budget, PublishMode mode, bool publication_thread) {
   const Options& o = room.options;
-  const EvalSessionConfig sc = session_config(o, budget, mode);
+  EvalSessionConfig sc = session_config(o, budget, mode);
+  sc.publication_thread = publication_thread;
   Stream s;
   auto session = EvalSession::create(room.context, *room.scene.store, room.scene.codec, sc);
   if (!session) return session.error();

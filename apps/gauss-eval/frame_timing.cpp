@@ -1,6 +1,9 @@
 // Frame timing while publication runs: the headset's case. Stereo (two eyes per frame,
 // --ipd apart), M = --stereo-budget, progressive publication, on this machine's Vulkan
-// device.
+// device. Publication runs on the client's own thread, as a headset's client runs it, in
+// lock step (ClientRuntimeConfig::publication_lockstep): the display thread's time per
+// frame is the threaded client's (the step overlaps the frame's rendering), and the
+// deterministic part stays deterministic.
 //
 // On a fresh connection: settle at A (fidelity camera 0) and render kIdleFrames more
 // frames there (idle before); teleport to B (temporal.cpp's target) and keep every frame
@@ -35,7 +38,7 @@ Expected<Json> measure_stereo_timing(Room& room, Json& timing) {
   const auto t0 = std::chrono::steady_clock::now();
   const Options& o = room.options;
   const EvalScene& scene = room.scene;
-  auto stream = open_stream(room, o.stereo_budget, PublishMode::Progressive);
+  auto stream = open_stream(room, o.stereo_budget, PublishMode::Progressive, /*publication_thread=*/true);
   if (!stream) return stream.error();
   EvalSession& session = *stream->session;
   const Camera a = scene.cameras.front();

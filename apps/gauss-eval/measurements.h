@@ -45,7 +45,8 @@ struct Stream {
   std::unique_ptr<EvalSession> session;
   std::unique_ptr<render::SplatRenderer> sent;
 };
-Expected<Stream> open_stream(Room& room, std::uint32_t budget, PublishMode mode);
+// publication_thread: EvalSessionConfig::publication_thread (lock step).
+Expected<Stream> open_stream(Room& room, std::uint32_t budget, PublishMode mode, bool publication_thread = false);
 // The session settings the options give, at budget M and publication mode.
 EvalSessionConfig session_config(const Options& options, std::uint32_t budget, PublishMode mode);
 

@@ -301,8 +301,10 @@ void stereo_timing_section(std::ostream& md, const Json& report) {
   for (const Json& s : report["scenes"]) any = any || s.contains("stereo_timing");
   if (!any) return;
   md << "## Frame timing while publication runs (stereo)\n\n"
-     << "Two eyes per frame, progressive publication at a fixed allowance: idle at A, then a far teleport to B "
-        "streaming in until the client converged, then idle at B. CPU: the display thread per frame; GPU: both "
+     << "Two eyes per frame, progressive publication at a fixed allowance on the client's publication thread "
+        "(in lock step: each step, asked for in one frame, reaches the next; deterministic): idle at A, then a far "
+        "teleport to B streaming in until the client converged, then idle at B. CPU: the display thread per frame "
+        "(its publication share, uploads, rendering and the wait for the frame two back); GPU: both "
         "eyes, per frame and per pass (wall clock, on " << report["device"].get<std::string>() << ").\n\n"
      << "| scene | M | size | resident A / B | streaming frames (virtual s) | phase | frames | CPU ms p50 / p95 / p99 "
         "| GPU ms p50 / p95 / p99 |\n|---|---|---|---|---|---|---|---|---|\n";

@@ -120,7 +120,12 @@ Status ClientRuntime::connect(net::NetClientConfig net) {
   return Ok{};
 }
 
+void ClientRuntime::join_lockstep_step() {
+  if (worker_ && config_.publication_lockstep) worker_->wait_idle();
+}
+
 void ClientRuntime::deliver(const wire::Message& message) {
+  join_lockstep_step();
   if (const auto* w = std::get_if<msg::Welcome>(&message)) {
     sink_->on_welcome(*w);
   } else if (const auto* r = std::get_if<msg::Refuse>(&message)) {
@@ -131,7 +136,10 @@ void ClientRuntime::deliver(const wire::Message& message) {
   }
 }
 
-std::vector<wire::Message> ClientRuntime::take_outgoing() { return sink_->take_outgoing(); }
+std::vector<wire::Message> ClientRuntime::take_outgoing() {
+  join_lockstep_step();
+  return sink_->take_outgoing();
+}
 
 ClientRuntime::PreparedStep ClientRuntime::prepare_step(PublicationJob& job) {
   PreparedStep st;
@@ -269,6 +277,7 @@ Expected<DisplayFrameStats> ClientRuntime::frame(std::span<const Camera> views, 
   // --- publication: this frame's step (no thread), or the one the thread finished ---
   std::optional<PreparedStep> step;
   if (worker_) {
+    join_lockstep_step();  // lock step: the step asked for last frame is always this frame's
     step = worker_->take();
   } else {
     job.layout = renderer_->slot_layout();
@@ -401,6 +410,7 @@ std::map<std::int32_t, std::uint32_t> ClientRuntime::resident_per_object(const C
 
 std::map<std::int32_t, std::uint32_t> ClientRuntime::resident_per_object() {
   // Under the lock: a publication thread writes the slot table under it.
+  join_lockstep_step();
   return sink_->with_state([](ClientState& st) { return resident_per_object(st); });
 }
 

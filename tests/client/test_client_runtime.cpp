@@ -6,6 +6,7 @@
 // The same with publication on its own thread: packed runs copied from its pack buffers,
 // and runs past a small pack buffer left to the display thread, show the same set; and
 // queries sent from the display thread meanwhile do not wait for the state lock.
+#include <algorithm>
 #include <condition_variable>
 #include <mutex>
 #include <optional>
@@ -166,6 +167,64 @@ TEST_F(ClientRuntimeInProcess, EveryUploadScatteredShowsTheSameSet) { converge_a
 
 TEST_F(ClientRuntimeInProcess, PublicationThreadWithEveryUploadScatteredShowsTheSameSet) {
   converge_and_compare(150, 0);
+}
+
+// Lock step (ClientRuntimeConfig::publication_lockstep, gauss-eval's stereo timing): the
+// step asked for in one frame reaches the next, always, so two runs over the same
+// messages publish the same edits frame for frame, and the set converges to what the
+// host sent.
+TEST_F(ClientRuntimeInProcess, LockStepPublicationIsOneFrameLateAndDeterministic) {
+  ASSERT_NO_FATAL_FAILURE(make_room(6000, false));
+  CodecParams params = params_;
+  params.sh_degree = 1;
+  const Camera cam = synth_->overview_camera(160, 120);
+  struct Run {
+    std::vector<std::uint64_t> writes;  // slot writes per frame
+    std::uint64_t published{0}, sent{0};
+  };
+  auto run = [&]() -> Run {
+    Run r;
+    double now = 0.0;
+    client::ClientRuntimeConfig cfg;
+    cfg.state.capacity = 2500;
+    cfg.state.publisher.mode = PublishMode::Progressive;
+    cfg.state.publisher.allowance_initial = cfg.state.publisher.allowance_min = cfg.state.publisher.allowance_max = 400;
+    cfg.max_width = 160;
+    cfg.max_height = 120;
+    cfg.clock = [&now] { return now; };
+    cfg.publication_thread = cfg.publication_lockstep = true;
+    auto rt = client::ClientRuntime::create(context(), cfg);
+    EXPECT_TRUE(rt.ok()) << rt.message();
+    if (!rt.ok()) return r;
+    HostSession host(1, 42, params);
+    welcome(**rt, host, now);
+    for (int frame = 0; frame < 60; ++frame) {
+      now += 1.0 / 72.0;
+      auto out = host.tick(scene_, now);
+      EXPECT_TRUE(out.ok()) << out.message();
+      if (!out.ok()) return r;
+      for (const auto& m : *out) (*rt)->deliver(m);
+      auto f = (*rt)->frame(std::span<const Camera>(&cam, 1));
+      EXPECT_TRUE(f.ok()) << f.message();
+      if (!f.ok()) return r;
+      EXPECT_EQ(f->step_taken, frame > 0) << "frame " << frame << ": the step asked for last frame is this frame's";
+      r.writes.push_back(f->publish.slot_writes());
+      for (const auto& m : (*rt)->take_outgoing())
+        for (const auto& reply : host.on_message(m, scene_, now)) (*rt)->deliver(reply);
+    }
+    EXPECT_TRUE((*rt)->wait_frames().ok());
+    r.published = (*rt)->with_state([](const ClientState& s) { return s.published_checksum(); });
+    r.sent = host.sent_checksum(scene_);
+    return r;
+  };
+  const Run a = run();
+  const Run b = run();
+  ASSERT_EQ(a.writes.size(), 60u);
+  EXPECT_EQ(a.writes, b.writes) << "the same messages, the same edits per frame";
+  EXPECT_GT(std::count_if(a.writes.begin(), a.writes.end(), [](std::uint64_t w) { return w > 0; }), 5)
+      << "progressive publication at 400 edits per frame spreads over frames";
+  EXPECT_EQ(a.published, a.sent) << "converged to the sent set within 60 frames";
+  EXPECT_EQ(a.published, b.published);
 }
 
 // With the publication thread, a query and a mode change from the display thread never

@@ -75,6 +75,14 @@ struct ClientRuntimeConfig {
   // thread only hands over and queues copies. Off: each frame publishes and packs on the
   // display thread before it renders (deterministic: tests, simulations, goldens).
   bool publication_thread{false};
+  // With publication_thread: lock step. The step asked for in frame k always reaches frame
+  // k + 1, and every other entry point that reaches ClientState (deliver, take_outgoing,
+  // with_state, resident_per_object, the next frame) first waits for the running step. The
+  // step still overlaps the frame's rendering, so the display thread's frame time is what a
+  // threaded client pays, while the results are a function of the inputs alone: for
+  // simulations that measure the threaded display thread (gauss-eval's stereo timing). A
+  // real display must not use it: a step longer than a frame would stall the next frame.
+  bool publication_lockstep{false};
   // Slots one publication step packs off the display thread at most (per pack buffer;
   // frames_in_flight + 1 buffers of this many slots); a step writing more leaves the rest
   // to the display thread. 0 = capacity.
@@ -188,12 +196,14 @@ class ClientRuntime {
   // thread: waits while a step runs).
   template <class F>
   decltype(auto) with_state(F&& f) {
+    join_lockstep_step();
     return sink_->with_state([&](ClientState& s) -> decltype(auto) { return f(static_cast<const ClientState&>(s)); });
   }
   // The same if the state is free now, else nothing: for a display loop's inspection (a
   // panel skips a refresh rather than wait for a publication step).
   template <class F>
   auto try_with_state(F&& f) {
+    join_lockstep_step();
     return sink_->try_with_state([&](ClientState& s) { return f(static_cast<const ClientState&>(s)); });
   }
   // Resident Gaussians per object id (O(M): for panels and reports, not per frame).
@@ -248,6 +258,8 @@ class ClientRuntime {
     double lock_wait_ms{0.0}, publish_ms{0.0}, publish_cpu_ms{0.0}, pack_ms{0.0}, pack_cpu_ms{0.0};
   };
   PreparedStep prepare_step(PublicationJob& job);
+  // publication_lockstep: waits until no step runs (else returns at once).
+  void join_lockstep_step();
   // Display thread, with the publication thread idle.
   Status apply_step(PreparedStep& step, DisplayFrameStats& out);
   int free_pack_buffer();
