@@ -410,8 +410,7 @@ std::map<std::int32_t, std::uint32_t> ClientRuntime::resident_per_object(const C
 
 std::map<std::int32_t, std::uint32_t> ClientRuntime::resident_per_object() {
   // Under the lock: a publication thread writes the slot table under it.
-  join_lockstep_step();
-  return sink_->with_state([](ClientState& st) { return resident_per_object(st); });
+  return with_state([](const ClientState& st) { return resident_per_object(st); });
 }
 
 ConnectionInfo ClientRuntime::connection() const {

@@ -18,7 +18,7 @@
 //   with less than the CPU shapes need gets the GPU shapes when its subgroups allow.
 // - Digit width (GPU shapes). Every radix pass is three dispatches whose fixed cost
 //   dominates small scenes on a GPU, so 8-bit digits (4 passes over a depth key, not 8)
-//   are taken where the scatter's rows (one per subgroup, 256 words each) fit in 16 KiB
+//   are taken where the scatter's rows (one per subgroup, 256 words each) fit in 18.3 KiB
 //   of shared memory: subgroups of 16 or more (NVIDIA 32, AMD 32/64, Mali 16, Adreno
 //   64/128). Smaller subgroups keep 4-bit digits (lavapipe's 4 and 8, some Intel).
 #include <algorithm>
