@@ -137,20 +137,23 @@ def pareto_front(points):
 
 
 def plot_ablation(plt, scene, items, out_dir):
+    # One curve per view size and LoD setting ("lod": false marks gauss-eval --lod both's
+    # leaf-only comparison runs; reports before LoD have no such field).
     by_res = {}
     for it in items:
-        by_res.setdefault((it["width"], it["height"]), []).append(it)
+        by_res.setdefault((it["width"], it["height"], it.get("lod", True)), []).append(it)
     fig, ax = plt.subplots(figsize=(8, 5), dpi=120)
     ax_t = ax.twinx()
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     budgets = sorted({it["budget"] for it in items})
     handles = []
-    for k, (res, runs) in enumerate(sorted(by_res.items(), key=lambda r: r[0][0] * r[0][1])):
+    for k, (res, runs) in enumerate(sorted(by_res.items(), key=lambda r: (r[0][0] * r[0][1], not r[0][2]))):
         runs = sorted(runs, key=lambda it: it["budget"])
         c = colours[k % len(colours)]
         drawn = [it for it in runs if plottable(it)]
+        label = resolution_label(res[0], res[1]) + ("" if res[2] else ", leaves only")
         (h,) = ax.plot([it["budget"] for it in drawn], [it["psnr_pc_hs"] for it in drawn],
-                       "-o", color=c, lw=2, ms=5, label=resolution_label(*res))
+                       "-o", color=c, lw=2, ms=5, label=label)
         ax_t.plot([it["budget"] for it in runs], [it["frame_ms_p50"] for it in runs],
                   "--s", color=c, lw=1.5, ms=4, alpha=0.85)
         handles.append(h)
@@ -224,6 +227,7 @@ def plot_pareto(plt, scenes, out_dir):
     markers = ["o", "s", "^", "D", "v", "P", "X"]
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for ax, (scene, items) in zip(axes.flat, scenes):
+        items = [it for it in items if it.get("lod", True)]  # the system as run, not the comparison
         resolutions = sorted({(it["width"], it["height"]) for it in items},
                              key=lambda r: r[0] * r[1])
         points = [(it["frame_ms_p50"], it["psnr_pc_hs"], it) for it in items if plottable(it)]

@@ -38,6 +38,7 @@
 #include "gauss/engine/differ.h"
 #include "gauss/engine/identity_tracker.h"
 #include "gauss/engine/ply_gaussian.h"
+#include "gauss/engine/lod_selector.h"
 #include "gauss/engine/selector.h"
 #include "gauss/engine/host_session.h"
 #include "gauss/engine/synthetic_scene.h"
@@ -70,6 +71,7 @@ struct Options {
   bool identity{true};
   bool codec{true};
   bool clients{true};
+  bool lod{true};
   std::vector<unsigned> client_counts{1, 2, 4, 8};
   fs::path json_out;
 };
@@ -209,6 +211,90 @@ json bench_select(const SceneStore& store, const SyntheticScene& scene, const Op
               {"first_batch_sh0_raw_bytes_per_gaussian", first_bpg},
               {"edit_fraction_one_step", {{"median", percentile(one_step, 0.5)}, {"max", percentile(one_step, 1.0)}}},
               {"edit_fraction_walk", {{"median", percentile(edit_frac, 0.5)}, {"max", percentile(edit_frac, 1.0)}}}};
+}
+
+// ---- 2b: the same walk with LoD: hierarchy build, select + cut + diff ----------------------
+
+json bench_lod(const SceneStore& store, const SyntheticScene& scene, const Options& o) {
+  const CodecParams params = fit_lod_codec_params(fit_codec_params(store.gaussians(), store.sh_degree()));
+  SelectionRequest req;
+  req.budget = o.budget;
+  req.client_capacity = std::max<std::size_t>(o.budget, 400'000);
+  Selector selector;
+  LodSelector lod(store.sh_degree());
+  Differ differ(params);
+  double c0 = thread_cpu_ms();
+  if (Status st = lod.update(store, nullptr); !st) {
+    std::fprintf(stderr, "LoD: %s\n", st.message().c_str());
+    return {};
+  }
+  const double build_ms = thread_cpu_ms() - c0;
+  const LodHierarchy& h = *lod.hierarchy();
+  ClientPose pose = ClientPose::from_camera(scene.trajectory().front());
+  auto step = [&](const ClientPose& p, double* times) -> Expected<EditBatch> {
+    const double t0 = thread_cpu_ms();
+    auto leaves = selector.select(store, p, req);
+    if (!leaves) return leaves.error();
+    const double t1 = thread_cpu_ms();
+    auto sel = lod.select(std::move(*leaves), store, p, req);
+    if (!sel) return sel.error();
+    const double t2 = thread_cpu_ms();
+    auto b = differ.diff(*sel, store, lod.records(), lod.modified());
+    lod.clear_modified();
+    const double t3 = thread_cpu_ms();
+    if (times) {
+      times[0] = t1 - t0;
+      times[1] = t2 - t1;
+      times[2] = t3 - t2;
+    }
+    return b;
+  };
+  for (int i = 0; i < 3; ++i)  // the first batch, then settle at the start pose
+    if (auto b = step(pose, nullptr); !b) {
+      std::fprintf(stderr, "LoD step: %s\n", b.message().c_str());
+      return {};
+    }
+  std::vector<double> select_ms, cut_ms, diff_ms, total_ms, edit_frac;
+  for (int k = 0; k < o.updates; ++k) {
+    pose = small_motion(pose);
+    double t[3];
+    auto b = step(pose, t);
+    if (!b) return {};
+    select_ms.push_back(t[0]);
+    cut_ms.push_back(t[1]);
+    diff_ms.push_back(t[2]);
+    total_ms.push_back(t[0] + t[1] + t[2]);
+    edit_frac.push_back(static_cast<double>(b->edits.size()) / static_cast<double>(o.budget));
+  }
+  const LodCut& cut = lod.last_cut();
+  std::printf("\n== LoD: hierarchy and select + cut + diff per pose update (M = %zu, one thread) ==\n", o.budget);
+  std::printf("  hierarchy build: %.0f ms thread CPU for %zu leaves (%zu interior nodes, height %u)\n", build_ms,
+              h.leaf_count(), h.interior_count(), unsigned(h.node(h.root()).height));
+  std::printf("  last cut: %zu nodes, %zu of them interior, %zu refined\n", cut.nodes.size(), cut.interior,
+              cut.refined);
+  std::printf("  %-34s %10s %10s %10s\n", "(thread CPU time)", "median", "p90", "max");
+  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "leaf select ms", percentile(select_ms, 0.5),
+              percentile(select_ms, 0.9), percentile(select_ms, 1.0));
+  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "cut ms", percentile(cut_ms, 0.5), percentile(cut_ms, 0.9),
+              percentile(cut_ms, 1.0));
+  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "diff ms", percentile(diff_ms, 0.5), percentile(diff_ms, 0.9),
+              percentile(diff_ms, 1.0));
+  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "select + cut + diff ms (<= 10)", percentile(total_ms, 0.5),
+              percentile(total_ms, 0.9), percentile(total_ms, 1.0));
+  std::printf("  edits per step (walk): median %.3f %%  max %.3f %% of M\n", 100.0 * percentile(edit_frac, 0.5),
+              100.0 * percentile(edit_frac, 1.0));
+  return json{{"build_ms", build_ms},
+              {"leaves", h.leaf_count()},
+              {"interior", h.interior_count()},
+              {"cut_nodes", cut.nodes.size()},
+              {"cut_interior", cut.interior},
+              {"select_ms", {{"median", percentile(select_ms, 0.5)}, {"p90", percentile(select_ms, 0.9)}}},
+              {"cut_ms", {{"median", percentile(cut_ms, 0.5)}, {"p90", percentile(cut_ms, 0.9)}}},
+              {"diff_ms", {{"median", percentile(diff_ms, 0.5)}, {"p90", percentile(diff_ms, 0.9)}}},
+              {"select_cut_diff_ms",
+               {{"median", percentile(total_ms, 0.5)}, {"p90", percentile(total_ms, 0.9)}, {"max", percentile(total_ms, 1.0)}}},
+              {"edit_fraction_walk", {{"median", percentile(edit_frac, 0.5)}, {"max", percentile(edit_frac, 1.0)}}},
+              {"timing", "thread CPU time"}};
 }
 
 // ---- 3: wire bytes and quantisation PSNR -------------------------------------------------
@@ -550,6 +636,7 @@ int bench_host_main(const Options& o) {
   out["scene"] = {{"appearance", store.appearance_count()}, {"build_ms", build_ms}};
   out["zstd_level"] = kZstdLevel;
   out["select"] = bench_select(store, *scene, o);
+  if (o.lod) out["lod"] = bench_lod(store, *scene, o);
   if (o.codec) out["codec"] = bench_codec(store, o);
   if (o.identity) out["identity"] = bench_identity(store);
   if (o.clients) out["clients"] = bench_clients(store, *scene, o);
@@ -576,6 +663,7 @@ BenchRun bench_host_setup(CLI::App& cmd) {
   cmd.add_flag_callback("--no-codec", [o] { o->codec = false; }, "skip the wire-bytes part");
   cmd.add_flag_callback("--no-identity", [o] { o->identity = false; }, "skip identity tracking");
   cmd.add_flag_callback("--no-clients", [o] { o->clients = false; }, "skip the several-clients part");
+  cmd.add_flag_callback("--no-lod", [o] { o->lod = false; }, "skip the LoD hierarchy and cut part");
   cmd.add_option("--clients", o->client_counts, "client counts of the several-clients part")
       ->delimiter(',')
       ->check(gauss::apps::in_range(1u, 64u))

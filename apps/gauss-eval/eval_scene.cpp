@@ -9,6 +9,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "central_box.h"
+#include "gauss/engine/lod_selector.h"
 #include "gauss/engine/scene_source.h"
 
 namespace gauss::eval_app {
@@ -34,6 +35,14 @@ SnapshotOptions snapshot_options(const Options& o) {
   return so;
 }
 
+// With LoD the host sends interior records, wider than any leaf: the codec's log-scale
+// range reaches them (as gauss-host --lod on fits it). Both streams of --lod both share it,
+// so they differ by their selection only.
+Status widen_for_lod(const Options& o, EvalScene& s) {
+  if (o.lod_on()) s.codec = fit_lod_codec_params(s.codec);
+  return Ok{};
+}
+
 }  // namespace
 
 Expected<EvalScene> make_scene(const Options& o, int variant) {
@@ -49,6 +58,7 @@ Expected<EvalScene> make_scene(const Options& o, int variant) {
   s.codec.sh_degree = s.store->sh_degree();
   s.codec.box.min = s.synthetic->room_min() - glm::vec3(0.5f);
   s.codec.box.max = s.synthetic->room_max() + glm::vec3(0.5f);
+  if (auto st = widen_for_lod(o, s); !st) return st.error();
   s.appearance = s.store->size() - s.store->carrier_count();
   s.region_min = glm::dvec3(s.synthetic->room_min());
   s.region_max = glm::dvec3(s.synthetic->room_max());
@@ -111,6 +121,7 @@ Expected<EvalScene> make_file_scene(const Options& o) {
     return Error{s.source + ": nothing to evaluate: " + why};
   }
   if (!folder) s.codec = fit_codec_params(s.store->gaussians(), s.store->sh_degree());
+  if (auto st = widen_for_lod(o, s); !st) return st.error();
   s.appearance = s.store->size() - s.store->carrier_count();
   std::tie(s.region_min, s.region_max) = apps::central_box(appearance_gaussians(*s.store));
   const glm::dvec3 centre = 0.5 * (s.region_min + s.region_max);

@@ -15,6 +15,7 @@ namespace {
 HostSessionConfig host_config(const EvalSessionConfig& c) {
   HostSessionConfig h;
   h.default_rho = c.default_rho;
+  if (c.lod) h.lod = LodConfig{};
   return h;
 }
 
@@ -195,10 +196,12 @@ Status EvalSession::load_sent_set(render::SplatRenderer& renderer) {
     if (!std::binary_search(sent.begin(), sent.end(), id))
       return Error{"load_sent_set: the client holds Gaussian " + std::to_string(to_underlying(id)) +
                    ", which the host did not send"};
-    const Gaussian* g = scene_->find(id);
+    const Gaussian* g = host_.sent_record(id, *scene_);
     if (!g)
       return Error{"load_sent_set: Gaussian " + std::to_string(to_underlying(id)) + " is no longer in the scene"};
-    return quantize_roundtrip(*g, params_);
+    Gaussian q = quantize_roundtrip(*g, params_);
+    q.id = id;  // a LoD record carries no id of its own
+    return q;
   };
   if (auto st = write_at_slots(renderer, held, record_of); !st) return st;
   renderer.clear_mesh();

@@ -49,6 +49,9 @@ struct EvalSessionConfig {
   // publication_lockstep): the display thread's frame time is a threaded client's, and the
   // run stays deterministic; a step shows one frame later than inline.
   bool publication_thread{false};
+  // The host's level of detail (HostSessionConfig::lod): a coarse cut for the background.
+  // The codec must reach the interior records (fit_lod_codec_params).
+  bool lod{false};
 };
 
 // One settled view (settle()).

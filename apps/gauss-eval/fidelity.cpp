@@ -1,5 +1,6 @@
 // The fidelity chain GT -> PC -> HS at the room's cameras, and what every measurement
 // shares: opening a stream, capturing a settled view.
+#include <algorithm>
 #include <chrono>
 
 #include "measurements.h"
@@ -8,7 +9,11 @@ namespace gauss::eval_app {
 
 namespace {
 
-double fraction(const eval::Mask& m) { return m.empty() ? 0.0 : double(count(m)) / double(m.size()); }
+// Interior LoD records among the host's sent set.
+std::uint64_t lod_interior(const EvalSession& session) {
+  const auto& ids = session.host().sent_ids();
+  return static_cast<std::uint64_t>(std::count_if(ids.begin(), ids.end(), is_lod_interior_id));
+}
 
 }  // namespace
 
@@ -52,13 +57,16 @@ EvalSessionConfig session_config(const Options& o, std::uint32_t budget, Publish
   sc.down.bandwidth_bps = sc.up.bandwidth_bps = o.bandwidth_mbps * 1e6;
   sc.seed = o.seed;
   sc.default_rho = o.rho;
+  sc.lod = o.lod_on();
   return sc;
 }
 
-Expected<Stream> open_stream(Room& room, std::uint32_t budget, PublishMode mode, bool publication_thread) {
+Expected<Stream> open_stream(Room& room, std::uint32_t budget, PublishMode mode, bool publication_thread,
+                             std::optional<bool> lod) {
   const Options& o = room.options;
   EvalSessionConfig sc = session_config(o, budget, mode);
   sc.publication_thread = publication_thread;
+  if (lod) sc.lod = *lod;
   Stream s;
   auto session = EvalSession::create(room.context, *room.scene.store, room.scene.codec, sc);
   if (!session) return session.error();
@@ -91,11 +99,12 @@ Status add_fidelity_chain(Room& room, const Camera& cam, const ImageRGBA8& hs, c
   out["gt_pc"] = gt ? scores(gt->colour, pc->image, valid) : Json(nullptr);
   out["gt_hs"] = gt ? scores(gt->colour, hs, valid) : Json(nullptr);
   out["pc_hs"] = scores(pc->image, hs, both);
+  out["pc_hs_all"] = scores(pc->image, hs, pc->cover);
   out["coverage"] = Json{{"gt_valid", gt ? Json(fraction(valid)) : Json(nullptr)},
                          {"pc", fraction(pc->cover)},
                          {"hs", fraction(hs_cover)},
                          {"both", fraction(both)}};
-  if (!room.panels.enabled()) return Ok{};
+  if (!room.panels.enabled() || panel.empty()) return Ok{};
   auto fm = eval::flip_map(view_of(pc->image), view_of(hs));
   if (!fm) return Error{"FLIP map: " + fm.message()};
   const ImageRGBA8 diff = flip_image(*fm, cam.width, cam.height);
@@ -108,8 +117,16 @@ Expected<Json> measure_fidelity(Room& room) {
   const auto t0 = std::chrono::steady_clock::now();
   const EvalScene& scene = room.scene;
   const Options& o = room.options;
-  auto stream = open_stream(room, o.budget, o.progressive ? PublishMode::Progressive : PublishMode::Immediate);
+  const PublishMode mode = o.progressive ? PublishMode::Progressive : PublishMode::Immediate;
+  auto stream = open_stream(room, o.budget, mode);
   if (!stream) return Error{scene.name + ": " + stream.message()};
+  // --lod both: the same cameras again on a connection without LoD, side by side.
+  std::optional<Stream> leaf_only;
+  if (o.lod == "both") {
+    auto s = open_stream(room, o.budget, mode, false, false);
+    if (!s) return Error{scene.name + " without LoD: " + s.message()};
+    leaf_only = std::move(*s);
+  }
   Json cameras = Json::array();
   for (std::size_t k = 0; k < scene.cameras.size(); ++k) {
     const Camera& cam = scene.cameras[k];
@@ -122,12 +139,25 @@ Expected<Json> measure_fidelity(Room& room) {
     c["settle"] = settle_json(cap->settle);
     c["resident"] = cap->resident;
     c["desired"] = cap->desired;
+    c["lod_interior"] = lod_interior(*stream->session);
     const std::string where = scene.name + " camera " + std::to_string(k);
     if (auto st = add_fidelity_chain(room, cam, cap->hs, cap->sent.cover, scene.name + "_cam" + std::to_string(k), c);
         !st)
       return Error{where + ": " + st.message()};
     c["hs_vs_sent"] = Json{{"differing_pixels", cap->hs_vs_sent_differing},
                            {"pixels", std::uint64_t{cam.width} * cam.height}};
+    if (leaf_only) {
+      auto leaf = capture(room, *leaf_only, cam);
+      if (!leaf) return Error{where + " without LoD: " + leaf.message()};
+      Json w;
+      w["resident"] = leaf->resident;
+      w["settle"] = settle_json(leaf->settle);
+      w["hs_vs_sent"] = Json{{"differing_pixels", leaf->hs_vs_sent_differing},
+                             {"pixels", std::uint64_t{cam.width} * cam.height}};
+      if (auto st = add_fidelity_chain(room, cam, leaf->hs, leaf->sent.cover, "", w); !st)
+        return Error{where + " without LoD: " + st.message()};
+      c["without_lod"] = std::move(w);
+    }
     cameras.push_back(std::move(c));
   }
   room.timing.phases["fidelity_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

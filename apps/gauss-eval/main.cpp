@@ -62,6 +62,11 @@ Json definitions(const Options& o) {
                    "channel (the blend adds T x background; alpha is always 255)"},
       {"PC-HS pixels", "the pixels both PC and HS cover (the paper's content intersection); the coverage "
                        "fractions say how much each image covers"},
+      {"PC-HS over PC's pixels", "the same metrics over every pixel PC covers: where HS shows a hole (black) "
+                                 "it counts as an error, which the content intersection hides"},
+      {"LoD", "level of detail (--lod): the host keeps a merge hierarchy of the scene (moment-matched parents) "
+              "and sends, for what the budget cannot hold in detail, a view-dependent cut of at most M nodes "
+              "instead of only its best M Gaussians; a query's reservation stays min(|G_obj|, floor(rho M)) leaves"},
       {"HS vs sent", "HS against the host's render of the set it sent (each Gaussian as the client decodes it, "
                      "loaded in the client's slot order, the scene's surface chunks): RGBA pixels that differ"},
       {"SSIM convergence", "after the return from the teleport: virtual seconds until the first frame from which "
@@ -136,6 +141,7 @@ Status measure_deterministic(Room& room, const EvalScene& scene, Json& scene_jso
       const Json& p = (*ablation)[i];
       ablation_items.push_back(Json{{"scene", scene.name},
                                     {"budget", p["budget"]},
+                                    {"lod", p["lod"]},
                                     {"width", p["width"]},
                                     {"height", p["height"]},
                                     {"psnr_pc_hs", p["psnr_pc_hs"]},
@@ -207,6 +213,10 @@ Json checks_of(const Json& report) {
     for (const Json& c : s["fidelity"]["cameras"]) {
       differing += c["hs_vs_sent"]["differing_pixels"].get<std::uint64_t>();
       settle(c["settle"]);
+      if (c.contains("without_lod")) {
+        differing += c["without_lod"]["hs_vs_sent"]["differing_pixels"].get<std::uint64_t>();
+        settle(c["without_lod"]["settle"]);
+      }
     }
     for (const Json& r : s.contains("semantic") ? s["semantic"] : Json::array()) {
       if (r.contains("error")) continue;
@@ -289,12 +299,14 @@ Json realtime_definitions(const Options& o) {
       {"coverage", "accumulated opacity >= 0.5 or a surface drawn: over black and over white the render differs by "
                    "less than 128 in every channel"},
       {"PC-HS pixels", "the pixels both PC and the host's render of the sent set cover"},
+      {"PC-HS over PC's pixels", "the same over every pixel PC covers: a hole in HS counts as an error"},
       {"view", "each fidelity camera is its own connection: the client connects at the camera, settles, is "
                "captured, and disconnects, so gauss-host writes the set it sent (--dump-sent)"},
       {"HS vs sent", "HS against the host's render of its dump (the set it sent, as the client decodes it), loaded "
                      "in the client's slot order: RGBA pixels that differ; published_equals_sent: the checksum of "
                      "the client's published records equals the dump's; sent_matches_scene: the dump's records "
-                     "equal this evaluation's scene quantised with its codec (the host served the same scene)"},
+                     "equal this evaluation's scene quantised with its codec (the host served the same scene); LoD records "
+                     "(ids with the top bit) are the host's own hierarchy's and are counted, not compared"},
       {"convergence", "wall seconds from the connection (or the move to a view) until the first frame of the final "
                       "run in which the client was welcomed, had nothing pending, published nothing and received "
                       "no host message, held for " + shortest(o.quiet_s) + " s; at most " +
@@ -385,6 +397,7 @@ int main(int argc, char** argv) {
                           {"cameras", o.cameras},
                           {"rho", o.rho},
                           {"mode", o.progressive ? "progressive" : "immediate"},
+                          {"lod", o.lod},
                           {"allowance", o.allowance},
                           {"display_hz", o.display_hz},
                           {"latency_ms", o.latency_ms},

@@ -107,6 +107,8 @@ std::uint64_t count(const eval::Mask& m) {
   return static_cast<std::uint64_t>(std::count_if(m.begin(), m.end(), [](std::uint8_t v) { return v != 0; }));
 }
 
+double fraction(const eval::Mask& m) { return m.empty() ? 0.0 : double(count(m)) / double(m.size()); }
+
 std::uint64_t differing_pixels(const ImageRGBA8& a, const ImageRGBA8& b) {
   if (a.width != b.width || a.height != b.height || a.pixels.size() != b.pixels.size())
     return std::uint64_t{a.width} * a.height;

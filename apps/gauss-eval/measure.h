@@ -58,6 +58,8 @@ eval::Mask valid_depth_mask(const GroundTruthImage& gt);
 eval::Mask object_mask(const GroundTruthImage& gt, std::span<const ObjectId> targets);
 eval::Mask mask_and(const eval::Mask& a, const eval::Mask& b);
 std::uint64_t count(const eval::Mask& m);
+// The share of the image a mask covers (0 for an empty mask).
+double fraction(const eval::Mask& m);
 // Pixels whose RGBA bytes differ at all.
 std::uint64_t differing_pixels(const ImageRGBA8& a, const ImageRGBA8& b);
 

@@ -5,6 +5,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "eval_scene.h"
@@ -45,8 +46,10 @@ struct Stream {
   std::unique_ptr<EvalSession> session;
   std::unique_ptr<render::SplatRenderer> sent;
 };
-// publication_thread: EvalSessionConfig::publication_thread (lock step).
-Expected<Stream> open_stream(Room& room, std::uint32_t budget, PublishMode mode, bool publication_thread = false);
+// publication_thread: EvalSessionConfig::publication_thread (lock step). lod: the host's
+// level of detail, else the options' (--lod on or both).
+Expected<Stream> open_stream(Room& room, std::uint32_t budget, PublishMode mode, bool publication_thread = false,
+                             std::optional<bool> lod = std::nullopt);
 // The session settings the options give, at budget M and publication mode.
 EvalSessionConfig session_config(const Options& options, std::uint32_t budget, PublishMode mode);
 
@@ -61,7 +64,10 @@ Expected<Json> measure_fidelity(Room& room);
 
 // GT-PC, GT-HS and PC-HS (each over its pixels, see definitions) and the coverage
 // fractions of the client's frame `hs` at `cam`, whose coverage is `hs_cover` (the sent
-// set's), added to `out`; the panel `panel`.png (GT | PC | HS | FLIP(PC, HS)) written.
+// set's), added to `out`; the panel `panel`.png (GT | PC | HS | FLIP(PC, HS)) written
+// unless `panel` is empty. PC-HS twice: over the pixels both cover ("pc_hs", the paper's
+// content intersection, blind to holes) and over every pixel PC covers ("pc_hs_all": a hole
+// in HS counts as an error).
 // Errors: the host's full render, the FLIP map, the panel.
 Status add_fidelity_chain(Room& room, const Camera& cam, const ImageRGBA8& hs, const eval::Mask& hs_cover,
                           const std::string& panel, Json& out);

@@ -22,6 +22,8 @@ std::string realtime_conflict(const Options& o) {
     return "--realtime --surface analytic: gauss-host streams no analytic surface; use --surface none";
   if (!o.ablation_budgets.empty() || o.stereo_budget)
     return "--realtime: --ablation and --stereo-budget are runs of the deterministic evaluation; leave them out";
+  if (o.lod == "both")
+    return "--realtime serves one gauss-host: --lod on (its default) or --lod off, not both";
   return {};
 }
 
@@ -100,6 +102,12 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
       ->check(apps::in_range(0.1, 3600.0));
   app.add_option("--quiet", o.quiet_s, "virtual seconds in sync before a view counts as converged")
       ->check(apps::in_range(0.05, 60.0));
+  auto* lod = app.add_option("--lod", o.lod,
+                 "the host's level of detail: off (the best Gaussians only), on (what the budget cannot hold in "
+                 "detail as a coarse cut through a merge hierarchy), both (every run with it, and the fidelity "
+                 "chain and the ablation also without, side by side; --realtime serves one host: on, its default, "
+                 "or off)")
+      ->check(CLI::IsMember({"off", "on", "both"}));
   app.add_option("--surface", o.surface,
                  "surface the host streams: none (splats alone), analytic (a room's exact mesh as one chunk; "
                  "rooms only) or fused (an RGB-D capture's depth fused into a TSDF at 4 cm, as gauss-host does; "
@@ -141,6 +149,7 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
   app.add_option("--device", o.device, "Vulkan device index or name substring (else $GAUSS_DEVICE, else the best)")
       ->type_name("NAME");
   if (auto rc = apps::parse(app, argc, argv)) return rc;
+  if (o.realtime && lod->count() == 0) o.lod = "on";  // one host process: no side-by-side run
   if (const std::string why = realtime_conflict(o); !why.empty()) {
     std::fprintf(stderr, "%s\nRun with --help for more information.\n", why.c_str());
     return apps::kUsageError;
@@ -193,7 +202,7 @@ std::string canonical_command(const Options& o) {
       << o.budget << " --size " << o.width << "x" << o.height << " --cameras " << o.cameras << " --rho "
       << shortest(o.rho) << " --mode " << (o.progressive ? "progressive" : "immediate") << " --display-hz "
       << shortest(o.display_hz) << " --settle-timeout " << shortest(o.settle_timeout_s) << " --quiet "
-      << shortest(o.quiet_s) << " --surface " << o.surface << " --name " << o.name;
+      << shortest(o.quiet_s) << " --surface " << o.surface << " --lod " << o.lod << " --name " << o.name;
     if (!o.host_exe.empty()) c << " --host-exe '" << o.host_exe.string() << "'";
     if (!o.images) c << " --no-images";
     return c.str();
@@ -205,7 +214,7 @@ std::string canonical_command(const Options& o) {
     << " --mode " << (o.progressive ? "progressive" : "immediate") << " --allowance "
     << o.allowance << " --display-hz " << shortest(o.display_hz) << " --latency-ms " << shortest(o.latency_ms) << " --bandwidth-mbps "
     << shortest(o.bandwidth_mbps) << " --settle-timeout " << shortest(o.settle_timeout_s) << " --quiet " << shortest(o.quiet_s) << " --surface "
-    << o.surface;
+    << o.surface << " --lod " << o.lod;
   if (!o.semantic) c << " --no-semantic";
   if (!o.temporal) c << " --no-temporal";
   c << " --flicker-window " << shortest(o.flicker_window_s);

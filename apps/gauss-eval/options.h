@@ -39,6 +39,11 @@ struct Options {
   double bandwidth_mbps{100.0};           // link bandwidth (both directions)
   double settle_timeout_s{20.0};          // virtual seconds a view may take to converge
   double quiet_s{0.5};                    // virtual seconds in sync before a view counts as converged
+  // The host's level of detail (HostSessionConfig::lod): off (leaf selection), on (a coarse
+  // cut for the background), both (every run with LoD; the fidelity chain and the ablation
+  // also without, side by side).
+  std::string lod{"both"};
+  bool lod_on() const { return lod != "off"; }
   std::string surface{"none"};            // none | analytic (a room) | fused (a capture): the host's surface
   bool semantic{true};                    // the semantic reallocation table
   bool temporal{true};                    // teleport far and return, per publication mode

@@ -27,6 +27,7 @@
 #include <span>
 #include <unordered_map>
 
+#include "gauss/engine/lod_hierarchy.h"
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/ply_mesh.h"
 #include "gauss/engine/slot_table.h"
@@ -68,7 +69,8 @@ fs::path host_executable(const Options& o) {
 // reports the one it bound), its dumps into `dump_dir`. Not --quiet: its status line
 // says when the scene is final.
 std::vector<std::string> host_args(const Options& o, const EvalScene& scene, const fs::path& dump_dir) {
-  std::vector<std::string> a{"--bind", "127.0.0.1:0", "--rho", shortest(o.rho), "--dump-sent", dump_dir.string()};
+  std::vector<std::string> a{"--bind",     "127.0.0.1:0",     "--rho", shortest(o.rho),
+                             "--dump-sent", dump_dir.string(), "--lod", o.lod_on() ? "on" : "off"};
   if (scene.synthetic) {
     a.insert(a.end(), {"--scene", "synthetic:" + std::to_string(scene.variant), "--seed", std::to_string(o.seed),
                        "--gaussians", std::to_string(o.gaussians), "--epochs", std::to_string(o.epochs),
@@ -121,6 +123,7 @@ struct SentComparison {
   std::uint64_t gaussians{0};
   bool published_equals_sent{false};  // the client's published checksum = the dump's
   bool matches_scene{false};          // each sent Gaussian = our scene's, quantised; a surface iff ours has one
+  std::uint64_t interior{0};          // LoD records among them (the host's hierarchy's: not compared)
 };
 
 // Checksums of the dump (as the client decodes the records) and of our scene's Gaussians
@@ -131,6 +134,11 @@ void compare_records(const EvalScene& scene, const GaussianCloud& dump, bool dum
   bool all_ours = true;
   for (const Gaussian& g : dump.gaussians) {
     dump_sum += record_hash(g.id, g);
+    if (is_lod_interior_id(g.id)) {  // a LoD record of the host's own hierarchy: not the scene's
+      ++out.interior;
+      scene_sum += record_hash(g.id, g);
+      continue;
+    }
     if (const Gaussian* ours = scene.store->find(g.id))
       scene_sum += record_hash(g.id, quantize_roundtrip(*ours, scene.codec));
     else
@@ -287,6 +295,7 @@ Json sent_json(const Connection& c, const Camera& cam) {
               {"sent_gaussians", c.sent.gaussians},
               {"published_equals_sent", c.sent.published_equals_sent},
               {"sent_matches_scene", c.sent.matches_scene},
+              {"sent_lod_interior", c.sent.interior},
               {"dump", c.sent.dump.string()}};
 }
 

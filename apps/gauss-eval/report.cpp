@@ -40,11 +40,43 @@ std::string fidelity_cells(const Json& c) {
   std::ostringstream md;
   md << metric(c["gt_pc"], "psnr_db", 2) << " | " << metric(c["pc_hs"], "psnr_db", 2) << " | "
      << metric(c["pc_hs"], "ssim", 3) << " | " << metric(c["pc_hs"], "flip", 3) << " | "
+     << metric(c["pc_hs_all"], "psnr_db", 2) << " | "
      << metric(c["gt_hs"], "psnr_db", 2) << " | " << metric(c["gt_hs"], "ssim", 3) << " | "
      << metric(c["gt_hs"], "flip", 3) << " | " << percent(c["coverage"]["pc"]) << " / " << percent(c["coverage"]["hs"])
      << " / " << percent(c["coverage"]["both"]) << " | " << integer(c["resident"]) << " | "
      << integer(c["hs_vs_sent"]["differing_pixels"]);
   return md.str();
+}
+
+// --lod both: each fidelity camera without the LoD cut → with it.
+void lod_comparison_table(std::ostream& md, const Json& report) {
+  bool any = false;
+  for (const Json& s : report["scenes"])
+    if (s.contains("fidelity"))
+      for (const Json& c : s["fidelity"]["cameras"]) any = any || c.contains("without_lod");
+  if (!any) return;
+  md << "### Level of detail: leaves only → LoD cut\n\n"
+     << "The same cameras on a second connection whose host sends only its best M Gaussians (leaves only), "
+        "against the run above, where what the budget cannot hold in detail is a coarse cut through the merge "
+        "hierarchy (*interior*: coarse records among the M). HS cover: the share of the view the sent set "
+        "covers; PC-HS over PC's pixels counts its holes.\n\n"
+     << "| scene | cam | HS cover (PC) | GT-HS PSNR | PC-HS PSNR, both cover | PC-HS PSNR, PC's px | interior |\n"
+     << "|---|---|---|---|---|---|---|\n";
+  auto pair = [](const Json& a, const Json& b, const char* field) {
+    return metric(a[field], "psnr_db", 2) + " → " + metric(b[field], "psnr_db", 2);
+  };
+  for (const Json& s : report["scenes"]) {
+    if (!s.contains("fidelity")) continue;
+    for (const Json& c : s["fidelity"]["cameras"]) {
+      if (!c.contains("without_lod")) continue;
+      const Json& w = c["without_lod"];
+      md << "| " << s["name"].get<std::string>() << " | " << c["camera"].get<int>() << " | "
+         << percent(w["coverage"]["hs"]) << " → " << percent(c["coverage"]["hs"]) << " (" << percent(c["coverage"]["pc"])
+         << ") | " << pair(w, c, "gt_hs") << " | " << pair(w, c, "pc_hs") << " | " << pair(w, c, "pc_hs_all") << " | "
+         << integer(c["lod_interior"]) << " |\n";
+    }
+  }
+  md << "\n";
 }
 
 void fidelity_section(std::ostream& md, const Json& report, bool images) {
@@ -60,9 +92,10 @@ void fidelity_section(std::ostream& md, const Json& report, bool images) {
         "host's own render of the very set it sent, loaded in the client's slot order (must be 0). "
         "Conv.: virtual seconds from the move to the camera until the client's published set equals "
         "the host's sent set for good.\n\n";
-  md << "| scene | cam | GT-PC PSNR | PC-HS PSNR | PC-HS SSIM | PC-HS FLIP | GT-HS PSNR | GT-HS SSIM | GT-HS FLIP "
+  md << "| scene | cam | GT-PC PSNR | PC-HS PSNR | PC-HS SSIM | PC-HS FLIP | PC-HS PSNR, PC's px | GT-HS PSNR | GT-HS SSIM "
+        "| GT-HS FLIP "
         "| cover PC / HS / both | resident | HS ≠ sent | conv. s |\n"
-     << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+     << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Json& s : report["scenes"]) {
     if (!s.contains("fidelity")) continue;
     for (const Json& c : s["fidelity"]["cameras"]) {
@@ -71,6 +104,7 @@ void fidelity_section(std::ostream& md, const Json& report, bool images) {
     }
   }
   md << "\n";
+  lod_comparison_table(md, report);
   if (!images) return;
   md << "Each panel: GT | PC | HS | FLIP(PC, HS) (magma: black = no error); without ground truth PC | HS | "
         "FLIP(PC, HS).\n\n";
@@ -249,11 +283,15 @@ void ablation_section(std::ostream& md, const Json& report, bool images) {
   for (const Json& s : report["scenes"]) any = any || s.contains("ablation");
   if (!any) return;
   md << "## Budget ablation\n\n"
-     << "PC-HS (and GT-HS) means over the fidelity cameras at each budget M, each M on a fresh connection; the "
+     << "PC-HS (and GT-HS) means over the fidelity cameras at each budget M, each M on a fresh connection (LoD "
+        "on: the host sends a coarse cut where the budget cannot hold the background's detail; off: its best "
+        "Gaussians only). PC-HS over PC's pixels counts HS's holes as errors; the plain PC-HS is over the "
+        "pixels both cover. The "
         "frame time is the client's GPU pass time p50 / p95 of idle frames at the settled views (wall clock, "
         "only with timing).\n\n"
-     << "| scene | size | M | PC-HS PSNR | PC-HS SSIM | PC-HS FLIP | GT-HS PSNR | frame ms p50 / p95 |\n"
-     << "|---|---|---|---|---|---|---|---|\n";
+     << "| scene | size | M | LoD | HS cover | PC-HS PSNR | PC-HS SSIM | PC-HS FLIP | PC-HS PSNR, PC's px | GT-HS PSNR "
+        "| frame ms p50 / p95 |\n"
+     << "|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Json& s : report["scenes"]) {
     if (!s.contains("ablation")) continue;
     for (const Json& p : s["ablation"]) {
@@ -261,11 +299,13 @@ void ablation_section(std::ostream& md, const Json& report, bool images) {
       if (report.contains("ablation"))
         for (const Json& it : report["ablation"])
           if (it["scene"] == s["name"] && it["budget"] == p["budget"] && it["width"] == p["width"] &&
-              it["height"] == p["height"])
+              it["height"] == p["height"] && it["lod"] == p["lod"])
             frame = cell(it["frame_ms_p50"], 2) + " / " + cell(it["frame_ms_p95"], 2);
       md << "| " << s["name"].get<std::string>() << " | " << integer(p["width"]) << "x" << integer(p["height"])
-         << " | " << integer(p["budget"]) << " | " << cell(p["psnr_pc_hs"], 2) << " | " << cell(p["ssim_pc_hs"], 3)
-         << " | " << cell(p["flip_pc_hs"], 3) << " | " << cell(p["psnr_gt_hs"], 2) << " | " << frame << " |\n";
+         << " | " << integer(p["budget"]) << " | " << (p["lod"].get<bool>() ? "on" : "off") << " | "
+         << percent(p["coverage_hs"]) << " | " << cell(p["psnr_pc_hs"], 2) << " | " << cell(p["ssim_pc_hs"], 3)
+         << " | " << cell(p["flip_pc_hs"], 3) << " | " << cell(p["psnr_pc_hs_all"], 2) << " | "
+         << cell(p["psnr_gt_hs"], 2) << " | " << frame << " |\n";
     }
   }
   md << "\n";
@@ -376,9 +416,10 @@ void realtime_fidelity_section(std::ostream& md, const Json& report, bool images
         "(*HS ≠ sent*, must be 0; *pub. = sent*: the client's published records equal the host's dump). Conv.: "
         "wall seconds from the connection until the client was quiet for good. Frame times per camera: CPU / GPU "
         "ms p50 / p95 / p99.\n\n";
-  md << "| scene | cam | GT-PC PSNR | PC-HS PSNR | PC-HS SSIM | PC-HS FLIP | GT-HS PSNR | GT-HS SSIM | GT-HS FLIP "
+  md << "| scene | cam | GT-PC PSNR | PC-HS PSNR | PC-HS SSIM | PC-HS FLIP | PC-HS PSNR, PC's px | GT-HS PSNR | GT-HS SSIM "
+        "| GT-HS FLIP "
         "| cover PC / HS / both | resident | HS ≠ sent | pub. = sent | conv. s (wall) | frames | CPU ms | GPU ms |\n"
-     << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+     << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Json& s : report["scenes"]) {
     for (const Json& c : s["realtime"]["fidelity"]["cameras"]) {
       const Json& st = c["settle"];

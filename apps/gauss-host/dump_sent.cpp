@@ -52,7 +52,11 @@ Expected<DumpReport> dump_sent(const fs::path& dir, const std::string& stem, con
   cloud.sh_degree = params.sh_degree;
   cloud.gaussians.reserve(session.sent_ids().size());
   for (GaussianId id : session.sent_ids())
-    if (const Gaussian* g = scene.find(id)) cloud.gaussians.push_back(quantize_roundtrip(*g, params));
+    if (const Gaussian* g = session.sent_record(id, scene)) {
+      Gaussian q = quantize_roundtrip(*g, params);
+      q.id = id;  // a LoD record carries no id of its own
+      cloud.gaussians.push_back(q);
+    }
   PlyGaussianWriteOptions options;
   options.write_object_id = true;
   options.write_gaussian_id = true;

@@ -60,7 +60,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "gauss-host: %s\n", feed.message().c_str());
     return 1;
   }
-  const gauss::CodecParams params = (*feed)->codec_params();
+  gauss::CodecParams params = (*feed)->codec_params();
+  // Interior records are wider than any leaf: the log-scale range reaches them.
+  if (o.lod) params = gauss::fit_lod_codec_params(params);
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
@@ -84,6 +86,7 @@ int main(int argc, char** argv) {
   hc.net.admission.pending_timeout = hc.net.handshake_timeout;
   if (o.max_budget > 0) hc.session.max_capacity = o.max_budget;
   hc.session.default_rho = o.rho;
+  if (o.lod) hc.session.lod = gauss::LodConfig{};
   if (o.min_opacity > 0.0f || o.max_scale > 0.0f || o.min_support > 0) {
     gauss::EligibilityConfig ec;
     ec.min_opacity = o.min_opacity;

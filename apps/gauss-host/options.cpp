@@ -1,6 +1,7 @@
 #include "options.h"
 
 #include <filesystem>
+#include <map>
 #include <system_error>
 
 #include "endpoint_option.h"
@@ -114,6 +115,11 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
   app.add_option("--dump-sent", o.dump_sent_dir,
                  "write what each client was sent when its session ends (see below)")
       ->type_name("DIR");
+  app.add_option("--lod", o.lod,
+                 "level of detail: 'on' sends what the budget cannot hold in detail as a coarse cut through a merge "
+                 "hierarchy (no black holes), 'off' sends the best Gaussians only")
+      ->transform(CLI::Transformer(std::map<std::string, bool>{{"on", true}, {"off", false}}))
+      ->type_name("on|off");
   app.add_flag("--quiet", o.quiet, "no once-a-second status line");
   app.footer(
       "--dump-sent DIR: when a client's session ends (it disconnects, or the host exits), writes\n"

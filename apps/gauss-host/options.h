@@ -39,6 +39,7 @@ struct Options {
   std::string events_path;     // empty: no event log
   std::filesystem::path sessions_path;  // empty: no sessions record
   std::filesystem::path dump_sent_dir;  // empty: no dumps
+  bool lod{true};              // --lod on: a coarse background under the budget (LoD cut)
   bool quiet{false};
 };
 

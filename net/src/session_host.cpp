@@ -76,6 +76,7 @@ void SessionHost::pump(const SceneStore& scene, double now) {
   std::vector<std::optional<Expected<std::vector<wire::Message>>>> out(due.size());
   pool_.parallel_for(due.size(), [&](std::size_t i) { out[i] = due[i].second->tick(scene, now); });
   for (std::size_t i = 0; i < due.size(); ++i) {
+    for (const std::string& line : due[i].second->take_notices()) log(line);
     Expected<std::vector<wire::Message>>& r = *out[i];
     if (!r) {
       ++stats_.tick_errors;

@@ -157,16 +157,35 @@ TEST(LodMerge, SeparatedIsotropicPairFollowsTheLawOfTotalVariance) {
   // Equal weights, means at x = -/+ d: mean 0, covariance s^2 I + diag(d^2, 0, 0).
   const float s = 0.1f, d = 0.5f;
   const Gaussian pair[2] = {make({-d, 0, 0}, glm::vec3(s), 0.5f), make({d, 0, 0}, glm::vec3(s), 0.5f)};
-  const auto m = merge_gaussians(pair, 0);
-  ASSERT_TRUE(m.ok());
-  EXPECT_NEAR(glm::length(glm::dvec3(m->position)), 0.0, 1e-7);
-  glm::dmat3 expect(double(s) * s);
-  expect[0][0] += double(d) * d;
-  EXPECT_LT(rel_error(expect, gaussian_covariance(*m)), 1e-5);
-  // Opacity: t = sum t_i A_i / A with A = sqrt(s^2 + d^2) * s.
-  const double t_child = -std::log(0.5), area_child = double(s) * s;
-  const double area = std::sqrt(double(s) * s + double(d) * d) * s;
-  EXPECT_NEAR(opacity_of(*m), 1.0 - std::exp(-2.0 * t_child * area_child / area), 1e-6);
+  // The exact moment match (spread 1), then the default record, whose centres' spread d^2 is
+  // widened by spread^2 while the children's own s^2 stays.
+  for (const double k : {1.0, LodMergeConfig{}.spread}) {
+    LodMergeConfig config;
+    config.spread = k;
+    const auto m = merge_gaussians(pair, 0, config);
+    ASSERT_TRUE(m.ok());
+    EXPECT_NEAR(glm::length(glm::dvec3(m->position)), 0.0, 1e-7);
+    glm::dmat3 expect(double(s) * s);
+    expect[0][0] += k * k * double(d) * d;
+    EXPECT_LT(rel_error(expect, gaussian_covariance(*m)), 1e-5) << "spread " << k;
+    // Opacity: t = sum t_i A_i / A with A = sqrt(s^2 + k^2 d^2) * s: the optical mass is kept.
+    const double t_child = -std::log(0.5), area_child = double(s) * s;
+    const double area = std::sqrt(double(s) * s + k * k * double(d) * d) * s;
+    EXPECT_NEAR(opacity_of(*m), 1.0 - std::exp(-2.0 * t_child * area_child / area), 1e-6) << "spread " << k;
+  }
+}
+
+TEST(LodMerge, SpreadLeavesCoincidentChildrenAsTheyAre) {
+  // Two copies at one place: no spread of centres to widen, so any spread gives the child's shape.
+  const Gaussian one = make({1, 2, 3}, {0.3f, 0.1f, 0.02f}, 0.4f);
+  const Gaussian pair[2] = {one, one};
+  for (const double k : {1.0, 1.7, 3.0}) {
+    LodMergeConfig config;
+    config.spread = k;
+    const auto m = merge_gaussians(pair, 0, config);
+    ASSERT_TRUE(m.ok());
+    EXPECT_LT(rel_error(gaussian_covariance(one), gaussian_covariance(*m)), 1e-5) << "spread " << k;
+  }
 }
 
 TEST(LodMerge, WeightsAreOpacityTimesAreaAndColoursFollow) {

@@ -70,6 +70,15 @@ TEST(GaussEval, ReportReproducesAndItsExactnessChecksHold) {
     EXPECT_TRUE(c["settle"]["converged"].get<bool>());
     EXPECT_TRUE(c["pc_hs"]["psnr_db"].is_number()) << c["pc_hs"].dump();
     EXPECT_GT(c["coverage"]["both"].get<double>(), 0.5);
+    // --lod both (the default): the same camera without LoD, beside. At M = N/4 the leaves
+    // alone leave holes the LoD cut covers, and its records are part of the M.
+    ASSERT_TRUE(c.contains("without_lod")) << c.dump();
+    const auto& w = c["without_lod"];
+    EXPECT_EQ(w["hs_vs_sent"]["differing_pixels"].get<std::uint64_t>(), 0u);
+    EXPECT_GT(c["coverage"]["hs"].get<double>(), w["coverage"]["hs"].get<double>());
+    EXPECT_GT(c["pc_hs_all"]["psnr_db"].get<double>(), w["pc_hs_all"]["psnr_db"].get<double>());
+    EXPECT_GT(c["lod_interior"].get<std::uint64_t>(), 0u);
+    EXPECT_LE(c["resident"].get<std::uint64_t>(), 3000u);
     ++views;
   }
   EXPECT_EQ(views, 1u);
@@ -110,9 +119,14 @@ TEST(GaussEval, ReportReproducesAndItsExactnessChecksHold) {
     EXPECT_GT(t["return"]["slot_writes"].get<std::uint64_t>(), 0u) << "the return to A publishes edits";
     EXPECT_GT(t["flicker"]["frames"].get<std::uint64_t>(), 0u);
   }
-  ASSERT_EQ(scene["ablation"].size(), 2u);
-  for (const auto& p : scene["ablation"])
+  // Two budgets, each with the LoD cut and without (--lod both).
+  ASSERT_EQ(scene["ablation"].size(), 4u);
+  std::size_t with_lod = 0;
+  for (const auto& p : scene["ablation"]) {
+    with_lod += p["lod"].get<bool>();
     for (const auto& c : p["cameras"]) EXPECT_EQ(c["hs_vs_sent_differing"].get<std::uint64_t>(), 0u);
+  }
+  EXPECT_EQ(with_lod, 2u);
   EXPECT_FALSE(r.contains("ablation")) << "the plot script's list carries frame times: only with timing";
   // Stage latencies: every live epoch reached the screen, after it became available.
   const auto& live = scene["model_latency"]["epochs"];

@@ -40,6 +40,8 @@ Expected<LodHierarchy> LodHierarchy::create(int sh_degree, const LodConfig& conf
                  " is outside 2..64"};
   if (!(config.merge.max_scale > 0.0) || !std::isfinite(config.merge.max_scale))
     return Error{"LodHierarchy: merge.max_scale must be positive and finite"};
+  if (!(config.merge.spread >= 1.0) || !std::isfinite(config.merge.spread))
+    return Error{"LodHierarchy: merge.spread must be finite and at least 1"};
   const LodCube& c = config.cube;
   if (!(c.edge >= 0.0) || !std::isfinite(c.edge) || !std::isfinite(c.min.x) || !std::isfinite(c.min.y) ||
       !std::isfinite(c.min.z))
@@ -67,6 +69,13 @@ Expected<LodHierarchy> LodHierarchy::build(std::span<const Gaussian> gaussians, 
 std::uint32_t LodHierarchy::find_leaf(GaussianId id) const {
   const std::uint32_t* v = leaf_index_.find(to_underlying(id));
   return v && *v != kPendingLeaf ? *v : kNoLodNode;
+}
+
+std::uint32_t LodHierarchy::object_root(ObjectId o) const {
+  if (to_underlying(o) < 0) return kNoLodNode;
+  const std::uint32_t tree = tree_of(o);
+  auto it = std::lower_bound(group_roots_.begin(), group_roots_.end(), std::pair{tree, 0u});
+  return it != group_roots_.end() && it->first == tree ? it->second : kNoLodNode;
 }
 
 Gaussian LodHierarchy::leaf_gaussian(const LodNode& n) const {
@@ -136,6 +145,22 @@ bool LodHierarchy::same_leaf_value(std::uint32_t node, const Gaussian& g) const 
 }
 
 Expected<LodUpdateReport> LodHierarchy::update(std::span<const Gaussian> gaussians) {
+  return update_from(gaussians.data(), gaussians.size(),
+                     [&](std::size_t k) -> const Gaussian& { return gaussians[k]; });
+}
+
+Expected<LodUpdateReport> LodHierarchy::update(std::span<const Gaussian> gaussians,
+                                               std::span<const std::uint32_t> subset) {
+  for (std::uint32_t i : subset)
+    if (i >= gaussians.size())
+      return Error{"LodHierarchy::update: subset index " + std::to_string(i) + " outside the scene's " +
+                   std::to_string(gaussians.size()) + " Gaussians"};
+  return update_from(gaussians.data(), subset.size(),
+                     [&](std::size_t k) -> const Gaussian& { return gaussians[subset[k]]; });
+}
+
+template <typename Get>
+Expected<LodUpdateReport> LodHierarchy::update_from(const Gaussian* base, std::size_t count, Get&& get) {
   // Leaves not met below are the removed ones; a leaf met twice is a duplicate id.
   if (++stamp_ == 0) {
     std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);
@@ -143,7 +168,8 @@ Expected<LodUpdateReport> LodHierarchy::update(std::span<const Gaussian> gaussia
   }
   const std::uint32_t seen = stamp_;
   std::vector<const Gaussian*> upserts;
-  for (const Gaussian& g : gaussians) {
+  for (std::size_t k = 0; k < count; ++k) {
+    const Gaussian& g = get(k);
     const std::uint32_t node = find_leaf(g.id);
     if (node == kNoLodNode) {
       upserts.push_back(&g);
@@ -151,13 +177,23 @@ Expected<LodUpdateReport> LodHierarchy::update(std::span<const Gaussian> gaussia
     }
     if (touch_stamp_[node] == seen) return Error{"LodHierarchy::update: Gaussian id " + id_text(g.id) + " appears twice"};
     touch_stamp_[node] = seen;
-    if (!same_leaf_value(node, g)) upserts.push_back(&g);
+    if (!same_leaf_value(node, g))
+      upserts.push_back(&g);
+    else
+      leaf_source_[nodes_[node].data] = static_cast<std::uint32_t>(&g - base);
   }
   std::vector<GaussianId> removed;
   leaf_index_.for_each([&](std::uint64_t id, std::uint32_t node) {
     if (touch_stamp_[node] != seen) removed.push_back(GaussianId{id});
   });
-  return apply_changes(upserts, removed, false);
+  auto report = apply_changes(upserts, removed, false);
+  if (!report) return report;
+  // The changed leaves' places in the input (the unchanged ones were noted above), now that
+  // new leaves have their slots; a Gaussian left out as unusable has none.
+  for (const Gaussian* g : upserts)
+    if (const std::uint32_t node = find_leaf(g->id); node != kNoLodNode)
+      leaf_source_[nodes_[node].data] = static_cast<std::uint32_t>(g - base);
+  return report;
 }
 
 Expected<LodUpdateReport> LodHierarchy::apply(std::span<const Gaussian> upserts, std::span<const GaussianId> removed,
@@ -267,9 +303,11 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
       if (!free_leaf_slots_.empty()) {
         nodes_[n].data = free_leaf_slots_.back();
         free_leaf_slots_.pop_back();
+        leaf_source_[nodes_[n].data] = kNoLodSource;
       } else {
         nodes_[n].data = std::uint32_t(leaf_fields_.size());
         leaf_fields_.emplace_back();
+        leaf_source_.push_back(kNoLodSource);
         leaf_rest_.resize(leaf_rest_.size() + std::size_t(rest_count_));
       }
       store_leaf(n, g);

@@ -108,6 +108,7 @@ LodLeafStatus leaf_moments(const Gaussian& g, int sh_degree, const LodMergeConfi
     double sum = 0.0;
     for (int k = 0; k < 3; ++k) sum += r[k][ia[e]] * r[k][ib[e]] * var[k];
     out.cov[e] = sum;
+    out.within[e] = sum;
   }
   out.optical_mass = softplus(g.opacity_logit) * area;
   out.sh_dc = glm::dvec3(g.sh_dc);
@@ -135,15 +136,21 @@ void combine_moments(std::span<const LodMoments> children, std::span<const glm::
   }
   mean /= w;
   dc /= w;
-  double cov[6] = {};
+  double cov[6] = {}, within[6] = {};
   for (const LodMoments& c : children) {
     const glm::dvec3 d = c.mean - mean;
     const double dd[6] = {d.x * d.x, d.x * d.y, d.x * d.z, d.y * d.y, d.y * d.z, d.z * d.z};
-    for (int e = 0; e < 6; ++e) cov[e] += c.weight * (c.cov[e] + dd[e]);
+    for (int e = 0; e < 6; ++e) {
+      cov[e] += c.weight * (c.cov[e] + dd[e]);
+      within[e] += c.weight * c.within[e];
+    }
   }
   out.weight = w;
   out.mean = mean;
-  for (int e = 0; e < 6; ++e) out.cov[e] = cov[e] / w;
+  for (int e = 0; e < 6; ++e) {
+    out.cov[e] = cov[e] / w;
+    out.within[e] = within[e] / w;
+  }
   out.optical_mass = optical;
   out.sh_dc = dc;
   out.support = support;
@@ -156,11 +163,16 @@ void combine_moments(std::span<const LodMoments> children, std::span<const glm::
   }
 }
 
-Gaussian moments_to_gaussian(const LodMoments& m, std::span<const glm::dvec3> rest, int rest_count) {
+Gaussian moments_to_gaussian(const LodMoments& m, std::span<const glm::dvec3> rest, int rest_count, double spread) {
+  // cov = within + spread^2 (total - within): the leaves' own shapes as they are, the layout of
+  // their centres widened (spread 1: the exact moment match).
+  const double k2 = spread * spread;
+  double c[6];
+  for (int e = 0; e < 6; ++e) c[e] = m.within[e] + k2 * (m.cov[e] - m.within[e]);
   glm::dmat3 cov;
-  cov[0] = glm::dvec3(m.cov[0], m.cov[1], m.cov[2]);
-  cov[1] = glm::dvec3(m.cov[1], m.cov[3], m.cov[4]);
-  cov[2] = glm::dvec3(m.cov[2], m.cov[4], m.cov[5]);
+  cov[0] = glm::dvec3(c[0], c[1], c[2]);
+  cov[1] = glm::dvec3(c[1], c[3], c[4]);
+  cov[2] = glm::dvec3(c[2], c[4], c[5]);
   const SymEigen3 e = sym_eigen3(cov);
   // The floor keeps ln finite for a (numerically) flat or zero covariance; the absolute floor
   // covers an all-zero matrix (impossible from usable leaves, whose scales are > 0).
@@ -207,7 +219,7 @@ Expected<Gaussian> merge_gaussians(std::span<const Gaussian> children, int sh_de
   LodMoments out;
   std::vector<glm::dvec3> rest_out(std::size_t(rest_count) + 1);
   combine_moments(moments, rest, rest_count, out, rest_out);
-  return moments_to_gaussian(out, rest_out, rest_count);
+  return moments_to_gaussian(out, rest_out, rest_count, config.spread);
 }
 
 }  // namespace gauss

@@ -185,7 +185,7 @@ std::uint32_t LodHierarchy::make_interior(TreeBuild& b, int level, std::uint64_t
                   std::span<glm::dvec3>(moments_rest_).subspan(std::size_t(slot) * rc, rc));
   Gaussian rec = moments_to_gaussian(moments_[slot],
                                      std::span<const glm::dvec3>(moments_rest_).subspan(std::size_t(slot) * rc, rc),
-                                     rest_count_);
+                                     rest_count_, config_.merge.spread);
   rec.id = nodes_[node].id;
   if (reuse != kNoLodNode && !(same_value(old_record, rec))) b.report->modified.push_back(rec.id);
   records_[slot] = rec;

@@ -55,7 +55,8 @@ void Differ::reset() {
   impl_->last_epoch.reset();
 }
 
-Expected<EditBatch> Differ::diff(const Selection& desired, const SceneStore& scene) {
+Expected<EditBatch> Differ::diff(const Selection& desired, const SceneStore& scene, std::span<const Gaussian> extra,
+                                 std::span<const GaussianId> extra_modified) {
   if (scene.in_epoch()) return Error{"diff: the scene has an open epoch; diff between epochs"};
   Impl& s = *impl_;
   const Epoch now = scene.epoch();
@@ -73,13 +74,16 @@ Expected<EditBatch> Differ::diff(const Selection& desired, const SceneStore& sce
       }
       s.modified_scratch.insert(s.modified_scratch.end(), c->modified.begin(), c->modified.end());
     }
-    if (complete) modified = std::span<const GaussianId>(s.modified_scratch);
+    if (complete) {
+      s.modified_scratch.insert(s.modified_scratch.end(), extra_modified.begin(), extra_modified.end());
+      modified = std::span<const GaussianId>(s.modified_scratch);
+    }
   }
-  return diff(desired, scene.gaussians(), now, modified);
+  return diff(desired, scene.gaussians(), now, modified, extra);
 }
 
 Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gaussian> gaussians, Epoch epoch,
-                                 std::optional<std::span<const GaussianId>> modified) {
+                                 std::optional<std::span<const GaussianId>> modified, std::span<const Gaussian> extra) {
   Impl& s = *impl_;
   const std::size_t m = desired.ids.size();
   if (m != desired.indices.size()) return Error{"diff: selection ids and indices differ in length"};
@@ -87,12 +91,17 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
     return Error{"diff: selection was made from a scene of " + std::to_string(desired.scene_size) +
                  " Gaussians, diffing against " + std::to_string(gaussians.size())};
   }
+  // Index i names gaussians[i], or extra[i - gaussians.size()] above the scene (LoD records).
+  const std::size_t limit = gaussians.size() + extra.size();
+  auto record = [&](std::uint32_t i) -> const Gaussian& {
+    return i < gaussians.size() ? gaussians[i] : extra[i - gaussians.size()];
+  };
   // Entries whose record is read (enterers, re-checked stayers) are matched against the
   // scene before anything changes; the others are ids only, and reading every record just
   // to check would cost a cache miss per resident Gaussian.
   auto mismatch = [&](std::size_t k) -> std::optional<Error> {
     const std::uint32_t i = desired.indices[k];
-    if (i < gaussians.size() && gaussians[i].id == desired.ids[k]) return std::nullopt;
+    if (i < limit && record(i).id == desired.ids[k]) return std::nullopt;
     return Error{"diff: selection entry " + std::to_string(k) + " (id " + std::to_string(to_underlying(desired.ids[k])) +
                  ") does not match the scene at index " + std::to_string(i)};
   };
@@ -100,7 +109,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
   // Selection guarantees; otherwise sort positions by id and look for repeats.
   bool sorted = true;
   for (std::size_t k = 0; k < m; ++k) {
-    if (desired.indices[k] >= gaussians.size()) return *mismatch(k);
+    if (desired.indices[k] >= limit) return *mismatch(k);
     sorted = sorted && (k == 0 || desired.ids[k - 1] < desired.ids[k]);
   }
   if (!sorted) {
@@ -161,7 +170,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
     if (check) {
       if (auto err = mismatch(k)) return *err;
       ++s.stats.rehashed;
-      const Gaussian& value = gaussians[desired.indices[k]];
+      const Gaussian& value = record(desired.indices[k]);
       const std::uint64_t h = quantized_hash(value, s.params);
       if (h != e.hash) {
         e.hash = h;
@@ -181,7 +190,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
   // from its fresh copy rather than from the scene again.
   batch.edits.reserve(s.leavers.size() + s.enterers.size() - replaces + s.updated.size());
   auto prefetch = [&](std::uint32_t k) {
-    const auto* p = reinterpret_cast<const char*>(&gaussians[desired.indices[k]]);
+    const auto* p = reinterpret_cast<const char*>(&record(desired.indices[k]));
     for (std::size_t line = 0; line < sizeof(Gaussian); line += 64) __builtin_prefetch(p + line);
   };
   constexpr std::size_t kAhead = 8;
@@ -198,14 +207,14 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
     const std::uint32_t k = s.enterers[j];
     const bool replace = j < replaces;
     const Edit& e = emit(replace ? EditKind::Replace : EditKind::Insert, desired.ids[k],
-                         replace ? s.leavers[j] : GaussianId{0}, &gaussians[desired.indices[k]]);
+                         replace ? s.leavers[j] : GaussianId{0}, &record(desired.indices[k]));
     s.next[s.enterer_slots[j]].hash = quantized_hash(e.value, s.params);
   };
   // Batch order: removes, replaces, updates, inserts. Leavers and enterers are both in
   // ascending id order: a replace pairs them in that order.
   for (std::size_t j = replaces; j < s.leavers.size(); ++j) emit(EditKind::Remove, s.leavers[j], GaussianId{0}, nullptr);
   for (std::size_t j = 0; j < replaces; ++j) enter(j);
-  for (std::uint32_t k : s.updated) emit(EditKind::Update, desired.ids[k], GaussianId{0}, &gaussians[desired.indices[k]]);
+  for (std::uint32_t k : s.updated) emit(EditKind::Update, desired.ids[k], GaussianId{0}, &record(desired.indices[k]));
   for (std::size_t j = replaces; j < s.enterers.size(); ++j) enter(j);
   s.sent.swap(s.next);
   s.stats.replaces = replaces;

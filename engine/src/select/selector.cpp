@@ -46,9 +46,7 @@ Status validate_request(const SelectionRequest& r) {
   return Ok{};
 }
 
-namespace {
-
-Status validate_pose(const ClientPose& p) {
+Status validate_client_pose(const ClientPose& p) {
   const bool finite = std::isfinite(p.position.x) && std::isfinite(p.position.y) && std::isfinite(p.position.z) &&
                       std::isfinite(p.orientation.w) && std::isfinite(p.orientation.x) &&
                       std::isfinite(p.orientation.y) && std::isfinite(p.orientation.z);
@@ -61,7 +59,7 @@ Status validate_pose(const ClientPose& p) {
   return Ok{};
 }
 
-Status validate_config(const SelectorConfig& c) {
+Status validate_selector_config(const SelectorConfig& c) {
   auto bad = [](const char* field, double v) {
     return Status(Error{std::string("selector config: ") + field + " = " + std::to_string(v) + " is out of range"});
   };
@@ -74,6 +72,8 @@ Status validate_config(const SelectorConfig& c) {
   if (!(c.near_distance > 0.0 && std::isfinite(c.near_distance))) return bad("near_distance", c.near_distance);
   return Ok{};
 }
+
+namespace {
 
 float sigmoid(float x) { return 1.0f / (1.0f + std::exp(-x)); }
 
@@ -378,8 +378,8 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
                                      std::uint64_t scene_version, Epoch epoch, const ClientPose& pose,
                                      const SelectionRequest& request, std::span<const std::uint8_t> eligible) {
   if (Status st = validate_request(request); !st) return st.error();
-  if (Status st = validate_pose(pose); !st) return st.error();
-  if (Status st = validate_config(impl_->config); !st) return st.error();
+  if (Status st = validate_client_pose(pose); !st) return st.error();
+  if (Status st = validate_selector_config(impl_->config); !st) return st.error();
   if (!eligible.empty() && eligible.size() != gaussians.size()) {
     return Error{"selection: eligibility mask has " + std::to_string(eligible.size()) + " entries for " +
                  std::to_string(gaussians.size()) + " Gaussians"};

@@ -60,7 +60,9 @@ HostSession::HostSession(std::uint32_t client_id, std::uint64_t session_id, Code
       config_(std::move(config)),
       selector_(config_.selector),
       differ_(params),
-      bucket_(config_.query_burst) {}
+      bucket_(config_.query_burst) {
+  if (config_.lod) lod_.emplace(params_.sh_degree, config_.selector, *config_.lod);
+}
 
 void HostSession::reject(std::string reason) {
   ++stats_.rejected_messages;
@@ -263,12 +265,20 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
     if (!e) return Error{"host session " + std::to_string(client_id_) + ": eligibility: " + e.message()};
     eligible_ = std::move(*e);
   }
+  if (lod_) {
+    if (Status st = lod_->update(scene, eligible_ ? &*eligible_ : nullptr); !st) {
+      ++stats_.lod_fallbacks;
+      notices_.push_back("client " + std::to_string(client_id_) + ": " + st.message());
+    }
+  }
   auto sel = eligible_ ? selector_.select(scene, to_client_pose(pose), req, *eligible_)
                        : selector_.select(scene, to_client_pose(pose), req);
+  if (sel && lod_) sel = lod_->select(std::move(*sel), scene, to_client_pose(pose), req);
   if (!sel) return Error{"host session " + std::to_string(client_id_) + ": selection failed: " + sel.message()};
   if (needs_resync_) differ_.reset();
-  auto batch = differ_.diff(*sel, scene);
+  auto batch = lod_ ? differ_.diff(*sel, scene, lod_->records(), lod_->modified()) : differ_.diff(*sel, scene);
   if (!batch) return Error{"host session " + std::to_string(client_id_) + ": diff failed: " + batch.message()};
+  if (lod_) lod_->clear_modified();
   if (pose_) selected_pose_ = pose;
   const bool had_query_change = query_changed_;
   query_changed_ = false;
@@ -367,10 +377,15 @@ std::vector<wire::Message> HostSession::surface_patches(const SceneStore& scene,
   return out;
 }
 
+const Gaussian* HostSession::sent_record(GaussianId id, const SceneStore& scene) const {
+  if (is_lod_interior_id(id)) return lod_ ? lod_->find_interior(id) : nullptr;
+  return scene.find(id);
+}
+
 std::uint64_t HostSession::sent_checksum(const SceneStore& scene) const {
   std::uint64_t sum = 0;
   for (GaussianId id : sent_ids_)
-    if (const Gaussian* g = scene.find(id)) sum += record_hash(id, quantize_roundtrip(*g, params_));
+    if (const Gaussian* g = sent_record(id, scene)) sum += record_hash(id, quantize_roundtrip(*g, params_));
   return sum;
 }
 

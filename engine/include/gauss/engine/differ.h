@@ -50,12 +50,16 @@ class Differ {
 
   // Diffs against `scene`, which must be the scene `desired` was selected from (same
   // epoch and size; ids are checked at the selection's indices). Epoch of the batch:
-  // scene.epoch().
-  Expected<EditBatch> diff(const Selection& desired, const SceneStore& scene);
+  // scene.epoch(). Records the scene does not hold (a LoD cut's interior nodes) are in
+  // `extra`: a selection index i >= scene size names extra[i - scene size];
+  // `extra_modified` lists those of them whose records may have changed since the previous
+  // diff (the scene's change log covers its own).
+  Expected<EditBatch> diff(const Selection& desired, const SceneStore& scene, std::span<const Gaussian> extra = {},
+                           std::span<const GaussianId> extra_modified = {});
   // Plain-data form. `modified`: ids whose records may have changed since the previous
   // diff; nullopt means any may have (every staying Gaussian is re-quantised).
   Expected<EditBatch> diff(const Selection& desired, std::span<const Gaussian> gaussians, Epoch epoch,
-                           std::optional<std::span<const GaussianId>> modified);
+                           std::optional<std::span<const GaussianId>> modified, std::span<const Gaussian> extra = {});
 
   const CodecParams& params() const;
   const DiffStats& last_stats() const;

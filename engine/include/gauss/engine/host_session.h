@@ -18,11 +18,13 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "gauss/engine/codec.h"
 #include "gauss/engine/differ.h"
 #include "gauss/engine/eligibility.h"
+#include "gauss/engine/lod_selector.h"
 #include "gauss/engine/messages.h"
 #include "gauss/engine/scene_store.h"
 #include "gauss/engine/selector.h"
@@ -70,6 +72,12 @@ struct HostSessionConfig {
   // Which Gaussians may be selected at all (opacity, scale, support, surface distance);
   // empty = every Gaussian. Filtered once per scene epoch.
   std::optional<EligibilityConfig> eligibility;
+  // Level of detail (lod_selector.h): when set, what the budget leaves of the background is a
+  // cut through a merge hierarchy of the eligible Gaussians instead of its best leaves, so
+  // the client shows coarse context where leaf selection leaves holes. The reservation's
+  // leaves and shares are unchanged; at M >= N the set is exactly the leaf selection's. The
+  // codec's log-scale range must reach the interior records' (fit_lod_codec_params).
+  std::optional<LodConfig> lod;
 };
 
 struct HostSessionStats {
@@ -83,6 +91,7 @@ struct HostSessionStats {
   std::uint64_t edits_sent{0};
   std::uint64_t payload_bytes_sent{0};  // codec bytes (compressed)
   std::string last_rejection;
+  std::uint64_t lod_fallbacks{0};       // epochs whose hierarchy could not be updated (leaf selection instead)
 };
 
 class HostSession {
@@ -108,12 +117,20 @@ class HostSession {
   std::uint32_t client_id() const noexcept { return client_id_; }
   std::uint32_t capacity() const noexcept { return capacity_; }
   const HostSessionStats& stats() const noexcept { return stats_; }
+  // Lines for the host's log that no message carries (a LoD fallback), oldest first; taken
+  // once.
+  std::vector<std::string> take_notices() { return std::exchange(notices_, {}); }
+  // The LoD state, when config.lod is set.
+  const LodSelector* lod() const noexcept { return lod_ ? &*lod_ : nullptr; }
   // Stage events (available, sent; query resolved, target, desired residency).
   EventLog& events() noexcept { return events_; }
   // The desired set as last sent (sorted ids) and its checksum over the records the
   // client decodes (quantize_roundtrip), to compare with the client's state.
   const std::vector<GaussianId>& sent_ids() const noexcept { return sent_ids_; }
   std::uint64_t sent_checksum(const SceneStore& scene) const;
+  // The value behind a sent id: the scene's Gaussian, or a LoD cut's interior record (null
+  // when neither holds it any more).
+  const Gaussian* sent_record(GaussianId id, const SceneStore& scene) const;
   std::optional<msg::Ack> last_ack() const noexcept { return last_ack_; }
   std::uint64_t last_batch_id() const noexcept { return next_batch_id_ - 1; }
 
@@ -146,6 +163,8 @@ class HostSession {
   Selector selector_;
   std::optional<EligibleSet> eligible_;  // config_.eligibility's verdict at eligible_->epoch
   Differ differ_;
+  std::optional<LodSelector> lod_;
+  std::vector<std::string> notices_;
   EventLog events_;
   HostSessionStats stats_;
 

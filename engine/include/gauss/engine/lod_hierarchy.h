@@ -59,6 +59,7 @@ namespace gauss {
 // Interior node ids: this bit set, the low 63 bits a serial. Leaf ids never carry it.
 inline constexpr std::uint64_t kLodInteriorIdBit = std::uint64_t{1} << 63;
 inline constexpr std::uint32_t kNoLodNode = 0xFFFFFFFFu;
+inline constexpr std::uint32_t kNoLodSource = 0xFFFFFFFFu;
 
 inline bool is_lod_interior_id(GaussianId id) { return (to_underlying(id) & kLodInteriorIdBit) != 0; }
 
@@ -124,6 +125,9 @@ class LodHierarchy {
   // rotation, opacity, colour up to the degree, object, support) modified. Fails, changing
   // nothing, on a duplicate id or an id with the top bit set (naming it).
   Expected<LodUpdateReport> update(std::span<const Gaussian> gaussians);
+  // The same over part of a scene: gaussians[i] for each i in `subset` (an eligible set's
+  // indices), without copying them out. Fails, changing nothing, on an index outside the span.
+  Expected<LodUpdateReport> update(std::span<const Gaussian> gaussians, std::span<const std::uint32_t> subset);
   // The same from a change list: `upserts` are inserted or (when the id is a leaf) modified,
   // `removed` removed. Fails, changing nothing, on an id given twice, a removed id that is not
   // a leaf (unless it was skipped before: unknown ids are ignored only if `lenient_removes`),
@@ -140,10 +144,21 @@ class LodHierarchy {
   }
   // The record of an interior node (id set); for a leaf use leaf_gaussian().
   const Gaussian& record(const LodNode& n) const { return records_[n.data]; }
+  // Every interior record slot (live or free) and an interior node's slot in it: a cut hands
+  // the differ this span, so a record is read where it lies instead of being copied out.
+  // Valid until the next update.
+  std::span<const Gaussian> record_pool() const { return records_; }
+  std::uint32_t record_slot(const LodNode& n) const { return n.data; }
   // A leaf's Gaussian as stored (carrier false; SH rest above the degree zero).
   Gaussian leaf_gaussian(const LodNode& n) const;
   // The node's Gaussian whichever kind it is.
   Gaussian gaussian(const LodNode& n) const { return n.leaf ? leaf_gaussian(n) : record(n); }
+  // Pool index of the root of object `o`'s subtree (its only leaf when it has one), or
+  // kNoLodNode when no leaf of it is in the hierarchy (or o is kNoObject / negative).
+  std::uint32_t object_root(ObjectId o) const;
+  // Where a leaf was in the span the last update() read (its index there), or kNoLodSource
+  // when apply() placed it. The caller checks the id before trusting it.
+  std::uint32_t leaf_source(const LodNode& n) const { return leaf_source_[n.data]; }
   // Pool index of the leaf with this id, or kNoLodNode.
   std::uint32_t find_leaf(GaussianId id) const;
   std::size_t leaf_count() const { return leaf_index_.size(); }
@@ -179,6 +194,8 @@ class LodHierarchy {
   LodHierarchy() = default;
 
   // lod_hierarchy.cpp
+  template <typename Get>
+  Expected<LodUpdateReport> update_from(const Gaussian* base, std::size_t count, Get&& get);
   Expected<LodUpdateReport> apply_changes(std::span<const Gaussian* const> upserts,
                                           std::span<const GaussianId> removed, bool lenient);
   std::uint64_t morton(const glm::vec3& p) const;
@@ -212,6 +229,7 @@ class LodHierarchy {
   // Leaf slots (node.data of a leaf): fields and SH rest (rest_count_ triples per slot).
   std::vector<LeafFields> leaf_fields_;
   std::vector<glm::vec3> leaf_rest_;
+  std::vector<std::uint32_t> leaf_source_;  // per leaf slot: index in the last update()'s span
   std::vector<std::uint32_t> free_leaf_slots_;
   detail::IdIndex leaf_index_;  // leaf id -> node
   // Interior slots (node.data of an interior node).

@@ -87,12 +87,20 @@ struct Selection {
   std::size_t background_selected{0};
   std::size_t global_selected{0};        // chosen by the global layer (both partitions)
   std::size_t retained{0};               // selected and resident before this call
+  // With a LoD cut (lod_selector.h): background_selected counts the cut's nodes, of which
+  // lod_interior are interior nodes (ids with kLodInteriorIdBit, indices above scene_size);
+  // global_selected and retained stay the leaf selection's.
+  std::size_t lod_interior{0};
   std::optional<QueryResolution> query;  // resolution of request.query
 };
 
 // Checks M, capacity and rho (also without a query): M = 0, M above the client's
 // capacity, or rho outside [0, 1] / NaN are errors.
 Status validate_request(const SelectionRequest& request);
+// A pose must be finite with a non-zero orientation and finite FOV tangents > 0.
+Status validate_client_pose(const ClientPose& pose);
+// Every SelectorConfig field in its documented range (the error names the field).
+Status validate_selector_config(const SelectorConfig& config);
 
 class Selector {
  public:

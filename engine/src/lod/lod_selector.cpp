@@ -1,0 +1,148 @@
+// LodSelector: leaf selection for the reservation, a LoD cut for the background
+// (lod_selector.h).
+#include "gauss/engine/lod_selector.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <glm/geometric.hpp>
+#include <string>
+
+namespace gauss {
+
+LodSelector::LodSelector(int sh_degree, SelectorConfig selector, LodConfig lod)
+    : sh_degree_(sh_degree), selector_config_(selector), lod_config_(lod), cutter_(selector) {}
+
+Status LodSelector::update(const SceneStore& scene, const EligibleSet* eligible) {
+  if (scene.in_epoch()) return Error{"LoD: the scene has an open epoch; update between epochs"};
+  // Once per epoch: a failed update is not retried (and reported again) every tick.
+  if (epoch_ && *epoch_ == scene.epoch()) return Ok{};
+  if (eligible && eligible->epoch != scene.epoch())
+    return Error{"LoD: eligible set is from epoch " + std::to_string(to_underlying(eligible->epoch)) +
+                 ", the scene is at epoch " + std::to_string(to_underlying(scene.epoch()))};
+  const auto gaussians = scene.gaussians();
+  subset_.clear();
+  if (eligible) {
+    subset_.assign(eligible->indices.begin(), eligible->indices.end());
+  } else {
+    for (std::size_t i = 0; i < gaussians.size(); ++i)
+      if (!gaussians[i].carrier) subset_.push_back(static_cast<std::uint32_t>(i));
+  }
+  const bool fresh = !hierarchy_;
+  if (fresh) {
+    auto h = LodHierarchy::create(sh_degree_, lod_config_);
+    if (!h) return Error{"LoD: " + h.message()};
+    hierarchy_ = std::move(*h);
+  }
+  auto report = hierarchy_->update(gaussians, subset_);
+  epoch_ = scene.epoch();
+  if (!report) {
+    hierarchy_.reset();
+    cutter_.clear_previous();
+    interior_.clear();
+    return Error{"LoD: no hierarchy for epoch " + std::to_string(to_underlying(scene.epoch())) + ": " +
+                 report.message() + "; selecting leaves"};
+  }
+  if (fresh) cutter_.clear_previous();
+  // Modified records are re-quantised by the differ; retired ones leave the next cut (the
+  // differ removes them as leavers), listed too so a stale pool slot is never trusted.
+  modified_.insert(modified_.end(), report->modified.begin(), report->modified.end());
+  modified_.insert(modified_.end(), report->removed.begin(), report->removed.end());
+  return Ok{};
+}
+
+std::span<const Gaussian> LodSelector::records() const {
+  return hierarchy_ ? hierarchy_->record_pool() : std::span<const Gaussian>{};
+}
+
+const Gaussian* LodSelector::find_interior(GaussianId id) const {
+  if (!hierarchy_) return nullptr;
+  auto it = std::lower_bound(interior_.begin(), interior_.end(), std::pair{to_underlying(id), 0u});
+  if (it == interior_.end() || it->first != to_underlying(id)) return nullptr;
+  const LodNode& n = hierarchy_->node(it->second);
+  if (!n.live || n.leaf || n.id != id) return nullptr;
+  return &hierarchy_->record(n);
+}
+
+Expected<Selection> LodSelector::select(Selection leaves, const SceneStore& scene, const ClientPose& pose,
+                                        const SelectionRequest& request) {
+  cut_ = LodCut{};
+  const std::size_t background_budget = request.budget - std::min(request.budget, leaves.object_selected);
+  if (!hierarchy_ || leaves.background_candidates <= background_budget) {
+    interior_.clear();
+    return leaves;
+  }
+  if (epoch_ != leaves.epoch || epoch_ != scene.epoch())
+    return Error{"LoD: the hierarchy is at another epoch than the selection (call update() first)"};
+  std::vector<ObjectId> excluded;
+  if (leaves.query) excluded = leaves.query->ids();
+  auto cut = cutter_.cut(*hierarchy_, pose, background_budget, excluded);
+  if (!cut) return Error{"LoD cut: " + cut.message()};
+  cut_ = std::move(*cut);
+
+  const auto gaussians = scene.gaussians();
+  const Gaussian* base = gaussians.data();
+  // The reservation's leaves, in id order as the Selector wrote them.
+  auto& chosen = chosen_;  // kept between calls: ~M entries, page faults every call otherwise
+  chosen.clear();
+  chosen.reserve(leaves.object_selected + cut_.nodes.size());
+  if (leaves.query) {
+    for (std::size_t k = 0; k < leaves.ids.size(); ++k) {
+      const ObjectId o = gaussians[leaves.indices[k]].object;
+      if (std::binary_search(excluded.begin(), excluded.end(), o,
+                             [](ObjectId a, ObjectId b) { return to_underlying(a) < to_underlying(b); }))
+        chosen.emplace_back(to_underlying(leaves.ids[k]), leaves.indices[k]);
+    }
+  }
+  const std::size_t object_entries = chosen.size();
+  interior_.clear();
+  for (std::uint32_t n : cut_.nodes) {
+    const LodNode& node = hierarchy_->node(n);
+    if (node.leaf) {
+      // Where update() found it; the scene's index only when that no longer holds.
+      std::uint32_t index = hierarchy_->leaf_source(node);
+      if (index >= gaussians.size() || gaussians[index].id != node.id) {
+        const Gaussian* g = scene.find(node.id);
+        if (!g) return Error{"LoD: cut leaf " + std::to_string(to_underlying(node.id)) + " is not in the scene"};
+        index = static_cast<std::uint32_t>(g - base);
+      }
+      chosen.emplace_back(to_underlying(node.id), index);
+    } else {
+      interior_.emplace_back(to_underlying(node.id), n);
+    }
+  }
+  std::sort(chosen.begin() + static_cast<std::ptrdiff_t>(object_entries), chosen.end());
+  std::inplace_merge(chosen.begin(), chosen.begin() + static_cast<std::ptrdiff_t>(object_entries), chosen.end());
+  std::sort(interior_.begin(), interior_.end());
+
+  Selection out = std::move(leaves);
+  out.ids.clear();
+  out.indices.clear();
+  out.ids.reserve(chosen.size() + interior_.size());
+  out.indices.reserve(chosen.size() + interior_.size());
+  for (const auto& [id, index] : chosen) {
+    out.ids.push_back(GaussianId{id});
+    out.indices.push_back(index);
+  }
+  if (gaussians.size() + hierarchy_->record_pool().size() > std::size_t{0xFFFFFFFFu})
+    return Error{"LoD: scene and hierarchy records exceed 2^32 indices"};
+  const auto scene_size = static_cast<std::uint32_t>(gaussians.size());
+  for (const auto& [id, n] : interior_) {
+    out.ids.push_back(GaussianId{id});
+    out.indices.push_back(scene_size + hierarchy_->record_slot(hierarchy_->node(n)));
+  }
+  out.background_selected = cut_.nodes.size();
+  out.lod_interior = cut_.interior;
+  return out;
+}
+
+CodecParams fit_lod_codec_params(CodecParams params, const LodMergeConfig& merge) {
+  const glm::dvec3 half = 0.5 * (glm::dvec3(params.box.max) - glm::dvec3(params.box.min));
+  const double h2 = glm::dot(half, half);
+  const double widest = std::exp(2.0 * double(params.log_scale_max));
+  const double bound = 0.5 * std::log(widest + merge.spread * merge.spread * h2);
+  if (std::isfinite(bound)) params.log_scale_max = std::max(params.log_scale_max, float(bound));
+  return params;
+}
+
+}  // namespace gauss

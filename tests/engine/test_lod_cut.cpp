@@ -1,0 +1,353 @@
+// LodCutter and LodSelector: a cut never exceeds its budget and covers every leaf it stands for
+// exactly once, refines what is near and in view, holds still under a standing pose, leaves a
+// query's target out; the selector keeps the reservation's leaves and shares exactly and is
+// the leaf selection itself where everything fits.
+#include <algorithm>
+#include <iterator>
+#include <map>
+#include <cmath>
+#include <set>
+#include <vector>
+
+#include <glm/gtc/quaternion.hpp>
+#include <gtest/gtest.h>
+
+#include "gauss/engine/camera.h"
+#include "gauss/engine/lod_cut.h"
+#include "gauss/engine/lod_selector.h"
+#include "gauss/engine/selector.h"
+#include "host_world.h"
+
+using namespace gauss;
+
+namespace {
+
+using World = gauss::test::HostWorld;
+
+LodHierarchy build(const World& w) {
+  std::vector<std::uint32_t> all;
+  for (std::size_t i = 0; i < w.store.gaussians().size(); ++i)
+    if (!w.store.gaussians()[i].carrier) all.push_back(static_cast<std::uint32_t>(i));
+  auto h = LodHierarchy::create(w.store.sh_degree());
+  EXPECT_TRUE(h.ok()) << h.message();
+  auto r = h->update(w.store.gaussians(), all);
+  EXPECT_TRUE(r.ok()) << r.message();
+  return std::move(*h);
+}
+
+// A head at `eye` looking at `at`, both given as fractions of the room's box (the room's
+// world is y down), with a 62-degree horizontal field of view.
+const World* g_world = nullptr;
+glm::dvec3 in_room(glm::dvec3 f) {
+  const auto& b = g_world->store.bounds();
+  return glm::dvec3(b.min) + f * glm::dvec3(b.max - b.min);
+}
+ClientPose look(glm::dvec3 eye, glm::dvec3 at) {
+  const glm::dmat4 c2w = opencv_look_at(in_room(eye), in_room(at), glm::dvec3(0, -1, 0));
+  ClientPose p;
+  p.position = glm::dvec3(c2w[3]);
+  p.orientation = glm::quat_cast(glm::dmat3(c2w));
+  p.tan_half_fov_x = 0.6;
+  p.tan_half_fov_y = 0.45;
+  return p;
+}
+
+// Leaf ids under pool node n.
+void leaves_under(const LodHierarchy& h, std::uint32_t n, std::vector<GaussianId>& out) {
+  const LodNode& node = h.node(n);
+  if (node.leaf) {
+    out.push_back(node.id);
+    return;
+  }
+  for (std::uint32_t c : h.children(node)) leaves_under(h, c, out);
+}
+
+// Every leaf under the cut, each once: checks the cut is a set of disjoint subtrees.
+std::vector<GaussianId> covered(const LodHierarchy& h, const LodCut& cut) {
+  std::vector<GaussianId> ids;
+  for (std::uint32_t n : cut.nodes) leaves_under(h, n, ids);
+  std::sort(ids.begin(), ids.end());
+  EXPECT_TRUE(std::adjacent_find(ids.begin(), ids.end()) == ids.end()) << "a leaf is covered twice";
+  return ids;
+}
+
+std::vector<std::uint32_t> sorted(std::vector<std::uint32_t> v) {
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
+}  // namespace
+
+TEST(LodCut, NeverExceedsTheBudgetAndCoversEveryLeafOnce) {
+  World w;
+  g_world = &w;
+  const LodHierarchy h = build(w);
+  ASSERT_GT(h.interior_count(), 0u);
+  LodCutter cutter;
+  for (const ClientPose& pose : {look({0.1, 0.5, 0.1}, {0.9, 0.5, 0.9}), look({0.9, 0.4, 0.9}, {0.1, 0.5, 0.2})}) {
+    for (std::size_t budget : {std::size_t{1}, std::size_t{2}, std::size_t{3}, std::size_t{10}, std::size_t{100},
+                               std::size_t{777}, h.leaf_count() - 1, h.leaf_count(), std::size_t{100000}}) {
+      auto cut = cutter.cut(h, pose, budget);
+      ASSERT_TRUE(cut.ok()) << cut.message();
+      EXPECT_LE(cut->nodes.size(), budget);
+      EXPECT_EQ(cut->leaves + cut->interior, cut->nodes.size());
+      EXPECT_EQ(covered(h, *cut).size(), h.leaf_count()) << "budget " << budget;
+      if (budget >= h.leaf_count()) {
+        EXPECT_EQ(cut->interior, 0u) << "everything fits: every leaf";
+      }
+    }
+  }
+  auto none = cutter.cut(h, look({0.2, 0.5, 0.2}, {0.8, 0.5, 0.8}), 0);
+  ASSERT_TRUE(none.ok());
+  EXPECT_TRUE(none->nodes.empty());
+}
+
+TEST(LodCut, RefinesWhatIsInViewMoreThanWhatIsBehind) {
+  World w;
+  g_world = &w;
+  const LodHierarchy h = build(w);
+  // From the room's centre: what lies in front and what lies behind are alike but for the view.
+  const glm::dvec3 eye = in_room({0.5, 0.5, 0.5});
+  const glm::dvec3 at = in_room({0.9, 0.5, 0.9});
+  LodCutter cutter;
+  auto cut = cutter.cut(h, look({0.5, 0.5, 0.5}, {0.9, 0.5, 0.9}), 300);
+  ASSERT_TRUE(cut.ok());
+  const glm::dvec3 forward = glm::normalize(at - eye);
+  double front_leaves = 0, front_nodes = 0, back_leaves = 0, back_nodes = 0;
+  for (std::uint32_t n : cut->nodes) {
+    const LodNode& node = h.node(n);
+    const glm::dvec3 d = glm::dvec3(node.centre) - eye;
+    const double along = glm::dot(d, forward) / glm::length(d);
+    if (along > 0.9) {  // within ~25 degrees of the view direction
+      front_leaves += node.leaf_count;
+      front_nodes += 1;
+    } else if (along < -0.9) {  // as far behind
+      back_leaves += node.leaf_count;
+      back_nodes += 1;
+    }
+  }
+  ASSERT_GT(front_nodes, 0);
+  ASSERT_GT(back_nodes, 0);
+  // Leaves per node: the view's side is finer.
+  EXPECT_LT(front_leaves / front_nodes, back_leaves / back_nodes);
+}
+
+TEST(LodCut, AStandingPoseKeepsItsCutAndHysteresisDampsSmallMoves) {
+  World w;
+  g_world = &w;
+  const LodHierarchy h = build(w);
+  const glm::dvec3 at(0.9, 0.5, 0.9);
+  auto churn = [&](double bonus) {
+    SelectorConfig cfg;
+    cfg.retention_bonus = bonus;
+    LodCutter cutter(cfg);
+    auto first = cutter.cut(h, look({0.1, 0.5, 0.1}, at), 400);
+    EXPECT_TRUE(first.ok());
+    auto again = cutter.cut(h, look({0.1, 0.5, 0.1}, at), 400);
+    EXPECT_TRUE(again.ok());
+    EXPECT_EQ(sorted(first->nodes), sorted(again->nodes)) << "same pose, same cut";
+    EXPECT_EQ(again->retained, again->refined);
+    // A sway of a few centimetres: count the nodes that change between consecutive cuts.
+    std::size_t changed = 0;
+    std::vector<std::uint32_t> prev = sorted(again->nodes);
+    for (int i = 0; i < 8; ++i) {
+      const double dx = (i % 2 ? 0.005 : -0.005);  // of the room: a few centimetres
+      auto c = cutter.cut(h, look({0.1 + dx, 0.5, 0.1 - dx}, at), 400);
+      EXPECT_TRUE(c.ok());
+      std::vector<std::uint32_t> now = sorted(c->nodes), diff;
+      std::set_symmetric_difference(prev.begin(), prev.end(), now.begin(), now.end(), std::back_inserter(diff));
+      changed += diff.size();
+      prev = std::move(now);
+    }
+    return changed;
+  };
+  const std::size_t damped = churn(0.3);
+  const std::size_t free = churn(0.0);
+  EXPECT_GT(free, 0u) << "the sway must move a cut without hysteresis, or this test shows nothing";
+  EXPECT_LT(damped, free);
+}
+
+TEST(LodCut, ExcludedObjectsAreLeftOutAndNeverShownTwice) {
+  World w;
+  g_world = &w;
+  const LodHierarchy h = build(w);
+  // The object with the most leaves.
+  std::map<std::int32_t, std::size_t> per_object;
+  for (const Gaussian& g : w.store.gaussians())
+    if (to_underlying(g.object) >= 0 && !g.carrier) ++per_object[to_underlying(g.object)];
+  ASSERT_FALSE(per_object.empty());
+  const auto target = std::max_element(per_object.begin(), per_object.end(),
+                                       [](const auto& a, const auto& b) { return a.second < b.second; });
+  const ObjectId o{target->first};
+  ASSERT_GT(target->second, 8u) << "the target needs a subtree of its own";
+  const std::vector<ObjectId> excluded{o, o, ObjectId{999999}};  // repeats and unknown objects are fine
+  LodCutter cutter;
+  for (std::size_t budget : {std::size_t{1}, std::size_t{5}, std::size_t{60}, std::size_t{600}, h.leaf_count()}) {
+    auto cut = cutter.cut(h, look({0.1, 0.5, 0.1}, {0.9, 0.5, 0.9}), budget, excluded);
+    ASSERT_TRUE(cut.ok());
+    EXPECT_LE(cut->nodes.size(), budget);
+    const std::vector<GaussianId> ids = covered(h, *cut);
+    for (GaussianId id : ids) {
+      EXPECT_NE(w.store.find(id)->object, o) << "the target shown in the cut";
+    }
+    if (budget >= 60) {
+      EXPECT_EQ(ids.size(), h.leaf_count() - target->second) << "everything else is covered";
+    }
+  }
+}
+
+TEST(LodCut, BadPoseOrConfigIsAnError) {
+  World w;
+  g_world = &w;
+  const LodHierarchy h = build(w);
+  ClientPose bad = look({0.2, 0.5, 0.2}, {0.8, 0.5, 0.8});
+  bad.position.x = std::nan("");
+  LodCutter cutter;
+  EXPECT_FALSE(cutter.cut(h, bad, 10).ok());
+  SelectorConfig cfg;
+  cfg.out_of_view_weight = 0.0;
+  LodCutter broken(cfg);
+  EXPECT_FALSE(broken.cut(h, look({0.2, 0.5, 0.2}, {0.8, 0.5, 0.8}), 10).ok());
+}
+
+namespace {
+
+// Checks a selection's shape: ids strictly ascending, each index naming its id.
+void expect_well_formed(const Selection& s, const World& w, const LodSelector& lod) {
+  const auto scene = w.store.gaussians();
+  const auto extra = lod.records();
+  ASSERT_EQ(s.ids.size(), s.indices.size());
+  for (std::size_t k = 0; k < s.ids.size(); ++k) {
+    if (k > 0) {
+      EXPECT_LT(s.ids[k - 1], s.ids[k]);
+    }
+    const std::uint32_t i = s.indices[k];
+    if (is_lod_interior_id(s.ids[k])) {
+      ASSERT_GE(i, scene.size());
+      ASSERT_LT(i - scene.size(), extra.size());
+      EXPECT_EQ(lod.find_interior(s.ids[k]), &extra[i - scene.size()]);
+    } else {
+      ASSERT_LT(i, scene.size());
+      EXPECT_EQ(scene[i].id, s.ids[k]);
+    }
+  }
+}
+
+}  // namespace
+
+TEST(LodSelector, TheReservationIsTheSelectorsOwnAndSharesAreExact) {
+  World w;
+  g_world = &w;
+  const ObjectId o = w.store.objects().front().id;
+  SelectionRequest req;
+  req.budget = req.client_capacity = 400;
+  req.query = SemanticQuery::for_instance(o);
+  req.rho = 0.7;
+  const ClientPose pose = look({0.1, 0.5, 0.1}, {0.9, 0.5, 0.9});
+  Selector leaves_only;
+  auto plain = leaves_only.select(w.store, pose, req);
+  ASSERT_TRUE(plain.ok());
+  ASSERT_GT(plain->background_candidates, req.budget) << "the background must not fit, or no cut is made";
+  Selector leaves;
+  LodSelector lod(w.store.sh_degree());
+  ASSERT_TRUE(lod.update(w.store, nullptr).ok());
+  auto leaf = leaves.select(w.store, pose, req);
+  ASSERT_TRUE(leaf.ok());
+  auto sel = lod.select(*leaf, w.store, pose, req);
+  ASSERT_TRUE(sel.ok()) << sel.message();
+  expect_well_formed(*sel, w, lod);
+  EXPECT_LE(sel->ids.size(), req.budget);
+  EXPECT_GT(sel->lod_interior, 0u);
+  EXPECT_EQ(sel->object_selected, std::min(plain->object_candidates, std::size_t(std::floor(0.7 * 400))));
+  // The target's leaves are exactly the leaf selection's; nothing else stands for them.
+  auto target_leaves = [&](const Selection& s) {
+    std::vector<GaussianId> out;
+    for (std::size_t k = 0; k < s.ids.size(); ++k) {
+      if (is_lod_interior_id(s.ids[k])) {
+        EXPECT_NE(lod.find_interior(s.ids[k])->object, o) << "an interior record stands for the target";
+        continue;
+      }
+      if (w.store.gaussians()[s.indices[k]].object == o) out.push_back(s.ids[k]);
+    }
+    return out;
+  };
+  EXPECT_EQ(target_leaves(*sel), target_leaves(*plain));
+  EXPECT_EQ(target_leaves(*sel).size(), sel->object_selected);
+  EXPECT_EQ(sel->ids.size(), sel->object_selected + sel->background_selected);
+}
+
+TEST(LodSelector, WhereTheBackgroundFitsTheSelectionIsTheLeafSelection) {
+  World w;
+  g_world = &w;
+  SelectionRequest req;
+  req.budget = req.client_capacity = 5000;  // > N
+  const ClientPose pose = look({0.1, 0.5, 0.1}, {0.9, 0.5, 0.9});
+  Selector a, b;
+  LodSelector lod(w.store.sh_degree());
+  ASSERT_TRUE(lod.update(w.store, nullptr).ok());
+  auto plain = a.select(w.store, pose, req);
+  auto leaf = b.select(w.store, pose, req);
+  ASSERT_TRUE(plain.ok() && leaf.ok());
+  auto sel = lod.select(*leaf, w.store, pose, req);
+  ASSERT_TRUE(sel.ok());
+  EXPECT_EQ(sel->ids, plain->ids);
+  EXPECT_EQ(sel->indices, plain->indices);
+  EXPECT_EQ(sel->lod_interior, 0u);
+}
+
+TEST(LodSelector, AHierarchyThatCannotBeBuiltFallsBackToLeavesAndSaysSoOnce) {
+  World w;
+  g_world = &w;
+  EligibleSet broken;
+  broken.epoch = w.store.epoch();
+  broken.indices = {0, 1, 1, 2};  // a Gaussian twice: the hierarchy refuses it
+  LodSelector lod(w.store.sh_degree());
+  const Status first = lod.update(w.store, &broken);
+  ASSERT_FALSE(first.ok());
+  EXPECT_NE(first.message().find("selecting leaves"), std::string::npos) << first.message();
+  EXPECT_TRUE(lod.update(w.store, &broken).ok()) << "one line per epoch, not per tick";
+  EXPECT_EQ(lod.hierarchy(), nullptr);
+  SelectionRequest req;
+  req.budget = req.client_capacity = 100;
+  const ClientPose pose = look({0.1, 0.5, 0.1}, {0.9, 0.5, 0.9});
+  Selector a, b;
+  auto plain = a.select(w.store, pose, req);
+  auto leaf = b.select(w.store, pose, req);
+  ASSERT_TRUE(plain.ok() && leaf.ok());
+  auto sel = lod.select(*leaf, w.store, pose, req);
+  ASSERT_TRUE(sel.ok());
+  EXPECT_EQ(sel->ids, plain->ids);
+  // A stale eligible set is refused.
+  EligibleSet stale;
+  stale.epoch = Epoch{to_underlying(w.store.epoch()) + 5};
+  LodSelector other(w.store.sh_degree());
+  EXPECT_FALSE(other.update(w.store, &stale).ok());
+}
+
+TEST(LodSelector, CodecRangeReachesEveryInteriorRecord) {
+  World w;
+  g_world = &w;
+  // The bound holds for any hierarchy inside the box: the room's, and its coarsest records.
+  for (const float leaf_max : {-5.0f, 1.0f}) {
+    CodecParams p = w.params;
+    p.log_scale_max = leaf_max;
+    const CodecParams fitted = fit_lod_codec_params(p);
+    const LodHierarchy h = build(w);
+    float widest = -100.0f;
+    for (const LodNode& n : h.nodes())
+      if (n.live && !n.leaf)
+        widest = std::max({widest, h.record(n).log_scale.x, h.record(n).log_scale.y, h.record(n).log_scale.z});
+    EXPECT_GE(fitted.log_scale_max, widest) << "an interior record would be clamped";
+    EXPECT_GE(fitted.log_scale_max, leaf_max);
+    EXPECT_EQ(fitted.box, p.box);
+    EXPECT_EQ(fitted.log_scale_min, p.log_scale_min);
+    EXPECT_EQ(fitted.dc_min, p.dc_min);
+    // Not a wild over-estimate: within a factor 4 of the root's scale (the bound uses the
+    // box's half-diagonal, the root the scene's own spread).
+    EXPECT_LT(fitted.log_scale_max, std::max(widest, leaf_max) + std::log(4.0f));
+  }
+  // A degenerate (empty) box leaves the range as it was.
+  CodecParams flat = w.params;
+  flat.box.max = flat.box.min;
+  EXPECT_EQ(fit_lod_codec_params(flat).log_scale_max, flat.log_scale_max);
+}

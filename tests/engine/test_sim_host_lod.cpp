@@ -1,0 +1,211 @@
+// HostSession with LoD on, followed by a ClientState: the client ends with exactly the cut
+// the host sent (interior records included), within M; at M >= N the stream is byte for byte
+// the leaf selection's; an unchanged epoch sends nothing; an edit inside one object updates
+// only records of its subtree and the nodes above it; a query's share stays exact.
+#include <algorithm>
+#include <map>
+#include <cmath>
+#include <set>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "gauss/engine/client_state.h"
+#include "gauss/engine/codec.h"
+#include "gauss/engine/host_session.h"
+#include "host_world.h"
+
+using namespace gauss;
+
+namespace {
+
+using World = gauss::test::HostWorld;
+
+HostSessionConfig lod_config(bool on) {
+  HostSessionConfig c;
+  if (on) c.lod = LodConfig{};
+  return c;
+}
+
+CodecParams lod_params(const World& w) {
+  return fit_lod_codec_params(w.params);
+}
+
+// A host session and its client, connected, with everything the first tick sent settled.
+struct Pair {
+  HostSession host;
+  ClientState client;
+};
+
+Pair connect(World& w, const CodecParams& params, bool lod, std::uint32_t capacity) {
+  HostSession host(1, 9, params, lod_config(lod));
+  ClientConfig cfg;
+  cfg.capacity = capacity;
+  auto client = ClientState::create(0, cfg);
+  EXPECT_TRUE(client.ok());
+  for (const auto& m : host.on_message(client->hello(), w.store, 0.0)) EXPECT_TRUE(client->on_message(m, 0.0).ok());
+  return Pair{std::move(host), std::move(*client)};
+}
+
+// Ticks the host at t, delivers, displays until nothing is pending; returns the batches'
+// edits (decoded with the session's codec) and the raw payloads.
+struct Step {
+  std::vector<Edit> edits;
+  std::vector<std::vector<std::uint8_t>> payloads;
+};
+Step step(Pair& p, World& w, const CodecParams& params, double t) {
+  Step s;
+  auto out = p.host.tick(w.store, t);
+  EXPECT_TRUE(out.ok()) << out.message();
+  if (!out.ok()) return s;
+  for (const auto& m : *out) {
+    if (const auto* b = std::get_if<msg::EditBatchMsg>(&m)) {
+      auto batch = decode_edit_batch(b->payload, params);
+      EXPECT_TRUE(batch.ok()) << batch.message();
+      if (batch.ok()) s.edits.insert(s.edits.end(), batch->edits.begin(), batch->edits.end());
+      s.payloads.push_back(b->payload);
+    }
+    EXPECT_TRUE(p.client.on_message(m, t).ok());
+  }
+  for (std::uint64_t f = 0; f < 400 && p.client.desired().pending_count() > 0; ++f) {
+    EXPECT_TRUE(p.client.frame(ViewState{}, t, f).ok());
+    p.client.frame_rendered(t, f);
+  }
+  EXPECT_TRUE(p.client.check().ok()) << p.client.check().message();
+  EXPECT_EQ(p.client.desired().pending_count(), 0u);
+  for (const auto& m : p.client.take_outgoing()) (void)p.host.on_message(m, w.store, t);
+  return s;
+}
+
+std::size_t interior_count(const std::vector<GaussianId>& ids) {
+  return static_cast<std::size_t>(std::count_if(ids.begin(), ids.end(), is_lod_interior_id));
+}
+
+// Ids of every interior node in the subtree at pool node n.
+void interior_under(const LodHierarchy& h, std::uint32_t n, std::set<GaussianId>& out) {
+  const LodNode& node = h.node(n);
+  if (node.leaf) return;
+  out.insert(node.id);
+  for (std::uint32_t c : h.children(node)) interior_under(h, c, out);
+}
+
+}  // namespace
+
+TEST(HostSessionLod, TheClientHoldsExactlyTheSentCutWithinTheBudget) {
+  World w;
+  const CodecParams params = lod_params(w);
+  const std::uint32_t m = 250;  // N = 2000: an eighth
+  Pair p = connect(w, params, true, m);
+  step(p, w, params, 0.0);
+  const auto& sent = p.host.sent_ids();
+  EXPECT_LE(sent.size(), m);
+  EXPECT_GT(interior_count(sent), 0u) << "M = N/8 must send interior records";
+  EXPECT_EQ(p.client.published_checksum(), p.client.desired().desired_checksum());
+  EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum(w.store));
+  // Every sent interior id is a live node of the session's hierarchy.
+  for (GaussianId id : sent)
+    if (is_lod_interior_id(id)) {
+      ASSERT_NE(p.host.sent_record(id, w.store), nullptr);
+    }
+}
+
+TEST(HostSessionLod, WhereEverythingFitsTheStreamIsTheLeafSelectionsByteForByte) {
+  World w;
+  const CodecParams params = lod_params(w);
+  const std::uint32_t m = 3000;  // > N
+  Pair on = connect(w, params, true, m);
+  Pair off = connect(w, params, false, m);
+  const Step a = step(on, w, params, 0.0);
+  const Step b = step(off, w, params, 0.0);
+  EXPECT_EQ(a.payloads, b.payloads);
+  EXPECT_EQ(on.host.sent_ids(), off.host.sent_ids());
+  EXPECT_EQ(interior_count(on.host.sent_ids()), 0u);
+  EXPECT_EQ(on.client.published_checksum(), off.client.published_checksum());
+}
+
+TEST(HostSessionLod, AnUnchangedEpochSendsNoEdit) {
+  World w;
+  const CodecParams params = lod_params(w);
+  Pair p = connect(w, params, true, 250);
+  step(p, w, params, 0.0);
+  const std::vector<GaussianId> before = p.host.sent_ids();
+  ASSERT_TRUE(w.store.begin_next_epoch().ok());
+  ASSERT_TRUE(w.store.commit_epoch().ok());
+  const Step s = step(p, w, params, 1.0);
+  EXPECT_EQ(s.payloads.size(), 1u) << "a new epoch always gets its batch";
+  EXPECT_TRUE(s.edits.empty());
+  EXPECT_EQ(p.host.sent_ids(), before) << "interior ids are stable";
+}
+
+TEST(HostSessionLod, AnEditInsideOneObjectUpdatesOnlyItsSubtreeAndTheNodesAboveIt) {
+  World w;
+  const CodecParams params = lod_params(w);
+  Pair p = connect(w, params, true, 250);
+  step(p, w, params, 0.0);
+  const LodHierarchy* h = p.host.lod()->hierarchy();
+  ASSERT_NE(h, nullptr);
+  // The object with the most Gaussians; its subtree and the path above it, before the edit.
+  std::map<std::int32_t, int> count;
+  for (const Gaussian& g : w.store.gaussians())
+    if (to_underlying(g.object) >= 0) ++count[to_underlying(g.object)];
+  const ObjectId o{std::max_element(count.begin(), count.end(), [](auto& a, auto& b) { return a.second < b.second; })->first};
+  std::set<GaussianId> allowed;
+  const std::uint32_t root = h->object_root(o);
+  ASSERT_NE(root, kNoLodNode);
+  interior_under(*h, root, allowed);
+  for (std::uint32_t n = h->node(root).parent; n != kNoLodNode; n = h->node(n).parent) allowed.insert(h->node(n).id);
+  ASSERT_TRUE(w.store.begin_next_epoch().ok());
+  std::vector<GaussianId> moved;
+  for (const Gaussian& g : w.store.gaussians()) {
+    if (g.object != o) continue;
+    Gaussian c = g;
+    c.sh_dc += glm::vec3(0.3f);  // recoloured in place: the tree's shape stays
+    moved.push_back(c.id);
+    ASSERT_TRUE(w.store.modify(c).ok());
+  }
+  ASSERT_TRUE(w.store.commit_epoch().ok());
+  std::sort(moved.begin(), moved.end());
+  const Step s = step(p, w, params, 1.0);
+  std::size_t interior_updates = 0;
+  for (const Edit& e : s.edits) {
+    if (e.kind != EditKind::Update) continue;
+    if (is_lod_interior_id(e.id)) {
+      ++interior_updates;
+      EXPECT_TRUE(allowed.count(e.id)) << "interior " << to_underlying(e.id) << " is outside the object's subtree";
+    } else {
+      EXPECT_TRUE(std::binary_search(moved.begin(), moved.end(), e.id)) << "leaf " << to_underlying(e.id);
+    }
+  }
+  EXPECT_GT(interior_updates, 0u) << "the recoloured object's coarse records must follow it";
+  EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum(w.store));
+}
+
+TEST(HostSessionLod, AQuerysShareStaysExactInLeaves) {
+  World w;
+  const CodecParams params = lod_params(w);
+  const std::uint32_t m = 300;
+  Pair p = connect(w, params, true, m);
+  step(p, w, params, 0.0);
+  const ObjectId o = w.store.objects().front().id;
+  std::size_t members = 0;
+  for (const Gaussian& g : w.store.gaussians()) members += g.object == o && !g.carrier;
+  msg::Query q;
+  q.kind = msg::QueryKind::Instance;
+  q.instance = o;
+  q.rho = 0.5f;
+  ASSERT_EQ(std::get<msg::QueryReply>(p.host.on_message(q, w.store, 1.0)[0]).status, msg::QueryStatus::Resolved);
+  step(p, w, params, 1.0);
+  std::size_t target_leaves = 0;
+  for (GaussianId id : p.host.sent_ids()) {
+    const Gaussian* g = p.host.sent_record(id, w.store);
+    ASSERT_NE(g, nullptr);
+    if (is_lod_interior_id(id)) {
+      EXPECT_NE(g->object, o) << "a coarse record stands for the target";
+    } else {
+      target_leaves += g->object == o;
+    }
+  }
+  EXPECT_EQ(target_leaves, std::min<std::size_t>(members, std::size_t(std::floor(0.5 * m))));
+  EXPECT_LE(p.host.sent_ids().size(), m);
+  EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum(w.store));
+}
