@@ -18,6 +18,7 @@ struct InputState {
   // side / top (scene_framing.h ViewPreset).
   std::optional<ViewPreset> view;
   bool toggle_orbit{false};          // O pressed since the previous poll: orbit <-> fly
+  bool screenshot{false};            // P pressed since the previous poll: write the window as PNG
   // Right mouse button held, pressed over the scene: mouse look. The cursor is hidden and
   // unbounded while it lasts.
   bool looking{false};

@@ -1,7 +1,10 @@
 // gauss-view's command line.
 #include "options.h"
 
+#include <cctype>
 #include <cmath>
+
+#include <GLFW/glfw3.h>
 
 #include "endpoint_option.h"
 #include "gauss/engine/scene_up.h"
@@ -13,11 +16,27 @@ double focal_from_hfov(double hfov_deg, std::uint32_t width) {
   return 0.5 * width / std::tan(hfov_deg * 3.14159265358979323846 / 360.0);
 }
 
+namespace {
+
+// GLFW_KEY_* of a key name: a letter, a digit, or F1..F12; 0 when none.
+int key_from_name(const std::string& name) {
+  if (name.size() == 1 && std::isalnum(static_cast<unsigned char>(name[0])))
+    return std::toupper(static_cast<unsigned char>(name[0]));  // GLFW's letter and digit keys are their ASCII
+  if (name.size() >= 2 && (name[0] == 'F' || name[0] == 'f') && name.find_first_not_of("0123456789", 1) == std::string::npos) {
+    const int n = std::stoi(name.substr(1));
+    if (n >= 1 && n <= 12) return GLFW_KEY_F1 + n - 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
 std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
   CLI::App app{
       "gauss-view: the desktop client. Connects to a gauss-host (--host) and shows the stream it\n"
       "receives, or views a scene file alone (--scene, the whole scene resident). Windowed by\n"
-      "default (ImGui panels: connection, stream, timing, objects and queries, view); --headless\n"
+      "default (ImGui panels: connection, stream, scene, timing, objects and queries, view; drop a\n"
+      "scene file on the window to open it, P writes a screenshot); --headless\n"
       "flies a camera path file and writes PNG frames plus one JSON line per frame instead (a\n"
       "scene without --path: a few frames from its default camera, which frames the scene's\n"
       "opacity-weighted 2nd..98th percentile box from outside, upright for --up).",
@@ -85,6 +104,20 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
   app.add_option("--exit-after", o.exit_after, "windowed: close after this many frames (0: never)");
   app.add_flag("--no-ui", o.no_ui, "windowed: no panels, the scene alone");
   app.add_option("--camera", o.camera, "windowed: start at this camera's pose (camera JSON)")->check(CLI::ExistingFile);
+  app.add_option("--screenshot-dir", o.screenshot_dir,
+                 "windowed: where the P key writes gauss-view-NNNN.png (the first free number)")
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--drop", o.drop,
+                 "windowed, for scripts and tests: drop this file on the window after --drop-after frames; "
+                 "--exit-after and --screenshot-after then count the frames after its load ended");
+  app.add_option("--drop-after", o.drop_after, "windowed: frames before --drop");
+  std::string press;
+  app.add_option("--press", press, "windowed, for scripts and tests: press this key (a letter, digit or F1..F12) "
+                                   "after --press-after frames")
+      ->check(CLI::Validator([](std::string& in) { return key_from_name(in) != 0 ? std::string() : "no such key: " + in; },
+                             ""))
+      ->type_name("KEY");
+  app.add_option("--press-after", o.press_after, "windowed: frames before --press");
 
   if (auto rc = apps::parse(app, argc, argv)) return rc;
   if (host.empty() && o.scene.empty()) {
@@ -102,6 +135,7 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
   o.mode = mode == "immediate" ? PublishMode::Immediate : PublishMode::Progressive;
   o.highlight = !no_highlight;
   if (!up.empty()) o.up = *parse_up_axis(up);
+  o.press_key = key_from_name(press);
   o.view = view == "side" ? ViewPreset::Side : view == "top" ? ViewPreset::Top : ViewPreset::Front;
   const auto wh = apps::parse_size(size);
   o.width = wh->first;

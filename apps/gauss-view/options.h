@@ -52,6 +52,15 @@ struct ViewOptions {
   std::uint64_t exit_after{0};         // frames (0: until the window closes)
   bool no_ui{false};                   // no ImGui panels (the scene alone; tests compare against it)
   std::filesystem::path camera;        // start pose from this camera JSON (its intrinsics are not used)
+  std::filesystem::path screenshot_dir{"."};  // the P key's PNGs: gauss-view-NNNN.png, never overwriting
+  // Scripts and tests drive the window as a person would: `drop` is dropped on it after
+  // `drop_after` frames (through its drop handler), `press_key` (GLFW_KEY_*, 0: none)
+  // pressed after `press_after` frames. With a drop, --exit-after and --screenshot-after
+  // count the frames after its load ended (succeeded or failed), so a shot shows its outcome.
+  std::filesystem::path drop;
+  std::uint32_t drop_after{2};
+  int press_key{0};
+  std::uint32_t press_after{2};
 };
 
 // Focal length in pixels of a pinhole `width` pixels wide with horizontal field of view

@@ -8,12 +8,18 @@
 //   objects     the object table (resident per object refreshed kSlowRefreshS), instance
 //               and class queries with rho, clear, the share of M the query got
 //   timing      scrolling graphs of CPU and GPU milliseconds per pass (panels_view.cpp)
+//   scene       a local scene's file, format, Gaussians, SH degree, robust and full
+//               bounds, GPU memory, load time                         (panels_scene.cpp)
 //   view        the bounds the default camera frames, the scene's up (and where it came
 //               from) with a choice of axis, "frame (F)", the front / side / top views,
 //               fly / orbit, saved viewpoints,
 //               highlight, edit tints, stereo preview + IPD, speed, and every key and
 //               mouse binding (help)
 // A local scene (no stream) shows "local scene (no stream)" where a panel needs one.
+// Below kSmallWindowWidth every panel starts collapsed (title bars stacked in two columns),
+// so that a small window shows the scene.
+// Over the scene, bottom centre (panels_scene.cpp): a dropped file's load progress, a
+// failed load's error (until dismissed or the next load), the last screenshot's path.
 //
 // Intents (queries, mode, highlight, tints) go straight to the ClientRuntime; what the
 // frame loop needs (stereo, IPD) is read back through settings(), and what it should do to
@@ -29,11 +35,15 @@
 
 #include "fly_camera.h"
 #include "gauss/client/client_runtime.h"
+#include "gauss/engine/scene_load.h"
 #include "options.h"
 #include "plot_history.h"
 #include "view_source.h"
 
 namespace gauss::view {
+
+// "950 B", "12.3 kB", "1.25 MB", "2.10 GB" (decimal units).
+std::string bytes_text(double bytes);
 
 // What the view panel controls for the frame loop.
 struct ViewSettings {
@@ -64,6 +74,24 @@ class Panels {
   // figures of frames that finished since the last call.
   void add_frame(const client::DisplayFrameStats& stats, double interval_ms);
   void add_gpu(const client::GpuFrameStats& gpu);
+  // Below this window width (pixels) every panel starts collapsed.
+  static constexpr std::uint32_t kSmallWindowWidth = 1000;
+  // A screenshot's path stays on screen this long (seconds).
+  static constexpr double kNoticeS = 8.0;
+
+  // Another source (a dropped file replaced the scene): the panels read it from now on.
+  void set_source(ViewSource& source);
+  // The load in progress since `now_s` (nullptr: none); shown with its progress until cleared.
+  void set_loading(const SceneLoadJob* job, double now_s) {
+    loading_ = job;
+    loading_since_s_ = now_s;
+  }
+  // A failed load's message: shown until dismissed or clear_error() (the next load).
+  void show_error(std::string message) { error_ = std::move(message); }
+  void clear_error() { error_.clear(); }
+  // A transient line (a screenshot's path), shown for kNoticeS from `now_s`.
+  void show_notice(std::string message, double now_s);
+
   // Draws every panel for a `width` x `height` window (first-use placement); `now_s` is
   // a steady clock in seconds; `orbit`: the camera is in orbit mode. May move `camera`
   // (viewpoints, speed).
@@ -98,6 +126,8 @@ class Panels {
   void draw_timing();
   void draw_view(FlyCamera& camera, bool orbit);
   void draw_framing(FlyCamera& camera);
+  void draw_scene();
+  void draw_notices(std::uint32_t width, std::uint32_t height, double now_s);
   void refresh_objects(double now_s);
 
   ViewSource* source_;
@@ -119,6 +149,12 @@ class Panels {
   std::vector<ObjectId> targets_;
   std::uint64_t target_resident_{0};
   std::string last_query_;
+
+  const SceneLoadJob* loading_{nullptr};
+  double loading_since_s_{0.0};
+  std::string error_;
+  std::string notice_;
+  double notice_until_s_{-1.0};
 
   std::optional<ViewPreset> view_request_;
   std::optional<bool> mode_request_;

@@ -17,17 +17,7 @@ const ImVec4 kDim{0.6f, 0.6f, 0.6f, 1.0f};
 constexpr const char* kNoStream = "local scene (no stream)";
 
 // "1.2 MB/s"
-std::string rate_text(double bytes_per_s) {
-  char buf[32];
-  if (bytes_per_s >= 1e6) {
-    std::snprintf(buf, sizeof buf, "%.2f MB/s", bytes_per_s * 1e-6);
-  } else if (bytes_per_s >= 1e3) {
-    std::snprintf(buf, sizeof buf, "%.1f kB/s", bytes_per_s * 1e-3);
-  } else {
-    std::snprintf(buf, sizeof buf, "%.0f B/s", bytes_per_s);
-  }
-  return buf;
-}
+std::string rate_text(double bytes_per_s) { return bytes_text(bytes_per_s) + "/s"; }
 
 std::string epoch_text(const std::optional<Epoch>& e) {
   return e ? std::to_string(to_underlying(*e)) : std::string("-");

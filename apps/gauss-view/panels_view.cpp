@@ -14,9 +14,8 @@ namespace {
 
 constexpr float kPanelW = 290.0f;
 constexpr float kMargin = 8.0f;
-// Below this window width the first-use layout starts objects, timing and view collapsed
-// so that the scene stays visible between the two panel columns.
-constexpr std::uint32_t kSmallWindowWidth = 1000;
+// A collapsed panel's title bar and the gap to the next (ImGui's default font and padding).
+constexpr float kTitleStep = 26.0f;
 
 // One scrolling graph, its name and last value written over it.
 void plot(const char* name, const PlotHistory& h) {
@@ -49,21 +48,28 @@ void Panels::add_gpu(const client::GpuFrameStats& gpu) {
 }
 
 void Panels::draw(FlyCamera& camera, bool orbit, std::uint32_t width, std::uint32_t height, double now_s) {
+  // At 640x480 the expanded left column alone covered half the scene: a small window starts
+  // with every panel collapsed, its title bars stacked at the top of each column.
   small_window_ = width < kSmallWindowWidth;
-  const float w = static_cast<float>(width);
+  const float w = static_cast<float>(width), h = static_cast<float>(height);
   const float right = std::max(kMargin, w - kPanelW - kMargin);
-  place(kMargin, kMargin, kPanelW, 145.0f, false);
+  // Top of panel `i` of a column: collapsed, one title bar below the other; expanded, the
+  // given y of the large layout.
+  const auto top = [&](int i, float expanded_y) { return small_window_ ? kMargin + i * kTitleStep : expanded_y; };
+  place(kMargin, top(0, kMargin), kPanelW, 145.0f, small_window_);
   draw_connection(now_s);
-  place(kMargin, 161.0f, kPanelW, 218.0f, false);
+  place(kMargin, top(1, 161.0f), kPanelW, 218.0f, small_window_);
   draw_stream();
-  place(kMargin, 387.0f, kPanelW, std::max(120.0f, static_cast<float>(height) - 395.0f), small_window_);
+  place(kMargin, top(2, 387.0f), kPanelW, 270.0f, small_window_);
+  draw_scene();
+  place(kMargin, top(3, 665.0f), kPanelW, std::max(120.0f, h - 673.0f), small_window_);
   draw_objects(now_s);
-  place(right, kMargin, kPanelW, 370.0f, small_window_);
+  place(right, top(0, kMargin), kPanelW, 370.0f, small_window_);
   draw_timing();
   // The view panel takes the rest of the column (it scrolls when that is too short).
-  place(right, small_window_ ? 34.0f : 386.0f, kPanelW, std::max(300.0f, static_cast<float>(height) - 394.0f),
-        small_window_);
+  place(right, top(1, 386.0f), kPanelW, std::max(300.0f, h - 394.0f), small_window_);
   draw_view(camera, orbit);
+  draw_notices(width, height, now_s);
 }
 
 void Panels::draw_timing() {
@@ -147,6 +153,8 @@ void Panels::draw_view(FlyCamera& camera, bool orbit) {
     ImGui::TextDisabled("F or 1    frame the scene again (front)");
     ImGui::TextDisabled("2 / 3     the side / top view of it");
     ImGui::TextDisabled("O         orbit <-> fly (the view stays)");
+    ImGui::TextDisabled("P         screenshot (PNG, path shown below)");
+    ImGui::TextDisabled("drop a file  open it (PLY, SPZ, SOG, .splat)");
   }
   ImGui::End();
 }

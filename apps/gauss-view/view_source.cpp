@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <vector>
 
-#include "gauss/engine/splat_file.h"
 #include "gauss/engine/ply_mesh.h"
 #include "gauss/render/vk_frame_ring.h"
 
@@ -57,8 +56,8 @@ class StreamSource final : public ViewSource {
 
 class LocalSource final : public ViewSource {
  public:
-  LocalSource(std::unique_ptr<render::SplatRenderer> r, std::string what, RobustBounds box, SceneUp up)
-      : r_(std::move(r)), what_(std::move(what)), box_(box) {
+  LocalSource(std::unique_ptr<render::SplatRenderer> r, std::string what, SceneSummary summary, SceneUp up)
+      : r_(std::move(r)), what_(std::move(what)), summary_(std::move(summary)) {
     up_ = std::move(up);
   }
 
@@ -86,65 +85,80 @@ class LocalSource final : public ViewSource {
   render::SplatRenderer& renderer() override { return *r_; }
   bool settled(double) override { return true; }
   std::string describe() const override { return what_; }
-  std::optional<RobustBounds> bounds() const override { return box_; }
+  std::optional<RobustBounds> bounds() const override { return summary_.robust; }
+  const SceneSummary* summary() const noexcept override { return &summary_; }
 
  private:
   std::unique_ptr<render::SplatRenderer> r_;
   std::string what_;
-  RobustBounds box_;
+  SceneSummary summary_;
   client::GpuFrameStatsCollector stats_;
   std::uint64_t frame_index_{0};
 };
 
-Expected<std::unique_ptr<ViewSource>> make_local(vk::Context& context, const ViewOptions& o, std::uint32_t max_w,
-                                                 std::uint32_t max_h) {
-  auto scene = read_splat_file(o.scene);
-  if (!scene) return scene.error();
-  const auto& gs = scene->cloud.gaussians;
-  if (gs.empty()) return Error{o.scene.string() + ": the scene holds no Gaussians"};
-  if (gs.size() > 0xFFFFFFFFu)
-    return Error{o.scene.string() + ": " + std::to_string(gs.size()) + " Gaussians, more than 2^32 - 1 slots"};
-  // A scene the device cannot hold is refused by create, with the numbers.
-  auto r = render::SplatRenderer::create(context, {.capacity = static_cast<std::uint32_t>(gs.size()),
-                                                   .sh_degree = scene->cloud.sh_degree,
-                                                   .max_width = max_w,
-                                                   .max_height = max_h,
-                                                   .frames_in_flight = o.frames_in_flight});
-  if (!r) return r.error();
-  if (auto st = (*r)->write_slots(0, gs); !st) return st.error();
-  if (!o.mesh.empty()) {
-    auto mesh = read_mesh_ply(o.mesh);
-    if (!mesh) return mesh.error();
-    if (auto st = (*r)->set_mesh(mesh->mesh); !st) return Error{o.mesh.string() + ": " + st.message()};
-  }
-  std::string what = "scene " + o.scene.filename().string() + " (" + std::to_string(gs.size()) + " Gaussians, SH " +
-                     std::to_string(scene->cloud.sh_degree) + ")";
-  if ((*r)->rejected_nonfinite() > 0)
-    what += ", " + std::to_string((*r)->rejected_nonfinite()) + " non-finite Gaussians skipped";
-  SceneUp up = choose_scene_up(o.up, o.scene);
-  if (!up.problem.empty())
-    std::fprintf(stderr, "gauss-view: %s; up is %s, %s\n", up.problem.c_str(), up_label(up.up).c_str(),
-                 up.detail.c_str());
-  return std::unique_ptr<ViewSource>(
-      new LocalSource(std::move(*r), std::move(what), robust_bounds(gs), std::move(up)));
-}
+// Windowed views follow the window size: allow up to 2560x1600; headless views the path's size.
+std::uint32_t view_max_width(const ViewOptions& o) { return std::max<std::uint32_t>(o.width, o.headless ? 1 : 2560); }
+std::uint32_t view_max_height(const ViewOptions& o) { return std::max<std::uint32_t>(o.height, o.headless ? 1 : 1600); }
 
 }  // namespace
 
+Expected<std::unique_ptr<ViewSource>> make_local_source(vk::Context& context, const ViewOptions& o, LoadedScene scene,
+                                                        const std::filesystem::path& mesh) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto& gs = scene.scene.cloud.gaussians;
+  const std::string name = scene.path.filename().string();
+  if (gs.empty()) return Error{scene.path.string() + ": the scene holds no Gaussians"};
+  if (gs.size() > 0xFFFFFFFFu)
+    return Error{scene.path.string() + ": " + std::to_string(gs.size()) + " Gaussians, more than 2^32 - 1 slots"};
+  // A scene the device cannot hold is refused by create, with the numbers.
+  auto r = render::SplatRenderer::create(context, {.capacity = static_cast<std::uint32_t>(gs.size()),
+                                                   .sh_degree = scene.scene.cloud.sh_degree,
+                                                   .max_width = view_max_width(o),
+                                                   .max_height = view_max_height(o),
+                                                   .frames_in_flight = o.frames_in_flight});
+  if (!r) return Error{scene.path.string() + ": " + r.message()};
+  if (auto st = (*r)->write_slots(0, gs); !st) return Error{scene.path.string() + ": " + st.message()};
+  if (!mesh.empty()) {
+    auto m = read_mesh_ply(mesh);
+    if (!m) return m.error();
+    if (auto st = (*r)->set_mesh(m->mesh); !st) return Error{mesh.string() + ": " + st.message()};
+  }
+  SceneSummary summary;
+  summary.path = scene.path;
+  summary.format = scene.scene.report.format;
+  summary.gaussians = gs.size();
+  summary.skipped = (*r)->rejected_nonfinite();
+  summary.sh_degree = scene.scene.cloud.sh_degree;
+  summary.robust = scene.robust;
+  summary.full = scene.full;
+  summary.file_bytes = scene.file_bytes;
+  summary.load_s = scene.load_s;
+  summary.resident_bytes = std::uint64_t{(*r)->occupied_count()} * (*r)->memory_plan().bytes_per_slot;
+  summary.renderer_bytes = (*r)->memory_plan().total_bytes;
+  summary.upload_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::string what = "scene " + name + " (" + std::to_string(gs.size()) + " Gaussians, SH " +
+                     std::to_string(summary.sh_degree) + ")";
+  if (summary.skipped > 0) what += ", " + std::to_string(summary.skipped) + " non-finite Gaussians skipped";
+  if (!scene.up.problem.empty())
+    std::fprintf(stderr, "gauss-view: %s; up is %s, %s\n", scene.up.problem.c_str(), up_label(scene.up.up).c_str(),
+                 scene.up.detail.c_str());
+  return std::unique_ptr<ViewSource>(new LocalSource(std::move(*r), std::move(what), std::move(summary), std::move(scene.up)));
+}
+
 Expected<std::unique_ptr<ViewSource>> make_view_source(vk::Context& context, const ViewOptions& o) {
-  // Windowed views follow the window size: allow up to 2560x1600; headless views the path's size.
-  const std::uint32_t max_w = std::max<std::uint32_t>(o.width, o.headless ? 1 : 2560);
-  const std::uint32_t max_h = std::max<std::uint32_t>(o.height, o.headless ? 1 : 1600);
-  if (!o.host) return make_local(context, o, max_w, max_h);
-  client::ClientRuntimeConfig cfg;
-  cfg.state.capacity = o.budget;
+  if (!o.host) {
+    auto scene = load_scene_file(o.scene, o.up);
+    if (!scene) return scene.error();
+    return make_local_source(context, o, std::move(*scene), o.mesh);
+  }
+  client::ClientRuntimeConfig cfg;  cfg.state.capacity = o.budget;
   cfg.state.access_token = o.token;
   cfg.state.name = o.name;
   cfg.state.publisher.mode = o.mode;
   cfg.frames_in_flight = o.frames_in_flight;
   cfg.publication_thread = o.publication_thread;
-  cfg.max_width = max_w;
-  cfg.max_height = max_h;
+  cfg.max_width = view_max_width(o);
+  cfg.max_height = view_max_height(o);
   cfg.highlight_query = o.highlight;
   cfg.tint_edits = o.edit_tints;
   auto rt = client::ClientRuntime::create(context, cfg);

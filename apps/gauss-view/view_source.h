@@ -3,6 +3,7 @@
 // file viewed alone (every Gaussian resident, float values, no host). Both render with
 // the same SplatRenderer and frames in flight; the frame loops (windowed, headless) do not
 // care which.
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <utility>
@@ -15,6 +16,7 @@
 #include "gauss/client/client_runtime.h"
 #include "gauss/engine/result.h"
 #include "gauss/engine/scene_framing.h"
+#include "gauss/engine/scene_load.h"
 #include "gauss/engine/scene_up.h"
 #include "options.h"
 
@@ -23,6 +25,25 @@ class Context;
 }
 
 namespace gauss::view {
+
+// What the scene panel shows of a local scene (a stream has none: its panels show the stream).
+struct SceneSummary {
+  std::filesystem::path path;
+  SplatFormat format{SplatFormat::InriaPly};
+  std::size_t gaussians{0};       // in the file
+  std::uint64_t skipped{0};       // non-finite Gaussians the renderer refused
+  int sh_degree{0};
+  RobustBounds robust;            // the box the default camera frames
+  FullBounds full;                // every finite centre
+  std::uint64_t file_bytes{0};
+  double load_s{0.0};             // read + decode + bounds (scene_load.h)
+  double upload_s{0.0};           // renderer made and every Gaussian staged for the GPU
+  // GPU memory: the resident set (occupied slots x the renderer's bytes per slot: every
+  // per-slot buffer, SH included) and everything the renderer allocated (sort buffers,
+  // targets; memory_plan().total_bytes). No CPU copy is kept after the upload.
+  std::uint64_t resident_bytes{0};
+  std::uint64_t renderer_bytes{0};
+};
 
 class ViewSource {
  public:
@@ -48,14 +69,23 @@ class ViewSource {
   const SceneUp& up() const noexcept { return up_; }
   // "host 127.0.0.1:7000" or "scene room.ply (10000 Gaussians)".
   virtual std::string describe() const = 0;
+  // A local scene's figures (the scene panel); nullptr for a stream.
+  virtual const SceneSummary* summary() const noexcept { return nullptr; }
 
  protected:
   SceneUp up_;
 };
 
 // Connects to opts.host (the network thread starts; connecting goes on in the background)
-// or loads opts.scene (+ opts.mesh). Errors: a scene or mesh that does not load (the
-// loader's message), a renderer that cannot be made.
+// or loads opts.scene (+ opts.mesh) through load_scene_file and make_local_source. Errors: a
+// scene or mesh that does not load (the loader's message), a renderer that cannot be made.
 Expected<std::unique_ptr<ViewSource>> make_view_source(vk::Context& context, const ViewOptions& opts);
+
+// A local scene from a loaded file (scene_load.h): a renderer sized for it (opts: frames in
+// flight, window or headless size) with every Gaussian written, and `mesh` when not empty.
+// On the calling thread: it records GPU uploads. Errors: a renderer the device cannot hold,
+// an upload or mesh that fails; nothing is left allocated then.
+Expected<std::unique_ptr<ViewSource>> make_local_source(vk::Context& context, const ViewOptions& opts,
+                                                        LoadedScene scene, const std::filesystem::path& mesh = {});
 
 }  // namespace gauss::view

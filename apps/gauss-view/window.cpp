@@ -2,9 +2,11 @@
 // camera input. The per-frame present recording is in window_present.cpp.
 #include "window.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <GLFW/glfw3.h>
 
@@ -32,6 +34,12 @@ struct WindowCallbacks {
   }
   static void scroll(GLFWwindow* w, double, double dy) {
     if (Window* self = from(w)) self->scroll_accum_ += dy;
+  }
+  static void drop(GLFWwindow* w, int count, const char** paths) {
+    Window* self = from(w);
+    if (self == nullptr || count <= 0) return;
+    const std::vector<std::string> names(paths, paths + count);
+    self->drop(names);
   }
 };
 
@@ -63,6 +71,7 @@ Expected<std::unique_ptr<Window>> Window::create(const WindowCreateInfo& info) {
   glfwSetWindowUserPointer(win->window_, win.get());
   glfwSetFramebufferSizeCallback(win->window_, WindowCallbacks::framebuffer_size);
   glfwSetScrollCallback(win->window_, WindowCallbacks::scroll);
+  glfwSetDropCallback(win->window_, WindowCallbacks::drop);
   return win;
 }
 
@@ -154,7 +163,18 @@ bool Window::minimised() const {
 
 void Window::set_size(int width, int height) { glfwSetWindowSize(window_, width, height); }
 
-bool Window::key_down(int glfw_key) const { return glfwGetKey(window_, glfw_key) == GLFW_PRESS; }
+bool Window::key_down(int glfw_key) const {
+  return glfwGetKey(window_, glfw_key) == GLFW_PRESS ||
+         std::find(pressed_seen_.begin(), pressed_seen_.end(), glfw_key) != pressed_seen_.end();
+}
+
+void Window::press(int glfw_key) { pressed_.push_back(glfw_key); }
+
+void Window::drop(std::span<const std::string> paths) {
+  for (const std::string& p : paths) dropped_.emplace_back(p);
+}
+
+void Window::set_title(const std::string& title) { glfwSetWindowTitle(window_, title.c_str()); }
 
 void Window::wait_events(double timeout_s) {
   glfwWaitEventsTimeout(timeout_s);
@@ -163,6 +183,8 @@ void Window::wait_events(double timeout_s) {
 
 void Window::poll_events() {
   glfwPollEvents();
+  // An injected press is down for this poll only: the next one sees its release.
+  pressed_seen_ = std::exchange(pressed_, {});
   InputState in;
   in.ui_wants_mouse = ui_ != nullptr && ui_->wants_mouse();
   in.ui_wants_keyboard = ui_ != nullptr && ui_->wants_keyboard();
@@ -175,7 +197,7 @@ void Window::poll_events() {
     in.down = key_down(GLFW_KEY_Q);
     in.fast = key_down(GLFW_KEY_LEFT_SHIFT) || key_down(GLFW_KEY_RIGHT_SHIFT);
   }
-  // F, 1, 2, 3 and O act once per press, not once per frame while held.
+  // F, 1, 2, 3, O and P act once per press, not once per frame while held.
   const auto pressed = [&](int key, bool& was_down) {
     const bool down = !in.ui_wants_keyboard && key_down(key);
     const bool edge = down && !was_down;
@@ -187,6 +209,7 @@ void Window::poll_events() {
   if (pressed(GLFW_KEY_2, view_key_was_down_[2])) in.view = ViewPreset::Side;
   if (pressed(GLFW_KEY_3, view_key_was_down_[3])) in.view = ViewPreset::Top;
   in.toggle_orbit = pressed(GLFW_KEY_O, orbit_was_down_);
+  in.screenshot = pressed(GLFW_KEY_P, screenshot_was_down_);
   // Left (orbit) and middle (pan) drags, like mouse look, start only with a press over the
   // scene, so that dragging a panel's slider never turns the view. The cursor stays visible.
   const bool left_down = glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;

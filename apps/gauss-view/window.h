@@ -33,6 +33,8 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <volk.h>
 
@@ -73,6 +75,12 @@ struct SourceImage {
   VkFormat format{VK_FORMAT_R8G8B8A8_UNORM};
   VkPipelineStageFlags2 written_stage{VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT};
   VkAccessFlags2 written_access{VK_ACCESS_2_MEMORY_WRITE_BIT};
+};
+
+// A screenshot's outcome: the PNG written to `path`, or why not.
+struct ScreenshotResult {
+  std::filesystem::path path;
+  Status written{Ok{}};
 };
 
 // Where the source landed in the swapchain image (pixels).
@@ -117,8 +125,18 @@ class Window {
   // Sleeps until an event or `timeout_s` (use while minimised instead of spinning).
   void wait_events(double timeout_s);
   const InputState& input() const noexcept { return input_; }
-  // Raw key state (GLFW_KEY_*), not filtered by the UI.
+  // Raw key state (GLFW_KEY_*), not filtered by the UI; a press() counts as down until the
+  // poll_events() after the one that saw it.
   bool key_down(int glfw_key) const;
+  // Presses GLFW_KEY_* for the next poll_events(), through the same edge detection as the
+  // keyboard (scripts and tests: gauss-view --press).
+  void press(int glfw_key);
+
+  // Files dropped on the window (GLFW's drop callback calls drop(); so does gauss-view
+  // --drop), oldest first, since the last call.
+  void drop(std::span<const std::string> paths);
+  std::vector<std::filesystem::path> take_dropped() { return std::exchange(dropped_, {}); }
+  void set_title(const std::string& title);
 
   // Recreates the swapchain when the framebuffer size changed or the last frame reported
   // it out of date, then acquires an image for frame slot `slot`. false: do not render
@@ -143,7 +161,8 @@ class Window {
   Status record_present(VkCommandBuffer cmd, std::span<const SourceImage> sources);
   // Submits `cmd` (ended) with the acquire/render-finished semaphores and `fence`, then
   // presents. When a screenshot was requested for this frame, waits for `fence` and
-  // writes the PNG (a one-off stall). Errors: submit/present failures, an unwritable PNG.
+  // writes the PNG (a one-off stall; take_screenshot_result() says whether it was
+  // written). Errors: submit/present failures, a failed fence wait.
   Status submit_and_present(VkCommandBuffer cmd, VkFence fence);
 
   // The next recorded frame is also read back (after the UI, before presenting) and
@@ -152,6 +171,9 @@ class Window {
   // be read afterwards, so the capture is of the next frame, not of the last one.
   // Fails at record time when the surface does not offer TRANSFER_SRC usage.
   void request_screenshot(const std::filesystem::path& path);
+  // The last screenshot's outcome once its frame was submitted (an unwritable PNG is no
+  // frame error: a viewer shows it and goes on), then nullopt until the next.
+  std::optional<ScreenshotResult> take_screenshot_result() { return std::exchange(screenshot_result_, std::nullopt); }
 
   // Where the last record_present() put source `i` (empty when it had fewer sources).
   Viewport last_viewport(std::size_t i = 0) const noexcept { return i < kMaxSources ? viewports_[i] : Viewport{}; }
@@ -182,6 +204,7 @@ class Window {
   double scroll_accum_{0.0};
   bool right_was_down_{false};
   bool view_key_was_down_[4]{};  // F, 1, 2, 3
+  bool screenshot_was_down_{false};
   bool orbit_was_down_{false};
   bool left_was_down_{false}, middle_was_down_{false};
   double drag_cursor_x_{0.0}, drag_cursor_y_{0.0};
@@ -191,6 +214,9 @@ class Window {
   Viewport viewports_[kMaxSources]{};
   std::optional<std::filesystem::path> screenshot_path_;
   std::unique_ptr<Readback> readback_;  // the capture recorded into the current frame
+  std::optional<ScreenshotResult> screenshot_result_;
+  std::vector<std::filesystem::path> dropped_;
+  std::vector<int> pressed_, pressed_seen_;  // press(): for the next poll, and seen by the last one
 };
 
 }  // namespace gauss::view

@@ -243,13 +243,15 @@ Status Window::finish_screenshot(VkFence fence) {
   }
   ImageRGBA8 img{rb->extent.width, rb->extent.height, std::vector<std::uint8_t>(rb->buffer.size())};
   if (auto st = rb->buffer.download(img.pixels.data(), img.pixels.size()); !st) return st;
+  screenshot_result_ = ScreenshotResult{rb->path, Ok{}};
   const bool bgra = is_bgra(rb->format);
   for (std::size_t p = 0; p < img.pixels.size(); p += 4) {
     if (bgra) std::swap(img.pixels[p + 0], img.pixels[p + 2]);
     // The surface composites opaquely (alpha ignored); the PNG shows what the screen shows.
     img.pixels[p + 3] = 255;
   }
-  return write_png(rb->path, img);
+  screenshot_result_->written = write_png(rb->path, img);
+  return Ok{};
 }
 
 }  // namespace gauss::view

@@ -1,17 +1,23 @@
 // gauss-view windowed: the window, its Vulkan context and the frame loop (camera, panels,
-// 1 or 2 views, present). The presentation layer is window.h, the panels panels.h.
+// 1 or 2 views, present, dropped files, screenshots). The presentation layer is window.h,
+// the panels panels.h.
 #include "windowed.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "default_view.h"
 #include "fly_camera.h"
 #include "orbit_control.h"
 #include "gauss/engine/camera_io.h"
+#include "gauss/engine/numbered_file.h"
+#include "gauss/engine/scene_load.h"
 #include "gauss/render/vk_context.h"
 #include "gauss/render/vk_frame_ring.h"
 #include "gauss/render/vk_image.h"
@@ -39,9 +45,11 @@ VkExtent2D view_extent(VkExtent2D fb) {
 
 class FrameLoop {
  public:
-  FrameLoop(const ViewOptions& opts, Window& window, ViewSource& source)
-      : opts_(opts), window_(window), source_(source), panels_(opts, source),
-        slot_serial_(opts.frames_in_flight, 0), renderer_(&source.renderer()) {}
+  // `source` is replaced when a dropped file opens (the caller's pointer, so that its
+  // teardown order holds for whichever source is shown last).
+  FrameLoop(const ViewOptions& opts, vk::Context& context, Window& window, std::unique_ptr<ViewSource>& source)
+      : opts_(opts), context_(context), window_(window), source_(source), panels_(opts, *source),
+        slot_serial_(opts.frames_in_flight, 0), renderer_(&source->renderer()) {}
 
   // Runs until the window closes or --exit-after frames. Returns the exit status.
   int run();
@@ -57,10 +65,23 @@ class FrameLoop {
   // UI's buffers are free again; vk_swapchain.h step 1).
   Status wait_slot(std::uint32_t& out_slot);
   Status record_present(VkCommandBuffer cmd, std::uint32_t views);
+  // Files dropped on the window: the first starts a load off this thread (SceneLoadJob); a
+  // drop during a load waits for it, and that load's result is then discarded.
+  void take_drops(double now_s);
+  void start_load(const std::filesystem::path& path, double now_s);
+  // A load ended: its scene replaces the source, framed as --scene is at start-up; or its
+  // error is shown and printed, the current scene untouched. Errors: the old source's
+  // frames could not be waited for (fatal, as any frame error).
+  Status finish_load(double now_s);
+  // The P key: a new gauss-view-NNNN.png in --screenshot-dir, written by the next frame.
+  void key_screenshot(double now_s);
+  // After a frame: a screenshot's outcome. Errors: the --screenshot file was not written.
+  Status report_screenshot(double now_s);
 
   const ViewOptions& opts_;
+  vk::Context& context_;
   Window& window_;
-  ViewSource& source_;
+  std::unique_ptr<ViewSource>& source_;
   Panels panels_;
   FlyCamera camera_;
   // Orbit mode drives camera_'s pose about a pivot ahead of it (orbit_control.h).
@@ -70,11 +91,14 @@ class FrameLoop {
   bool auto_frame_{false};  // a stream: frame the scene's box once it is known, until the user moves
   std::vector<std::uint64_t> slot_serial_;  // renderer serial that last used each slot
   render::SplatRenderer* renderer_;
+  std::unique_ptr<SceneLoadJob> load_;
+  std::optional<std::filesystem::path> next_drop_;  // dropped during load_
+  bool option_shot_written_{false};  // --screenshot
 };
 
 Status FrameLoop::start_pose() {
   // The scene's up first, so that a --camera's roll is dropped toward it.
-  camera_.set_up(source_.up().up);
+  camera_.set_up(source_->up().up);
   if (!opts_.camera.empty()) {
     auto c = read_camera_json(opts_.camera);
     if (!c) return c.error();
@@ -86,13 +110,13 @@ Status FrameLoop::start_pose() {
 }
 
 void FrameLoop::reframe(ViewPreset preset) {
-  if (source_.runtime() != nullptr) {
+  if (source_->runtime() != nullptr) {
     auto_frame_ = true;
     return;
   }
   // The mono view's size and focal length (run() keeps the pixel scale in stereo).
   const VkExtent2D ve = view_extent(window_.framebuffer_extent());
-  if (auto fr = default_framing(source_, camera_.up(), opts_.fov_deg, ve.width, ve.height, preset)) {
+  if (auto fr = default_framing(*source_, camera_.up(), opts_.fov_deg, ve.width, ve.height, preset)) {
     camera_.frame(*fr);
     orbit_.frame(*fr);
     framed_centre_ = fr->target;
@@ -101,7 +125,7 @@ void FrameLoop::reframe(ViewPreset preset) {
 
 void FrameLoop::frame_stream_box() {
   // Tried every frame until the box is known: never waits for a publication step.
-  const auto taken = source_.runtime()->try_with_state([](const ClientState& s) -> std::optional<CodecBox> {
+  const auto taken = source_->runtime()->try_with_state([](const ClientState& s) -> std::optional<CodecBox> {
     if (!s.codec()) return std::nullopt;
     return s.codec()->box;
   });
@@ -114,11 +138,11 @@ void FrameLoop::frame_stream_box() {
 }
 
 Status FrameLoop::wait_slot(std::uint32_t& out_slot) {
-  render::SplatRenderer* r = &source_.renderer();
+  render::SplatRenderer* r = &source_->renderer();
   if (r != renderer_) {
     // The runtime replaced its renderer (another SH degree): the old ring's serials mean
     // nothing to the new one, so wait for everything once.
-    if (auto st = source_.wait_frames(); !st) return st;
+    if (auto st = source_->wait_frames(); !st) return st;
     std::fill(slot_serial_.begin(), slot_serial_.end(), 0);
     renderer_ = r;
   }
@@ -133,7 +157,7 @@ Status FrameLoop::record_present(VkCommandBuffer cmd, std::uint32_t views) {
   // The blend pass leaves each view's colour image in TRANSFER_DST_OPTIMAL after a
   // buffer->image copy: make that copy visible to the present's transfer read.
   SourceImage src[Window::kMaxSources];
-  render::SplatRenderer& r = source_.renderer();
+  render::SplatRenderer& r = source_->renderer();
   for (std::uint32_t v = 0; v < views; ++v) {
     vk::Image& img = r.target(v).color();
     img.transition(cmd, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
@@ -148,6 +172,88 @@ Status FrameLoop::record_present(VkCommandBuffer cmd, std::uint32_t views) {
   return window_.record_present(cmd, std::span<const SourceImage>(src, views));
 }
 
+void FrameLoop::take_drops(double now_s) {
+  const std::vector<std::filesystem::path> dropped = window_.take_dropped();
+  if (dropped.empty()) return;
+  if (dropped.size() > 1)
+    panels_.show_notice(std::to_string(dropped.size()) + " files dropped: opening the first", now_s);
+  panels_.clear_error();
+  if (load_ != nullptr) {
+    next_drop_ = dropped.front();
+    return;
+  }
+  start_load(dropped.front(), now_s);
+}
+
+void FrameLoop::start_load(const std::filesystem::path& path, double now_s) {
+  std::fprintf(stderr, "gauss-view: opening %s\n", path.string().c_str());
+  load_ = std::make_unique<SceneLoadJob>(path, opts_.up);
+  panels_.set_loading(load_.get(), now_s);
+}
+
+Status FrameLoop::finish_load(double now_s) {
+  const std::unique_ptr<SceneLoadJob> job = std::move(load_);
+  panels_.set_loading(nullptr, now_s);
+  if (next_drop_) {
+    start_load(*std::exchange(next_drop_, std::nullopt), now_s);
+    return Ok{};
+  }
+  auto loaded = job->take();
+  // The renderer is made while the old one still draws: a failure leaves the old untouched.
+  auto made = loaded ? make_local_source(context_, opts_, std::move(*loaded)) : Expected<std::unique_ptr<ViewSource>>(loaded.error());
+  if (!made) {
+    std::fprintf(stderr, "gauss-view: could not open %s: %s (the scene shown is unchanged)\n",
+                 job->path().string().c_str(), made.message().c_str());
+    panels_.show_error(made.message());
+    return Ok{};
+  }
+  // The old renderer's frames (and the presents that read its images) finish before it goes.
+  if (auto st = source_->wait_frames(); !st) return st;
+  source_ = std::move(*made);
+  std::fill(slot_serial_.begin(), slot_serial_.end(), 0);
+  renderer_ = &source_->renderer();
+  panels_.set_source(*source_);
+  window_.set_title("gauss-view: " + job->path().filename().string());
+  std::fprintf(stderr, "gauss-view: opened %s in %.2f s\n", source_->describe().c_str(), source_->summary()->load_s);
+  // As at start-up (start_pose without --camera): the scene's up, then its default framing.
+  auto_frame_ = false;
+  camera_.set_up(source_->up().up);
+  reframe(opts_.view);
+  const glm::dvec3 eye = camera_.pose().position;
+  std::fprintf(stderr, "gauss-view: framed from %.4g %.4g %.4g looking at %.4g %.4g %.4g\n", eye.x, eye.y, eye.z,
+               framed_centre_.x, framed_centre_.y, framed_centre_.z);
+  return Ok{};
+}
+
+void FrameLoop::key_screenshot(double now_s) {
+  auto path = create_numbered_file(opts_.screenshot_dir, "gauss-view", ".png");
+  if (!path) {
+    std::fprintf(stderr, "gauss-view: no screenshot: %s\n", path.message().c_str());
+    panels_.show_notice("no screenshot: " + path.message(), now_s);
+    return;
+  }
+  window_.request_screenshot(*path);
+}
+
+Status FrameLoop::report_screenshot(double now_s) {
+  auto shot = window_.take_screenshot_result();
+  if (!shot) return Ok{};
+  const bool option = !opts_.screenshot.empty() && shot->path == opts_.screenshot;
+  if (!shot->written) {
+    std::fprintf(stderr, "gauss-view: screenshot not written: %s\n", shot->written.message().c_str());
+    if (option) return shot->written.error();
+    std::error_code ec;
+    std::filesystem::remove(shot->path, ec);  // the empty file create_numbered_file made
+    panels_.show_notice("screenshot not written: " + shot->written.message(), now_s);
+    return Ok{};
+  }
+  const std::string where = std::filesystem::absolute(shot->path).string();
+  std::fprintf(stderr, "gauss-view: wrote %s\n", where.c_str());
+  if (option) option_shot_written_ = true;
+  else panels_.show_notice("screenshot " + where, now_s);
+  return Ok{};
+}
+
 int FrameLoop::run() {
   if (auto st = start_pose(); !st) {
     std::fprintf(stderr, "gauss-view: %s\n", st.message().c_str());
@@ -156,8 +262,22 @@ int FrameLoop::run() {
   const auto t0 = std::chrono::steady_clock::now();
   double last_t = 0.0;
   std::uint64_t presented = 0;
-  bool screenshot_requested = false, screenshot_written = false;
+  // The frames --exit-after and --screenshot-after count: with --drop, those after its load
+  // ended (options.h), so that a shot shows the outcome, however long the load took.
+  std::uint64_t counted = 0;
+  bool drop_injected = opts_.drop.empty(), drop_waiting = !opts_.drop.empty(), press_injected = opts_.press_key == 0;
+  bool screenshot_requested = false;
   while (!window_.should_close()) {
+    // Scripted input goes through the window as a person's would (window.h press / drop).
+    if (!press_injected && presented >= opts_.press_after) {
+      window_.press(opts_.press_key);
+      press_injected = true;
+    }
+    if (!drop_injected && presented >= opts_.drop_after) {
+      const std::string dropped = opts_.drop.string();
+      window_.drop(std::span<const std::string>(&dropped, 1));
+      drop_injected = true;
+    }
     window_.poll_events();
     if (window_.should_close()) break;
     if (window_.minimised()) {
@@ -166,7 +286,18 @@ int FrameLoop::run() {
     }
     const double t = seconds_since(t0);
     const double dt = presented == 0 ? 0.0 : t - last_t;
+    take_drops(t);
+    if (load_ != nullptr && load_->ready()) {
+      if (auto st = finish_load(t); !st) {
+        std::fprintf(stderr, "gauss-view: %s\n", st.message().c_str());
+        return 1;
+      }
+    }
+    // The drop has been handled once no load is left in flight for it (also when it never
+    // started one), so a run never waits for a load that is not coming.
+    if (drop_waiting && drop_injected && load_ == nullptr) drop_waiting = false;
     const InputState& in = window_.input();
+    if (in.screenshot) key_screenshot(t);
     if (const auto orbit = panels_.take_mode_request(); in.toggle_orbit || orbit) {
       // The view stays where it is; only what the mouse does changes.
       orbit_mode_ = orbit.value_or(!orbit_mode_);
@@ -208,7 +339,7 @@ int FrameLoop::run() {
       window_.begin_ui();
       panels_.draw(camera_, orbit_mode_, fb.width, fb.height, t);
     }
-    if (!opts_.screenshot.empty() && !screenshot_requested && presented >= opts_.screenshot_after) {
+    if (!opts_.screenshot.empty() && !screenshot_requested && !drop_waiting && counted >= opts_.screenshot_after) {
       window_.request_screenshot(opts_.screenshot);
       screenshot_requested = true;
     }
@@ -228,7 +359,7 @@ int FrameLoop::run() {
     render::FrameHooks hooks;
     hooks.record_after = [&](VkCommandBuffer cmd) { return record_present(cmd, views); };
     hooks.submit = [&](VkCommandBuffer cmd, VkFence fence) { return window_.submit_and_present(cmd, fence); };
-    auto fs = source_.frame(std::span<const Camera>(cams, views), hooks);
+    auto fs = source_->frame(std::span<const Camera>(cams, views), hooks);
     if (!fs) {
       std::fprintf(stderr, "gauss-view: frame %llu: %s\n", static_cast<unsigned long long>(presented),
                    fs.message().c_str());
@@ -236,22 +367,19 @@ int FrameLoop::run() {
     }
     slot_serial_[slot] = fs->serial;
     ++presented;
-    if (screenshot_requested && !screenshot_written) {
-      screenshot_written = true;
-      std::fprintf(stderr, "gauss-view: wrote %s (frame %llu)\n", opts_.screenshot.string().c_str(),
-                   static_cast<unsigned long long>(presented));
-    }
+    if (!drop_waiting) ++counted;
+    if (auto st = report_screenshot(t); !st) return 1;
     panels_.add_frame(*fs, dt * 1000.0);
-    for (const auto& g : source_.take_gpu_stats()) panels_.add_gpu(g);
+    for (const auto& g : source_->take_gpu_stats()) panels_.add_gpu(g);
     last_t = t;
-    if (opts_.exit_after > 0 && presented >= opts_.exit_after) break;
+    if (opts_.exit_after > 0 && counted >= opts_.exit_after) break;
   }
-  if (auto st = source_.wait_frames(); !st) {
+  if (auto st = source_->wait_frames(); !st) {
     std::fprintf(stderr, "gauss-view: %s\n", st.message().c_str());
     return 1;
   }
   std::fprintf(stderr, "gauss-view: %llu frames\n", static_cast<unsigned long long>(presented));
-  if (!opts_.screenshot.empty() && !screenshot_written) {
+  if (!opts_.screenshot.empty() && !option_shot_written_) {
     std::fprintf(stderr, "gauss-view: no screenshot written: the window closed after %llu frames (--screenshot-after %u)\n",
                  static_cast<unsigned long long>(presented), opts_.screenshot_after);
     return 1;
@@ -292,7 +420,7 @@ int run_windowed(const ViewOptions& opts) {
       rc = 1;
     } else {
       std::fprintf(stderr, "gauss-view: %s, window %ux%u\n", (*source)->describe().c_str(), opts.width, opts.height);
-      rc = FrameLoop(opts, **window, **source).run();
+      rc = FrameLoop(opts, **context, **window, *source).run();
       // Teardown (window.h): frames finished, then the window's swapchain and UI, the
       // source's renderer, the context, and GLFW last.
       (void)(*source)->wait_frames();

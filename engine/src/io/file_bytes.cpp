@@ -1,5 +1,6 @@
 #include "io/file_bytes.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -21,7 +22,8 @@ Error file_error(const std::filesystem::path& path, const std::string& what) {
 
 }  // namespace
 
-Expected<std::vector<std::uint8_t>> read_file_bytes(const std::filesystem::path& path) {
+Expected<std::vector<std::uint8_t>> read_file_bytes(const std::filesystem::path& path,
+                                                    std::atomic<std::uint64_t>* bytes_read) {
   std::error_code ec;
   const auto status = std::filesystem::status(path, ec);
   if (ec || !std::filesystem::exists(status)) return file_error(path, "file not found");
@@ -31,7 +33,14 @@ Expected<std::vector<std::uint8_t>> read_file_bytes(const std::filesystem::path&
   FilePtr f(std::fopen(path.c_str(), "rb"));
   if (!f) return file_error(path, std::string("cannot open: ") + std::strerror(errno));
   std::vector<std::uint8_t> bytes(static_cast<std::size_t>(size));
-  const std::size_t got = bytes.empty() ? 0 : std::fread(bytes.data(), 1, bytes.size(), f.get());
+  std::size_t got = 0;
+  while (got < bytes.size()) {
+    const std::size_t want = bytes_read != nullptr ? std::min(kReadChunkBytes, bytes.size() - got) : bytes.size() - got;
+    const std::size_t n = std::fread(bytes.data() + got, 1, want, f.get());
+    got += n;
+    if (bytes_read != nullptr) bytes_read->store(got, std::memory_order_relaxed);
+    if (n != want) break;
+  }
   if (got != bytes.size())
     return file_error(path, "read " + std::to_string(got) + " of " + std::to_string(bytes.size()) +
                                 " bytes (file changed or read error)");

@@ -108,11 +108,11 @@ Expected<SplatScene> parse_splat_file(std::span<const std::uint8_t> bytes, std::
   return Error{std::string(name) + ": unhandled splat format"};
 }
 
-Expected<SplatScene> read_splat_file(const std::filesystem::path& path) {
+Expected<SplatScene> read_splat_file(const std::filesystem::path& path, std::atomic<std::uint64_t>* bytes_read) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) return read_sog_folder(path);
   if (path.filename() == "meta.json") return read_sog_folder(path.parent_path());
-  auto bytes = io::read_file_bytes(path);
+  auto bytes = io::read_file_bytes(path, bytes_read);
   if (!bytes) return bytes.error();
   return parse_splat_file(*bytes, path.string());
 }

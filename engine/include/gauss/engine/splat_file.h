@@ -17,6 +17,7 @@
 // Detection is by content (magic bytes, the PLY header's properties, a zip's entries);
 // only the headerless .splat relies on its extension plus a size that is a whole number of
 // records.
+#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <span>
@@ -59,8 +60,10 @@ Expected<SplatFormat> detect_splat_format(std::span<const std::uint8_t> bytes, s
 Expected<SplatScene> parse_splat_file(std::span<const std::uint8_t> bytes, std::string_view name);
 
 // Reads a file in any format above, or a SOG folder (a folder holding meta.json, or the
-// meta.json itself). Errors name the path.
-Expected<SplatScene> read_splat_file(const std::filesystem::path& path);
+// meta.json itself). Errors name the path. `bytes_read`, when given, counts the file's
+// bytes as they are read (in 4 MiB pieces; a SOG folder's are not counted): the parsers
+// report nothing, so that is the progress a viewer can show (scene_load.h).
+Expected<SplatScene> read_splat_file(const std::filesystem::path& path, std::atomic<std::uint64_t>* bytes_read = nullptr);
 
 // The per-format parsers behind parse_splat_file (each one's header comment is in its .cpp).
 Expected<SplatScene> parse_compressed_ply(std::span<const std::uint8_t> bytes, std::string_view name);
