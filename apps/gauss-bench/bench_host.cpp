@@ -109,6 +109,11 @@ ClientPose small_motion(ClientPose p) {
   return p;
 }
 
+// One row of a median / p90 / max table.
+void print_median_p90_max(const char* label, const std::vector<double>& v) {
+  std::printf("  %-34s %10.2f %10.2f %10.2f\n", label, percentile(v, 0.5), percentile(v, 0.9), percentile(v, 1.0));
+}
+
 // ---- 1 + 2: selection + diff timing, edits per small motion ------------------------------
 
 json bench_select(const SceneStore& store, const SyntheticScene& scene, const Options& o) {
@@ -172,14 +177,10 @@ json bench_select(const SceneStore& store, const SyntheticScene& scene, const Op
   std::printf("\n== selection + diff per pose update (N = %.0f eligible, M = %zu, one thread) ==\n", eligible,
               o.budget);
   std::printf("  %-34s %10s %10s %10s\n", "(thread CPU time)", "median", "p90", "max");
-  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "select ms", percentile(select_ms, 0.5), percentile(select_ms, 0.9),
-              percentile(select_ms, 1.0));
-  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "diff ms", percentile(diff_ms, 0.5), percentile(diff_ms, 0.9),
-              percentile(diff_ms, 1.0));
-  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "select + diff ms (target <= 10)", percentile(total_ms, 0.5),
-              percentile(total_ms, 0.9), percentile(total_ms, 1.0));
-  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "select + diff wall ms", percentile(wall_ms, 0.5),
-              percentile(wall_ms, 0.9), percentile(wall_ms, 1.0));
+  print_median_p90_max("select ms", select_ms);
+  print_median_p90_max("diff ms", diff_ms);
+  print_median_p90_max("select + diff ms (target <= 10)", total_ms);
+  print_median_p90_max("select + diff wall ms", wall_ms);
   std::printf("  first call: select %.1f ms (static terms rebuilt), diff %.1f ms (%zu inserts)\n", cold_select_ms,
               first_diff_ms, first->edits.size());
   std::printf("  walk digest (selected ids + edits): %016llx\n", static_cast<unsigned long long>(digest));
@@ -273,14 +274,10 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const Optio
   std::printf("  last cut: %zu nodes, %zu of them interior, %zu refined\n", cut.nodes.size(), cut.interior,
               cut.refined);
   std::printf("  %-34s %10s %10s %10s\n", "(thread CPU time)", "median", "p90", "max");
-  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "leaf select ms", percentile(select_ms, 0.5),
-              percentile(select_ms, 0.9), percentile(select_ms, 1.0));
-  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "cut ms", percentile(cut_ms, 0.5), percentile(cut_ms, 0.9),
-              percentile(cut_ms, 1.0));
-  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "diff ms", percentile(diff_ms, 0.5), percentile(diff_ms, 0.9),
-              percentile(diff_ms, 1.0));
-  std::printf("  %-34s %10.2f %10.2f %10.2f\n", "select + cut + diff ms (<= 10)", percentile(total_ms, 0.5),
-              percentile(total_ms, 0.9), percentile(total_ms, 1.0));
+  print_median_p90_max("leaf select ms", select_ms);
+  print_median_p90_max("cut ms", cut_ms);
+  print_median_p90_max("diff ms", diff_ms);
+  print_median_p90_max("select + cut + diff ms (<= 10)", total_ms);
   std::printf("  edits per step (walk): median %.3f %%  max %.3f %% of M\n", 100.0 * percentile(edit_frac, 0.5),
               100.0 * percentile(edit_frac, 1.0));
   return json{{"build_ms", build_ms},

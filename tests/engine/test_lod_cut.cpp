@@ -233,6 +233,22 @@ void expect_well_formed(const Selection& s, const World& w, const LodSelector& l
   }
 }
 
+// `lod`'s selection at budget M is a plain Selector's, id for id and index for index.
+void expect_leaf_selection(const World& w, LodSelector& lod, std::size_t budget) {
+  SelectionRequest req;
+  req.budget = req.client_capacity = budget;
+  const ClientPose pose = look({0.1, 0.5, 0.1}, {0.9, 0.5, 0.9});
+  Selector a, b;
+  auto plain = a.select(w.store, pose, req);
+  auto leaf = b.select(w.store, pose, req);
+  ASSERT_TRUE(plain.ok() && leaf.ok());
+  auto sel = lod.select(*leaf, w.store, pose, req);
+  ASSERT_TRUE(sel.ok()) << sel.message();
+  EXPECT_EQ(sel->ids, plain->ids);
+  EXPECT_EQ(sel->indices, plain->indices);
+  EXPECT_EQ(sel->lod_interior, 0u);
+}
+
 }  // namespace
 
 TEST(LodSelector, TheReservationIsTheSelectorsOwnAndSharesAreExact) {
@@ -279,20 +295,9 @@ TEST(LodSelector, TheReservationIsTheSelectorsOwnAndSharesAreExact) {
 TEST(LodSelector, WhereTheBackgroundFitsTheSelectionIsTheLeafSelection) {
   World w;
   g_world = &w;
-  SelectionRequest req;
-  req.budget = req.client_capacity = 5000;  // > N
-  const ClientPose pose = look({0.1, 0.5, 0.1}, {0.9, 0.5, 0.9});
-  Selector a, b;
   LodSelector lod(w.store.sh_degree());
   ASSERT_TRUE(lod.update(w.store, nullptr).ok());
-  auto plain = a.select(w.store, pose, req);
-  auto leaf = b.select(w.store, pose, req);
-  ASSERT_TRUE(plain.ok() && leaf.ok());
-  auto sel = lod.select(*leaf, w.store, pose, req);
-  ASSERT_TRUE(sel.ok());
-  EXPECT_EQ(sel->ids, plain->ids);
-  EXPECT_EQ(sel->indices, plain->indices);
-  EXPECT_EQ(sel->lod_interior, 0u);
+  expect_leaf_selection(w, lod, 5000);  // > N
 }
 
 TEST(LodSelector, AHierarchyThatCannotBeBuiltFallsBackToLeavesAndSaysSoOnce) {
@@ -307,16 +312,7 @@ TEST(LodSelector, AHierarchyThatCannotBeBuiltFallsBackToLeavesAndSaysSoOnce) {
   EXPECT_NE(first.message().find("selecting leaves"), std::string::npos) << first.message();
   EXPECT_TRUE(lod.update(w.store, &broken).ok()) << "one line per epoch, not per tick";
   EXPECT_EQ(lod.hierarchy(), nullptr);
-  SelectionRequest req;
-  req.budget = req.client_capacity = 100;
-  const ClientPose pose = look({0.1, 0.5, 0.1}, {0.9, 0.5, 0.9});
-  Selector a, b;
-  auto plain = a.select(w.store, pose, req);
-  auto leaf = b.select(w.store, pose, req);
-  ASSERT_TRUE(plain.ok() && leaf.ok());
-  auto sel = lod.select(*leaf, w.store, pose, req);
-  ASSERT_TRUE(sel.ok());
-  EXPECT_EQ(sel->ids, plain->ids);
+  expect_leaf_selection(w, lod, 100);
   // A stale eligible set is refused.
   EligibleSet stale;
   stale.epoch = Epoch{to_underlying(w.store.epoch()) + 5};
