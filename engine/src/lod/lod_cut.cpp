@@ -104,6 +104,7 @@ Expected<LodCut> LodCutter::cut(const LodHierarchy& h, const ClientPose& pose, s
     ++count;
     if (node.leaf) {
       out.nodes.push_back(n);
+      ++out.leaves;
       return;
     }
     float key = static_cast<float>(error(node.centre, node.radius));
@@ -124,7 +125,15 @@ Expected<LodCut> LodCutter::cut(const LodHierarchy& h, const ClientPose& pose, s
     all.resize(budget);
     heap_.clear();
     out.nodes.clear();
-    for (const Frontier& f : all) out.nodes.push_back(f.node);
+    out.leaves = 0;
+    for (const Frontier& f : all) {
+      if (h.node(f.node).leaf) {
+        out.nodes.push_back(f.node);  // leaves go straight into the cut
+        ++out.leaves;
+      } else {
+        heap_.push_back(f);  // interior ones wait, unrefined: the budget is full
+      }
+    }
     count = budget;
   }
 
@@ -146,7 +155,16 @@ Expected<LodCut> LodCutter::cut(const LodHierarchy& h, const ClientPose& pose, s
     --count;
     refined_next_.push_back(top.node);
     out.retained += refined_id_[top.node] == to_underlying(node.id);
-    for (std::uint32_t c : h.children(node)) enter(enter, c);
+    const auto children = h.children(node);
+    if (node.height == 1) {
+      // Its children are leaves, and unmarked (a mark reaches every ancestor, and this node
+      // has none): into the cut without reading them, a cache miss each in a large pool.
+      out.nodes.insert(out.nodes.end(), children.begin(), children.end());
+      out.leaves += children.size();
+      count += children.size();
+      continue;
+    }
+    for (std::uint32_t c : children) enter(enter, c);
   }
 
   // This cut's refinements are the next call's hysteresis state.
@@ -156,12 +174,7 @@ Expected<LodCut> LodCutter::cut(const LodHierarchy& h, const ClientPose& pose, s
     refined_list_.push_back(n);
   }
   out.refined = refined_next_.size();
-  for (std::uint32_t n : out.nodes) {
-    if (h.node(n).leaf)
-      ++out.leaves;
-    else
-      ++out.interior;
-  }
+  out.interior = out.nodes.size() - out.leaves;
   return out;
 }
 
