@@ -3,6 +3,7 @@
 // query's target out; the selector keeps the reservation's leaves and shares exactly and is
 // the leaf selection itself where everything fits.
 #include <algorithm>
+#include <array>
 #include <iterator>
 #include <map>
 #include <cmath>
@@ -24,11 +25,11 @@ namespace {
 
 using World = gauss::test::HostWorld;
 
-LodHierarchy build(const World& w) {
+LodHierarchy build(const World& w, const LodConfig& config = {}) {
   std::vector<std::uint32_t> all;
   for (std::size_t i = 0; i < w.store.gaussians().size(); ++i)
     if (!w.store.gaussians()[i].carrier) all.push_back(static_cast<std::uint32_t>(i));
-  auto h = LodHierarchy::create(w.store.sh_degree());
+  auto h = LodHierarchy::create(w.store.sh_degree(), config);
   EXPECT_TRUE(h.ok()) << h.message();
   auto r = h->update(w.store.gaussians(), all);
   EXPECT_TRUE(r.ok()) << r.message();
@@ -346,4 +347,60 @@ TEST(LodSelector, CodecRangeReachesEveryInteriorRecord) {
   CodecParams flat = w.params;
   flat.box.max = flat.box.min;
   EXPECT_EQ(fit_lod_codec_params(flat).log_scale_max, flat.log_scale_max);
+}
+
+TEST(LodSelector, EpochsFromTheChangeLogKeepTheHierarchyAFullBuildsAndIndicesTrue) {
+  // Removals fill their places with the scene's last Gaussians (SceneStore::commit_epoch): a
+  // leaf's remembered index must never name another Gaussian afterwards.
+  World w;
+  g_world = &w;
+  LodSelector lod(w.store.sh_degree());
+  ASSERT_TRUE(lod.update(w.store, nullptr).ok());
+  SelectionRequest req;
+  req.budget = req.client_capacity = 400;
+  const ClientPose pose = look({0.1, 0.5, 0.1}, {0.9, 0.5, 0.9});
+  Selector leaves;
+  for (int epoch = 0; epoch < 4; ++epoch) {
+    ASSERT_TRUE(w.store.begin_next_epoch().ok());
+    const std::vector<Gaussian> now(w.store.gaussians().begin(), w.store.gaussians().end());
+    for (std::size_t i = static_cast<std::size_t>(epoch); i < now.size(); i += 37) ASSERT_TRUE(w.store.remove(now[i].id).ok());
+    for (std::size_t i = 5; i < now.size(); i += 53) {
+      Gaussian g = now[i];
+      if (!w.store.find(g.id)) continue;
+      g.position += glm::vec3(0.05f, 0.0f, -0.02f);
+      ASSERT_TRUE(w.store.modify(g).ok());
+    }
+    for (int k = 0; k < 30; ++k) {
+      Gaussian g = now[static_cast<std::size_t>(k * 11 + epoch)];
+      g.id = w.store.allocate_id();
+      g.position += glm::vec3(0.1f);
+      ASSERT_TRUE(w.store.insert(g).ok());
+    }
+    ASSERT_TRUE(w.store.commit_epoch().ok());
+    ASSERT_TRUE(lod.update(w.store, nullptr).ok());
+    auto leaf = leaves.select(w.store, pose, req);
+    ASSERT_TRUE(leaf.ok());
+    auto sel = lod.select(*leaf, w.store, pose, req);
+    ASSERT_TRUE(sel.ok()) << sel.message();
+    expect_well_formed(*sel, w, lod);
+  }
+  // The same tree as a full build of the final scene in the same cube (the tree is a function
+  // of the leaves and the cube): the same interior records, bit for bit.
+  auto records_of = [](const LodHierarchy& h) {
+    std::vector<std::array<float, 7>> r;
+    for (const LodNode& n : h.nodes())
+      if (n.live && !n.leaf) {
+        const Gaussian& g = h.record(n);
+        r.push_back({g.position.x, g.position.y, g.position.z, g.log_scale.x, g.log_scale.y, g.log_scale.z,
+                     g.opacity_logit});
+      }
+    std::sort(r.begin(), r.end());
+    return r;
+  };
+  ASSERT_NE(lod.hierarchy(), nullptr);
+  LodConfig same_cube;
+  same_cube.cube = lod.hierarchy()->cube();
+  const LodHierarchy fresh = build(w, same_cube);
+  EXPECT_EQ(lod.hierarchy()->leaf_count(), fresh.leaf_count());
+  EXPECT_EQ(records_of(*lod.hierarchy()), records_of(fresh));
 }

@@ -21,6 +21,21 @@ Status LodSelector::update(const SceneStore& scene, const EligibleSet* eligible)
     return Error{"LoD: eligible set is from epoch " + std::to_string(to_underlying(eligible->epoch)) +
                  ", the scene is at epoch " + std::to_string(to_underlying(scene.epoch()))};
   const auto gaussians = scene.gaussians();
+  if (hierarchy_ && !eligible && epoch_) {
+    // Without an eligibility filter the scene's change log says what changed: apply it (work
+    // in the changes) instead of comparing every Gaussian (work in N; 2.5x the cost at 1 %).
+    if (auto applied = apply_change_log(scene)) {
+      epoch_ = scene.epoch();
+      if (!*applied) {
+        hierarchy_.reset();
+        cutter_.clear_previous();
+        interior_.clear();
+        return Error{"LoD: no hierarchy for epoch " + std::to_string(to_underlying(scene.epoch())) + ": " +
+                     applied->message() + "; selecting leaves"};
+      }
+      return Ok{};
+    }
+  }
   subset_.clear();
   if (eligible) {
     subset_.assign(eligible->indices.begin(), eligible->indices.end());
@@ -49,6 +64,37 @@ Status LodSelector::update(const SceneStore& scene, const EligibleSet* eligible)
   modified_.insert(modified_.end(), report->modified.begin(), report->modified.end());
   modified_.insert(modified_.end(), report->removed.begin(), report->removed.end());
   return Ok{};
+}
+
+std::optional<Status> LodSelector::apply_change_log(const SceneStore& scene) {
+  std::vector<GaussianId> touched, removed;
+  for (std::uint64_t e = to_underlying(*epoch_) + 1; e <= to_underlying(scene.epoch()); ++e) {
+    const EpochChanges* c = scene.changes(Epoch{e});
+    if (!c) return std::nullopt;  // the log no longer reaches back: compare everything
+    touched.insert(touched.end(), c->inserted.begin(), c->inserted.end());
+    touched.insert(touched.end(), c->modified.begin(), c->modified.end());
+    removed.insert(removed.end(), c->removed.begin(), c->removed.end());
+  }
+  std::sort(touched.begin(), touched.end());
+  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  std::vector<Gaussian> upserts;
+  upserts.reserve(touched.size());
+  for (GaussianId id : touched) {
+    const Gaussian* g = scene.find(id);
+    if (!g) continue;  // inserted or modified, then removed: in `removed`
+    if (g->carrier)
+      removed.push_back(id);  // turned carrier: no longer an appearance leaf
+    else
+      upserts.push_back(*g);
+  }
+  std::sort(removed.begin(), removed.end());
+  removed.erase(std::unique(removed.begin(), removed.end()), removed.end());
+  // Removed ids that were never leaves (carriers, unusable ones) are fine: lenient.
+  auto report = hierarchy_->apply(upserts, removed, /*lenient_removes=*/true);
+  if (!report) return Status(report.error());
+  modified_.insert(modified_.end(), report->modified.begin(), report->modified.end());
+  modified_.insert(modified_.end(), report->removed.begin(), report->removed.end());
+  return Status(Ok{});
 }
 
 std::span<const Gaussian> LodSelector::records() const {
@@ -99,9 +145,11 @@ Expected<Selection> LodSelector::select(Selection leaves, const SceneStore& scen
   for (std::uint32_t n : cut_.nodes) {
     const LodNode& node = hierarchy_->node(n);
     if (node.leaf) {
-      // Where update() found it in this very scene (the epochs were checked above), without
-      // reading the Gaussian: a cache miss per leaf was a third of the assembly at 1M. The
-      // differ checks the id of every record it reads.
+      // Where the hierarchy last saw it, without reading the Gaussian (a cache miss per leaf
+      // was a third of the assembly at 1M). That place still holds it or lies beyond the
+      // scene: a commit fills a removed Gaussian's place with the scene's last one, so only
+      // Gaussians from the tail move, and a leaf placed by apply() has none. The differ checks
+      // the id of every record it reads.
       std::uint32_t index = hierarchy_->leaf_source(node);
       if (index >= gaussians.size()) {
         const Gaussian* g = scene.find(node.id);

@@ -156,8 +156,9 @@ class LodHierarchy {
   // Pool index of the root of object `o`'s subtree (its only leaf when it has one), or
   // kNoLodNode when no leaf of it is in the hierarchy (or o is kNoObject / negative).
   std::uint32_t object_root(ObjectId o) const;
-  // Where a leaf was in the span the last update() read (its index there), or kNoLodSource
-  // when apply() placed it. The caller checks the id before trusting it.
+  // Where a leaf was in the span the last update() that saw it read (its index there), or
+  // kNoLodSource when apply() inserted it (apply() keeps a modified leaf's). The caller knows
+  // whether that span's places still hold (a SceneStore's do, but for its tail).
   std::uint32_t leaf_source(const LodNode& n) const { return leaf_source_[n.data]; }
   // Pool index of the leaf with this id, or kNoLodNode.
   std::uint32_t find_leaf(GaussianId id) const;

@@ -41,7 +41,9 @@ class LodSelector {
   LodSelector(int sh_degree, SelectorConfig selector = {}, LodConfig lod = {});
 
   // Brings the hierarchy to the scene's eligible appearance Gaussians (`eligible` null: every
-  // non-carrier) when the scene's epoch moved since the last call. Fails when the hierarchy
+  // non-carrier) when the scene's epoch moved since the last call: without an eligibility
+  // filter from the scene's change log (work in the changes), else (or when the log no longer
+  // reaches back) by comparing every Gaussian (work in N). Fails when the hierarchy
   // cannot be updated; the selector then holds none, select() returns leaf selections, and the
   // next epoch builds it again from scratch.
   Status update(const SceneStore& scene, const EligibleSet* eligible);
@@ -65,6 +67,10 @@ class LodSelector {
   const LodCut& last_cut() const { return cut_; }
 
  private:
+  // The scene's change log since epoch_ applied to the hierarchy; nullopt when the log no
+  // longer reaches back (the caller then compares every Gaussian).
+  std::optional<Status> apply_change_log(const SceneStore& scene);
+
   int sh_degree_;
   SelectorConfig selector_config_;
   LodConfig lod_config_;
