@@ -209,3 +209,40 @@ TEST(HostSessionLod, AQuerysShareStaysExactInLeaves) {
   EXPECT_LE(p.host.sent_ids().size(), m);
   EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum(w.store));
 }
+
+TEST(HostSessionLod, AGaussianTheHierarchyRefusesMeansLeavesWithOneNoticeUntilItIsGone) {
+  // An id with the top bit set is an interior node's id space: the hierarchy refuses it, the
+  // session falls back to leaf selection (the client stays exact) and says so once, not once
+  // per epoch; when the Gaussian goes, the cut comes back.
+  World w;
+  const CodecParams params = lod_params(w);
+  ASSERT_TRUE(w.store.begin_next_epoch().ok());
+  Gaussian odd = w.store.gaussians()[0];
+  odd.id = GaussianId{kLodInteriorIdBit | 5};
+  odd.log_scale += glm::vec3(2.0f);  // large and opaque: the leaf selection takes it
+  odd.opacity_logit = 6.0f;
+  ASSERT_TRUE(w.store.insert(odd).ok());
+  ASSERT_TRUE(w.store.commit_epoch().ok());
+  Pair p = connect(w, params, true, 250);
+  step(p, w, params, 0.0);
+  EXPECT_EQ(interior_count(p.host.sent_ids()), 1u) << "the odd Gaussian itself, as a leaf";
+  const auto first = p.host.take_notices();
+  ASSERT_EQ(first.size(), 1u);
+  EXPECT_NE(first[0].find("top bit"), std::string::npos) << first[0];
+  EXPECT_EQ(p.host.stats().lod_fallbacks, 1u);
+  EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum(w.store));
+  for (int e = 0; e < 2; ++e) {  // the cause stays: no new notice
+    ASSERT_TRUE(w.store.begin_next_epoch().ok());
+    ASSERT_TRUE(w.store.commit_epoch().ok());
+    step(p, w, params, 1.0 + e);
+    EXPECT_TRUE(p.host.take_notices().empty());
+  }
+  ASSERT_TRUE(w.store.begin_next_epoch().ok());
+  ASSERT_TRUE(w.store.remove(odd.id).ok());
+  ASSERT_TRUE(w.store.commit_epoch().ok());
+  step(p, w, params, 5.0);
+  EXPECT_GT(interior_count(p.host.sent_ids()), 1u) << "the cut is back";
+  EXPECT_LE(p.host.sent_ids().size(), 250u);
+  EXPECT_EQ(p.client.published_checksum(), p.client.desired().desired_checksum());
+  EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum(w.store));
+}

@@ -4,9 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include <glm/geometric.hpp>
-#include <string>
 
 namespace gauss {
 
@@ -26,14 +26,7 @@ Status LodSelector::update(const SceneStore& scene, const EligibleSet* eligible)
     // in the changes) instead of comparing every Gaussian (work in N; 2.5x the cost at 1 %).
     if (auto applied = apply_change_log(scene)) {
       epoch_ = scene.epoch();
-      if (!*applied) {
-        hierarchy_.reset();
-        cutter_.clear_previous();
-        interior_.clear();
-        return Error{"LoD: no hierarchy for epoch " + std::to_string(to_underlying(scene.epoch())) + ": " +
-                     applied->message() + "; selecting leaves"};
-      }
-      return Ok{};
+      return *applied ? Status(Ok{}) : drop_hierarchy(scene, applied->message());
     }
   }
   subset_.clear();
@@ -51,19 +44,34 @@ Status LodSelector::update(const SceneStore& scene, const EligibleSet* eligible)
   }
   auto report = hierarchy_->update(gaussians, subset_);
   epoch_ = scene.epoch();
-  if (!report) {
-    hierarchy_.reset();
-    cutter_.clear_previous();
-    interior_.clear();
-    return Error{"LoD: no hierarchy for epoch " + std::to_string(to_underlying(scene.epoch())) + ": " +
-                 report.message() + "; selecting leaves"};
-  }
+  if (!report) return drop_hierarchy(scene, report.message());
   if (fresh) cutter_.clear_previous();
-  // Modified records are re-quantised by the differ; retired ones leave the next cut (the
-  // differ removes them as leavers), listed too so a stale pool slot is never trusted.
-  modified_.insert(modified_.end(), report->modified.begin(), report->modified.end());
-  modified_.insert(modified_.end(), report->removed.begin(), report->removed.end());
+  last_failure_.clear();
+  note_changes(*report);
   return Ok{};
+}
+
+Status LodSelector::drop_hierarchy(const SceneStore& scene, const std::string& why) {
+  hierarchy_.reset();
+  cutter_.clear_previous();
+  interior_.clear();
+  // Said once per reason: a scene that keeps the cause (an id with the top bit, say) would
+  // otherwise log a line every epoch.
+  if (why == last_failure_) return Ok{};
+  last_failure_ = why;
+  return Error{"LoD: no hierarchy for epoch " + std::to_string(to_underlying(scene.epoch())) + ": " + why +
+               "; selecting leaves until it can be built"};
+}
+
+void LodSelector::note_changes(const LodUpdateReport& report) {
+  // Modified records are re-quantised by the differ; retired ones leave the next cut (the
+  // differ removes them as leavers), listed too so a stale pool slot is never trusted; added
+  // ones too: a hierarchy built again after a fallback counts its serials from 0, so a new node
+  // may carry an id the client held before (the fallback's leaf batch removed those; this
+  // keeps the differ from trusting an old record if one ever stays).
+  modified_.insert(modified_.end(), report.modified.begin(), report.modified.end());
+  modified_.insert(modified_.end(), report.removed.begin(), report.removed.end());
+  modified_.insert(modified_.end(), report.added.begin(), report.added.end());
 }
 
 std::optional<Status> LodSelector::apply_change_log(const SceneStore& scene) {
@@ -92,8 +100,7 @@ std::optional<Status> LodSelector::apply_change_log(const SceneStore& scene) {
   // Removed ids that were never leaves (carriers, unusable ones) are fine: lenient.
   auto report = hierarchy_->apply(upserts, removed, /*lenient_removes=*/true);
   if (!report) return Status(report.error());
-  modified_.insert(modified_.end(), report->modified.begin(), report->modified.end());
-  modified_.insert(modified_.end(), report->removed.begin(), report->removed.end());
+  note_changes(*report);
   return Status(Ok{});
 }
 

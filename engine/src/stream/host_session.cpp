@@ -378,7 +378,10 @@ std::vector<wire::Message> HostSession::surface_patches(const SceneStore& scene,
 }
 
 const Gaussian* HostSession::sent_record(GaussianId id, const SceneStore& scene) const {
-  if (is_lod_interior_id(id)) return lod_ ? lod_->find_interior(id) : nullptr;
+  // A scene Gaussian may carry the top bit too (the hierarchy refuses it, and leaf selection
+  // sends it): the cut's records first, then the scene.
+  if (is_lod_interior_id(id) && lod_)
+    if (const Gaussian* g = lod_->find_interior(id)) return g;
   return scene.find(id);
 }
 

@@ -16,7 +16,8 @@
 // as unusable (non-finite, zero weight, enormous; lod_merge.h) are not in a cut.
 //
 // A hierarchy that cannot be updated for an epoch (an id with the top bit set, say) leaves the
-// selector without one: select() then returns the leaf selection, and update() says why once.
+// selector without one: select() then returns the leaf selection, and update() says why, once
+// per reason (the next epochs try again from scratch, quietly while the reason is the same).
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -44,8 +45,9 @@ class LodSelector {
   // non-carrier) when the scene's epoch moved since the last call: without an eligibility
   // filter from the scene's change log (work in the changes), else (or when the log no longer
   // reaches back) by comparing every Gaussian (work in N). Fails when the hierarchy
-  // cannot be updated; the selector then holds none, select() returns leaf selections, and the
-  // next epoch builds it again from scratch.
+  // cannot be updated for a reason not reported just before (a repeat returns Ok); the
+  // selector then holds none, select() returns leaf selections, and the next epoch builds it
+  // again from scratch.
   Status update(const SceneStore& scene, const EligibleSet* eligible);
 
   // The leaf selection `leaves` (from a Selector, for the same scene, pose and request) with
@@ -70,12 +72,17 @@ class LodSelector {
   // The scene's change log since epoch_ applied to the hierarchy; nullopt when the log no
   // longer reaches back (the caller then compares every Gaussian).
   std::optional<Status> apply_change_log(const SceneStore& scene);
+  // Forgets the hierarchy after a failed update; the error names the epoch and `why`.
+  Status drop_hierarchy(const SceneStore& scene, const std::string& why);
+  // Adds an update's changed interior ids to modified_.
+  void note_changes(const LodUpdateReport& report);
 
   int sh_degree_;
   SelectorConfig selector_config_;
   LodConfig lod_config_;
   std::optional<LodHierarchy> hierarchy_;
   std::optional<Epoch> epoch_;  // scene epoch the hierarchy stands for
+  std::string last_failure_;    // why the last update failed (empty after a success)
   LodCutter cutter_;
   LodCut cut_;
   std::vector<GaussianId> modified_;
