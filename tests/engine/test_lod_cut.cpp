@@ -6,6 +6,7 @@
 #include <array>
 #include <iterator>
 #include <map>
+#include <optional>
 #include <cmath>
 #include <set>
 #include <vector>
@@ -234,6 +235,19 @@ void expect_well_formed(const Selection& s, const World& w, const LodSelector& l
   }
 }
 
+// The leaf selection, then `lod`'s, checked well formed (an empty selection after a failure).
+Selection select_with_lod(const World& w, Selector& leaves, LodSelector& lod, const ClientPose& pose,
+                          const SelectionRequest& req) {
+  auto leaf = leaves.select(w.store, pose, req);
+  EXPECT_TRUE(leaf.ok()) << leaf.message();
+  if (!leaf.ok()) return {};
+  auto sel = lod.select(*leaf, w.store, pose, req);
+  EXPECT_TRUE(sel.ok()) << sel.message();
+  if (!sel.ok()) return {};
+  expect_well_formed(*sel, w, lod);
+  return std::move(*sel);
+}
+
 // `lod`'s selection at budget M is a plain Selector's, id for id and index for index.
 void expect_leaf_selection(const World& w, LodSelector& lod, std::size_t budget) {
   SelectionRequest req;
@@ -268,11 +282,8 @@ TEST(LodSelector, TheReservationIsTheSelectorsOwnAndSharesAreExact) {
   Selector leaves;
   LodSelector lod(w.store.sh_degree());
   ASSERT_TRUE(lod.update(w.store, nullptr).ok());
-  auto leaf = leaves.select(w.store, pose, req);
-  ASSERT_TRUE(leaf.ok());
-  auto sel = lod.select(*leaf, w.store, pose, req);
-  ASSERT_TRUE(sel.ok()) << sel.message();
-  expect_well_formed(*sel, w, lod);
+  std::optional<Selection> sel;
+  ASSERT_NO_FATAL_FAILURE(sel = select_with_lod(w, leaves, lod, pose, req));
   EXPECT_LE(sel->ids.size(), req.budget);
   EXPECT_GT(sel->lod_interior, 0u);
   EXPECT_EQ(sel->object_selected, std::min(plain->object_candidates, std::size_t(std::floor(0.7 * 400))));
@@ -378,11 +389,7 @@ TEST(LodSelector, EpochsFromTheChangeLogKeepTheHierarchyAFullBuildsAndIndicesTru
     }
     ASSERT_TRUE(w.store.commit_epoch().ok());
     ASSERT_TRUE(lod.update(w.store, nullptr).ok());
-    auto leaf = leaves.select(w.store, pose, req);
-    ASSERT_TRUE(leaf.ok());
-    auto sel = lod.select(*leaf, w.store, pose, req);
-    ASSERT_TRUE(sel.ok()) << sel.message();
-    expect_well_formed(*sel, w, lod);
+    ASSERT_NO_FATAL_FAILURE(select_with_lod(w, leaves, lod, pose, req));
   }
   // The same tree as a full build of the final scene in the same cube (the tree is a function
   // of the leaves and the cube): the same interior records, bit for bit.

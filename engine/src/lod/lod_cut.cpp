@@ -169,11 +169,9 @@ Expected<LodCut> LodCutter::cut(const LodHierarchy& h, const ClientPose& pose, s
 
   // This cut's refinements are the next call's hysteresis state.
   clear_previous();
-  for (std::uint32_t n : refined_next_) {
-    refined_id_[n] = to_underlying(h.node(n).id);
-    refined_list_.push_back(n);
-  }
-  out.refined = refined_next_.size();
+  for (std::uint32_t n : refined_next_) refined_id_[n] = to_underlying(h.node(n).id);
+  refined_list_.swap(refined_next_);
+  out.refined = refined_list_.size();
   out.interior = out.nodes.size() - out.leaves;
   return out;
 }

@@ -11,7 +11,7 @@
 namespace gauss {
 
 LodSelector::LodSelector(int sh_degree, SelectorConfig selector, LodConfig lod)
-    : sh_degree_(sh_degree), selector_config_(selector), lod_config_(lod), cutter_(selector) {}
+    : sh_degree_(sh_degree), lod_config_(lod), cutter_(selector) {}
 
 Status LodSelector::update(const SceneStore& scene, const EligibleSet* eligible) {
   if (scene.in_epoch()) return Error{"LoD: the scene has an open epoch; update between epochs"};

@@ -271,9 +271,9 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
       notices_.push_back("client " + std::to_string(client_id_) + ": " + st.message());
     }
   }
-  auto sel = eligible_ ? selector_.select(scene, to_client_pose(pose), req, *eligible_)
-                       : selector_.select(scene, to_client_pose(pose), req);
-  if (sel && lod_) sel = lod_->select(std::move(*sel), scene, to_client_pose(pose), req);
+  const ClientPose client_pose = to_client_pose(pose);
+  auto sel = eligible_ ? selector_.select(scene, client_pose, req, *eligible_) : selector_.select(scene, client_pose, req);
+  if (sel && lod_) sel = lod_->select(std::move(*sel), scene, client_pose, req);
   if (!sel) return Error{"host session " + std::to_string(client_id_) + ": selection failed: " + sel.message()};
   if (needs_resync_) differ_.reset();
   auto batch = lod_ ? differ_.diff(*sel, scene, lod_->records(), lod_->modified()) : differ_.diff(*sel, scene);

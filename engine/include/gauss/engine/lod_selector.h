@@ -78,7 +78,6 @@ class LodSelector {
   void note_changes(const LodUpdateReport& report);
 
   int sh_degree_;
-  SelectorConfig selector_config_;
   LodConfig lod_config_;
   std::optional<LodHierarchy> hierarchy_;
   std::optional<Epoch> epoch_;  // scene epoch the hierarchy stands for
