@@ -17,7 +17,11 @@
 //   VISIBLE: n = high-water mark (push), REDUCE / DOWN dispatched directly.
 //   PAIRS:   n = counters[VISIBLE], REDUCE / DOWN dispatched with the visible radix-block
 //            arguments (the radix block equals the scan block, SORT_BLOCK_GPU).
+// REDUCE and DOWN load all of an invocation's values before using the first (load_block):
+// the loads are in flight together, where a load inside DOWN's barrier-separated loop
+// waited a full memory latency per iteration (two for PAIRS, whose value is an indirection).
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
@@ -61,17 +65,24 @@ void write_sort_args(uint keys, uint blocks_at, uint count_at, uint hist_at) {
   write_args(hist_at, blocks > 1u ? (1u << RADIX_BITS) : 0u);
 }
 
+// This invocation's values of the block at `base`, 0 past n.
+void load_block(uint base, uint n, out uint v[SORT_ITEMS_GPU]) {
+  [[unroll]] for (uint j = 0u; j < SORT_ITEMS_GPU; ++j) {
+    const uint i = base + j * SPLAT_WORKGROUP + wg_index();
+    v[j] = i < n ? value(i) : 0u;
+  }
+}
+
 void reduce(uint n) {
   const uint block = linear_group_id();
   const uint base = block * SORT_BLOCK_GPU;
   if (base >= n) return;  // uniform over the workgroup
   // Per invocation at most 16 values below 2^32: summed with saturation, then across the
   // workgroup saturating as well.
+  uint v[SORT_ITEMS_GPU];
+  load_block(base, n, v);
   uint sum = 0u;
-  for (uint j = 0u; j < SORT_ITEMS_GPU; ++j) {
-    const uint i = base + j * SPLAT_WORKGROUP + wg_index();
-    if (i < n) sum = sat_add(sum, value(i));
-  }
+  [[unroll]] for (uint j = 0u; j < SORT_ITEMS_GPU; ++j) sum = sat_add(sum, v[j]);
   uint total;
   wg_exclusive_scan(sum, total);
   if (wg_index() == 0u) hist[block] = total;
@@ -106,12 +117,13 @@ void down(uint n) {
   const uint block = linear_group_id();
   const uint base = block * SORT_BLOCK_GPU;
   if (base >= n) return;  // uniform over the workgroup
+  uint v[SORT_ITEMS_GPU];
+  load_block(base, n, v);
   uint run = hist[block];
-  for (uint j = 0u; j < SORT_ITEMS_GPU; ++j) {
+  [[unroll]] for (uint j = 0u; j < SORT_ITEMS_GPU; ++j) {
     const uint i = base + j * SPLAT_WORKGROUP + wg_index();
-    const uint v = i < n ? value(i) : 0u;
     uint total;
-    const uint before = wg_exclusive_scan(v, total);
+    const uint before = wg_exclusive_scan(v[j], total);
     if (i < n) offsets[i] = sat_add(run, before);
     run = sat_add(run, total);
   }

@@ -243,7 +243,7 @@ void add_options(CLI::App& cmd, Options& o, std::vector<std::string>& sizes) {
 
 // Per-pass GPU ms of one frame, summed over the views of the frame.
 struct FrameTimes {
-  double wall{0}, cpu{0}, total{0}, mesh{0}, preprocess{0}, compact{0}, depth_sort{0}, emit{0}, tile_sort{0}, ranges{0},
+  double wall{0}, record{0}, cpu{0}, total{0}, mesh{0}, preprocess{0}, compact{0}, depth_sort{0}, emit{0}, tile_sort{0}, ranges{0},
       blend{0};
   std::uint32_t visible{0}, pairs{0};
   bool overflow{false};
@@ -309,28 +309,25 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
   const Camera left = render::stereo_eye_camera(*cam, ipd, render::Eye::Left);
   const Camera right = render::stereo_eye_camera(*cam, ipd, render::Eye::Right);
   std::vector<FrameTimes> frames;
+  const std::array<Camera, 2> eyes{left, right};
+  const std::span<const Camera> views = c.stereo ? std::span<const Camera>(eyes) : std::span<const Camera>(&*cam, 1);
   for (int f = 0; f <= o.frames; ++f) {  // frame 0: warm-up, not measured
     FrameTimes t;
     const double cpu0 = process_cpu_ms();
+    // render() / render_stereo() in two steps, so that recording + submission (while the
+    // GPU waits for it) is timed apart from the wait for the GPU.
     const auto t0 = std::chrono::steady_clock::now();
-    if (c.stereo) {
-      auto st = r.render_stereo(left, right);
-      if (!st) {
-        std::fprintf(stderr, "gauss-bench render: %s\n", st.message().c_str());
-        return 1;
-      }
-      t.add((*st)[0]);
-      t.add((*st)[1]);
-    } else {
-      auto st = r.render(*cam);
-      if (!st) {
-        std::fprintf(stderr, "gauss-bench render: %s\n", st.message().c_str());
-        return 1;
-      }
-      t.add(*st);
+    auto serial = r.render_frame(views);
+    const auto t1 = std::chrono::steady_clock::now();
+    auto st = serial ? r.frame_stats(*serial) : Expected<std::array<render::SplatFrameStats, 2>>(serial.error());
+    if (!st) {
+      std::fprintf(stderr, "gauss-bench render: %s\n", st.message().c_str());
+      return 1;
     }
     t.wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    t.record = std::chrono::duration<double, std::milli>(t1 - t0).count();
     t.cpu = process_cpu_ms() - cpu0;
+    for (std::size_t v = 0; v < views.size(); ++v) t.add((*st)[v]);
     if (f > 0) frames.push_back(t);
   }
   const FrameTimes& last = frames.back();
@@ -342,6 +339,8 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
   out["wall_ms_min"] = wall_min;
   const double cpu_med = median_of(frames, [](const FrameTimes& t) { return t.cpu; });
   out["process_cpu_ms_median"] = cpu_med;
+  const double record_med = median_of(frames, [](const FrameTimes& t) { return t.record; });
+  out["record_ms_median"] = record_med;
   out["load_average_1min"] = load_average();
   out["gpu_ms_median"] = {
       {"total", median_of(frames, [](const FrameTimes& t) { return t.total; })},
@@ -420,8 +419,8 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
   const double blend_ms = out["gpu_ms_median"]["blend"];
   char ratio[32] = "    -";
   if (base > 0) std::snprintf(ratio, sizeof ratio, "%5.2f", wall_med / base);
-  std::printf("%-22s %8.1f %8.1f %8.1f %5s %8.1f %8.1f %8.1f %8.1f %9u %10u %7.0f %s %17s | %s%s\n",
-              c.label.c_str(), wall_med, wall_min, cpu_med, load_average().c_str(), gpu_total,
+  std::printf("%-22s %8.2f %8.2f %8.2f %8.2f %5s %8.2f %8.2f %8.2f %8.2f %9u %10u %7.0f %s %17s | %s%s\n",
+              c.label.c_str(), wall_med, wall_min, record_med, cpu_med, load_average().c_str(), gpu_total,
               double(out["gpu_ms_median"]["preprocess"]), sort_ms, blend_ms, last.visible, last.pairs, base, ratio,
               digest.c_str(), err_text.c_str(), last.overflow ? " PAIR OVERFLOW" : "");
   std::fflush(stdout);
@@ -512,14 +511,15 @@ int bench_render_main(const Options& o) {
       o.peer.empty() ? std::string(kBaselineLabel)
                      : "this round's run of the peer " + o.peer.string() + ", just before ours, same scene and camera";
   std::printf("gauss-bench render | device %s | box scene SH3, %ld Gaussians generated in %.0f ms | %d frames after "
-              "1 warm-up\nwall = render call incl. submit + wait (no readback); cpu = process CPU time "
+              "1 warm-up\nwall = render call incl. submit + wait (no readback); record = its recording + submission part; "
+              "cpu = process CPU time "
               "(all lavapipe threads) per frame; load = 1-min load average;\ngpu = timestamps; all medians; stereo rows "
               "sum both eyes; image crc32 = last frame's pixels (left/right); ratio = wall_med / base_ms (base_ms: %s); "
               "times taken on a shared machine (under load)\n\n",
               (*ctx)->device_name().c_str(), max_n, gen_ms, o.frames, base_label.c_str());
   std::printf("pass shapes: %s\n\n", shapes->reason.c_str());
-  std::printf("%-22s %8s %8s %8s %5s %8s %8s %8s %8s %9s %10s %7s %5s %17s | %s\n", "size", "wall_med", "wall_min",
-              "cpu_med", "load", "gpu_tot", "preproc", "sorts", "blend", "visible", "pairs", "base_ms", "ratio",
+  std::printf("%-22s %8s %8s %8s %8s %5s %8s %8s %8s %8s %9s %10s %7s %5s %17s | %s\n", "size", "wall_med", "wall_min",
+              "record", "cpu_med", "load", "gpu_tot", "preproc", "sorts", "blend", "visible", "pairs", "base_ms", "ratio",
               "image crc32", "vs CPU reference (PSNR, max err)");
   nlohmann::json results = nlohmann::json::array();
   std::vector<PeerRow> peer_rows;

@@ -130,6 +130,58 @@ int run_vk(const Options& o) {
                           {"submit_wait_ms_median", median(wall_ms)},
                           {"runs_differing_from_first", differing_runs}};
 
+  // The fixed cost of one small dispatch (one workgroup) in a chain of kChain: with a
+  // compute->compute barrier after each (what every pass of the splat renderer pays),
+  // without, and indirect with its arguments in device-local or in host-visible memory.
+  // On a CPU device this is mostly recording; on a GPU it is what many small passes cost.
+  constexpr int kChain = 64;
+  struct ChainCase {
+    const char* name;
+    bool barrier;
+    int indirect;  // 0 direct, 1 arguments in device-local memory, 2 in host-visible memory
+  };
+  const ChainCase chain_cases[] = {{"direct, barrier after each", true, 0},
+                                   {"direct, no barriers", false, 0},
+                                   {"indirect (device-local args), barrier", true, 1},
+                                   {"indirect (host-visible args), barrier", true, 2}};
+  auto args_dev = gauss::vk::Buffer::create(ctx, {.size = 16, .usage = VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT,
+                                                  .memory = gauss::vk::MemoryUsage::DeviceLocal, .name = "args dev"});
+  auto args_host = gauss::vk::Buffer::create(ctx, {.size = 16, .usage = VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT,
+                                                   .memory = gauss::vk::MemoryUsage::HostVisible, .name = "args host"});
+  const std::uint32_t one_group[4] = {1, 1, 1, 0};
+  if (!args_dev || !args_host || !args_dev->upload(one_group, 16) || !args_host->upload(one_group, 16)) {
+    std::fprintf(stderr, "gauss-bench vk: indirect argument buffers failed\n");
+    return 1;
+  }
+  nlohmann::json chains = nlohmann::json::array();
+  for (const ChainCase& cc : chain_cases) {
+    std::vector<double> per_dispatch_us;
+    for (int r = 0; r < repeat + 1; ++r) {
+      gauss::Status bound = gauss::Ok{};
+      auto st = ctx.submit_and_wait([&](VkCommandBuffer cmd) {
+        queries->reset(cmd);
+        target->color().transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
+        bound = pipeline->bind(cmd, {{0, &target->color()}, {1, &*sums}});
+        pipeline->push_constants(cmd, gauss::gpu::TestPatternPush{8, 8, 1, 0});
+        queries->write(cmd, 0);
+        for (int i = 0; i < kChain; ++i) {
+          if (cc.indirect == 0) vkCmdDispatch(cmd, 1, 1, 1);
+          else vkCmdDispatchIndirect(cmd, (cc.indirect == 1 ? *args_dev : *args_host).handle(), 0);
+          if (cc.barrier) gauss::vk::compute_to_compute_barrier(cmd);
+        }
+        queries->write(cmd, 1);
+      });
+      auto ns = queries->elapsed_ns(0, 1);
+      if (!st || !bound || !ns) {
+        std::fprintf(stderr, "gauss-bench vk: dispatch chain failed\n");
+        return 1;
+      }
+      if (r > 0) per_dispatch_us.push_back(*ns * 1e-3 / kChain);
+    }
+    chains.push_back({{"case", cc.name}, {"us_per_dispatch_median", median(per_dispatch_us)}});
+  }
+  out["dispatch_chain"] = {{"dispatches", kChain}, {"cases", chains}};
+
   // Upload throughput through Buffer::upload (memcpy when mapped, staging otherwise),
   // and GPU-side buffer->buffer copy throughput.
   nlohmann::json uploads = nlohmann::json::array();
@@ -206,6 +258,11 @@ int run_vk(const Options& o) {
               out["dispatch_1024"]["gpu_ms_median"].get<double>(), differing_runs);
   std::printf("%-34s %9.3f ms\n", "dispatch 1024x1024 (submit+wait)",
               out["dispatch_1024"]["submit_wait_ms_median"].get<double>());
+  for (const auto& c : chains) {
+    char label[96];
+    std::snprintf(label, sizeof(label), "1-group dispatch, %s", c["case"].get<std::string>().c_str());
+    std::printf("%-50s %9.2f us\n", label, c["us_per_dispatch_median"].get<double>());
+  }
   for (const auto& u : uploads) {
     char label[64];
     std::snprintf(label, sizeof(label), "upload %3zu MiB (%s)", u["mib"].get<std::size_t>(),

@@ -30,7 +30,7 @@ class ClientRuntimeInProcess : public VkTest {
   // with pack buffers of that many slots. scatter_min_regions: the renderer's upload
   // scatter threshold (0: every upload group goes through the compute scatter).
   void converge_and_compare(std::uint32_t pack_slots,
-                            std::uint32_t scatter_min_regions = vk::kDefaultScatterMinRegions);
+                            std::uint32_t scatter_min_regions = vk::kDeviceScatterMinRegions);
   // A synthetic room of n Gaussians (with a surface: `surface`) produced into scene_, and
   // codec parameters boxing it.
   void make_room(std::size_t n, bool surface) {

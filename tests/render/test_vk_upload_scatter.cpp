@@ -152,9 +152,28 @@ TEST_F(UploadScatter, RandomWritesLandWithTheScatterOff) {
 }
 
 TEST_F(UploadScatter, RandomWritesLandWithCopiesAndScattersMixed) {
-  const vk::StagedUploadStats s = random_writes(vk::kDefaultScatterMinRegions, 12);
+  const vk::StagedUploadStats s = random_writes(32, 12);
   EXPECT_GT(s.scatter_groups, 0u);
   EXPECT_GT(s.copy_groups, 0u) << "some groups stay under the threshold";
+}
+
+// Left at its default, the threshold is the device's (measured per device type, see
+// vk_staged_uploads.h): one group a region short of it is copied, one at it scatters.
+TEST_F(UploadScatter, TheDefaultThresholdIsTheDevicesOwn) {
+  const std::uint32_t t = vk::device_scatter_min_regions(context());
+  const bool cpu = context().properties().deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  EXPECT_EQ(t, cpu ? vk::kCpuScatterMinRegions : vk::kGpuScatterMinRegions);
+  auto up = uploads({});
+  ASSERT_TRUE(up);
+  Target under = target(64 * 1024, 13), at = target(64 * 1024, 14);
+  SplitMixRng rng{15};
+  for (VkDeviceSize k = 0; k + 1 < t; ++k) stage(*up, under, k * 128, 8, rng);
+  for (VkDeviceSize k = 0; k < t; ++k) stage(*up, at, k * 128, 8, rng);
+  frame(*up);
+  expect_model(under);
+  expect_model(at);
+  EXPECT_EQ(up->stats().copy_regions, t - 1);
+  EXPECT_EQ(up->stats().scatter_regions, t);
 }
 
 // A scatter, a copy, a scatter and a copy to overlapping bytes of one buffer, in one
@@ -336,7 +355,7 @@ TEST_F(UploadScatter, ScatteredSlotEditsShowWhatContiguousRunsShow) {
     EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.message());
     return r.ok() ? std::move(*r) : nullptr;
   };
-  auto scattered = make(2, vk::kDefaultScatterMinRegions), contiguous = make(1, kNeverScatter);
+  auto scattered = make(2, vk::kDeviceScatterMinRegions), contiguous = make(1, kNeverScatter);
   ASSERT_TRUE(scattered && contiguous);
   const render::SlotLayout layout = scattered->slot_layout();
   // Odd slots from a pack buffer, one run each; even slots written one by one, shuffled.

@@ -102,11 +102,11 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
   for (FrameSlot& f : impl->frame_slots) {
     for (FrameViewResources& view : f.views) {
       if (auto st = make(view.view_ubo, sizeof(gpu::GpuView), "splat view constants", VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
-                         vk::MemoryUsage::HostVisible);
+                         vk::MemoryUsage::HostVisibleNearGpu);
           !st)
         return st.error();
       if (auto st = make(view.counters, gpu::SPLAT_COUNTER_WORDS * 4, "splat counters",
-                         SSBO | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, vk::MemoryUsage::HostVisible);
+                         SSBO | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, vk::MemoryUsage::HostVisibleNearGpu);
           !st)
         return st.error();
       auto ts = vk::TimestampQueries::create(context, kViewTimestamps);

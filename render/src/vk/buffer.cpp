@@ -39,9 +39,10 @@ Expected<Buffer> Buffer::create(Context& context, const BufferCreateInfo& info) 
   VkMemoryRequirements req{};
   vkGetBufferMemoryRequirements(context.device(), b.buffer_, &req);
   const VkMemoryPropertyFlags host = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-  auto alloc = info.memory == MemoryUsage::DeviceLocal
-                   ? allocate_memory(context, req, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what)
-                   : allocate_memory(context, req, host, 0, what);
+  const VkMemoryPropertyFlags required = info.memory == MemoryUsage::DeviceLocal ? 0 : host;
+  const VkMemoryPropertyFlags preferred =
+      info.memory == MemoryUsage::HostVisible ? 0 : VkMemoryPropertyFlags{VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT};
+  auto alloc = allocate_memory(context, req, required, preferred, what);
   if (!alloc) return alloc.error();
   b.memory_ = alloc->memory;
   GAUSS_VK_TRY(vkBindBufferMemory(context.device(), b.buffer_, b.memory_, 0));

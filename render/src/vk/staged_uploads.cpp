@@ -27,10 +27,15 @@ UploadBufferRef upload_buffer_ref(const Buffer& buffer) noexcept {
 StagedUploads::StagedUploads(Context& context, FrameRing& ring) : context_(&context), ring_(&ring) {}
 StagedUploads::~StagedUploads() = default;
 
+std::uint32_t device_scatter_min_regions(const Context& context) noexcept {
+  return context.properties().deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? kCpuScatterMinRegions : kGpuScatterMinRegions;
+}
+
 Expected<std::unique_ptr<StagedUploads>> StagedUploads::create(Context& context, FrameRing& ring,
                                                                 const StagedUploadsCreateInfo& info) {
   std::unique_ptr<StagedUploads> s(new StagedUploads(context, ring));
   s->info_ = info;
+  if (info.scatter_min_regions == kDeviceScatterMinRegions) s->info_.scatter_min_regions = device_scatter_min_regions(context);
   auto scatter = UploadScatter::create(context, info.scatter_max_binding_bytes);
   if (!scatter) return Error{"StagedUploads: " + scatter.message()};
   s->scatter_ = std::make_unique<UploadScatter>(std::move(*scatter));

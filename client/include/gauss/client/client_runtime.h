@@ -89,7 +89,7 @@ struct ClientRuntimeConfig {
   std::uint32_t pack_slots_per_step{65536};
   // Upload copy groups of at least this many regions go to the GPU as one compute scatter
   // (SplatRendererCreateInfo::upload_scatter_min_regions); tests force 0 or UINT32_MAX.
-  std::uint32_t upload_scatter_min_regions{vk::kDefaultScatterMinRegions};
+  std::uint32_t upload_scatter_min_regions{vk::kDeviceScatterMinRegions};
   // The client's clock in seconds (arrivals on the network thread and frames share it).
   // Empty: steady time since the runtime was created. A simulation passes virtual time.
   std::function<double()> clock;

@@ -111,7 +111,7 @@ struct SplatRendererCreateInfo {
   SplatPassShapes pass_shapes{SplatPassShapes::Auto};
   // Upload copy groups of at least this many regions are applied by one compute scatter
   // (vk_staged_uploads.h); UINT32_MAX keeps every group a vkCmdCopyBuffer (to compare).
-  std::uint32_t upload_scatter_min_regions{vk::kDefaultScatterMinRegions};
+  std::uint32_t upload_scatter_min_regions{vk::kDeviceScatterMinRegions};
 };
 
 // What a frame-paced caller adds to a frame of render_frame().

@@ -3,7 +3,11 @@
 //
 // Memory: MemoryUsage::DeviceLocal prefers DEVICE_LOCAL memory (on lavapipe every type
 // is device local AND host visible); MemoryUsage::HostVisible requires HOST_VISIBLE |
-// HOST_COHERENT (staging, readback, per-frame constants). Whenever the chosen memory is
+// HOST_COHERENT (staging, readback); MemoryUsage::HostVisibleNearGpu requires the same and
+// prefers DEVICE_LOCAL too (a discrete GPU's BAR window), for small per-frame data the GPU
+// reads many times, where system memory would cost a bus round trip per read (the
+// renderer's view constants and its counters: every workgroup of every pass reads a count,
+// every indirect dispatch its arguments). Whenever the chosen memory is
 // host visible the buffer stays persistently mapped and upload()/download() are plain
 // memcpys; otherwise they go through a temporary staging buffer and a blocking copy on
 // the queue. Code never assumes which case it got.
@@ -35,6 +39,7 @@ class Context;
 enum class MemoryUsage {
   DeviceLocal,  // GPU-side data (stable-slot SSBO, sort keys); staging used if not mappable
   HostVisible,  // CPU writes / reads every frame (staging, readback)
+  HostVisibleNearGpu,  // as HostVisible, device-local where the device offers both
 };
 
 struct BufferCreateInfo {

@@ -67,11 +67,18 @@ struct StagedUploadStats {
   VkDeviceSize ring_bytes{0};           // current ring size
 };
 
-// Groups with at least this many regions scatter by default. A dispatch with its barrier
-// and descriptor push costs about what some tens of copy regions do, so a handful of
-// regions (mesh chunks, the highlight list, one slot run) stays one vkCmdCopyBuffer. Not
-// measured on a GPU: the H100's slow frames had thousands of regions per group, far above it.
-inline constexpr std::uint32_t kDefaultScatterMinRegions = 32;
+// Groups with at least this many regions scatter by default, chosen by device type from
+// `gauss-bench upload` (GPU time of R scattered 64-byte regions, copies against one
+// scatter dispatch; 2026-11-27):
+// - a GPU pays per copy region: on an H100 copies took 6.1 / 13.7 / 23.7 / 83 us for
+//   1 / 4 / 8 / 32 regions, the scatter 9.3 us for any of them, so 4 regions and up scatter;
+// - lavapipe copies a region with a memcpy and runs a dispatch on its threads: copies won
+//   up to 32 regions (0.056 ms against 0.064), the scatter from 64 (0.060 against 0.072).
+inline constexpr std::uint32_t kGpuScatterMinRegions = 4;
+inline constexpr std::uint32_t kCpuScatterMinRegions = 64;
+// StagedUploadsCreateInfo::scatter_min_regions's default: one of the two above, by device.
+inline constexpr std::uint32_t kDeviceScatterMinRegions = 0xFFFFFFFEu;
+std::uint32_t device_scatter_min_regions(const Context& context) noexcept;
 
 struct StagedUploadsCreateInfo {
   VkDeviceSize initial_bytes{4u << 20};  // first staging ring size (at least 64 KiB)
@@ -79,8 +86,9 @@ struct StagedUploadsCreateInfo {
   // (nothing queued) and a piece table that finds no room falls back to copies.
   VkDeviceSize max_ring_bytes{0};
   // A word-aligned group of at least this many regions is applied by the compute scatter
-  // (0 scatters every word-aligned group; UINT32_MAX never scatters).
-  std::uint32_t scatter_min_regions{kDefaultScatterMinRegions};
+  // (0 scatters every word-aligned group; UINT32_MAX never scatters; kDeviceScatterMinRegions
+  // takes the device's, device_scatter_min_regions()).
+  std::uint32_t scatter_min_regions{kDeviceScatterMinRegions};
   // Most bytes one scatter binding covers (0: maxStorageBufferRange). Lower only in tests.
   VkDeviceSize scatter_max_binding_bytes{0};
 };
