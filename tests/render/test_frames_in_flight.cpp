@@ -2,7 +2,9 @@
 // growth, and a renderer with 2 frames in flight giving the very images of the blocking
 // path while slots, tints and mesh chunks change between frames; slot runs packed into a
 // caller's buffer (another thread's, in the client) land as the same writes would.
+#include <array>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <numeric>
 #include <vector>
@@ -210,6 +212,79 @@ TEST_F(FramesInFlight, PipelinedFramesEndInTheBlockingRenderersImage) {
   EXPECT_EQ(differ, 0u);
   EXPECT_EQ(piped->mesh_chunk_count(), 2u);
   EXPECT_EQ(piped->occupied_count(), 1190u);
+}
+
+// Replaying recorded passes shows what recording them every frame shows, through every
+// change a recording depends on (the camera, the high-water mark, tints, highlights, the
+// mesh, culling, the view size) and frames in flight; a frame that changed none of them is
+// replayed, one that changed any is recorded anew.
+TEST_F(FramesInFlight, ReplayedPassesShowWhatFreshlyRecordedOnesShow) {
+  const auto scene = procedural_scene(1500, 1, 9);
+  auto make = [&](bool reuse) {
+    auto r = render::SplatRenderer::create(context(), {.capacity = 1500, .sh_degree = 1, .max_width = 160,
+                                                       .max_height = 120, .frames_in_flight = 2,
+                                                       .reuse_recorded_passes = reuse});
+    EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.message());
+    return r.ok() ? std::move(*r) : nullptr;
+  };
+  auto reuse = make(true), fresh = make(false);
+  ASSERT_TRUE(reuse && fresh);
+  TriangleMesh wall;
+  wall.positions = {{-3, -2, 9}, {3, -2, 9}, {0, 2, 9}};
+  wall.colors.assign(3, {40, 160, 40});
+  wall.indices = {0, 1, 2};
+  const Camera near_cam = forward_camera(160, 120);
+  const Camera moved = look_at_camera(160, 120, {0.3, -0.2, 0.0}, {0.0, 0.0, 8.0});
+  const Camera small = forward_camera(120, 90);
+  struct Step {
+    const char* what;
+    Camera cam;
+    render::SplatRenderOptions options{};
+    std::function<Status(render::SplatRenderer&)> change;
+    bool replay_expected;  // nothing the recording depends on changed since the last step
+  };
+  const std::vector<Step> steps = {
+      {"first slots", near_cam, {}, [&](auto& r) { return r.write_slots(0, std::span(scene).first(700)); }, false},
+      {"camera moves", moved, {}, nullptr, true},
+      {"more slots (high-water mark)", moved, {}, [&](auto& r) { return r.write_slots(700, std::span(scene).subspan(700, 800)); }, false},
+      {"a slot rewritten below the mark", near_cam, {}, [&](auto& r) { return r.write_slots(3, std::span(scene).subspan(1400, 1)); }, true},
+      {"edit tint", near_cam, {}, [&](auto& r) { return r.set_edit_tint(SlotIndex{5}, {render::EditTintKind::Added, 0}); }, false},
+      {"tint cleared", near_cam, {}, [&](auto& r) { return r.set_edit_tints(0, 1500, {.kind = render::EditTintKind::None}); }, false},
+      {"highlight", moved, {}, [&](auto& r) { const ObjectId ids[] = {ObjectId{1}}; return r.set_highlight(ids); }, false},
+      {"highlight off", moved, {}, [&](auto& r) { return r.set_highlight({}); }, false},
+      {"mesh", near_cam, {}, [&](auto& r) { return r.set_mesh(wall); }, false},
+      {"exact culling off", near_cam, {.exact_culling = false}, nullptr, false},
+      {"smaller view", small, {}, nullptr, false},
+      {"back to the first size", near_cam, {}, nullptr, false},
+      {"nothing changed", near_cam, {}, nullptr, true},
+  };
+  // With two frames in flight each frame slot keeps its own recording: after a change the
+  // first two frames record (one per slot) and the third replays. Every frame's image is
+  // compared.
+  for (const Step& step : steps) {
+    SCOPED_TRACE(step.what);
+    if (step.change) {
+      ASSERT_TRUE(step.change(*reuse).ok());
+      ASSERT_TRUE(step.change(*fresh).ok());
+    }
+    for (int k = 0; k < 3; ++k) {
+      SCOPED_TRACE("rendering " + std::to_string(k));
+      auto a = reuse->render(step.cam, step.options);
+      auto b = fresh->render(step.cam, step.options);
+      ASSERT_TRUE(a.ok() && b.ok()) << (a.ok() ? b.message() : a.message());
+      EXPECT_FALSE(b->passes_replayed);
+      EXPECT_EQ(a->passes_replayed, step.replay_expected || k == 2);
+      EXPECT_EQ(a->visible, b->visible);
+      EXPECT_EQ(a->pairs, b->pairs);
+      auto ia = reuse->read_image();
+      auto ib = fresh->read_image();
+      ASSERT_TRUE(ia.ok() && ib.ok());
+      ASSERT_EQ(ia->pixels.size(), ib->pixels.size());
+      std::size_t differ = 0;
+      for (std::size_t i = 0; i < ia->pixels.size(); ++i) differ += ia->pixels[i] != ib->pixels[i];
+      EXPECT_EQ(differ, 0u);
+    }
+  }
 }
 
 // Runs packed by pack_slots into a host-visible buffer and queued with queue_packed_slots

@@ -8,6 +8,7 @@
 #include <optional>
 #include <utility>
 
+#include "gauss/render/vk_check.h"
 #include "gauss/render/vk_context.h"
 #include "splat_frame.h"
 #include "splat_layout.h"
@@ -37,6 +38,7 @@ Status SplatRenderer::Impl::prepare_view(FrameSlot& f, std::uint32_t v, const Ca
       ring->defer([old]() mutable { old.reset(); });
     }
     vt.target = std::move(*t);
+    ++targets_generation;  // recorded passes bind the old target's images
   }
   gpu::GpuView g{};
   const glm::dmat4& m = camera.world_to_camera;
@@ -57,6 +59,66 @@ Status SplatRenderer::Impl::prepare_view(FrameSlot& f, std::uint32_t v, const Ca
 
 Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::uint32_t v, const Camera& camera,
                                         const SplatRenderOptions& options) {
+  FrameViewResources& view = f.views[v];
+  ViewTarget& vt = targets[v];
+  const bool with_mesh = mesh.has_mesh();
+  view.timestamps.write(c, 0);
+  // ---- Mesh pass (its push constants hold the camera: recorded every frame) ----
+  vk::Image& colour = vt.target.color();
+  vk::Image& depth = vt.target.depth();
+  if (with_mesh) mesh.record(c, vt.target, camera, options.clear_colour);
+  colour.transition(c, VK_IMAGE_LAYOUT_GENERAL);
+  depth.transition(c, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
+  vt.had_mesh = with_mesh;
+
+  // ---- The compute passes: replayed while nothing they record has changed ----
+  view.replayed = false;
+  if (!reuse_passes) {
+    if (auto st = record_passes(c, f, v, camera, options); !st) return st;
+  } else {
+    const ViewPassesKey key{.width = camera.width,
+                            .height = camera.height,
+                            .high_water = slots.high_water(),
+                            .mesh = with_mesh,
+                            .tint = highlight_count > 0 || slots.tinted_count() > 0,
+                            .exact_culling = options.exact_culling,
+                            .targets_generation = targets_generation};
+    view.replayed = view.passes_key == key;
+    if (!view.replayed) {
+      // This frame slot's last frame has finished (FrameRing::begin waited for it), so
+      // its secondary is no longer pending.
+      view.passes_key.reset();
+      GAUSS_VK_TRY(vkResetCommandBuffer(view.passes, 0));
+      VkCommandBufferInheritanceInfo inherit{};
+      inherit.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_INHERITANCE_INFO;
+      VkCommandBufferBeginInfo bi{};
+      bi.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+      bi.pInheritanceInfo = &inherit;
+      GAUSS_VK_TRY(vkBeginCommandBuffer(view.passes, &bi));
+      if (auto st = record_passes(view.passes, f, v, camera, options); !st) return st;
+      GAUSS_VK_TRY(vkEndCommandBuffer(view.passes));
+      view.passes_key = key;
+    }
+    vkCmdExecuteCommands(c, 1, &view.passes);
+  }
+
+  // ---- The packed pixels into the target's colour image ----
+  colour.transition(c, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+  VkBufferImageCopy region{};
+  region.bufferRowLength = camera.width;
+  region.bufferImageHeight = camera.height;
+  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.imageExtent = {camera.width, camera.height, 1};
+  vkCmdCopyBufferToImage(c, output.handle(), colour.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+  // The next view reuses the output buffer: its blend writes wait for this copy's reads.
+  vk::memory_barrier(c, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
+                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_WRITE_BIT);
+  view.timestamps.write(c, 8);
+  return Ok{};
+}
+
+Status SplatRenderer::Impl::record_passes(VkCommandBuffer c, FrameSlot& f, std::uint32_t v, const Camera& camera,
+                                          const SplatRenderOptions& options) {
   FrameViewResources& view = f.views[v];
   ViewTarget& vt = targets[v];
   const bool with_mesh = mesh.has_mesh();
@@ -89,16 +151,9 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
   };
   auto indirect = [&](std::uint32_t word) { vkCmdDispatchIndirect(c, counters.handle(), VkDeviceSize{word} * 4); };
 
-  ts(0);
-  // ---- Mesh pass and per-tile max mesh depth ----
+  // ---- Per-tile max mesh depth (after the mesh pass, record_view) ----
   vk::Image& colour = vt.target.color();
   vk::Image& depth = vt.target.depth();
-  if (with_mesh) {
-    mesh.record(c, vt.target, camera, options.clear_colour);
-  }
-  colour.transition(c, VK_IMAGE_LAYOUT_GENERAL);
-  depth.transition(c, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
-  vt.had_mesh = with_mesh;
   if (with_mesh) {
     const auto& p = pipelines.tile_depth();
     if (auto st = p.bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
@@ -309,19 +364,9 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
     return st;
   push(**blend, 0, 0, 0);
   vkCmdDispatch(c, tiles_x, tiles_y, 1);
+  // The copy into the view's image (record_view) reads what the blend wrote.
   vk::memory_barrier(c, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
-  colour.transition(c, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
-  VkBufferImageCopy region{};
-  region.bufferRowLength = camera.width;
-  region.bufferImageHeight = camera.height;
-  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-  region.imageExtent = {camera.width, camera.height, 1};
-  vkCmdCopyBufferToImage(c, output.handle(), colour.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
-  // The next view reuses the output buffer: its blend writes wait for this copy's reads.
-  vk::memory_barrier(c, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
-                     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_WRITE_BIT);
-  ts(8);
   return Ok{};
 }
 
@@ -335,6 +380,7 @@ Expected<SplatFrameStats> SplatRenderer::Impl::read_stats(const FrameSlot& f, st
   s.pairs = words[gpu::SPLAT_COUNTER_PAIRS];
   s.pairs_needed = words[gpu::SPLAT_COUNTER_PAIRS_NEEDED];
   s.pair_overflow = s.pairs_needed > info.max_pairs;
+  s.passes_replayed = view.replayed;
   auto ticks = view.timestamps.read_ticks();
   if (!ticks) return ticks.error();
   const double ns = context->timestamp_period_ns();

@@ -12,9 +12,12 @@
 #include "gauss/render/splat_renderer.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <string>
+#include <string_view>
 
 #include "gauss/render/reference_rasterizer.h"
+#include "gauss/render/vk_check.h"
 #include "gauss/render/vk_context.h"
 #include "splat_frame.h"
 #include "splat_layout.h"
@@ -23,6 +26,14 @@ namespace gauss::render {
 
 SplatRenderer::SplatRenderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 SplatRenderer::~SplatRenderer() = default;
+
+SplatRenderer::Impl::~Impl() {
+  if (context == nullptr) return;
+  if (ring) (void)ring->wait_all();
+  for (FrameSlot& f : frame_slots)
+    for (FrameViewResources& view : f.views)
+      if (view.passes != VK_NULL_HANDLE) vkFreeCommandBuffers(context->device(), context->command_pool(), 1, &view.passes);
+}
 
 Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& context,
                                                                 const SplatRendererCreateInfo& info_in) {
@@ -112,8 +123,17 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
       auto ts = vk::TimestampQueries::create(context, kViewTimestamps);
       if (!ts) return ts.error();
       view.timestamps = std::move(*ts);
+      VkCommandBufferAllocateInfo ai{};
+      ai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+      ai.commandPool = context.command_pool();
+      ai.level = VK_COMMAND_BUFFER_LEVEL_SECONDARY;
+      ai.commandBufferCount = 1;
+      GAUSS_VK_TRY(vkAllocateCommandBuffers(context.device(), &ai, &view.passes));
     }
   }
+  impl->reuse_passes = info.reuse_recorded_passes;
+  if (const char* env = std::getenv("GAUSS_SPLAT_REUSE_PASSES"); env && std::string_view(env) == "0")
+    impl->reuse_passes = false;
   impl->info = info;
   return std::unique_ptr<SplatRenderer>(new SplatRenderer(std::move(impl)));
 }

@@ -112,6 +112,11 @@ struct SplatRendererCreateInfo {
   // Upload copy groups of at least this many regions are applied by one compute scatter
   // (vk_staged_uploads.h); UINT32_MAX keeps every group a vkCmdCopyBuffer (to compare).
   std::uint32_t upload_scatter_min_regions{vk::kDeviceScatterMinRegions};
+  // Replay a view's compute passes from the command buffer they were last recorded into
+  // while nothing they record has changed (size, high-water mark, mesh, tint, culling;
+  // the camera travels in a uniform buffer). false, or GAUSS_SPLAT_REUSE_PASSES=0,
+  // records them every frame (the same commands: tests and benchmarks compare the two).
+  bool reuse_recorded_passes{true};
 };
 
 // What a frame-paced caller adds to a frame of render_frame().
@@ -152,6 +157,7 @@ struct SplatFrameStats {
   std::uint32_t pairs{0};            // pairs emitted (<= max_pairs)
   std::uint32_t pairs_needed{0};     // pairs wanted (saturates at 2^32 - 1)
   bool pair_overflow{false};
+  bool passes_replayed{false};       // the compute passes were replayed, not recorded anew
   SplatPassTimings gpu;
 };
 
