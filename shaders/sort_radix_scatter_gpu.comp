@@ -16,6 +16,10 @@
 // barriers around the per-digit scan; each s_off row is touched by its own subgroup only,
 // in order (subgroup barriers). ROWS (specialised: SPLAT_WORKGROUP / the device's smallest
 // subgroup) sizes s_off, ROWS * BINS words: 8-bit digits are chosen only where it fits.
+// FUSED_OFFSETS (several blocks, at most SORT_FUSED_OFFSETS_MAX_BLOCKS): no offsets pass
+// ran, so each of the first BINS invocations sums its digit's row of block counts itself,
+// before this block and in all: on a GPU one pass's dispatch and barrier cost more than
+// a few dozen reads of a small, cached row (an H100 barrier: 5 us).
 // Every key and value of the run is loaded into registers first (see
 // sort_radix_count_gpu.comp: one memory latency instead of one per iteration and loop).
 #extension GL_GOOGLE_include_directive : require
@@ -30,6 +34,7 @@
 layout(local_size_x = SPLAT_WORKGROUP) in;
 layout(constant_id = SORT_SPEC_RADIX_BITS) const uint RADIX_BITS = 4u;
 layout(constant_id = SORT_SPEC_ROWS) const uint ROWS = SPLAT_MAX_SUBGROUPS;
+layout(constant_id = SORT_SPEC_FUSED_OFFSETS) const bool FUSED_OFFSETS = false;
 const uint BINS = 1u << RADIX_BITS;
 
 layout(std430, binding = SPLAT_BINDING_KEYS_IN) readonly buffer KeysInBuf { uint keys_in[]; };
@@ -44,6 +49,7 @@ layout(push_constant) uniform Push { GpuSplatPush pc; };
 shared uint s_off[ROWS * BINS];
 shared uint s_total[BINS];  // keys of each digit: in the block (one block) or in the list
 shared uint s_base[BINS];   // keys of the smaller digits
+shared uint s_before[BINS];  // FUSED_OFFSETS: keys of each digit in the blocks before this one
 
 void main() {
   const uint n = counters[pc.count_index];
@@ -78,6 +84,14 @@ void main() {
     uint total = 0u;
     if (blocks == 1u) {
       for (uint s = 0u; s < gl_NumSubgroups; ++s) total += s_off[s * BINS + lid];
+    } else if (FUSED_OFFSETS) {  // the count pass's raw row (blocks <= SORT_FUSED_OFFSETS_MAX_BLOCKS)
+      uint before = 0u;
+      for (uint b = 0u; b < blocks; ++b) {
+        const uint c = hist[lid * blocks + b];
+        before += b < block ? c : 0u;
+        total += c;
+      }
+      s_before[lid] = before;
     } else {
       total = hist[BINS * blocks + lid];
     }
@@ -92,7 +106,7 @@ void main() {
   }
   barrier();
   if (lid < BINS) {  // digit lid: where each subgroup's keys of it start
-    uint run = s_base[lid] + (blocks == 1u ? 0u : hist[lid * blocks + block]);
+    uint run = s_base[lid] + (blocks == 1u ? 0u : FUSED_OFFSETS ? s_before[lid] : hist[lid * blocks + block]);
     for (uint s = 0u; s < gl_NumSubgroups; ++s) {
       const uint v = s_off[s * BINS + lid];
       s_off[s * BINS + lid] = run;

@@ -203,6 +203,11 @@ GAUSS_CONST(uint, SPLAT_SCAN_PHASE_DOWN, 2u)    // each block rescanned from its
 // scatter's shared rows (SPLAT_WORKGROUP / the smallest subgroup the device may use).
 GAUSS_CONST(uint, SORT_SPEC_RADIX_BITS, 8u)
 GAUSS_CONST(uint, SORT_SPEC_ROWS, 9u)
+// sort_radix_scatter_gpu.comp: the scatter sums its digits' block counts itself (no
+// offsets pass), for sorts whose keys are known on the CPU to need at most
+// SORT_FUSED_OFFSETS_MAX_BLOCKS blocks (the depth sort: the high-water mark bounds them).
+GAUSS_CONST(uint, SORT_SPEC_FUSED_OFFSETS, 10u)
+GAUSS_CONST(uint, SORT_FUSED_OFFSETS_MAX_BLOCKS, 64u)
 
 // ---- Push constants ---------------------------------------------------------------------------
 // One struct for every compute kernel; each reads the fields it documents.

@@ -237,8 +237,10 @@ Status SplatRenderer::Impl::record_passes(VkCommandBuffer c, FrameSlot& f, std::
   ts(3);
 
   // One stable radix pass: keys/vals[src] -> keys/vals[1 - src] on digit `shift`.
+  // fused_offsets (GPU shapes, few blocks): no offsets pass; the scatter sums the counts.
   auto radix_pass = [&](std::uint32_t src, std::uint32_t shift, std::uint32_t count_index,
-                        std::uint32_t blocks_args, std::uint32_t count_args, std::uint32_t hist_args) -> Status {
+                        std::uint32_t blocks_args, std::uint32_t count_args, std::uint32_t hist_args,
+                        bool fused_offsets) -> Status {
     const std::uint32_t dst = 1 - src;
     if (auto st = pipelines.radix_count().bind(c, {{gpu::SPLAT_BINDING_KEYS_IN, &keys[src]},
                                                    {gpu::SPLAT_BINDING_HIST, &hist},
@@ -251,11 +253,14 @@ Status SplatRenderer::Impl::record_passes(VkCommandBuffer c, FrameSlot& f, std::
     // GPU shapes: one workgroup per digit row, which binds the histogram and counters only.
     const std::initializer_list<vk::Resource> offsets_res = {{gpu::SPLAT_BINDING_HIST, &hist},
                                                              {gpu::SPLAT_BINDING_COUNTERS, &counters}};
-    if (auto st = pipelines.scan_hist().bind(c, gpu_shapes ? offsets_res : scan_res); !st) return st;
-    push(pipelines.scan_hist(), 0, count_index, shift);
-    indirect(hist_args);
-    vk::compute_to_compute_barrier(c);
-    if (auto st = pipelines.radix_scatter().bind(c, {{gpu::SPLAT_BINDING_KEYS_IN, &keys[src]},
+    if (!fused_offsets) {
+      if (auto st = pipelines.scan_hist().bind(c, gpu_shapes ? offsets_res : scan_res); !st) return st;
+      push(pipelines.scan_hist(), 0, count_index, shift);
+      indirect(hist_args);
+      vk::compute_to_compute_barrier(c);
+    }
+    const vk::ComputePipeline& scatter = fused_offsets ? pipelines.radix_scatter_fused() : pipelines.radix_scatter();
+    if (auto st = scatter.bind(c, {{gpu::SPLAT_BINDING_KEYS_IN, &keys[src]},
                                                      {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
                                                      {gpu::SPLAT_BINDING_KEYS_OUT, &keys[dst]},
                                                      {gpu::SPLAT_BINDING_VALS_OUT, &vals[dst]},
@@ -263,18 +268,21 @@ Status SplatRenderer::Impl::record_passes(VkCommandBuffer c, FrameSlot& f, std::
                                                      {gpu::SPLAT_BINDING_COUNTERS, &counters}});
         !st)
       return st;
-    push(pipelines.radix_scatter(), 0, count_index, shift);
+    push(scatter, 0, count_index, shift);
     indirect(blocks_args);
     vk::compute_to_compute_barrier(c);
     return Ok{};
   };
 
   // ---- Depth sort: all 32 bits of the float key (8 or 4 passes: the result is back in [0]) ----
+  // The visible splats are at most the high-water mark: with few enough blocks the GPU
+  // scatters sum their block counts themselves (one dispatch and barrier less per pass).
   const std::uint32_t digit_bits = pipelines.radix_bits();
+  const bool depth_fused = gpu_shapes && visible_blocks <= gpu::SORT_FUSED_OFFSETS_MAX_BLOCKS;
   std::uint32_t src = 0;
   for (std::uint32_t shift = 0; shift < 32; shift += digit_bits) {
     if (auto st = radix_pass(src, shift, gpu::SPLAT_COUNTER_VISIBLE, gpu::SPLAT_ARGS_VISIBLE_BLOCKS,
-                             gpu::SPLAT_ARGS_VISIBLE_COUNT, gpu::SPLAT_ARGS_VISIBLE_HIST);
+                             gpu::SPLAT_ARGS_VISIBLE_COUNT, gpu::SPLAT_ARGS_VISIBLE_HIST, depth_fused);
         !st)
       return st;
     src = 1 - src;
@@ -328,7 +336,7 @@ Status SplatRenderer::Impl::record_passes(VkCommandBuffer c, FrameSlot& f, std::
   const std::uint32_t tile_bits = static_cast<std::uint32_t>(std::bit_width(tiles - 1));
   for (std::uint32_t shift = 0; shift < tile_bits; shift += digit_bits) {
     if (auto st = radix_pass(src, shift, gpu::SPLAT_COUNTER_PAIRS, gpu::SPLAT_ARGS_PAIR_BLOCKS,
-                             gpu::SPLAT_ARGS_PAIR_COUNT, gpu::SPLAT_ARGS_PAIR_HIST);
+                             gpu::SPLAT_ARGS_PAIR_COUNT, gpu::SPLAT_ARGS_PAIR_HIST, false);
         !st)
       return st;
     src = 1 - src;

@@ -18,7 +18,7 @@
 //   with less than the CPU shapes need gets the GPU shapes when its subgroups allow.
 // - Digit width (GPU shapes). Every radix pass is three dispatches whose fixed cost
 //   dominates small scenes on a GPU, so 8-bit digits (4 passes over a depth key, not 8)
-//   are taken where the scatter's rows (one per subgroup, 256 words each) fit in 18.3 KiB
+//   are taken where the scatter's rows (one per subgroup, 256 words each) fit in 19.3 KiB
 //   of shared memory: subgroups of 16 or more (NVIDIA 32, AMD 32/64, Mali 16, Adreno
 //   64/128). Smaller subgroups keep 4-bit digits (lavapipe's 4 and 8, some Intel).
 #include <algorithm>
@@ -36,14 +36,14 @@ namespace {
 
 // Shared memory of the largest pass of each shape (bytes), see the shaders' shared arrays.
 constexpr std::uint32_t kCpuShapesShared = (gpu::SORT_BINS * gpu::SPLAT_WORKGROUP + gpu::SORT_BINS * 16 + gpu::SORT_BINS) * 4;
-// sort_radix_scatter_gpu.comp: s_off (rows x bins), s_total and s_base (bins each), and
-// splat_subgroup.glsl's s_wg_sub.
+// sort_radix_scatter_gpu.comp: s_off (rows x bins), s_total, s_base and s_before (bins
+// each), and splat_subgroup.glsl's s_wg_sub.
 constexpr std::uint32_t gpu_scatter_shared(std::uint32_t rows, std::uint32_t bits) {
-  return (rows * (1u << bits) + 2u * (1u << bits) + gpu::SPLAT_MAX_SUBGROUPS) * 4;
+  return (rows * (1u << bits) + 3u * (1u << bits) + gpu::SPLAT_MAX_SUBGROUPS) * 4;
 }
 constexpr std::uint32_t kGpuShapesShared = gpu_scatter_shared(gpu::SPLAT_MAX_SUBGROUPS, 4);
 // 8-bit digits only where their scatter fits Vulkan's guaranteed 16 KiB plus a little:
-// subgroups of 16 and up (16 rows: 18.3 KiB; 32-wide: 10.3 KiB).
+// subgroups of 16 and up (16 rows: 19.3 KiB; 32-wide: 11.3 KiB).
 constexpr std::uint32_t kWideDigitShared = gpu_scatter_shared(16, gpu::SORT_RADIX_BITS_MAX);
 
 bool subgroups_fit_gpu_shapes(const vk::Context& context) {

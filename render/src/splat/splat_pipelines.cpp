@@ -198,6 +198,15 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
                      scan_spec(gpu::SPLAT_SCAN_PAIRS, gpu::SPLAT_SCAN_PHASE_REDUCE), true});
     fixed.push_back({&p.scan_pairs_down_, "splat scan (pairs, down)", scan_code, scan_bindings(),
                      scan_spec(gpu::SPLAT_SCAN_PAIRS, gpu::SPLAT_SCAN_PHASE_DOWN), true});
+    fixed.push_back({&p.radix_scatter_fused_, "radix scatter (own offsets)", vk::spirv(gauss_spv_sort_radix_scatter_gpu_comp),
+                     {{gpu::SPLAT_BINDING_KEYS_IN, SB},
+                      {gpu::SPLAT_BINDING_VALS_IN, SB},
+                      {gpu::SPLAT_BINDING_KEYS_OUT, SB},
+                      {gpu::SPLAT_BINDING_VALS_OUT, SB},
+                      {gpu::SPLAT_BINDING_HIST, SB},
+                      {gpu::SPLAT_BINDING_COUNTERS, SB}},
+                     {digit_spec, {gpu::SORT_SPEC_ROWS, profile.sort_rows}, {gpu::SORT_SPEC_FUSED_OFFSETS, 1}},
+                     true});
   }
   for (const Fixed& f : fixed) {
     auto pipe = make(context, f.name, f.code, f.bindings, f.spec, f.full_subgroups);

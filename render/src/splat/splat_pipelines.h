@@ -60,6 +60,9 @@ class SplatPipelines {
   const vk::ComputePipeline& compact() const noexcept { return compact_; }
   const vk::ComputePipeline& radix_count() const noexcept { return radix_count_; }
   const vk::ComputePipeline& radix_scatter() const noexcept { return radix_scatter_; }
+  // Gpu only: the scatter that sums its block counts itself (no offsets pass before it),
+  // for sorts of at most SORT_FUSED_OFFSETS_MAX_BLOCKS blocks.
+  const vk::ComputePipeline& radix_scatter_fused() const noexcept { return radix_scatter_fused_; }
   const vk::ComputePipeline& ranges() const noexcept { return ranges_; }
   const vk::ComputePipeline& tile_depth() const noexcept { return tile_depth_; }
 
@@ -73,7 +76,8 @@ class SplatPipelines {
   std::map<std::uint32_t, vk::ComputePipeline> blend_;
   vk::ComputePipeline scan_visible_, scan_pairs_, scan_hist_, compact_, radix_count_, radix_scatter_, ranges_,
       tile_depth_;
-  vk::ComputePipeline scan_visible_reduce_, scan_visible_down_, scan_pairs_reduce_, scan_pairs_down_;
+  vk::ComputePipeline scan_visible_reduce_, scan_visible_down_, scan_pairs_reduce_, scan_pairs_down_,
+      radix_scatter_fused_;
 };
 
 }  // namespace gauss::render::splat
