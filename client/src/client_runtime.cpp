@@ -90,7 +90,13 @@ Status ClientRuntime::make_renderer(int sh_degree) {
     const render::SlotLayout layout = renderer_->slot_layout();
     const std::uint32_t slots = config_.pack_slots_per_step == 0 ? config_.state.capacity
                                                                  : std::min(config_.state.capacity, config_.pack_slots_per_step);
-    for (std::uint32_t i = 0; i <= config_.frames_in_flight; ++i) {
+    // frames_in_flight + 2: when a step is asked for (before this frame is submitted) the
+    // buffer of the step this frame applies and those of the frames_in_flight frames before
+    // it may all be busy; one more is always free. With one fewer, a CPU a whole ring ahead
+    // of the GPU (an H100 replaying recorded passes) found none and wrote a step's slots on
+    // the display thread (ClientRuntimeInProcess.PublicationThreadShowsTheSameSet: 1700 of
+    // 2100 slots packed).
+    for (std::uint32_t i = 0; i < config_.frames_in_flight + 2; ++i) {
       // Storage usage: a step's many runs reach the slots through StagedUploads' compute
       // scatter, which binds a window of the pack buffer (so it may exceed one binding).
       auto b = vk::Buffer::create(*context_, {.size = VkDeviceSize{slots} * layout.bytes_per_slot(),

@@ -84,7 +84,7 @@ struct ClientRuntimeConfig {
   // real display must not use it: a step longer than a frame would stall the next frame.
   bool publication_lockstep{false};
   // Slots one publication step packs off the display thread at most (per pack buffer;
-  // frames_in_flight + 1 buffers of this many slots); a step writing more leaves the rest
+  // frames_in_flight + 2 buffers of this many slots); a step writing more leaves the rest
   // to the display thread. 0 = capacity.
   std::uint32_t pack_slots_per_step{65536};
   // Upload copy groups of at least this many regions go to the GPU as one compute scatter
