@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "enet_runtime.h"
+#include "gauss/engine/log_text.h"
 #include "gauss/net/auth.h"
 #include "gauss/net/stream_cipher.h"
 #include "packet_ref.h"
@@ -171,6 +172,9 @@ struct NetClient::Impl {
       return true;
     }
     if (auto* refuse = std::get_if<msg::Refuse>(&m)) {
+      // The detail is the host's text, and the host may be anyone on the network: it
+      // reaches logs, terminals and panels escaped (no line breaks, no terminal codes).
+      refuse->detail = escape_for_log(refuse->detail, msg::kMaxReasonBytes);
       const std::string why = "refused by " + endpoint + ": " + refuse->detail;
       log(why + "; not retrying");
       {

@@ -505,6 +505,59 @@ TEST(Transport, AProofIsBoundToItsHelloAndTokensNeverTravel) {
   EXPECT_EQ((*host)->counters().accepted, 0u);
 }
 
+// The host's text is escaped where it enters the client: a rogue host's Refuse cannot
+// forge a line in the client's log (the line scripts parse) nor reach a terminal's
+// escape codes, in the log, the counters or what the sink is handed.
+TEST(Transport, AHostsRefusalTextIsEscapedOnTheClient) {
+  enet_initialize();
+  ENetAddress bind{};
+  enet_address_set_host(&bind, "127.0.0.1");
+  bind.port = 0;
+  ENetHost* rogue = enet_host_create(&bind, 4, msg::kChannelCount, 0, 0);
+  ASSERT_NE(rogue, nullptr);
+  const std::string evil = "no\nclient 1 'legit' left: sent 20000 Gaussians, checksum 42\x1b[2J\r";
+  auto refusal = wire::encode(msg::Refuse{msg::RefuseReason::Other, msg::kProtocolVersion, evil});
+  ASSERT_TRUE(refusal.ok()) << refusal.message();
+
+  std::mutex mu;
+  std::vector<std::string> lines;
+  auto cfg = client_config(rogue->address.port);
+  cfg.reconnect = false;
+  cfg.log = [&](const std::string& line) {
+    std::lock_guard lock(mu);
+    lines.push_back(line);
+  };
+  RecordingSink sink;
+  auto client = net::NetClient::start(cfg, sink);
+  ASSERT_TRUE(client.ok()) << client.message();
+  // The rogue host answers whatever arrives first (the Hello) with its Refuse.
+  bool sent = false;
+  ASSERT_TRUE(wait_until([&] {
+    ENetEvent ev;
+    while (enet_host_service(rogue, &ev, 0) > 0) {
+      if (ev.type != ENET_EVENT_TYPE_RECEIVE) continue;
+      enet_packet_destroy(ev.packet);
+      if (sent) continue;
+      ENetPacket* p = enet_packet_create(refusal->data(), refusal->size(), ENET_PACKET_FLAG_RELIABLE);
+      if (enet_peer_send(ev.peer, msg::channel_of(msg::MessageType::Refuse), p) != 0) enet_packet_destroy(p);
+      enet_host_flush(rogue);
+      sent = true;
+    }
+    return (*client)->status() == net::ClientStatus::Refused;
+  }));
+  auto clean = [](const std::string& t) {
+    return t.find('\n') == std::string::npos && t.find('\r') == std::string::npos && t.find('\x1b') == std::string::npos;
+  };
+  ASSERT_TRUE(sink.refused.has_value());
+  EXPECT_TRUE(clean(sink.refused->detail)) << sink.refused->detail;
+  EXPECT_NE(sink.refused->detail.find("checksum 42"), std::string::npos) << "escaped, not dropped";
+  EXPECT_TRUE(clean((*client)->counters().last_rejection));
+  std::lock_guard lock(mu);
+  ASSERT_FALSE(lines.empty());
+  for (const std::string& line : lines) EXPECT_TRUE(clean(line)) << line;
+  enet_host_destroy(rogue);
+}
+
 TEST(Auth, ProofDependsOnTokenNonceAndHello) {
   ASSERT_TRUE(net::auth_init().ok());
   const msg::Challenge a = net::make_challenge(), b = net::make_challenge();
