@@ -36,6 +36,7 @@
 
 #include "dump_sent.h"
 #include "gauss/engine/log_text.h"
+#include "gauss/net/auth.h"
 #include "gauss/net/session_host.h"
 #include "options.h"
 #include "scene_feed.h"
@@ -51,6 +52,18 @@ void on_signal(int) { g_stop = true; }
 int main(int argc, char** argv) {
   gauss::host_app::Options o;
   if (auto rc = gauss::host_app::parse_options(argc, argv, o)) return *rc;
+  if (o.token == "auto") {
+    if (auto st = gauss::net::auth_init(); !st) {
+      std::fprintf(stderr, "gauss-host: %s\n", st.message().c_str());
+      return 1;
+    }
+    o.token = gauss::net::generate_access_token();
+    std::printf("gauss-host: access token (clients pass it with --token): %s\n", o.token.c_str());
+    std::fflush(stdout);
+  } else if (!o.token.empty()) {
+    if (auto weak = gauss::net::weak_token_reason(o.token))
+      std::fprintf(stderr, "gauss-host: warning: %s\n", weak->c_str());
+  }
 
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);

@@ -49,7 +49,9 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
       ->check(apps::endpoint())
       ->type_name("HOST:PORT");
   auto* token = app.add_option("--token", o.token,
-                               "access token clients must prove (challenge-response; it never crosses the wire)");
+                               "access token clients must prove (challenge-response; it never crosses the wire); "
+                               "'auto' generates a random one and prints it. Shorter than 20 characters draws a "
+                               "warning: one recorded handshake lets anyone test guesses offline");
   app.add_flag("--encrypt", o.encrypt,
                "seal the stream after the handshake (XChaCha20-Poly1305, keys derived from the token): for "
                "private scenes")

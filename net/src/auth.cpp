@@ -74,4 +74,24 @@ bool verify_auth_proof(std::string_view token, const msg::Challenge& challenge,
   return sodium_memcmp(expected.mac.data(), proof.mac.data(), expected.mac.size()) == 0;
 }
 
+std::string generate_access_token() {
+  static constexpr char kAlphabet[] = "0123456789abcdefghjkmnpqrstvwxyz";  // Crockford base32
+  std::array<std::uint8_t, 26> bytes{};
+  randombytes_buf(bytes.data(), bytes.size());
+  std::string out;
+  for (std::size_t i = 0; i < bytes.size(); ++i) {
+    if (i > 0 && i % 4 == 0) out += '-';
+    out += kAlphabet[bytes[i] & 31u];  // 256 is a multiple of 32: every symbol equally likely
+  }
+  sodium_memzero(bytes.data(), bytes.size());
+  return out;
+}
+
+std::optional<std::string> weak_token_reason(std::string_view token) {
+  if (token.size() >= kStrongTokenChars) return std::nullopt;
+  return "a token of " + std::to_string(token.size()) + " characters can be found by testing guesses against one "
+         "recorded handshake, offline; use at least " + std::to_string(kStrongTokenChars) +
+         " random characters, or --token auto";
+}
+
 }  // namespace gauss::net

@@ -3,6 +3,7 @@
 // input on a live connection (malformed, wrong direction, query flood, garbage
 // first message), each rejected with a counter while the connection survives.
 // No timing assertions: every wait is on a condition with a generous timeout.
+#include <array>
 #include <chrono>
 #include <condition_variable>
 #include <functional>
@@ -569,6 +570,37 @@ TEST(Auth, ProofDependsOnTokenNonceAndHello) {
   EXPECT_FALSE(net::verify_auth_proof("k", b, hello, p));
   EXPECT_FALSE(net::verify_auth_proof("k", a, other, p));
   EXPECT_FALSE(net::verify_auth_proof("", a, hello, p));
+}
+
+// --token auto: 26 symbols of Crockford base32 in groups of four (130 bits), readable
+// aloud and typeable; fresh each time, each symbol drawn evenly, and never judged weak. A
+// token shorter than 20 characters is (offline guessing against a recorded handshake).
+TEST(Auth, GeneratedTokensAreLongRandomAndTypeable) {
+  ASSERT_TRUE(net::auth_init().ok());
+  const std::string alphabet = "0123456789abcdefghjkmnpqrstvwxyz";
+  std::array<int, 32> seen{};
+  std::string previous;
+  for (int k = 0; k < 200; ++k) {
+    const std::string t = net::generate_access_token();
+    ASSERT_EQ(t.size(), 26u + 6u) << t;
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      if (i % 5 == 4) {
+        EXPECT_EQ(t[i], '-') << t;
+        continue;
+      }
+      const auto at = alphabet.find(t[i]);
+      ASSERT_NE(at, std::string::npos) << t;
+      ++seen[at];
+    }
+    EXPECT_NE(t, previous);
+    EXPECT_FALSE(net::weak_token_reason(t).has_value()) << t;
+    previous = t;
+  }
+  // 5200 symbols: every one of the 32 appears about 162 times; none is missing or rare.
+  for (int n : seen) EXPECT_GT(n, 80);
+  EXPECT_TRUE(net::weak_token_reason("open-sesame").has_value());
+  EXPECT_NE(net::weak_token_reason("123456").value_or("").find("offline"), std::string::npos);
+  EXPECT_FALSE(net::weak_token_reason("correct-horse-battery-staple").has_value());
 }
 
 }  // namespace

@@ -8,7 +8,9 @@
 // connection; binding it to the Hello's bytes stops a man in the middle from reusing a
 // proof with a Hello of his own (another capacity or name).
 #include <array>
+#include <optional>
 #include <span>
+#include <string>
 #include <string_view>
 
 #include "gauss/engine/messages.h"
@@ -29,6 +31,15 @@ msg::AuthProof auth_proof(std::string_view token, const msg::Challenge& challeng
 using StreamKey = std::array<std::uint8_t, 32>;
 StreamKey stream_key(std::string_view token, const msg::Challenge& challenge, std::span<const std::uint8_t> hello_frame,
                      std::uint8_t direction);
+// A fresh access token for `--token auto`: 130 bits from the system's CSPRNG as 26
+// characters of Crockford's base32 (lower case, no i l o u), in groups of four joined by
+// '-', so that a person can read it out and type it: "k3f9-x2ab-...". Requires auth_init().
+std::string generate_access_token();
+// Why `token` is weak against a guesser, or nullopt. The proof lets anyone who recorded one
+// handshake test guesses offline (auth.h's scheme has no PAKE yet), so only length counts:
+// fewer than 20 characters (about 100 bits only if random; what people choose is far less).
+inline constexpr std::size_t kStrongTokenChars = 20;
+std::optional<std::string> weak_token_reason(std::string_view token);
 // Whether `proof` answers `challenge` for `hello_frame` under `token` (constant time).
 bool verify_auth_proof(std::string_view token, const msg::Challenge& challenge,
                        std::span<const std::uint8_t> hello_frame, const msg::AuthProof& proof);
