@@ -85,6 +85,11 @@ std::vector<vk::DescriptorBinding> scan_bindings() {
           {gpu::SPLAT_BINDING_HIST, SB},       {gpu::SPLAT_BINDING_COUNTERS, SB}};
 }
 
+std::vector<vk::DescriptorBinding> scatter_bindings() {
+  return {{gpu::SPLAT_BINDING_KEYS_IN, SB},  {gpu::SPLAT_BINDING_VALS_IN, SB}, {gpu::SPLAT_BINDING_KEYS_OUT, SB},
+          {gpu::SPLAT_BINDING_VALS_OUT, SB}, {gpu::SPLAT_BINDING_HIST, SB},    {gpu::SPLAT_BINDING_COUNTERS, SB}};
+}
+
 // Readers of projected splats by slot bind every chunk (splat_projected.glsl).
 void add_projected_chunks(std::vector<vk::DescriptorBinding>& bindings) {
   for (std::uint32_t b : {gpu::SPLAT_BINDING_PROJECTED_1, gpu::SPLAT_BINDING_PROJECTED_2, gpu::SPLAT_BINDING_PROJECTED_3})
@@ -168,12 +173,7 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
        g},
       {&p.radix_scatter_, "radix scatter",
        g ? vk::spirv(gauss_spv_sort_radix_scatter_gpu_comp) : vk::spirv(gauss_spv_sort_radix_scatter_comp),
-       {{gpu::SPLAT_BINDING_KEYS_IN, SB},
-        {gpu::SPLAT_BINDING_VALS_IN, SB},
-        {gpu::SPLAT_BINDING_KEYS_OUT, SB},
-        {gpu::SPLAT_BINDING_VALS_OUT, SB},
-        {gpu::SPLAT_BINDING_HIST, SB},
-        {gpu::SPLAT_BINDING_COUNTERS, SB}},
+       scatter_bindings(),
        g ? std::vector<vk::SpecConstant>{digit_spec, {gpu::SORT_SPEC_ROWS, profile.sort_rows}}
          : std::vector<vk::SpecConstant>{},
        g},
@@ -199,12 +199,7 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
     fixed.push_back({&p.scan_pairs_down_, "splat scan (pairs, down)", scan_code, scan_bindings(),
                      scan_spec(gpu::SPLAT_SCAN_PAIRS, gpu::SPLAT_SCAN_PHASE_DOWN), true});
     fixed.push_back({&p.radix_scatter_fused_, "radix scatter (own offsets)", vk::spirv(gauss_spv_sort_radix_scatter_gpu_comp),
-                     {{gpu::SPLAT_BINDING_KEYS_IN, SB},
-                      {gpu::SPLAT_BINDING_VALS_IN, SB},
-                      {gpu::SPLAT_BINDING_KEYS_OUT, SB},
-                      {gpu::SPLAT_BINDING_VALS_OUT, SB},
-                      {gpu::SPLAT_BINDING_HIST, SB},
-                      {gpu::SPLAT_BINDING_COUNTERS, SB}},
+                     scatter_bindings(),
                      {digit_spec, {gpu::SORT_SPEC_ROWS, profile.sort_rows}, {gpu::SORT_SPEC_FUSED_OFFSETS, 1}},
                      true});
   }

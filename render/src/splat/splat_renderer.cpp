@@ -17,7 +17,6 @@
 #include <string_view>
 
 #include "gauss/render/reference_rasterizer.h"
-#include "gauss/render/vk_check.h"
 #include "gauss/render/vk_context.h"
 #include "splat_frame.h"
 #include "splat_layout.h"
@@ -123,12 +122,9 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
       auto ts = vk::TimestampQueries::create(context, kViewTimestamps);
       if (!ts) return ts.error();
       view.timestamps = std::move(*ts);
-      VkCommandBufferAllocateInfo ai{};
-      ai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-      ai.commandPool = context.command_pool();
-      ai.level = VK_COMMAND_BUFFER_LEVEL_SECONDARY;
-      ai.commandBufferCount = 1;
-      GAUSS_VK_TRY(vkAllocateCommandBuffers(context.device(), &ai, &view.passes));
+      auto passes = vk::allocate_command_buffer(context, VK_COMMAND_BUFFER_LEVEL_SECONDARY);
+      if (!passes) return Error{"SplatRenderer: " + passes.message()};
+      view.passes = *passes;
     }
   }
   impl->reuse_passes = info.reuse_recorded_passes;

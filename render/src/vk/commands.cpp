@@ -10,15 +10,23 @@
 
 namespace gauss::vk {
 
-Expected<CommandBuffer> CommandBuffer::create(Context& context) {
-  CommandBuffer cb;
-  cb.context_ = &context;
+Expected<VkCommandBuffer> allocate_command_buffer(Context& context, VkCommandBufferLevel level) {
   VkCommandBufferAllocateInfo ai{};
   ai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
   ai.commandPool = context.command_pool();
-  ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  ai.level = level;
   ai.commandBufferCount = 1;
-  GAUSS_VK_TRY(vkAllocateCommandBuffers(context.device(), &ai, &cb.cmd_));
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  GAUSS_VK_TRY(vkAllocateCommandBuffers(context.device(), &ai, &cmd));
+  return cmd;
+}
+
+Expected<CommandBuffer> CommandBuffer::create(Context& context) {
+  CommandBuffer cb;
+  cb.context_ = &context;
+  auto cmd = allocate_command_buffer(context, VK_COMMAND_BUFFER_LEVEL_PRIMARY);
+  if (!cmd) return cmd.error();
+  cb.cmd_ = *cmd;
   VkFenceCreateInfo fci{};
   fci.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
   GAUSS_VK_TRY(vkCreateFence(context.device(), &fci, nullptr, &cb.fence_));

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "gauss/render/vk_check.h"
+#include "gauss/render/vk_commands.h"
 #include "gauss/render/vk_context.h"
 
 namespace gauss::vk {
@@ -15,12 +16,9 @@ Expected<std::unique_ptr<FrameRing>> FrameRing::create(Context& context, std::ui
   std::unique_ptr<FrameRing> ring(new FrameRing(context));
   ring->slots_.resize(frames_in_flight);
   for (Slot& s : ring->slots_) {
-    VkCommandBufferAllocateInfo ai{};
-    ai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-    ai.commandPool = context.command_pool();
-    ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    ai.commandBufferCount = 1;
-    GAUSS_VK_TRY(vkAllocateCommandBuffers(context.device(), &ai, &s.cmd));
+    auto cmd = allocate_command_buffer(context, VK_COMMAND_BUFFER_LEVEL_PRIMARY);
+    if (!cmd) return cmd.error();
+    s.cmd = *cmd;
     VkFenceCreateInfo fci{};
     fci.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
     GAUSS_VK_TRY(vkCreateFence(context.device(), &fci, nullptr, &s.fence));

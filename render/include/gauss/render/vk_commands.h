@@ -47,6 +47,10 @@ class CommandBuffer {
   bool pending_{false};
 };
 
+// One command buffer of `level` from the context's pool (resettable one by one). The
+// caller frees it with vkFreeCommandBuffers on the same pool.
+Expected<VkCommandBuffer> allocate_command_buffer(Context& context, VkCommandBufferLevel level);
+
 // A synchronization2 barrier of mip 0 / layer 0 of `image` (no queue transfer).
 VkImageMemoryBarrier2 image_barrier(VkImage image, VkImageAspectFlags aspect, VkImageLayout old_layout,
                                     VkImageLayout new_layout, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
