@@ -80,7 +80,7 @@ Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::ui
                             .height = camera.height,
                             .high_water = slots.high_water(),
                             .mesh = with_mesh,
-                            .tint = highlight_count > 0 || slots.tinted_count() > 0,
+                            .tint = tint_active(),
                             .exact_culling = options.exact_culling,
                             .targets_generation = targets_generation};
     view.replayed = view.passes_key == key;
@@ -122,7 +122,7 @@ Status SplatRenderer::Impl::record_passes(VkCommandBuffer c, FrameSlot& f, std::
   FrameViewResources& view = f.views[v];
   ViewTarget& vt = targets[v];
   const bool with_mesh = mesh.has_mesh();
-  const bool tint = highlight_count > 0 || slots.tinted_count() > 0;
+  const bool tint = tint_active();
   const std::uint32_t tiles_x = render::tile_count(camera.width), tiles_y = render::tile_count(camera.height);
   const std::uint32_t tiles = tiles_x * tiles_y;
   const std::uint32_t hwm = slots.high_water();

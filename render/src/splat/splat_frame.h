@@ -99,6 +99,9 @@ struct SplatRenderer::Impl {
   std::map<std::uint64_t, std::array<SplatFrameStats, 2>> finished_stats;
 
   MeshUpdate mesh_update() { return MeshUpdate{uploads.get(), ring.get()}; }
+  // Whether preprocess tints (highlight or edit tints): one definition for the passes and
+  // for the key that says when they must be recorded again.
+  bool tint_active() const { return highlight_count > 0 || slots.tinted_count() > 0; }
   std::uint64_t targets_generation{0};  // bumped whenever a view's target is replaced
   bool reuse_passes{true};              // SplatRendererCreateInfo::reuse_recorded_passes
   // Records view `v` into the frame's command buffer `c` with frame slot `f`'s constants
