@@ -4,6 +4,8 @@
 // the leaf selection itself where everything fits.
 #include <algorithm>
 #include <array>
+#include <bit>
+#include <limits>
 #include <iterator>
 #include <map>
 #include <optional>
@@ -19,6 +21,9 @@
 #include "gauss/engine/lod_selector.h"
 #include "gauss/engine/selector.h"
 #include "host_world.h"
+// The view terms the cutter ranks by, shared with the Selector (a private header): the
+// reference greedy below scores nodes with the same float operations.
+#include "../../engine/src/select/view_score.h"
 
 using namespace gauss;
 
@@ -195,6 +200,189 @@ TEST(LodCut, ExcludedObjectsAreLeftOutAndNeverShownTwice) {
     if (budget >= 60) {
       EXPECT_EQ(ids.size(), h.leaf_count() - target->second) << "everything else is covered";
     }
+  }
+}
+
+namespace {
+
+// The greedy refinement as lod_cut.h states it, the plain way: a max-heap frontier from the
+// root, ordered by effective priority p = min(error x hysteresis, p(parent)), then the
+// shallower node, then the lower id; a node whose children do not fit stays. Excluded
+// objects: a node all of whose leaves are excluded is left out, one that mixes is refined
+// first (p = +inf). Returns the cut's pool indices and the refined nodes' ids.
+struct ReferenceCut {
+  std::vector<std::uint32_t> nodes;  // sorted
+  std::set<std::uint64_t> refined;
+  std::size_t retained{0};
+};
+ReferenceCut reference_cut(const LodHierarchy& h, const ClientPose& pose, std::size_t budget,
+                           const SelectorConfig& cfg, const std::set<std::uint64_t>& previous,
+                           const std::set<std::int32_t>& excluded = {}) {
+  ReferenceCut out;
+  if (budget == 0 || h.root() == kNoLodNode) return out;
+  // 0: no excluded leaf under it, 1: only excluded leaves, 2: both.
+  std::map<std::uint32_t, int> state;
+  auto state_of = [&](auto&& self, std::uint32_t n) -> int {
+    if (auto it = state.find(n); it != state.end()) return it->second;
+    const LodNode& node = h.node(n);
+    int s = 0;
+    if (node.leaf) {
+      s = excluded.count(to_underlying(h.leaf_gaussian(node).object)) ? 1 : 0;
+    } else {
+      bool any_in = false, any_out = false;
+      for (std::uint32_t c : h.children(node)) {
+        const int cs = self(self, c);
+        any_in |= cs != 0;
+        any_out |= cs != 1;
+      }
+      s = any_in ? (any_out ? 2 : 1) : 0;
+    }
+    return state[n] = s;
+  };
+  if (state_of(state_of, h.root()) == 1) return out;
+  if (h.node(h.root()).leaf) {
+    out.nodes.push_back(h.root());
+    return out;
+  }
+  const select_detail::ViewParams vp = select_detail::make_view_params(pose, cfg);
+  auto key_of = [&](std::uint32_t n) {
+    const LodNode& node = h.node(n);
+    if (state_of(state_of, n) == 2) return std::numeric_limits<float>::infinity();
+    const std::uint8_t resident = previous.count(to_underlying(node.id)) ? 1 : 0;
+    std::uint32_t key = 0;
+    select_detail::score_view_spheres(1, &node.centre.x, &node.centre.y, &node.centre.z, &node.radius, &resident, vp,
+                                      &key);
+    return std::bit_cast<float>(key);
+  };
+  struct Frontier {
+    float p;
+    int depth;
+    std::uint64_t id;
+    std::uint32_t n;
+  };
+  auto lower = [](const Frontier& a, const Frontier& b) {
+    if (a.p != b.p) return a.p < b.p;
+    if (a.depth != b.depth) return a.depth > b.depth;
+    return a.id > b.id;
+  };
+  std::vector<Frontier> heap{{key_of(h.root()), 0, to_underlying(h.node(h.root()).id), h.root()}};
+  std::size_t count = 1;
+  while (!heap.empty() && count < budget) {
+    std::pop_heap(heap.begin(), heap.end(), lower);
+    const Frontier f = heap.back();
+    heap.pop_back();
+    const LodNode& node = h.node(f.n);
+    std::size_t children = 0;
+    for (std::uint32_t c : h.children(node)) children += state_of(state_of, c) != 1;
+    if (count - 1 + children > budget && f.p != std::numeric_limits<float>::infinity()) {
+      out.nodes.push_back(f.n);
+      continue;
+    }
+    count = count - 1 + children;
+    out.refined.insert(to_underlying(node.id));
+    out.retained += previous.count(to_underlying(node.id));
+    for (std::uint32_t c : h.children(node)) {
+      if (state_of(state_of, c) == 1) continue;
+      const LodNode& child = h.node(c);
+      if (child.leaf) {
+        out.nodes.push_back(c);
+      } else {
+        heap.push_back(Frontier{std::min(key_of(c), f.p), f.depth + 1, to_underlying(child.id), c});
+        std::push_heap(heap.begin(), heap.end(), lower);
+      }
+    }
+  }
+  for (const Frontier& f : heap) out.nodes.push_back(f.n);
+  std::sort(out.nodes.begin(), out.nodes.end());
+  return out;
+}
+
+// The cut's parallel arrays: leaves then interior nodes, each by ascending id, and each
+// entry's id and place those of its node.
+void expect_cut_arrays(const LodHierarchy& h, const LodCut& cut) {
+  ASSERT_EQ(cut.ids.size(), cut.nodes.size());
+  ASSERT_EQ(cut.places.size(), cut.nodes.size());
+  for (std::size_t i = 0; i < cut.nodes.size(); ++i) {
+    const LodNode& node = h.node(cut.nodes[i]);
+    EXPECT_EQ(cut.ids[i], to_underlying(node.id));
+    EXPECT_EQ(node.leaf, i < cut.leaves);
+    EXPECT_EQ(cut.places[i], node.leaf ? h.leaf_source(node) : h.record_slot(node));
+    if (i > 0 && i != cut.leaves) {
+      EXPECT_LT(cut.ids[i - 1], cut.ids[i]);
+    }
+  }
+}
+
+}  // namespace
+
+// The cutter skips the heap (a histogram of priorities, one sorted bucket, a small heap for
+// the last fits) and keeps a breadth-first copy of the tree: the same cut as the plain greedy,
+// node for node, over a walk with hysteresis, budgets from 1 up, a hierarchy updated between
+// cuts (the copy rebuilt, the hysteresis carried by id) and a query's target excluded.
+TEST(LodCut, EqualsThePlainGreedyRefinement) {
+  World w;
+  g_world = &w;
+  std::vector<Gaussian> leaves;
+  for (const Gaussian& g : w.store.gaussians())
+    if (!g.carrier) leaves.push_back(g);
+  auto built = LodHierarchy::build(leaves, w.store.sh_degree());
+  ASSERT_TRUE(built.ok()) << built.message();
+  LodHierarchy h = std::move(*built);
+  // The object with the most leaves, for the excluded steps.
+  std::map<std::int32_t, std::size_t> per_object;
+  for (const Gaussian& g : leaves)
+    if (to_underlying(g.object) >= 0) ++per_object[to_underlying(g.object)];
+  ASSERT_FALSE(per_object.empty());
+  const std::int32_t target =
+      std::max_element(per_object.begin(), per_object.end(), [](auto& a, auto& b) { return a.second < b.second; })->first;
+
+  SelectorConfig cfg;
+  LodCutter cutter(cfg);
+  std::set<std::uint64_t> previous;
+  const std::size_t n = h.leaf_count();
+  const std::vector<std::size_t> budgets{1, 2, 7, 50, 333, n / 3, n / 3, n / 3 + 1, n - 1, n, 4000, 600, 600, 600};
+  std::size_t compared = 0, rebuilt = 0;
+  for (std::size_t step = 0; step < budgets.size(); ++step) {
+    if (step == 10) {
+      // Every 7th leaf leaves and another moves: nodes retire, others take new ids.
+      std::vector<Gaussian> fewer;
+      for (std::size_t i = 0; i < leaves.size(); ++i)
+        if (i % 7 != 3) fewer.push_back(leaves[i]);
+      fewer[5].position += glm::vec3(0.3f);
+      auto r = h.update(fewer);
+      ASSERT_TRUE(r.ok()) << r.message();
+      ASSERT_FALSE(r->removed.empty());
+    }
+    const double t = double(step) / double(budgets.size());
+    const ClientPose pose = look({0.1 + 0.6 * t, 0.5, 0.1 + 0.02 * step}, {0.9, 0.5 - 0.2 * t, 0.9});
+    std::set<std::int32_t> excluded_set;
+    std::vector<ObjectId> excluded;
+    if (step >= 12) {
+      excluded_set.insert(target);
+      excluded = {ObjectId{target}};
+    }
+    auto cut = cutter.cut(h, pose, budgets[step], excluded);
+    ASSERT_TRUE(cut.ok()) << cut.message();
+    expect_cut_arrays(h, *cut);
+    rebuilt += cut->layout_rebuilt;
+    const ReferenceCut ref = reference_cut(h, pose, budgets[step], cfg, previous, excluded_set);
+    EXPECT_EQ(sorted(cut->nodes), ref.nodes) << "step " << step << ", budget " << budgets[step];
+    EXPECT_EQ(cut->refined, ref.refined.size()) << "step " << step;
+    EXPECT_EQ(cut->retained, ref.retained) << "step " << step;
+    compared += ref.nodes.size();
+    previous = ref.refined;
+  }
+  EXPECT_EQ(rebuilt, 2u) << "a layout for the first cut and one after the update";
+  EXPECT_GT(compared, 5000u);
+
+  // Every budget at one pose: the budget runs out in every bucket, between a parent and a
+  // child of equal priority among them (the tie the depth breaks).
+  const ClientPose pose = look({0.2, 0.4, 0.1}, {0.8, 0.6, 0.9});
+  for (std::size_t budget = 1; budget <= h.leaf_count(); budget += 1 + budget / 64) {
+    cutter.clear_previous();
+    auto cut = cutter.cut(h, pose, budget);
+    ASSERT_TRUE(cut.ok()) << cut.message();
+    ASSERT_EQ(sorted(cut->nodes), reference_cut(h, pose, budget, cfg, {}).nodes) << "budget " << budget;
   }
 }
 

@@ -1,179 +1,472 @@
-// LodCutter: greedy view-dependent refinement of a LodHierarchy under a node budget
-// (lod_cut.h).
+// LodCutter: greedy view-dependent refinement of a LodHierarchy under a node budget, in the
+// order of effective priority, without a heap over the whole frontier (lod_cut.h).
 #include "gauss/engine/lod_cut.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
-#include <numbers>
+#include <limits>
 
-#include <glm/gtc/quaternion.hpp>
-#include <glm/mat3x3.hpp>
+#include "id_sort.h"
+#include "select/view_score.h"
 
 namespace gauss {
 
 namespace {
 
-constexpr std::uint8_t kExcludedAll = 1;
-constexpr std::uint8_t kExcludedMixed = 2;
+constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+// Per layout node: how a query's exclusion touches it.
+constexpr std::uint8_t kExcludedAll = 1;    // every leaf under it is excluded: not in the cut
+constexpr std::uint8_t kExcludedMixed = 2;  // it mixes excluded and other leaves: always refined
 
-// The selector's view terms (selector.h) for a bounding sphere, in double.
-struct ViewError {
-  glm::dmat3 head_from_world;
-  glm::dvec3 eye;
-  double tx, ty, inv_kx, inv_ky, inv_ramp, near, floor;
+// Buckets of the refinement histogram: the top 16 bits of a non-negative float (sign,
+// exponent, 7 mantissa bits), so a bucket spans under 1 % of its values; +inf (the forced
+// nodes) is the last.
+constexpr std::uint32_t kBucketShift = 16;
+constexpr std::uint32_t kBuckets = (0x7F800000u >> kBucketShift) + 1;
 
-  ViewError(const ClientPose& pose, const SelectorConfig& c)
-      : head_from_world(glm::transpose(glm::mat3_cast(glm::normalize(pose.orientation)))),
-        eye(pose.position),
-        tx(pose.tan_half_fov_x),
-        ty(pose.tan_half_fov_y),
-        inv_kx(1.0 / std::sqrt(1.0 + tx * tx)),
-        inv_ky(1.0 / std::sqrt(1.0 + ty * ty)),
-        inv_ramp(1.0 / std::sin(std::clamp(c.margin_deg, 0.1, 90.0) * std::numbers::pi / 180.0)),
-        near(c.near_distance),
-        floor(c.out_of_view_weight) {}
+std::uint32_t bucket_of(float p) { return std::bit_cast<std::uint32_t>(p) >> kBucketShift; }
 
-  // Angular radius times the facing factor; 0 for a non-finite sphere.
-  double operator()(const glm::vec3& centre, float radius) const {
-    const glm::dvec3 d = glm::dvec3(centre) - eye;
-    const glm::dvec3 h = head_from_world * d;
-    const double r = radius;
-    const double dist = std::max(glm::length(d), near);
-    // Distance of the sphere beyond the frustum's side planes, as a fraction of its distance.
-    const double ex = (std::fabs(h.x) - tx * h.z) * inv_kx - r;
-    const double ey = (std::fabs(h.y) - ty * h.z) * inv_ky - r;
-    const double outside = std::max(ex, ey) / dist;
-    const double facing = std::clamp(1.0 - (1.0 - floor) * outside * inv_ramp, floor, 1.0);
-    const double e = r / dist * facing;
-    return std::isfinite(e) ? e : 0.0;
-  }
-};
+// One sphere's view error (the selector's view terms, select/view_score.h).
+float sphere_error(const select_detail::ViewParams& vp, const glm::vec3& centre, float radius) {
+  const std::uint8_t not_resident = 0;
+  std::uint32_t key = 0;
+  select_detail::score_view_spheres(1, &centre.x, &centre.y, &centre.z, &radius, &not_resident, vp, &key);
+  const float e = std::bit_cast<float>(key);
+  return e >= 0.0f && e <= std::numeric_limits<float>::max() ? e : 0.0f;
+}
 
 }  // namespace
 
-LodCutter::LodCutter(SelectorConfig config) : config_(config) {}
+// The hierarchy's interior nodes in breadth-first order from the root (index k), structure
+// of arrays: a node's interior children are consecutive (k range), and its leaf children are
+// one run of the leaf arrays. Built once per hierarchy generation; a cut then reads the tree
+// sequentially instead of chasing pool indices.
+struct LodCutter::Layout {
+  const LodHierarchy* hierarchy{nullptr};
+  std::uint64_t generation{0};
+  std::uint32_t root_leaf{kNone};  // the pool index of the root when it is a leaf
+  std::vector<float> cx, cy, cz, radius;
+  std::vector<std::uint32_t> parent;  // k of the parent; kNone for the root (k = 0)
+  std::vector<std::uint16_t> depth;
+  std::vector<std::uint32_t> delta;  // nodes its refinement adds to a cut: children - 1
+  std::vector<std::uint32_t> kid_begin, kid_count;    // interior children
+  std::vector<std::uint32_t> leaf_begin, leaf_count;  // leaf children
+  std::vector<std::uint32_t> pool;                    // pool index
+  std::vector<std::uint64_t> id;
+  std::vector<std::uint32_t> slot;  // record slot
+  std::vector<std::uint32_t> k_rank;  // k's place among the interior nodes in id order
+  // Leaf children in breadth-first order of their parents: each one's place in id order.
+  std::vector<std::uint32_t> leaf_rank;
+  // By rank (ascending id): what a cut emits, read in order so its output comes sorted; one
+  // entry per node, so emitting one costs one cache line.
+  struct Emitted {
+    std::uint64_t id;
+    std::uint32_t pool;
+    std::uint32_t place;  // a leaf's leaf_source, an interior node's record slot
+  };
+  std::vector<Emitted> rank_leaf, rank_interior;
+  std::vector<std::uint32_t> k_of_pool;  // pool index -> k; kNone for leaves and free entries
+  std::vector<lod_detail::IdPair> sort_pairs, sort_scratch;
+
+  std::size_t size() const { return pool.size(); }
+
+  void build(const LodHierarchy& h) {
+    hierarchy = &h;
+    generation = h.generation();
+    root_leaf = kNone;
+    for (auto* v : {&cx, &cy, &cz, &radius}) v->clear();
+    for (auto* v : {&parent, &delta, &kid_begin, &kid_count, &leaf_begin, &leaf_count, &pool, &slot, &k_rank, &leaf_rank})
+      v->clear();
+    rank_leaf.clear();
+    rank_interior.clear();
+    depth.clear();
+    id.clear();
+    k_of_pool.assign(h.nodes().size(), kNone);
+    if (h.root() == kNoLodNode) return;
+    if (h.node(h.root()).leaf) {
+      root_leaf = h.root();
+      return;
+    }
+    const std::size_t interior = h.interior_count();
+    for (auto* v : {&cx, &cy, &cz, &radius}) v->reserve(interior);
+    for (auto* v : {&parent, &kid_begin, &kid_count, &leaf_begin, &leaf_count, &pool, &slot}) v->reserve(interior);
+    depth.reserve(interior);
+    id.reserve(interior);
+    std::vector<std::uint32_t> leaf_pool, leaf_place;  // breadth-first order, until ranked
+    std::vector<std::uint64_t> leaf_id;
+    leaf_pool.reserve(h.leaf_count());
+    leaf_place.reserve(h.leaf_count());
+    leaf_id.reserve(h.leaf_count());
+    auto push = [&](std::uint32_t n, std::uint32_t up, std::uint16_t d) {
+      const LodNode& node = h.node(n);
+      k_of_pool[n] = static_cast<std::uint32_t>(pool.size());
+      pool.push_back(n);
+      // A record is finite by construction (lod_hierarchy.h); should a sphere not be, it
+      // scores 0 (a point at the origin) rather than poisoning the priorities below it.
+      const bool finite = std::isfinite(node.centre.x) && std::isfinite(node.centre.y) &&
+                          std::isfinite(node.centre.z) && std::isfinite(node.radius) && node.radius < 1e30f;
+      cx.push_back(finite ? node.centre.x : 0.0f);
+      cy.push_back(finite ? node.centre.y : 0.0f);
+      cz.push_back(finite ? node.centre.z : 0.0f);
+      radius.push_back(finite ? node.radius : 0.0f);
+      parent.push_back(up);
+      depth.push_back(d);
+      id.push_back(to_underlying(node.id));
+      slot.push_back(h.record_slot(node));
+    };
+    push(h.root(), kNone, 0);
+    kid_begin.resize(1);
+    kid_count.resize(1);
+    delta.resize(1);
+    leaf_begin.resize(1);
+    leaf_count.resize(1);
+    for (std::uint32_t k = 0; k < pool.size(); ++k) {
+      const LodNode& node = h.node(pool[k]);
+      kid_begin[k] = static_cast<std::uint32_t>(pool.size());
+      leaf_begin[k] = static_cast<std::uint32_t>(leaf_pool.size());
+      for (std::uint32_t c : h.children(node)) {
+        const LodNode& child = h.node(c);
+        if (child.leaf) {
+          leaf_pool.push_back(c);
+          leaf_id.push_back(to_underlying(child.id));
+          leaf_place.push_back(h.leaf_source(child));
+        } else {
+          push(c, k, static_cast<std::uint16_t>(std::min<int>(depth[k] + 1, 0xFFFF)));
+        }
+      }
+      kid_count[k] = static_cast<std::uint32_t>(pool.size()) - kid_begin[k];
+      leaf_count[k] = static_cast<std::uint32_t>(leaf_pool.size()) - leaf_begin[k];
+      delta[k] = std::max<std::uint32_t>(kid_count[k] + leaf_count[k], 1) - 1;
+      kid_begin.resize(pool.size());
+      kid_count.resize(pool.size());
+      delta.resize(pool.size());
+      leaf_begin.resize(pool.size());
+      leaf_count.resize(pool.size());
+    }
+    // Ranks by id: a cut marks what it emits by rank and reads it out in id order.
+    sort_pairs.clear();
+    for (std::uint32_t j = 0; j < leaf_id.size(); ++j) sort_pairs.emplace_back(leaf_id[j], j);
+    lod_detail::sort_by_id(sort_pairs, sort_scratch);
+    leaf_rank.resize(leaf_id.size());
+    for (std::uint32_t r = 0; r < sort_pairs.size(); ++r) {
+      const std::uint32_t j = sort_pairs[r].second;
+      leaf_rank[j] = r;
+      rank_leaf.push_back(Emitted{leaf_id[j], leaf_pool[j], leaf_place[j]});
+    }
+    sort_pairs.clear();
+    for (std::uint32_t k = 0; k < id.size(); ++k) sort_pairs.emplace_back(id[k], k);
+    lod_detail::sort_by_id(sort_pairs, sort_scratch);
+    k_rank.resize(id.size());
+    for (std::uint32_t r = 0; r < sort_pairs.size(); ++r) {
+      const std::uint32_t k = sort_pairs[r].second;
+      k_rank[k] = r;
+      rank_interior.push_back(Emitted{id[k], pool[k], slot[k]});
+    }
+    sort_pairs = {};
+    sort_scratch = {};
+  }
+};
+
+// Per-call arrays, kept between calls so a warm cutter does not allocate.
+struct LodCutter::Scratch {
+  std::vector<std::uint32_t> key;     // view error (float bits), with the hysteresis bonus
+  std::vector<float> p;               // effective priority; < 0: excluded (not in the cut)
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> mixed;  // mixed nodes and their refinement's size
+  std::vector<std::uint8_t> mark;     // kExcludedAll / kExcludedMixed
+  std::vector<std::uint8_t> refined;  // this call
+  std::vector<std::uint8_t> was_refined;    // the previous call (hysteresis)
+  std::uint64_t was_refined_generation{0};  // layout generation was_refined is indexed for
+  std::vector<std::int64_t> hist;
+  std::vector<std::uint32_t> bucket;  // the nodes of the bucket where the budget runs out
+  std::vector<std::uint32_t> heap;
+  std::vector<std::uint32_t> excluded_leaves;  // pool indices, sorted: objects of one leaf
+  std::vector<std::uint64_t> leaf_bits, interior_bits;  // what the cut emits, by rank
+  std::vector<std::uint32_t> refined_k;
+};
+
+LodCutter::LodCutter(SelectorConfig config)
+    : config_(config), layout_(std::make_unique<Layout>()), scratch_(std::make_unique<Scratch>()) {}
+LodCutter::LodCutter(LodCutter&&) noexcept = default;
+LodCutter& LodCutter::operator=(LodCutter&&) noexcept = default;
+LodCutter::~LodCutter() = default;
 
 void LodCutter::clear_previous() {
-  for (std::uint32_t i : refined_list_) refined_id_[i] = 0;
-  refined_list_.clear();
+  refined_prev_.clear();
+  scratch_->was_refined_generation = 0;
 }
 
 Expected<LodCut> LodCutter::cut(const LodHierarchy& h, const ClientPose& pose, std::size_t budget,
                                 std::span<const ObjectId> excluded) {
-  if (Status st = validate_client_pose(pose); !st) return st.error();
-  if (Status st = validate_selector_config(config_); !st) return st.error();
   LodCut out;
-  const std::size_t pool = h.nodes().size();
-  refined_id_.resize(pool, 0);
-  mark_stamp_.resize(pool, 0);
-  mark_.resize(pool, 0);
-  if (++stamp_ == 0) {
-    std::fill(mark_stamp_.begin(), mark_stamp_.end(), 0u);
-    stamp_ = 1;
-  }
-  auto mark_of = [&](std::uint32_t n) -> std::uint8_t { return mark_stamp_[n] == stamp_ ? mark_[n] : 0; };
-  auto set_mark = [&](std::uint32_t n, std::uint8_t m) {
-    mark_stamp_[n] = stamp_;
-    mark_[n] = m;
+  if (Status st = cut_into(out, h, pose, budget, excluded); !st) return st.error();
+  return out;
+}
+
+Status LodCutter::cut_into(LodCut& out, const LodHierarchy& h, const ClientPose& pose, std::size_t budget,
+                           std::span<const ObjectId> excluded) {
+  out.nodes.clear();
+  out.ids.clear();
+  out.places.clear();
+  out.leaves = out.interior = out.refined = out.retained = 0;
+  if (Status st = validate_client_pose(pose); !st) return st;
+  if (Status st = validate_selector_config(config_); !st) return st;
+  Layout& L = *layout_;
+  Scratch& S = *scratch_;
+  out.layout_rebuilt = L.hierarchy != &h || L.generation != h.generation();
+  if (out.layout_rebuilt) L.build(h);
+  const std::size_t n = L.size();
+  const std::size_t leaves = L.leaf_rank.size();
+
+  std::size_t emitted = 0;  // nodes marked for the cut
+  S.leaf_bits.assign((leaves + 63) / 64, 0);
+  S.interior_bits.assign((n + 63) / 64, 0);
+  auto emit_leaf = [&](std::uint32_t j) {
+    const std::uint32_t r = L.leaf_rank[j];
+    S.leaf_bits[r >> 6] |= std::uint64_t{1} << (r & 63);
+    ++emitted;
   };
+  auto emit_interior = [&](std::uint32_t k) {
+    const std::uint32_t r = L.k_rank[k];
+    S.interior_bits[r >> 6] |= std::uint64_t{1} << (r & 63);
+    ++emitted;
+  };
+  // Writes the marked nodes out in id order: leaves, then interior nodes.
+  auto write_out = [&] {
+    out.nodes.resize(emitted);
+    out.ids.resize(emitted);
+    out.places.resize(emitted);
+    std::size_t i = 0;
+    auto scan = [&](const std::vector<std::uint64_t>& marks, const std::vector<Layout::Emitted>& by_rank) {
+      for (std::size_t w = 0; w < marks.size(); ++w)
+        for (std::uint64_t bits = marks[w]; bits != 0; bits &= bits - 1) {
+          const Layout::Emitted& e = by_rank[w * 64 + static_cast<std::size_t>(std::countr_zero(bits))];
+          out.nodes[i] = e.pool;
+          out.ids[i] = e.id;
+          out.places[i] = e.place;
+          ++i;
+        }
+    };
+    scan(S.leaf_bits, L.rank_leaf);
+    out.leaves = i;
+    scan(S.interior_bits, L.rank_interior);
+    out.interior = i - out.leaves;
+  };
+  auto finish = [&](std::span<const std::uint32_t> refined_k) {
+    // This cut's refinements are the next call's hysteresis state.
+    refined_prev_.clear();
+    for (std::uint32_t k : refined_k) refined_prev_.emplace_back(L.pool[k], L.id[k]);
+    out.refined = refined_k.size();
+    S.was_refined_generation = 0;  // flags from refined_prev_ next time (the main path keeps its own)
+  };
+
   // The excluded objects' subtrees, and every node above them (the mixed ones).
+  S.mark.assign(n, 0);
+  S.excluded_leaves.clear();
+  bool root_excluded = false;
   for (ObjectId o : excluded) {
     const std::uint32_t r = h.object_root(o);
     if (r == kNoLodNode) continue;
-    set_mark(r, kExcludedAll);
-    for (std::uint32_t p = h.node(r).parent; p != kNoLodNode && mark_of(p) != kExcludedMixed; p = h.node(p).parent)
-      set_mark(p, kExcludedMixed);
+    std::uint32_t up;
+    if (h.node(r).leaf) {
+      S.excluded_leaves.push_back(r);
+      if (r == L.root_leaf) root_excluded = true;
+      up = h.node(r).parent == kNoLodNode ? kNone : L.k_of_pool[h.node(r).parent];
+    } else {
+      const std::uint32_t k = L.k_of_pool[r];
+      S.mark[k] = kExcludedAll;
+      up = L.parent[k];
+    }
+    for (; up != kNone && S.mark[up] != kExcludedMixed; up = L.parent[up]) S.mark[up] = kExcludedMixed;
+  }
+  std::sort(S.excluded_leaves.begin(), S.excluded_leaves.end());
+  auto leaf_excluded = [&](std::uint32_t j) {
+    return std::binary_search(S.excluded_leaves.begin(), S.excluded_leaves.end(), L.rank_leaf[L.leaf_rank[j]].pool);
+  };
+
+  if (budget == 0 || h.root() == kNoLodNode || (L.root_leaf == kNone && S.mark[0] == kExcludedAll)) {
+    finish({});
+    return Ok{};
+  }
+  if (L.root_leaf != kNone) {  // a hierarchy of one leaf
+    if (!root_excluded) {
+      const LodNode& leaf = h.node(L.root_leaf);
+      out.nodes.push_back(L.root_leaf);
+      out.ids.push_back(to_underlying(leaf.id));
+      out.places.push_back(h.leaf_source(leaf));
+      out.leaves = 1;
+    }
+    finish({});
+    return Ok{};
   }
 
-  const ViewError error(pose, config_);
-  const float bonus = static_cast<float>(1.0 + config_.retention_bonus);
-  // Max-heap by error, then lower id.
-  auto before = [](const Frontier& a, const Frontier& b) { return a.key < b.key || (a.key == b.key && a.id > b.id); };
-  heap_.clear();
-  std::size_t count = 0;  // nodes in the cut so far (heap + out.nodes)
-  // Enters node n into the frontier; mixed nodes are refined at once (recursively: their
-  // depth is the objects tree's, a few levels).
-  auto enter = [&](auto&& self, std::uint32_t n) -> void {
-    const std::uint8_t m = mark_of(n);
-    if (m == kExcludedAll) return;
-    const LodNode& node = h.node(n);
-    if (m == kExcludedMixed) {
-      for (std::uint32_t c : h.children(node)) self(self, c);
-      return;
-    }
-    ++count;
-    if (node.leaf) {
-      out.nodes.push_back(n);
-      ++out.leaves;
-      return;
-    }
-    float key = static_cast<float>(error(node.centre, node.radius));
-    if (refined_id_[n] == to_underlying(node.id)) key *= bonus;
-    heap_.push_back(Frontier{key, to_underlying(node.id), n});
-    std::push_heap(heap_.begin(), heap_.end(), before);
-  };
-  if (h.root() != kNoLodNode && budget > 0) enter(enter, h.root());
+  // Hysteresis flags for this layout: the previous call's, carried by id when the layout is new.
+  if (S.was_refined_generation != L.generation || S.was_refined.size() != n) {
+    S.was_refined.assign(n, 0);
+    for (const auto& [pool_index, id] : refined_prev_)
+      if (pool_index < L.k_of_pool.size())
+        if (const std::uint32_t k = L.k_of_pool[pool_index]; k != kNone && L.id[k] == id) S.was_refined[k] = 1;
+    S.was_refined_generation = L.generation;
+  }
 
-  if (count > budget) {
-    // Forced refinement alone overflows B: keep the B nodes with the largest error.
-    std::vector<Frontier> all(heap_.begin(), heap_.end());
-    for (std::uint32_t n : out.nodes) {
-      const LodNode& node = h.node(n);
-      all.push_back(Frontier{static_cast<float>(error(node.centre, node.radius)), to_underlying(node.id), n});
+  // View errors, then effective priorities in breadth-first order (parents first): one
+  // branch-free pass each. A mixed node's key is +inf (always refined), an excluded node's -1,
+  // which the min carries down its subtree.
+  const select_detail::ViewParams view = select_detail::make_view_params(pose, config_);
+  S.key.resize(n);
+  select_detail::score_view_spheres(n, L.cx.data(), L.cy.data(), L.cz.data(), L.radius.data(),
+                                    S.was_refined.data(), view, S.key.data());
+  // Refining every mixed node leaves its children that are neither mixed nor excluded; the
+  // refinement of a mixed node adds its children that are not excluded, less itself.
+  std::size_t forced_cut = S.mark[0] == kExcludedMixed ? 0 : 1;
+  S.mixed.clear();
+  for (std::uint32_t k = 0; k < n; ++k) {  // the marked nodes are few; this loop is a scan of bytes
+    if (S.mark[k] == kExcludedAll) {
+      S.key[k] = std::bit_cast<std::uint32_t>(-1.0f);
+    } else if (S.mark[k] == kExcludedMixed) {
+      S.key[k] = std::bit_cast<std::uint32_t>(std::numeric_limits<float>::infinity());
+      std::uint32_t children = 0;
+      for (std::uint32_t c = L.kid_begin[k]; c < L.kid_begin[k] + L.kid_count[k]; ++c) {
+        children += S.mark[c] != kExcludedAll;
+        forced_cut += S.mark[c] == 0;
+      }
+      for (std::uint32_t j = L.leaf_begin[k]; j < L.leaf_begin[k] + L.leaf_count[k]; ++j) {
+        const bool in_cut = !leaf_excluded(j);
+        children += in_cut;
+        forced_cut += in_cut;
+      }
+      S.mixed.emplace_back(k, children > 0 ? children - 1 : 0);
     }
-    std::sort(all.begin(), all.end(), [&](const Frontier& a, const Frontier& b) { return before(b, a); });
-    all.resize(budget);
-    heap_.clear();
-    out.nodes.clear();
-    out.leaves = 0;
-    for (const Frontier& f : all) {
-      if (h.node(f.node).leaf) {
-        out.nodes.push_back(f.node);  // leaves go straight into the cut
-        ++out.leaves;
-      } else {
-        heap_.push_back(f);  // interior ones wait, unrefined: the budget is full
+  }
+  S.p.resize(n);
+  {
+    const std::uint32_t* __restrict key = S.key.data();
+    const std::uint32_t* __restrict parent = L.parent.data();
+    float* __restrict p = S.p.data();
+    p[0] = std::bit_cast<float>(key[0]);
+    for (std::size_t k = 1; k < n; ++k) p[k] = std::min(std::bit_cast<float>(key[k]), p[parent[k]]);
+  }
+  auto& refined_k = S.refined_k;
+  refined_k.clear();
+  if (forced_cut > budget) {
+    // Forced refinement alone overflows B: keep the B frontier nodes with the largest error.
+    struct Entry {
+      float key;
+      std::uint64_t id;
+      std::uint32_t k;     // layout index, or kNone for a leaf
+      std::uint32_t leaf;  // leaf index (breadth-first)
+    };
+    std::vector<Entry> all;
+    for (const auto& [k, d] : S.mixed) {
+      refined_k.push_back(k);
+      for (std::uint32_t c = L.kid_begin[k]; c < L.kid_begin[k] + L.kid_count[k]; ++c)
+        if (S.mark[c] == 0) all.push_back(Entry{S.p[c], L.id[c], c, 0});
+      for (std::uint32_t j = L.leaf_begin[k]; j < L.leaf_begin[k] + L.leaf_count[k]; ++j) {
+        if (leaf_excluded(j)) continue;
+        const Layout::Emitted& e = L.rank_leaf[L.leaf_rank[j]];
+        const LodNode& leaf = h.node(e.pool);
+        all.push_back(Entry{sphere_error(view, leaf.centre, leaf.radius), e.id, kNone, j});
       }
     }
-    count = budget;
+    std::sort(all.begin(), all.end(),
+              [](const Entry& a, const Entry& b) { return a.key > b.key || (a.key == b.key && a.id < b.id); });
+    all.resize(budget);
+    for (const Entry& e : all) {
+      if (e.k == kNone)
+        emit_leaf(e.leaf);
+      else
+        emit_interior(e.k);
+    }
+    write_out();
+    finish(refined_k);
+    return Ok{};
   }
 
-  refined_next_.clear();
-  while (!heap_.empty()) {
-    if (count >= budget) {  // nothing more can refine: the rest stays as it is
-      for (const Frontier& f : heap_) out.nodes.push_back(f.node);
-      heap_.clear();
+  // Refinement counts per bucket of p; from the top, every bucket that fits whole is refined
+  // without ordering it (a node's ancestors have p at least its own, so they are refined too).
+  S.hist.assign(kBuckets, 0);
+  for (std::uint32_t k = 0; k < n; ++k)
+    if (S.p[k] >= 0.0f) S.hist[bucket_of(S.p[k])] += L.delta[k];
+  for (const auto& [k, d] : S.mixed) S.hist[kBuckets - 1] += d - std::int64_t{L.delta[k]};
+  std::size_t count = 1;
+  std::uint32_t boundary = kBuckets;  // the bucket where the budget runs out; kBuckets: none does
+  for (std::uint32_t b = kBuckets; b-- > 0;) {
+    if (count + static_cast<std::size_t>(S.hist[b]) > budget) {
+      boundary = b;
       break;
     }
-    std::pop_heap(heap_.begin(), heap_.end(), before);
-    const Frontier top = heap_.back();
-    heap_.pop_back();
-    const LodNode& node = h.node(top.node);
-    if (count - 1 + node.child_count > budget) {
-      out.nodes.push_back(top.node);
-      continue;
+    count += static_cast<std::size_t>(S.hist[b]);
+  }
+  // Greedy order: p descending, then shallower, then the lower id.
+  auto after = [&](std::uint32_t a, std::uint32_t b) {
+    if (S.p[a] != S.p[b]) return S.p[a] < S.p[b];
+    if (L.depth[a] != L.depth[b]) return L.depth[a] > L.depth[b];
+    return L.id[a] > L.id[b];
+  };
+  S.refined.resize(n);
+  S.bucket.clear();
+  {
+    // Bucket numbers compare as the floats' bits do; a negative p (excluded) has the sign bit,
+    // so its bits are above every bucket: excluded by the upper bound.
+    const std::uint32_t first = boundary == kBuckets ? 0 : (boundary + 1) << kBucketShift;
+    const std::uint32_t at = boundary << kBucketShift;
+    const std::uint32_t* __restrict pb = reinterpret_cast<const std::uint32_t*>(S.p.data());
+    for (std::uint32_t k = 0; k < n; ++k) {
+      const std::uint32_t bits = pb[k];
+      const bool refine = bits >= first && bits <= 0x7F800000u;
+      S.refined[k] = refine;
+      if (refine) refined_k.push_back(k);
+      if (bits - at < (1u << kBucketShift) && boundary != kBuckets) S.bucket.push_back(k);
     }
-    --count;
-    refined_next_.push_back(top.node);
-    out.retained += refined_id_[top.node] == to_underlying(node.id);
-    const auto children = h.children(node);
-    if (node.height == 1) {
-      // Its children are leaves, and unmarked (a mark reaches every ancestor, and this node
-      // has none): into the cut without reading them, a cache miss each in a large pool.
-      out.nodes.insert(out.nodes.end(), children.begin(), children.end());
-      out.leaves += children.size();
-      count += children.size();
-      continue;
+  }
+  if (boundary != kBuckets) {
+    // A node refines when its parent did and its children fit (the greedy's rule, in order).
+    auto fits = [&](std::uint32_t k) { return S.p[k] >= 0.0f && count + L.delta[k] <= budget; };
+    auto refine = [&](std::uint32_t k) {
+      S.refined[k] = 1;
+      refined_k.push_back(k);
+      count += L.delta[k];
+    };
+    std::sort(S.bucket.begin(), S.bucket.end(), [&](std::uint32_t a, std::uint32_t b) { return after(b, a); });
+    for (std::uint32_t k : S.bucket)
+      if ((k == 0 || S.refined[L.parent[k]]) && fits(k)) refine(k);
+    // Below the boundary only nodes whose children still fit can refine: a small heap over
+    // the frontier's, and their children as they open.
+    S.heap.clear();
+    if (count < budget)
+      for (std::uint32_t k = 1; k < n; ++k)
+        if (S.p[k] >= 0.0f && bucket_of(S.p[k]) < boundary && S.refined[L.parent[k]] && fits(k)) S.heap.push_back(k);
+    std::make_heap(S.heap.begin(), S.heap.end(), after);
+    while (!S.heap.empty() && count < budget) {
+      std::pop_heap(S.heap.begin(), S.heap.end(), after);
+      const std::uint32_t k = S.heap.back();
+      S.heap.pop_back();
+      if (!fits(k)) continue;
+      refine(k);
+      for (std::uint32_t c = L.kid_begin[k]; c < L.kid_begin[k] + L.kid_count[k]; ++c) {
+        if (!fits(c)) continue;
+        S.heap.push_back(c);
+        std::push_heap(S.heap.begin(), S.heap.end(), after);
+      }
     }
-    for (std::uint32_t c : children) enter(enter, c);
   }
 
-  // This cut's refinements are the next call's hysteresis state.
-  clear_previous();
-  for (std::uint32_t n : refined_next_) refined_id_[n] = to_underlying(h.node(n).id);
-  refined_list_.swap(refined_next_);
-  out.refined = refined_list_.size();
-  out.interior = out.nodes.size() - out.leaves;
-  return out;
+  // The cut: what refined nodes open and do not refine themselves.
+  if (!S.refined[0]) emit_interior(0);
+  for (std::uint32_t k : refined_k) {
+    out.retained += S.was_refined[k];
+    for (std::uint32_t c = L.kid_begin[k]; c < L.kid_begin[k] + L.kid_count[k]; ++c)
+      if (!S.refined[c] && S.p[c] >= 0.0f) emit_interior(c);
+    const bool mixed = S.mark[k] == kExcludedMixed;
+    for (std::uint32_t j = L.leaf_begin[k]; j < L.leaf_begin[k] + L.leaf_count[k]; ++j)
+      if (!mixed || !leaf_excluded(j)) emit_leaf(j);
+  }
+  write_out();
+  finish(refined_k);
+  // The flags just set are the next call's hysteresis state on this layout.
+  S.was_refined.swap(S.refined);
+  S.was_refined_generation = L.generation;
+  return Ok{};
 }
 
 }  // namespace gauss

@@ -3,6 +3,7 @@
 #include "gauss/engine/lod_hierarchy.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <string>
 
@@ -47,6 +48,7 @@ Expected<LodHierarchy> LodHierarchy::create(int sh_degree, const LodConfig& conf
       !std::isfinite(c.min.z))
     return Error{"LodHierarchy: cube edge must be >= 0 and the cube finite (edge 0: fixed by the first epoch)"};
   LodHierarchy h;
+  h.next_generation();
   h.config_ = config;
   if (c.edge > 0.0) {
     h.cube_min_ = c.min;
@@ -161,6 +163,7 @@ Expected<LodUpdateReport> LodHierarchy::update(std::span<const Gaussian> gaussia
 
 template <typename Get>
 Expected<LodUpdateReport> LodHierarchy::update_from(const Gaussian* base, std::size_t count, Get&& get) {
+  next_generation();  // leaf places change below even when nothing else does
   // Leaves not met below are the removed ones; a leaf met twice is a duplicate id.
   if (++stamp_ == 0) {
     std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);
@@ -206,6 +209,7 @@ Expected<LodUpdateReport> LodHierarchy::apply(std::span<const Gaussian> upserts,
 
 Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* const> upserts,
                                                       std::span<const GaussianId> removed, bool lenient) {
+  next_generation();
   // --- 1. Validate, changing nothing that cannot be rolled back. ---------------------------
   if (++stamp_ == 0) {
     std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);
@@ -437,6 +441,11 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
   std::sort(report.removed.begin(), report.removed.end());
   std::sort(report.modified.begin(), report.modified.end());
   return report;
+}
+
+void LodHierarchy::next_generation() {
+  static std::atomic<std::uint64_t> counter{0};
+  generation_ = counter.fetch_add(1, std::memory_order_relaxed) + 1;
 }
 
 void LodHierarchy::compact_children() {

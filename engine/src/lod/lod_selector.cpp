@@ -3,8 +3,10 @@
 #include "gauss/engine/lod_selector.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include <glm/geometric.hpp>
 
@@ -119,19 +121,20 @@ const Gaussian* LodSelector::find_interior(GaussianId id) const {
 
 Expected<Selection> LodSelector::select(Selection leaves, const SceneStore& scene, const ClientPose& pose,
                                         const SelectionRequest& request) {
-  cut_ = LodCut{};
   const std::size_t background_budget = request.budget - std::min(request.budget, leaves.object_selected);
   if (!hierarchy_ || leaves.background_candidates <= background_budget) {
+    cut_ = LodCut{};
     interior_.clear();
     return leaves;
   }
-  if (epoch_ != leaves.epoch || epoch_ != scene.epoch())
+  if (epoch_ != leaves.epoch || epoch_ != scene.epoch()) {
+    cut_ = LodCut{};
     return Error{"LoD: the hierarchy is at another epoch than the selection (call update() first)"};
+  }
   std::vector<ObjectId> excluded;
   if (leaves.query) excluded = leaves.query->ids();
-  auto cut = cutter_.cut(*hierarchy_, pose, background_budget, excluded);
-  if (!cut) return Error{"LoD cut: " + cut.message()};
-  cut_ = std::move(*cut);
+  if (Status st = cutter_.cut_into(cut_, *hierarchy_, pose, background_budget, excluded); !st)
+    return Error{"LoD cut: " + st.message()};
 
   const auto gaussians = scene.gaussians();
   const Gaussian* base = gaussians.data();
@@ -149,28 +152,30 @@ Expected<Selection> LodSelector::select(Selection leaves, const SceneStore& scen
   }
   const std::size_t object_entries = chosen.size();
   interior_.clear();
-  for (std::uint32_t n : cut_.nodes) {
-    const LodNode& node = hierarchy_->node(n);
-    if (node.leaf) {
-      // Where the hierarchy last saw it, without reading the Gaussian (a cache miss per leaf
-      // was a third of the assembly at 1M). That place still holds it or lies beyond the
-      // scene: a commit fills a removed Gaussian's place with the scene's last one, so only
-      // Gaussians from the tail move, and a leaf placed by apply() has none. The differ checks
-      // the id of every record it reads.
-      std::uint32_t index = hierarchy_->leaf_source(node);
-      if (index >= gaussians.size()) {
-        const Gaussian* g = scene.find(node.id);
-        if (!g) return Error{"LoD: cut leaf " + std::to_string(to_underlying(node.id)) + " is not in the scene"};
-        index = static_cast<std::uint32_t>(g - base);
-      }
-      chosen.emplace_back(to_underlying(node.id), index);
-    } else {
-      interior_.emplace_back(to_underlying(node.id), n);
+  for (std::size_t k = 0; k < cut_.nodes.size(); ++k) {
+    const std::uint64_t id = cut_.ids[k];
+    if (id & kLodInteriorIdBit) {
+      interior_.emplace_back(id, static_cast<std::uint32_t>(k));  // the cut's entry, for now
+      continue;
     }
+    // Where the hierarchy last saw the leaf, without reading the Gaussian (a cache miss per
+    // leaf was a third of the assembly at 1M). That place still holds it or lies beyond the
+    // scene: a commit fills a removed Gaussian's place with the scene's last one, so only
+    // Gaussians from the tail move, and a leaf placed by apply() has none. The differ checks
+    // the id of every record it reads.
+    std::uint32_t index = cut_.places[k];
+    if (index >= gaussians.size()) {
+      const Gaussian* g = scene.find(GaussianId{id});
+      if (!g) {
+        interior_.clear();  // holds cut entries, not pool indices, until the end
+        return Error{"LoD: cut leaf " + std::to_string(id) + " is not in the scene"};
+      }
+      index = static_cast<std::uint32_t>(g - base);
+    }
+    chosen.emplace_back(id, index);
   }
-  std::sort(chosen.begin() + static_cast<std::ptrdiff_t>(object_entries), chosen.end());
+  // The cut's leaves come in id order, then its interior nodes (lod_cut.h): one merge.
   std::inplace_merge(chosen.begin(), chosen.begin() + static_cast<std::ptrdiff_t>(object_entries), chosen.end());
-  std::sort(interior_.begin(), interior_.end());
 
   Selection out = std::move(leaves);
   out.ids.clear();
@@ -184,9 +189,10 @@ Expected<Selection> LodSelector::select(Selection leaves, const SceneStore& scen
   if (gaussians.size() + hierarchy_->record_pool().size() > std::size_t{0xFFFFFFFFu})
     return Error{"LoD: scene and hierarchy records exceed 2^32 indices"};
   const auto scene_size = static_cast<std::uint32_t>(gaussians.size());
-  for (const auto& [id, n] : interior_) {
+  for (auto& [id, k] : interior_) {
     out.ids.push_back(GaussianId{id});
-    out.indices.push_back(scene_size + hierarchy_->record_slot(hierarchy_->node(n)));
+    out.indices.push_back(scene_size + cut_.places[k]);
+    k = cut_.nodes[k];  // find_interior() looks the node up in the pool
   }
   out.background_selected = cut_.nodes.size();
   out.lod_interior = cut_.interior;

@@ -8,13 +8,12 @@
 // ramping to out_of_view_weight over margin_deg outside it; selector.h). Refinement is greedy
 // from the root: the frontier node with the largest error is replaced by its children while
 // the cut stays within B; a node whose children do not fit stays as it is, and smaller ones
-// behind it may still refine. Ties go to the lower id, so a cut is a function of the
-// hierarchy, the pose, B and the previous cut.
+// behind it may still refine. Ties go to the shallower node, then the lower id, so a cut is a
+// function of the hierarchy, the pose, B and the previous cut.
 //
 // Hysteresis (SelectorConfig::retention_bonus): a node refined in the previous cut has its
 // error multiplied by 1 + bonus, so a small pose change does not coarsen and refine the same
-// nodes back and forth. set_previous / clear_previous override or forget it, as the
-// selector's set_resident does.
+// nodes back and forth. clear_previous forgets it, as the selector's clear_resident does.
 //
 // Excluded objects (a query's targets, whose leaves the semantic reservation keeps at full
 // detail): a node whose leaves all belong to them is left out of the cut; a node that mixes
@@ -23,11 +22,21 @@
 // from the root to the targets' subtrees mix; refining them is forced, and when that alone
 // leaves more than B nodes the cut keeps the B with the largest error.
 //
-// Cost: O(K log K) for a cut of K nodes (a binary heap over the frontier), independent of
-// the scene's size; no allocation per call once warm.
+// The greedy order is the order of effective priority p(n) = min(error(n), p(parent)): a
+// child whose error exceeds its parent's is refined right after it, so the pops of a frontier
+// heap come out in p order (ties: shallower first, then the lower id). The cutter uses that
+// to skip the heap. Per call it computes p for every interior node over a copy of the tree in
+// breadth-first order (structure of arrays, built once per hierarchy generation), histograms
+// the refinement counts by p's top bits, refines every bucket that fits whole without
+// ordering it, sorts only the bucket where the budget runs out, and finishes with a small
+// heap over the frontier nodes that can still fit. Cost: O(I) sequential work for I interior
+// nodes plus the sort of one bucket, instead of O(K log K) scattered reads; the layout
+// (O(N), once after each hierarchy update) is paid by the first cut that sees the update.
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "gauss/engine/ids.h"
@@ -38,43 +47,49 @@
 namespace gauss {
 
 struct LodCut {
-  std::vector<std::uint32_t> nodes;  // pool indices of the cut's nodes, in no particular order
+  // Pool indices of the cut's nodes: its leaves in ascending id order, then its interior
+  // nodes in ascending id order (what a Selection wants, without a sort).
+  std::vector<std::uint32_t> nodes;
+  // Parallel to nodes: the node's id, and where its value lies: a leaf's leaf_source(), an
+  // interior node's record_slot(). A caller assembling a selection reads these instead of
+  // the pool (a cache miss per node at a million leaves).
+  std::vector<std::uint64_t> ids;
+  std::vector<std::uint32_t> places;
   std::size_t leaves{0};             // how many of them are leaves
   std::size_t interior{0};           // and interior nodes
   std::size_t refined{0};            // nodes replaced by their children (the work)
   std::size_t retained{0};           // refined nodes that were refined in the previous cut
+  bool layout_rebuilt{false};        // the hierarchy changed since the last cut: its layout was rebuilt
 };
 
 class LodCutter {
  public:
   // The selector's config supplies the view terms (margin, floor, near distance, bonus).
   explicit LodCutter(SelectorConfig config = {});
+  LodCutter(LodCutter&&) noexcept;
+  LodCutter& operator=(LodCutter&&) noexcept;
+  ~LodCutter();
 
   // The cut of at most `budget` nodes for `pose`. `excluded` lists objects whose leaves are
   // kept elsewhere (any order, repeats allowed). Fails on an invalid pose or config.
   Expected<LodCut> cut(const LodHierarchy& hierarchy, const ClientPose& pose, std::size_t budget,
                        std::span<const ObjectId> excluded = {});
+  // The same into `out`, reusing its vectors' memory (a host's cut every pose update).
+  Status cut_into(LodCut& out, const LodHierarchy& hierarchy, const ClientPose& pose, std::size_t budget,
+                  std::span<const ObjectId> excluded = {});
 
   // The hysteresis state: by default the nodes the previous cut refined.
   void clear_previous();
 
  private:
-  struct Frontier {
-    float key;
-    std::uint64_t id;
-    std::uint32_t node;
-  };
+  struct Layout;  // the tree in breadth-first order (lod_cut.cpp)
+  struct Scratch;
   SelectorConfig config_;
-  // Per pool index: the id of the node that was refined there in the previous cut (interior
-  // ids are never 0), so a pool entry reused by a later update never inherits the bonus.
-  std::vector<std::uint64_t> refined_id_;
-  std::vector<std::uint32_t> refined_list_;
-  std::vector<std::uint32_t> refined_next_;
-  // Per pool index: 1 = all leaves excluded, 2 = mixes excluded and other leaves; stamped.
-  std::vector<std::uint32_t> mark_stamp_;
-  std::vector<std::uint8_t> mark_;
-  std::uint32_t stamp_{0};
-  std::vector<Frontier> heap_;
+  std::unique_ptr<Layout> layout_;
+  std::unique_ptr<Scratch> scratch_;
+  // The previous cut's refined nodes (pool index, id): the hysteresis state, carried across
+  // a new layout by id (a pool entry reused by a later update never inherits the bonus).
+  std::vector<std::pair<std::uint32_t, std::uint64_t>> refined_prev_;
 };
 
 }  // namespace gauss

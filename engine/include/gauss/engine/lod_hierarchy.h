@@ -168,6 +168,11 @@ class LodHierarchy {
   // The quantisation cube in use (edge 0 until the first non-empty update fixed it).
   LodCube cube() const { return cube_set_ ? LodCube{cube_min_, double(1u << 21) / cell_inv_} : LodCube{}; }
   const LodConfig& config() const { return config_; }
+  // Changes whenever an update may have changed anything (nodes, records, leaf places),
+  // successful or not; unique across every hierarchy of the process, so a reader caching
+  // something derived from one (LodCutter's layout) knows when it is stale, even when another
+  // hierarchy now lives at the same address.
+  std::uint64_t generation() const { return generation_; }
 
  private:
   struct LeafFields {  // what a leaf's value is (compared by update(), merged by its parent)
@@ -205,6 +210,7 @@ class LodHierarchy {
   void store_leaf(std::uint32_t node, const Gaussian& g);
   bool same_leaf_value(std::uint32_t node, const Gaussian& g) const;
   void compact_children();
+  void next_generation();
   // lod_tree_build.cpp
   std::uint32_t build_cell(TreeBuild& b, std::span<const Entry> items, int level, std::uint64_t prefix,
                            std::uint32_t candidate);
@@ -251,6 +257,7 @@ class LodHierarchy {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> group_roots_;
   std::uint32_t objects_root_{kNoLodNode};
   std::uint32_t root_{kNoLodNode};
+  std::uint64_t generation_{0};
 };
 
 }  // namespace gauss
