@@ -119,6 +119,24 @@ const Gaussian* LodSelector::find_interior(GaussianId id) const {
   return &hierarchy_->record(n);
 }
 
+Expected<Selection> LodSelector::select(Selector& selector, const SceneStore& scene, const EligibleSet* eligible,
+                                        const ClientPose& pose, const SelectionRequest& request) {
+  SelectionRequest req = request;
+  req.background_leaves = !hierarchy_;  // a cut will stand in for the background's leaves
+  auto run = [&] { return eligible ? selector.select(scene, pose, req, *eligible) : selector.select(scene, pose, req); };
+  auto leaves = run();
+  if (!leaves) return leaves;
+  if (!req.background_leaves &&
+      leaves->background_candidates <= request.budget - std::min(request.budget, leaves->object_selected)) {
+    // Everything fits: no cut, the leaf selection itself (the Selector's counts are cached,
+    // so the first call cost little).
+    req.background_leaves = true;
+    leaves = run();
+    if (!leaves) return leaves;
+  }
+  return select(std::move(*leaves), scene, pose, request);
+}
+
 Expected<Selection> LodSelector::select(Selection leaves, const SceneStore& scene, const ClientPose& pose,
                                         const SelectionRequest& request) {
   const std::size_t background_budget = request.budget - std::min(request.budget, leaves.object_selected);

@@ -407,17 +407,26 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
   out.background_candidates = s.n_bg;
   out.object_budget = s.object_budget;
 
-  s.view_key.resize(n);
-  select_detail::score_view(n, s.px.data(), s.py.data(), s.pz.data(), s.radius.data(), s.weight.data(), s.part.data(),
-             s.resident_flags.data(), vp, s.view_key.data());
+  const bool background = request.background_leaves;
+  if (background || s.object_budget > 0) {
+    s.view_key.resize(n);
+    select_detail::score_view(n, s.px.data(), s.py.data(), s.pz.data(), s.radius.data(), s.weight.data(),
+                              s.part.data(), s.resident_flags.data(), vp, s.view_key.data());
+  }
 
-  s.selected = s.global_flags;  // same size: a copy, no allocation once warm
-  out.global_selected = s.global_obj + s.global_bg;
+  if (background) {
+    s.selected = s.global_flags;  // same size: a copy, no allocation once warm
+  } else {
+    // The global layer's picks of the query's partition only.
+    s.selected.resize(n);
+    for (std::size_t j = 0; j < n; ++j) s.selected[j] = s.global_flags[j] & (s.part[j] == kObject);
+  }
+  out.global_selected = s.global_obj + (background ? s.global_bg : 0);
   auto fill = [&](std::uint8_t p, std::size_t budget, std::size_t global) {
     return global + s.top.select(s.view_key, s.view_part, p, budget - global, s.selected);
   };
   out.object_selected = s.object_budget > 0 ? fill(kObject, s.object_budget, s.global_obj) : 0;
-  out.background_selected = s.bg_budget > 0 ? fill(kBackground, s.bg_budget, s.global_bg) : 0;
+  out.background_selected = background && s.bg_budget > 0 ? fill(kBackground, s.bg_budget, s.global_bg) : 0;
 
   // The set in ascending id order: positions are id ranks, so one sequential pass. About
   // four in five flags are 0 at M = N / 5: skip zero words eight flags at a time.

@@ -272,8 +272,9 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
     }
   }
   const ClientPose client_pose = to_client_pose(pose);
-  auto sel = eligible_ ? selector_.select(scene, client_pose, req, *eligible_) : selector_.select(scene, client_pose, req);
-  if (sel && lod_) sel = lod_->select(std::move(*sel), scene, client_pose, req);
+  auto sel = lod_ ? lod_->select(selector_, scene, eligible_ ? &*eligible_ : nullptr, client_pose, req)
+            : eligible_ ? selector_.select(scene, client_pose, req, *eligible_)
+                        : selector_.select(scene, client_pose, req);
   if (!sel) return Error{"host session " + std::to_string(client_id_) + ": selection failed: " + sel.message()};
   if (needs_resync_) differ_.reset();
   auto batch = lod_ ? differ_.diff(*sel, scene, lod_->records(), lod_->modified()) : differ_.diff(*sel, scene);

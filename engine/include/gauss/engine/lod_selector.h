@@ -50,8 +50,17 @@ class LodSelector {
   // again from scratch.
   Status update(const SceneStore& scene, const EligibleSet* eligible);
 
-  // The leaf selection `leaves` (from a Selector, for the same scene, pose and request) with
-  // its background replaced by a cut when the background's leaves do not all fit.
+  // A host session's whole selection: `selector`'s reservation, and a cut where the
+  // background's leaves do not all fit. The Selector then never ranks the background
+  // (SelectionRequest::background_leaves false; the cut replaces it), which was most of a pose
+  // update's cost at a million Gaussians; where the background fits (or no hierarchy is held)
+  // it is the Selector's own leaf selection, as select() below gives it. `eligible`: the
+  // session's eligibility filter's verdict, or null.
+  Expected<Selection> select(Selector& selector, const SceneStore& scene, const EligibleSet* eligible,
+                             const ClientPose& pose, const SelectionRequest& request);
+  // The leaf selection `leaves` (from a Selector, for the same scene, pose and request, with
+  // the background's leaves unless a cut replaces them) with its background replaced by a
+  // cut when the background's leaves do not all fit.
   Expected<Selection> select(Selection leaves, const SceneStore& scene, const ClientPose& pose,
                              const SelectionRequest& request);
 

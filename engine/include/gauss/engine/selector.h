@@ -63,6 +63,11 @@ struct SelectionRequest {
   std::size_t client_capacity{400000};   // the client's stable slots; budget must fit
   std::optional<SemanticQuery> query;    // none: ordinary view-dependent selection
   double rho{0.0};                       // reservation fraction in [0, 1]
+  // false: the background is counted (background_candidates) but not ranked or selected,
+  // global layer included; the selection holds the reservation's leaves only. For a caller
+  // that puts something else in the background's place (a LoD cut, lod_selector.h), which
+  // then pays for the query's partition alone, and nothing for the view layer without one.
+  bool background_leaves{true};
 };
 
 // Out-of-range values make select() fail naming the field.
