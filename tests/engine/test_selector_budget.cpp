@@ -65,6 +65,59 @@ TEST(SelectorBudget, ObjectShareIsExactAndTotalNeverExceedsM) {
   EXPECT_EQ(cases, 100);
 }
 
+// Without the background's leaves (a LoD cut stands in for them): the reservation is the
+// full selection's own, leaf for leaf, whatever the query, M and rho; nothing of the
+// background, the global layer's picks included; the counts the caller decides with are the
+// same. Two selectors walk the same poses, so their hysteresis differs only in what one of
+// them never selected.
+TEST(SelectorBudget, WithoutBackgroundLeavesTheReservationIsTheFullSelections) {
+  SceneStore store;
+  test::fill_test_scene(store, 20000, 1);
+  std::mt19937_64 rng(5);
+  const SemanticQuery queries[] = {SemanticQuery::for_class("chair"), SemanticQuery::for_instance(ObjectId{6})};
+  int cases = 0;
+  for (const SemanticQuery& q : queries) {
+    for (double rho : {0.0, 0.37, 1.0}) {
+      Selector full, reservation_only;
+      for (std::size_t m : {std::size_t{1}, std::size_t{777}, std::size_t{5000}, std::size_t{19000}}) {
+        SelectionRequest req;
+        req.budget = m;
+        req.client_capacity = 40000;
+        req.query = q;
+        req.rho = rho;
+        const ClientPose pose = test::random_test_pose(rng);
+        auto a = full.select(store, pose, req);
+        req.background_leaves = false;
+        auto b = reservation_only.select(store, pose, req);
+        ASSERT_TRUE(a.ok() && b.ok());
+        const auto objs = a->query->ids();
+        std::vector<GaussianId> object_part;
+        for (std::size_t k = 0; k < a->ids.size(); ++k)
+          if (std::find(objs.begin(), objs.end(), store.gaussians()[a->indices[k]].object) != objs.end())
+            object_part.push_back(a->ids[k]);
+        EXPECT_EQ(b->ids, object_part) << q.describe() << " M=" << m << " rho=" << rho;
+        EXPECT_EQ(b->ids.size(), b->indices.size());
+        EXPECT_EQ(b->object_selected, a->object_selected);
+        EXPECT_EQ(b->background_selected, 0u);
+        EXPECT_EQ(b->background_candidates, a->background_candidates);
+        EXPECT_EQ(b->object_candidates, a->object_candidates);
+        ++cases;
+      }
+    }
+  }
+  EXPECT_EQ(cases, 24);
+  // No query: nothing selected, the background counted.
+  Selector s;
+  SelectionRequest req;
+  req.budget = 5000;
+  req.client_capacity = 40000;
+  req.background_leaves = false;
+  auto none = s.select(store, test::random_test_pose(rng), req);
+  ASSERT_TRUE(none.ok());
+  EXPECT_TRUE(none->ids.empty());
+  EXPECT_GT(none->background_candidates, 5000u);
+}
+
 TEST(SelectorBudget, BadRequestsAreClearErrors) {
   SceneStore store;
   test::fill_test_scene(store, 500, 3);
