@@ -64,6 +64,13 @@ Status auth_init() {
   return Ok{};
 }
 
+SessionKeys::~SessionKeys() {
+  sodium_memzero(client_tag.data(), client_tag.size());
+  sodium_memzero(host_tag.data(), host_tag.size());
+  sodium_memzero(host_to_client.data(), host_to_client.size());
+  sodium_memzero(client_to_host.data(), client_to_host.size());
+}
+
 SessionKeys derive_session_keys(const cpace::Isk& isk, std::span<const std::uint8_t> hello_frame,
                                 std::span<const std::uint8_t> challenge_frame, msg::AuthSecret secret) {
   const std::uint8_t secret_byte = static_cast<std::uint8_t>(secret);

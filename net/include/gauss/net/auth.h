@@ -44,12 +44,14 @@ Status auth_init();
 
 using StreamKey = std::array<std::uint8_t, 32>;
 
-// What one handshake yields to both sides.
+// What one handshake yields to both sides. Wiped when destroyed: forward secrecy holds
+// only if no copy of a session's keys outlives it.
 struct SessionKeys {
   msg::AuthTag client_tag{};
   msg::AuthTag host_tag{};
   StreamKey host_to_client{};
   StreamKey client_to_host{};
+  ~SessionKeys();
 };
 // The key schedule above, from CPace's ISK and the handshake's frames.
 SessionKeys derive_session_keys(const cpace::Isk& isk, std::span<const std::uint8_t> hello_frame,
