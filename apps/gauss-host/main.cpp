@@ -58,7 +58,10 @@ int main(int argc, char** argv) {
       return 1;
     }
     o.token = gauss::net::generate_access_token();
+    o.pairing_code = gauss::net::generate_pairing_code();
     std::printf("gauss-host: access token (clients pass it with --token): %s\n", o.token.c_str());
+    std::printf("gauss-host: pairing code (short to type, accepted instead of the token): %s\n",
+                o.pairing_code.c_str());
     std::fflush(stdout);
   } else if (!o.token.empty()) {
     if (auto weak = gauss::net::weak_token_reason(o.token))
@@ -91,7 +94,8 @@ int main(int argc, char** argv) {
 
   gauss::net::SessionHostConfig hc;
   hc.net.bind = o.bind;
-  hc.net.access_token = o.token;  // proved by challenge-response; never sent
+  hc.net.access_token = o.token;  // proved by CPace; never sent
+  hc.net.pairing_code = o.pairing_code;
   hc.net.encrypt_stream = o.encrypt;
   hc.net.max_clients = o.max_clients;
   hc.net.admission.max_clients_per_address = o.max_clients_per_address;

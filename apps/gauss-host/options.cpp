@@ -49,12 +49,13 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
       ->check(apps::endpoint())
       ->type_name("HOST:PORT");
   auto* token = app.add_option("--token", o.token,
-                               "access token clients must prove (challenge-response; it never crosses the wire); "
-                               "'auto' generates a random one and prints it. Shorter than 20 characters draws a "
-                               "warning: one recorded handshake lets anyone test guesses offline");
+                               "access token clients must prove (CPace: it never crosses the wire, and a guess "
+                               "can only be tried against the live host, at most 10 per second); 'auto' generates "
+                               "a random one and a short pairing code accepted instead, and prints both. Shorter "
+                               "than 8 characters draws a warning");
   app.add_flag("--encrypt", o.encrypt,
-               "seal the stream after the handshake (XChaCha20-Poly1305, keys derived from the token): for "
-               "private scenes")
+               "seal the stream after the handshake (XChaCha20-Poly1305, keys from the handshake's key exchange: "
+               "a recording stays sealed even if the token leaks later): for private scenes")
       ->needs(token);
   app.add_option("--scene", scene,
                  "scene to stream: synthetic:VARIANT (0..3), a scene file (3DGS PLY, compressed PLY, .splat, "

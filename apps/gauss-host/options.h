@@ -13,6 +13,7 @@ namespace gauss::host_app {
 struct Options {
   net::Endpoint bind{};        // 127.0.0.1 and the default port unless --bind
   std::string token;           // required access token; empty = none
+  std::string pairing_code;    // accepted instead of the token (--token auto draws one); empty = none
   bool encrypt{false};         // --encrypt: sealed stream (needs a token)
   int variant{0};              // --scene synthetic:VARIANT
   std::optional<std::filesystem::path> scene_path;  // --scene FILE|FOLDER (else synthetic)

@@ -22,7 +22,7 @@ std::optional<int> parse_options(int argc, char** argv, XrOptions& o) {
       ->required()
       ->check(apps::endpoint())
       ->type_name("HOST:PORT");
-  app.add_option("--token", o.token, "access token the host requires");
+  app.add_option("--token", o.token, "access token the host requires, or the pairing code it printed");
   app.add_option("--name", o.name, "client name the host logs (and names its dumps after)");
   app.add_option("--budget", o.budget, "M: Gaussian slots of this client")->check(apps::in_range<std::uint32_t>(1, 400000));
   app.add_option("--mode", mode, "publication mode")->check(CLI::IsMember({"progressive", "immediate"}));

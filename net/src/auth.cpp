@@ -1,26 +1,60 @@
-// Challenge-response token authentication (see auth.h), on libsodium's BLAKE2b.
+// The handshake's CPace exchange, key confirmation and key schedule (see auth.h), on
+// libsodium's BLAKE2b and cpace.h.
 #include "gauss/net/auth.h"
 
 #include <sodium.h>
 
-#include <array>
-#include <cstring>
+#include <algorithm>
+#include <cctype>
+
+#include "gauss/engine/wire.h"
 
 namespace gauss::net {
 
 namespace {
 
-constexpr std::string_view kKeyDomain = "gauss-auth-key-v1";
-constexpr std::string_view kProofDomain = "gauss-auth-v1";
+constexpr std::string_view kPrkDomain = "gauss-pake-v1";
+constexpr std::string_view kClientConfirm = "gauss-pake-v1 client confirm";
+constexpr std::string_view kHostConfirm = "gauss-pake-v1 host confirm";
+constexpr std::string_view kHostToClient = "gauss-pake-v1 host to client";
+constexpr std::string_view kClientToHost = "gauss-pake-v1 client to host";
 
-std::array<std::uint8_t, crypto_generichash_KEYBYTES> derive_key(std::string_view token) {
-  std::array<std::uint8_t, crypto_generichash_KEYBYTES> key{};
-  crypto_generichash_state st;
-  crypto_generichash_init(&st, nullptr, 0, key.size());
-  crypto_generichash_update(&st, reinterpret_cast<const unsigned char*>(kKeyDomain.data()), kKeyDomain.size());
-  crypto_generichash_update(&st, reinterpret_cast<const unsigned char*>(token.data()), token.size());
-  crypto_generichash_final(&st, key.data(), key.size());
-  return key;
+constexpr char kCrockford[] = "0123456789abcdefghjkmnpqrstvwxyz";
+
+static_assert(msg::kPakePointBytes == cpace::kPointBytes);
+static_assert(std::tuple_size_v<cpace::Isk> <= crypto_generichash_KEYBYTES_MAX);
+static_assert(msg::kAuthTagBytes >= crypto_generichash_BYTES_MIN && msg::kAuthTagBytes <= crypto_generichash_BYTES_MAX);
+
+cpace::Bytes bytes_of(std::string_view s) { return {reinterpret_cast<const std::uint8_t*>(s.data()), s.size()}; }
+
+// BLAKE2b keyed with `key`, of `data`, `out.size()` bytes long.
+void keyed_hash(std::span<std::uint8_t> out, std::span<const std::uint8_t> key, std::span<const std::uint8_t> data) {
+  crypto_generichash(out.data(), out.size(), data.data(), data.size(), key.data(), key.size());
+}
+
+// The wire form of a CPace message with no associated data (messages.h, kPakeMessageBytes).
+msg::PakeMessage to_wire(const std::vector<std::uint8_t>& m) {
+  msg::PakeMessage out{};
+  if (m.size() == out.size()) std::copy(m.begin(), m.end(), out.begin());
+  return out;
+}
+
+// A secret's PRS: the token's bytes, or the code's canonical symbols.
+std::string prs_of(msg::AuthSecret secret, std::string_view value) {
+  if (secret == msg::AuthSecret::PairingCode) return canonical_pairing_code(value).value_or(std::string{});
+  return std::string(value);
+}
+
+std::string random_symbols(std::size_t n) {
+  std::vector<std::uint8_t> bytes(n);
+  randombytes_buf(bytes.data(), bytes.size());
+  std::string out;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i > 0 && i % 4 == 0) out += '-';
+    out += kCrockford[bytes[i] & 31u];  // 256 is a multiple of 32: every symbol equally likely
+  }
+  sodium_memzero(bytes.data(), bytes.size());
+  return out;
 }
 
 }  // namespace
@@ -30,67 +64,122 @@ Status auth_init() {
   return Ok{};
 }
 
-msg::Challenge make_challenge() {
-  msg::Challenge c;
-  randombytes_buf(c.nonce.data(), c.nonce.size());
-  return c;
+SessionKeys::~SessionKeys() {
+  sodium_memzero(client_tag.data(), client_tag.size());
+  sodium_memzero(host_tag.data(), host_tag.size());
+  sodium_memzero(host_to_client.data(), host_to_client.size());
+  sodium_memzero(client_to_host.data(), client_to_host.size());
 }
 
-msg::AuthProof auth_proof(std::string_view token, const msg::Challenge& challenge,
-                          std::span<const std::uint8_t> hello_frame) {
-  static_assert(msg::kAuthProofBytes >= crypto_generichash_BYTES_MIN &&
-                msg::kAuthProofBytes <= crypto_generichash_BYTES_MAX);
-  auto key = derive_key(token);
-  msg::AuthProof p;
-  crypto_generichash_state st;
-  crypto_generichash_init(&st, key.data(), key.size(), p.mac.size());
-  crypto_generichash_update(&st, reinterpret_cast<const unsigned char*>(kProofDomain.data()), kProofDomain.size());
-  crypto_generichash_update(&st, challenge.nonce.data(), challenge.nonce.size());
-  crypto_generichash_update(&st, hello_frame.data(), hello_frame.size());
-  crypto_generichash_final(&st, p.mac.data(), p.mac.size());
-  sodium_memzero(key.data(), key.size());
-  return p;
+SessionKeys derive_session_keys(const cpace::Isk& isk, std::span<const std::uint8_t> hello_frame,
+                                std::span<const std::uint8_t> challenge_frame, msg::AuthSecret secret) {
+  const std::uint8_t secret_byte = static_cast<std::uint8_t>(secret);
+  std::vector<std::uint8_t> info =
+      cpace::prefix_free_cat({bytes_of(kPrkDomain), hello_frame, challenge_frame, {&secret_byte, 1}});
+  std::array<std::uint8_t, crypto_generichash_BYTES_MAX> prk{};
+  keyed_hash(prk, isk, info);
+  SessionKeys k;
+  keyed_hash(k.client_tag, prk, bytes_of(kClientConfirm));
+  keyed_hash(k.host_tag, prk, bytes_of(kHostConfirm));
+  keyed_hash(k.host_to_client, prk, bytes_of(kHostToClient));
+  keyed_hash(k.client_to_host, prk, bytes_of(kClientToHost));
+  sodium_memzero(prk.data(), prk.size());
+  return k;
 }
 
-StreamKey stream_key(std::string_view token, const msg::Challenge& challenge, std::span<const std::uint8_t> hello_frame,
-                     std::uint8_t direction) {
-  constexpr std::string_view kStreamDomain = "gauss-stream-v1";
-  auto key = derive_key(token);
-  StreamKey out{};
-  crypto_generichash_state st;
-  crypto_generichash_init(&st, key.data(), key.size(), out.size());
-  crypto_generichash_update(&st, reinterpret_cast<const unsigned char*>(kStreamDomain.data()), kStreamDomain.size());
-  crypto_generichash_update(&st, &direction, 1);
-  crypto_generichash_update(&st, challenge.nonce.data(), challenge.nonce.size());
-  crypto_generichash_update(&st, hello_frame.data(), hello_frame.size());
-  crypto_generichash_final(&st, out.data(), out.size());
-  sodium_memzero(key.data(), key.size());
-  return out;
+HostHandshake::HostHandshake(const AuthSecrets& secrets, std::span<const std::uint8_t> hello_frame, std::uint8_t flags,
+                             const std::array<std::uint8_t, msg::kAuthNonceBytes>* nonce)
+    : hello_frame_(hello_frame.begin(), hello_frame.end()) {
+  if (nonce) challenge_.nonce = *nonce;
+  else randombytes_buf(challenge_.nonce.data(), challenge_.nonce.size());
+  challenge_.flags = flags;
+  auto offer = [&](msg::AuthSecret secret, std::string_view value) {
+    const std::string prs = prs_of(secret, value);
+    if (value.empty() || prs.empty()) return;
+    Offer o{secret, cpace::start(bytes_of(prs), hello_frame_, challenge_.nonce, {})};
+    challenge_.offers.push_back(msg::AuthOffer{secret, to_wire(o.party.msg)});
+    offers_.push_back(std::move(o));
+  };
+  offer(msg::AuthSecret::AccessToken, secrets.access_token);
+  offer(msg::AuthSecret::PairingCode, secrets.pairing_code);
+  // Encoding fails only for a Challenge without offers (no secret): the proof then finds
+  // no offer and is refused.
+  auto frame = wire::encode(challenge_);
+  if (frame) challenge_frame_ = std::move(frame).value();
 }
 
-bool verify_auth_proof(std::string_view token, const msg::Challenge& challenge,
-                       std::span<const std::uint8_t> hello_frame, const msg::AuthProof& proof) {
-  const msg::AuthProof expected = auth_proof(token, challenge, hello_frame);
-  return sodium_memcmp(expected.mac.data(), proof.mac.data(), expected.mac.size()) == 0;
+HostHandshake::~HostHandshake() {
+  for (auto& o : offers_) sodium_memzero(o.party.y.data(), o.party.y.size());
 }
 
-std::string generate_access_token() {
-  static constexpr char kAlphabet[] = "0123456789abcdefghjkmnpqrstvwxyz";  // Crockford base32
-  std::array<std::uint8_t, 26> bytes{};
-  randombytes_buf(bytes.data(), bytes.size());
+Expected<SessionKeys> HostHandshake::verify(const msg::AuthProof& proof) const {
+  const auto it = std::find_if(offers_.begin(), offers_.end(), [&](const Offer& o) { return o.secret == proof.secret; });
+  if (it == offers_.end()) return Error{"the proof answers a secret this host did not offer"};
+  auto isk = cpace::finish_initiator(it->party, challenge_.nonce, proof.pake);
+  if (!isk) return Error{"the client's " + isk.message()};
+  SessionKeys keys = derive_session_keys(*isk, hello_frame_, challenge_frame_, proof.secret);
+  sodium_memzero(isk->data(), isk->size());
+  if (sodium_memcmp(keys.client_tag.data(), proof.tag.data(), keys.client_tag.size()) != 0)
+    return Error{"the key confirmation does not match (a wrong access token or pairing code)"};
+  return keys;
+}
+
+Expected<ClientAnswer> answer_challenge(std::string_view secret, std::span<const std::uint8_t> challenge_frame,
+                                        std::span<const std::uint8_t> hello_frame, const cpace::Scalar* y) {
+  auto decoded = wire::decode(challenge_frame);
+  if (!decoded) return decoded.error();
+  const auto* challenge = std::get_if<msg::Challenge>(&decoded.value());
+  if (challenge == nullptr) return Error{"not a Challenge"};
+  auto find = [&](msg::AuthSecret s) {
+    return std::find_if(challenge->offers.begin(), challenge->offers.end(),
+                        [&](const msg::AuthOffer& o) { return o.secret == s; });
+  };
+  auto offer = challenge->offers.end();
+  if (canonical_pairing_code(secret)) offer = find(msg::AuthSecret::PairingCode);
+  if (offer == challenge->offers.end()) offer = find(msg::AuthSecret::AccessToken);
+  if (offer == challenge->offers.end())
+    return Error{"the host asks for a pairing code (8 symbols, as it printed them), and the secret given is not one"};
+  const std::string prs = prs_of(offer->secret, secret);
+  const cpace::Party party = cpace::start(bytes_of(prs), hello_frame, challenge->nonce, {}, y);
+  auto isk = cpace::finish_responder(party, challenge->nonce, offer->pake);
+  if (!isk) return Error{"the host's " + isk.message()};
+  ClientAnswer a;
+  a.keys = derive_session_keys(*isk, hello_frame, challenge_frame, offer->secret);
+  sodium_memzero(isk->data(), isk->size());
+  a.proof.secret = offer->secret;
+  a.proof.pake = to_wire(party.msg);
+  a.proof.tag = a.keys.client_tag;
+  return a;
+}
+
+bool host_confirmed(const SessionKeys& keys, const msg::AuthConfirm& confirm) {
+  return sodium_memcmp(keys.host_tag.data(), confirm.tag.data(), keys.host_tag.size()) == 0;
+}
+
+std::string generate_access_token() { return random_symbols(26); }
+
+std::string generate_pairing_code() { return random_symbols(kPairingCodeSymbols); }
+
+std::optional<std::string> canonical_pairing_code(std::string_view typed) {
   std::string out;
-  for (std::size_t i = 0; i < bytes.size(); ++i) {
-    if (i > 0 && i % 4 == 0) out += '-';
-    out += kAlphabet[bytes[i] & 31u];  // 256 is a multiple of 32: every symbol equally likely
+  for (const char ch : typed) {
+    if (ch == '-' || ch == ' ') continue;
+    char c = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    if (c == 'i' || c == 'l') c = '1';
+    if (c == 'o') c = '0';
+    if (std::string_view(kCrockford).find(c) == std::string_view::npos) return std::nullopt;
+    out += c;
+    if (out.size() > kPairingCodeSymbols) return std::nullopt;
   }
-  sodium_memzero(bytes.data(), bytes.size());
+  if (out.size() != kPairingCodeSymbols) return std::nullopt;
   return out;
 }
 
 std::optional<std::string> weak_token_reason(std::string_view token) {
   if (token.size() >= kStrongTokenChars) return std::nullopt;
-  return "a token of " + std::to_string(token.size()) + " characters can be found by testing guesses against one "
-         "recorded handshake, offline; use at least " + std::to_string(kStrongTokenChars) +
+  return "a token of " + std::to_string(token.size()) +
+         " characters is within reach of online guessing (the host checks up to 10 guesses per second from "
+         "everyone together); use at least " + std::to_string(kStrongTokenChars) +
          " random characters, or --token auto";
 }
 

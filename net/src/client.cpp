@@ -64,7 +64,12 @@ struct NetClient::Impl {
   // connection was lost (for the reconnect log line).
   std::optional<std::uint64_t> last_session;
   Clock::time_point last_lost{};
-  // The connection's sealed stream, when its Challenge asked for one (network thread).
+  // The connection's handshake (network thread): the keys once this client answered the
+  // Challenge, whether the host then proved the secret too, and the sealed stream when the
+  // Challenge asked for one (set once the host proved it).
+  std::optional<SessionKeys> keys;
+  bool encrypt{false};
+  bool host_proved{false};
   std::unique_ptr<StreamCipher> sealer;  // client -> host
   std::unique_ptr<StreamCipher> opener;  // host -> client
 
@@ -145,7 +150,8 @@ struct NetClient::Impl {
     std::span<const std::uint8_t> frame(packet->data, packet->dataLength);
     std::vector<std::uint8_t> opened;
     // On a sealed stream every frame is sealed, except a refusal before the Welcome (the
-    // host refuses before it holds keys when the proof fails).
+    // host refuses before it holds keys when the proof fails, and after the handshake
+    // when the policy refuses before welcoming).
     const bool sealed = opener && looks_sealed(frame);
     if (sealed) {
       auto o = opener->open(frame);
@@ -185,37 +191,46 @@ struct NetClient::Impl {
       set_status(ClientStatus::Refused);
       return false;
     }
-    if (auto* challenge = std::get_if<msg::Challenge>(&m)) {
-      if (welcomed) {
+    if (std::holds_alternative<msg::Challenge>(m)) {
+      if (welcomed || keys) {
+        // One answer per connection: each answer lets whoever sent the Challenge test one
+        // guess of the secret (CPace's online guess), so a second one gets none.
         reject("unexpected Challenge", &ClientCounters::wrong_direction);
         return true;
       }
-      if (cfg.access_token.empty()) {
-        // Nothing to prove with: end here, as a refusal, with the reason a user can act on.
-        msg::Refuse r{msg::RefuseReason::BadToken, msg::kProtocolVersion,
-                      "the host requires an access token and none was given"};
-        log("refused by " + endpoint + ": " + r.detail + "; not retrying");
-        {
-          std::lock_guard lock(mu);
-          counters.last_rejection = r.detail;
-        }
-        sink->on_refused(r);
-        set_status(ClientStatus::Refused);
-        return false;
-      }
-      // The proof binds the host's nonce to the exact Hello bytes this connection sent.
-      const msg::AuthProof proof = auth_proof(cfg.access_token, *challenge, *hello);
-      if (challenge->flags & msg::kChallengeEncrypt) {
-        sealer = std::make_unique<StreamCipher>(cfg.access_token, *challenge, *hello, StreamDirection::ClientToHost);
-        opener = std::make_unique<StreamCipher>(cfg.access_token, *challenge, *hello, StreamDirection::HostToClient);
-      }
-      auto bytes = wire::encode(proof);
+      // Nothing to prove with: end here, as a refusal, with the reason a user can act on.
+      if (cfg.access_token.empty()) return end_handshake("the host requires an access token and none was given");
+      auto answer = answer_challenge(cfg.access_token, frame, *hello);
+      if (!answer) return end_handshake("cannot answer the host's challenge: " + answer.message());
+      keys = answer->keys;
+      encrypt = (std::get<msg::Challenge>(m).flags & msg::kChallengeEncrypt) != 0;
+      auto bytes = wire::encode(answer->proof);
       if (bytes.ok())
         if (ENetPacket* p = detail::make_packet(std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value()),
                                                 true, nullptr))
           if (enet_peer_send(peer, msg::kChannelModel, p) != 0) enet_packet_destroy(p);
       return true;
     }
+    if (const auto* confirm = std::get_if<msg::AuthConfirm>(&m)) {
+      if (!keys || host_proved) {
+        reject("unexpected AuthConfirm", &ClientCounters::wrong_direction);
+        return true;
+      }
+      if (!host_confirmed(*keys, *confirm))
+        return end_handshake("the host could not prove it knows the access token (it may not be the host you meant)");
+      host_proved = true;
+      if (encrypt) {
+        sealer = std::make_unique<StreamCipher>(keys->client_to_host, StreamDirection::ClientToHost);
+        opener = std::make_unique<StreamCipher>(keys->host_to_client, StreamDirection::HostToClient);
+      }
+      keys.reset();
+      return true;
+    }
+    // A client that holds a secret talks only to a host that proved it knows it too.
+    if (!cfg.access_token.empty() && !host_proved)
+      return end_handshake(std::string("the host sent ") + msg::to_string(type) +
+                           " without proving it knows the access token (it may not be the host you meant, or "
+                           "it runs without one)");
     if (auto* welcome = std::get_if<msg::Welcome>(&m)) {
       if (welcomed || welcome->protocol_version != msg::kProtocolVersion) {
         reject("unexpected Welcome", &ClientCounters::wrong_direction);
@@ -244,6 +259,20 @@ struct NetClient::Impl {
     return true;
   }
 
+  // Ends this connection before its Welcome, as a refusal (no retry: the same host would
+  // answer the same way), for a reason found here rather than sent by the host.
+  bool end_handshake(const std::string& why) {
+    msg::Refuse r{msg::RefuseReason::BadToken, msg::kProtocolVersion, why.substr(0, msg::kMaxReasonBytes)};
+    log("ending the connection to " + endpoint + ": " + r.detail + "; not retrying");
+    {
+      std::lock_guard lock(mu);
+      counters.last_rejection = r.detail;
+    }
+    sink->on_refused(r);
+    set_status(ClientStatus::Refused);
+    return false;
+  }
+
   void log_welcome(const msg::Welcome& w) {
     char id[80];
     std::snprintf(id, sizeof id, "host session %016llx, client %u, %u slots",
@@ -266,7 +295,10 @@ struct NetClient::Impl {
   // One connection attempt and its whole life. Returns when it ends; `welcome` gets the
   // connection's Welcome when there was one.
   Outcome session(ENetHost* host, std::optional<msg::Welcome>& welcome) {
-    sealer.reset();  // keys belong to one connection
+    keys.reset();  // keys belong to one connection
+    encrypt = false;
+    host_proved = false;
+    sealer.reset();
     opener.reset();
     ENetPeer* peer = enet_host_connect(host, &server, msg::kChannelCount, 0);
     if (peer == nullptr) {
@@ -296,14 +328,15 @@ struct NetClient::Impl {
     while (alive && !stop.load()) {
       if (welcomed) flush(peer);
       int r = enet_host_service(host, &ev, 2);
-      while (r > 0 && alive) {
+      while (r > 0 && alive && !refused) {
         if (ev.type == ENET_EVENT_TYPE_RECEIVE) {
           if (!receive(peer, ev.packet, welcomed, welcome)) refused = true;
           enet_packet_destroy(ev.packet);
         } else if (ev.type == ENET_EVENT_TYPE_DISCONNECT) {
           alive = false;
         }
-        if (alive) r = enet_host_service(host, &ev, 0);
+        // Nothing after a refusal is handled: it would speak over the reason given.
+        if (alive && !refused) r = enet_host_service(host, &ev, 0);
       }
       if (refused) {
         // Let the host's disconnect arrive (or give up quickly); nothing more to say.

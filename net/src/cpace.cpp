@@ -85,9 +85,16 @@ Scalar sample_scalar() {
 
 Expected<Point> scalar_mult_vfy(const Scalar& y, const Point& x) {
   Point out{};
-  // libsodium refuses an encoding that does not decode and an identity result alike.
+  // Named apart so that a refusal says which: the identity's encoding is all zeros (it
+  // decodes, and would make K the identity whatever y), anything else must decode.
+  if (std::all_of(x.begin(), x.end(), [](std::uint8_t b) { return b == 0; }))
+    return Error{"CPace point is the identity"};
+  if (crypto_core_ristretto255_is_valid_point(x.data()) != 1)
+    return Error{"CPace point does not decode to a ristretto255 element"};
+  // libsodium also refuses an identity result (not reachable with a valid non-identity
+  // point and a scalar below the group order, which is prime).
   if (crypto_scalarmult_ristretto255(out.data(), y.data(), x.data()) != 0)
-    return Error{"CPace: the peer's point does not decode to a group element, or gives the identity"};
+    return Error{"CPace point gives the identity"};
   return out;
 }
 
@@ -96,12 +103,12 @@ std::vector<std::uint8_t> message(const Point& y_public, Bytes ad) { return pref
 Expected<Message> parse_message(Bytes msg) {
   std::size_t at = 0, len_y = 0, len_ad = 0;
   if (!read_len(msg, at, len_y) || len_y != kPointBytes || msg.size() - at < len_y)
-    return Error{"CPace: malformed message (the point's length field)"};
+    return Error{"CPace message is malformed (the point's length field)"};
   Message m;
   std::copy_n(msg.begin() + static_cast<std::ptrdiff_t>(at), kPointBytes, m.y_public.begin());
   at += kPointBytes;
   if (!read_len(msg, at, len_ad) || msg.size() - at != len_ad)
-    return Error{"CPace: malformed message (the associated data's length does not match the message)"};
+    return Error{"CPace message is malformed (the associated data's length does not match the message)"};
   m.ad.assign(msg.begin() + static_cast<std::ptrdiff_t>(at), msg.end());
   return m;
 }

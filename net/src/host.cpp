@@ -46,11 +46,11 @@ struct PeerState {
   Clock::time_point message_refilled{};
   std::uint32_t rejected{0};
   detail::ByteCounter pending;
-  // Token authentication: the Hello waits here while its Challenge is answered.
+  // Token authentication: the Hello waits here while its Challenge is answered; the
+  // handshake holds the CPace scalars until the proof arrives.
   bool challenged{false};
-  msg::Challenge challenge{};
+  std::unique_ptr<HostHandshake> pake;
   msg::Hello hello{};
-  std::vector<std::uint8_t> hello_frame;
   // A sealed stream (encrypt_stream): set when the proof passed.
   std::shared_ptr<StreamCipher> sealer;  // host -> client
   std::shared_ptr<StreamCipher> opener;  // client -> host
@@ -130,11 +130,17 @@ struct NetHost::Impl {
       log("internal: cannot encode " + std::string(msg::to_string(wire::type_of(m))) + ": " + bytes.message());
       return;
     }
-    if (ps.welcomed && ps.sealer) *bytes = ps.sealer->seal(*bytes);
-    auto frame = std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value());
+    send_frame_now(peer, ps, wire::type_of(m), std::move(bytes).value());
+  }
+
+  // The same for a frame already encoded (the Challenge: its exact bytes are the
+  // handshake's transcript).
+  void send_frame_now(ENetPeer* peer, const PeerState& ps, msg::MessageType type, std::vector<std::uint8_t> bytes) {
+    if (ps.welcomed && ps.sealer) bytes = ps.sealer->seal(bytes);
+    auto frame = std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes));
     detail::HostSendLimit sending(host);
     if (ENetPacket* p = detail::make_packet(frame, true, nullptr)) {
-      if (enet_peer_send(peer, msg::channel_of(wire::type_of(m)), p) != 0) enet_packet_destroy(p);
+      if (enet_peer_send(peer, msg::channel_of(type), p) != 0) enet_packet_destroy(p);
       std::lock_guard lock(mu);
       ++counters.messages_sent;
       counters.bytes_sent += frame->size();
@@ -204,7 +210,7 @@ struct NetHost::Impl {
       return refuse(peer, ps, msg::RefuseReason::Malformed,
                     "a Hello must not carry the access token over the network (the host sends a challenge)",
                     &HostCounters::refused_malformed);
-    if (!cfg.access_token.empty()) {
+    if (auth_required()) {
       // Online guessing costs time: an address waits after each wrong proof (doubling),
       // and the host checks a bounded number of proofs per second whoever sends them.
       const auto now = Clock::now();
@@ -218,35 +224,46 @@ struct NetHost::Impl {
         return refuse(peer, ps, msg::RefuseReason::Other, "too many authentication attempts on this host; retry shortly",
                       &HostCounters::refused_proof_rate);
       // Nothing else about this Hello is judged before the peer proved the token, so a
-      // peer without it learns nothing but "authentication failed".
+      // peer without it learns nothing but why its proof failed. The Challenge carries one
+      // CPace message per secret (the token, a pairing code), with the Hello as CI.
       ps.challenged = true;
-      ps.challenge = make_challenge();
-      if (cfg.encrypt_stream) ps.challenge.flags |= msg::kChallengeEncrypt;
+      ps.pake = std::make_unique<HostHandshake>(AuthSecrets{cfg.access_token, cfg.pairing_code}, frame,
+                                                cfg.encrypt_stream ? msg::kChallengeEncrypt : std::uint8_t{0});
       ps.hello = *hello;
-      ps.hello_frame.assign(frame.begin(), frame.end());
-      send_now(peer, ps, ps.challenge);
+      send_frame_now(peer, ps, msg::MessageType::Challenge, ps.pake->challenge_frame());
       return;
     }
     admit(peer, ps, *hello);
   }
 
-  // The answer to this connection's Challenge: a wrong or missing proof gets the same
-  // refusal, whatever was wrong.
+  bool auth_required() const { return !cfg.access_token.empty() || !cfg.pairing_code.empty(); }
+
+  // The answer to this connection's Challenge. Anything but a proof whose tag matches is
+  // refused as "authentication failed: <why>", counted as refused_token and as a wrong
+  // guess of its address (the backoff): a malformed proof, a CPace point that does not
+  // decode or is the identity, a wrong secret. The why names what was wrong with the
+  // proof, never anything about the secret.
   void authenticate(ENetPeer* peer, PeerState& ps, Expected<wire::Message> decoded) {
-    const auto* proof = decoded.ok() ? std::get_if<msg::AuthProof>(&decoded.value()) : nullptr;
-    if (proof == nullptr || !verify_auth_proof(cfg.access_token, ps.challenge, ps.hello_frame, *proof)) {
+    Expected<SessionKeys> keys = Error{"no proof"};
+    if (!decoded.ok()) keys = Error{decoded.message()};
+    else if (const auto* proof = std::get_if<msg::AuthProof>(&decoded.value())) keys = ps.pake->verify(*proof);
+    else keys = Error{std::string("expected AuthProof, got ") + msg::to_string(wire::type_of(decoded.value()))};
+    if (!keys) {
+      ps.pake.reset();
       admission->auth_failed(ps.address, Clock::now());
-      return refuse(peer, ps, msg::RefuseReason::BadToken, "authentication failed", &HostCounters::refused_token);
+      return refuse(peer, ps, msg::RefuseReason::BadToken, "authentication failed: " + keys.message(),
+                    &HostCounters::refused_token);
     }
     admission->auth_passed(ps.address);
     ps.challenged = false;
-    if (ps.challenge.flags & msg::kChallengeEncrypt) {
-      ps.sealer = std::make_shared<StreamCipher>(cfg.access_token, ps.challenge, ps.hello_frame,
-                                                 StreamDirection::HostToClient);
-      ps.opener = std::make_shared<StreamCipher>(cfg.access_token, ps.challenge, ps.hello_frame,
-                                                 StreamDirection::ClientToHost);
+    if (ps.pake->challenge().flags & msg::kChallengeEncrypt) {
+      ps.sealer = std::make_shared<StreamCipher>(keys->host_to_client, StreamDirection::HostToClient);
+      ps.opener = std::make_shared<StreamCipher>(keys->client_to_host, StreamDirection::ClientToHost);
     }
-    ps.hello_frame.clear();
+    ps.pake.reset();  // the scalars go: nothing left here opens this session's stream later
+    // The host proves the secret in turn, before the policy's Welcome (or a Refuse):
+    // plain, as the client opens sealed frames only once it has checked this.
+    send_now(peer, ps, msg::AuthConfirm{keys->host_tag});
     admit(peer, ps, ps.hello);
   }
 
@@ -543,7 +560,7 @@ struct NetHost::Impl {
         PeerState ps;
         ps.connected_at = Clock::now();
         ps.address = ev.peer->address.host;
-        peers[ev.peer] = ps;
+        peers[ev.peer] = std::move(ps);
         enet_peer_timeout(ev.peer, 0, static_cast<enet_uint32>(cfg.peer_timeout_min.count()),
                           static_cast<enet_uint32>(cfg.peer_timeout_max.count()));
         std::lock_guard lock(mu);
@@ -608,9 +625,18 @@ Expected<std::unique_ptr<NetHost>> NetHost::start(NetHostConfig config) {
     return Error{"NetHostConfig: message_rate_hz must be > 0 and message_burst >= 1"};
   if (config.access_token.size() > msg::kMaxTokenBytes)
     return Error{"NetHostConfig: access token longer than " + std::to_string(msg::kMaxTokenBytes) + " bytes"};
-  if (config.encrypt_stream && config.access_token.empty())
-    return Error{"NetHostConfig: encrypt_stream needs an access token (the stream's keys derive from it)"};
-  if (!config.access_token.empty())
+  if (!config.pairing_code.empty()) {
+    if (!canonical_pairing_code(config.pairing_code))
+      return Error{"NetHostConfig: pairing code '" + config.pairing_code + "' is not " +
+                   std::to_string(kPairingCodeSymbols) + " symbols of Crockford's base32"};
+    // A client holding a code-shaped token would answer the code's offer and fail.
+    if (canonical_pairing_code(config.access_token))
+      return Error{"NetHostConfig: with a pairing code, the access token must not look like one (" +
+                   std::to_string(kPairingCodeSymbols) + " base32 symbols)"};
+  }
+  if (config.encrypt_stream && config.access_token.empty() && config.pairing_code.empty())
+    return Error{"NetHostConfig: encrypt_stream needs an access token (the stream's keys come from proving it)"};
+  if (!config.access_token.empty() || !config.pairing_code.empty())
     if (auto s = auth_init(); !s) return s.error();
   auto impl = std::make_unique<Impl>();
   impl->cfg = std::move(config);

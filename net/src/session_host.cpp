@@ -8,7 +8,7 @@ namespace gauss::net {
 
 Expected<std::unique_ptr<SessionHost>> SessionHost::start(SessionHostConfig config, CodecParams params) {
   if (auto s = validate_codec_params(params); !s) return Error{"SessionHost: " + s.message()};
-  // Over the network the transport proves the token (challenge-response) and the Hellos
+  // Over the network the transport proves the token (CPace, auth.h) and the Hellos
   // it passes on carry none, so a token is checked there and only there.
   if (!config.session.access_token.empty()) {
     if (config.net.access_token.empty()) config.net.access_token = config.session.access_token;

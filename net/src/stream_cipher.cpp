@@ -7,8 +7,6 @@
 #include <cstring>
 #include <limits>
 
-#include "gauss/net/auth.h"
-
 namespace gauss::net {
 
 namespace {
@@ -46,9 +44,8 @@ bool looks_sealed(std::span<const std::uint8_t> packet) {
          get_u16(packet.data() + 2) == kSealedVersion;
 }
 
-StreamCipher::StreamCipher(std::string_view token, const msg::Challenge& challenge,
-                           std::span<const std::uint8_t> hello_frame, StreamDirection direction)
-    : key_(stream_key(token, challenge, hello_frame, static_cast<std::uint8_t>(direction))),
+StreamCipher::StreamCipher(const StreamKey& key, StreamDirection direction)
+    : key_(key),
       direction_(direction),
       seen_(kReplayWindow, kNeverSeen) {}
 

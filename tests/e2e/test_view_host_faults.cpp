@@ -8,6 +8,7 @@
 //   - bad inputs of gauss-view (path file syntax and fields, a missing or corrupt --scene,
 //     a wrong access token): the documented exit status and a message naming the input.
 // Every wait has a deadline; only the processes this test started are signalled (by pid).
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -255,6 +256,44 @@ std::pair<std::optional<int>, std::string> run_view(const fs::path& out, const s
   if (!view.start(argv, log)) return {std::nullopt, "cannot start " + std::string(GAUSS_VIEW_EXE)};
   auto rc = finish(view, deadline);
   return {rc, read_text(log)};
+}
+
+// --token auto prints a pairing code: a viewer given it as a person might type it (upper
+// case) gets in; one given a code with a symbol changed is refused once and exits 1. (The
+// right one goes first: a wrong proof makes the address wait a second, and a refusal for
+// that is not retried.)
+TEST(ViewHostFaults, TheHostsPairingCodeLetsAViewerIn) {
+  const fs::path out = fresh_dir("e2e_view_host_faults_pairing");
+  std::ofstream(out / "path.json") << kPath;
+  gauss::test::ChildProcess host;
+  const std::string endpoint = start_host_anywhere(host, out, {}, "auto");
+  ASSERT_FALSE(endpoint.empty()) << read_text(out / "host.log");
+  const std::string host_log = read_text(out / "host.log");
+  const std::string marker = "pairing code (short to type, accepted instead of the token): ";
+  const auto at = host_log.find(marker);
+  ASSERT_NE(at, std::string::npos) << host_log;
+  const std::string code = host_log.substr(at + marker.size(), 9);
+  ASSERT_EQ(code.size(), 9u) << host_log;
+  std::string typed = code, wrong = code;
+  for (char& c : typed) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  wrong[0] = wrong[0] == '0' ? '1' : '0';
+  {
+    gauss::test::ChildProcess view;
+    ASSERT_TRUE(view.start(view_args(endpoint, out, {"--token", typed}), out / "view.log"));
+    const auto deadline = std::chrono::steady_clock::now() + 60s;
+    while (read_text(out / "view.log").find("connected to " + endpoint) == std::string::npos &&
+           std::chrono::steady_clock::now() < deadline && !view.wait(100ms)) {
+    }
+    EXPECT_NE(read_text(out / "view.log").find("connected to " + endpoint), std::string::npos)
+        << read_text(out / "view.log");
+    view.stop(SIGINT);
+  }
+  auto [rc, log] = run_view(out, "wrong_code", {"--headless", "--path", (out / "path.json").string(), "--out",
+                                                (out / "wrong").string(), "--host", endpoint, "--token", wrong,
+                                                "--settle-timeout", "60"});
+  EXPECT_EQ(rc.value_or(-1), 1) << log;
+  EXPECT_NE(log.find("authentication failed"), std::string::npos) << log;
+  EXPECT_EQ(host.stop(SIGINT).value_or(-1), 0) << read_text(out / "host.log");
 }
 
 TEST(ViewHostFaults, BadInputsAreNamedWithTheDocumentedExitStatus) {

@@ -162,7 +162,7 @@ TEST(HostileClients, AHalfOpenBurstDoesNotKeepAClientOut) {
 }
 
 // One token guesser at 127.0.0.`octet`: connects, sends a Hello, answers a Challenge with
-// a wrong proof, and again, until `until`. Counts what the host answered.
+// a CPace proof for a wrong guess, and again, until `until`. Counts what the host answered.
 struct GuessCounts {
   int attempts{0}, challenged{0}, refused{0};
 };
@@ -179,9 +179,7 @@ GuessCounts guess_until(std::uint16_t port, int octet, Clock::time_point until) 
   hello.slot_capacity = 100;
   hello.client_name = "guesser";
   const auto hello_frame = wire::encode(hello).value();
-  msg::AuthProof wrong;
-  wrong.mac.fill(0xA5);
-  const auto proof_frame = wire::encode(wrong).value();
+  EXPECT_TRUE(net::auth_init().ok());
   auto send = [&](ENetPeer* p, const std::vector<std::uint8_t>& f) {
     enet_peer_send(p, 0, enet_packet_create(f.data(), f.size(), ENET_PACKET_FLAG_RELIABLE));
     enet_host_flush(h);
@@ -198,12 +196,14 @@ GuessCounts guess_until(std::uint16_t port, int octet, Clock::time_point until) 
       if (ev.type == ENET_EVENT_TYPE_CONNECT) send(peer, hello_frame);
       if (ev.type == ENET_EVENT_TYPE_DISCONNECT) done = true;
       if (ev.type != ENET_EVENT_TYPE_RECEIVE) continue;
-      auto m = wire::decode(std::span<const std::uint8_t>(ev.packet->data, ev.packet->dataLength));
+      const std::vector<std::uint8_t> packet(ev.packet->data, ev.packet->data + ev.packet->dataLength);
       enet_packet_destroy(ev.packet);
+      auto m = wire::decode(packet);
       if (!m) continue;
       if (std::holds_alternative<msg::Challenge>(m.value())) {
         ++n.challenged;
-        send(peer, proof_frame);
+        auto guess = net::answer_challenge("guess " + std::to_string(n.challenged), packet, hello_frame);
+        if (guess) send(peer, wire::encode(guess->proof).value());
       } else if (std::holds_alternative<msg::Refuse>(m.value())) {
         ++n.refused;
       }

@@ -1,9 +1,10 @@
 // Sealed streams (NetHostConfig::encrypt_stream, stream_cipher.h): the cipher's contract
-// (round trip, per-connection and per-direction keys, replays and alterations refused,
-// reordering within the window accepted, a forgery spends no counter), and on a live
-// loopback connection: everything after the proof travels sealed both ways, nothing the
-// host sends reads as a frame on the wire, and a replayed, altered or plain packet from
-// the client is rejected and counted without reaching the policy.
+// (round trip, per-key and per-direction, replays and alterations refused, reordering
+// within the window accepted, a forgery spends no counter), and on a live loopback
+// connection: everything after the handshake travels sealed both ways, nothing the host
+// sends reads as a frame on the wire, a replayed, altered or plain packet from the client
+// is rejected and counted without reaching the policy, and a recorded session stays
+// sealed from someone who has the recording and the token (forward secrecy).
 #include <chrono>
 #include <string>
 #include <thread>
@@ -15,6 +16,7 @@
 #include "gauss/net/auth.h"
 #include "gauss/net/host.h"
 #include "gauss/net/stream_cipher.h"
+#include "old_token_keys.h"
 #include "raw_peer.h"
 
 namespace gauss {
@@ -24,20 +26,19 @@ using namespace std::chrono_literals;
 
 std::vector<std::uint8_t> bytes_of(const std::string& s) { return {s.begin(), s.end()}; }
 
-struct Keys {
-  msg::Challenge challenge;
-  std::vector<std::uint8_t> hello{1, 2, 3, 4, 5};
-  Keys() {
-    EXPECT_TRUE(net::auth_init().ok());
-    challenge = net::make_challenge();
-    challenge.flags = msg::kChallengeEncrypt;
-  }
-};
+// A key as a handshake would give it (the cipher does not care where it came from;
+// test_pake_handshake.cpp checks the keys themselves).
+net::StreamKey key_of(std::uint8_t seed) {
+  EXPECT_TRUE(net::auth_init().ok());
+  net::StreamKey k{};
+  for (std::size_t i = 0; i < k.size(); ++i) k[i] = static_cast<std::uint8_t>(seed + 13 * i);
+  return k;
+}
 
 TEST(StreamCipher, RoundTripsAndTheWireCarriesNoPlaintext) {
-  Keys k;
-  net::StreamCipher seal("token", k.challenge, k.hello, net::StreamDirection::HostToClient);
-  net::StreamCipher open("token", k.challenge, k.hello, net::StreamDirection::HostToClient);
+  const auto key = key_of(1);
+  net::StreamCipher seal(key, net::StreamDirection::HostToClient);
+  net::StreamCipher open(key, net::StreamDirection::HostToClient);
   const auto frame = bytes_of("the chair is in the corner");
   const auto packet = seal.seal(frame);
   EXPECT_EQ(packet.size(), frame.size() + net::kSealedHeaderBytes + net::kSealedTagBytes);
@@ -52,24 +53,24 @@ TEST(StreamCipher, RoundTripsAndTheWireCarriesNoPlaintext) {
   EXPECT_TRUE(empty->empty());
 }
 
-TEST(StreamCipher, KeysDifferPerTokenConnectionAndDirection) {
-  Keys k, other;
-  net::StreamCipher seal("token", k.challenge, k.hello, net::StreamDirection::HostToClient);
+TEST(StreamCipher, APacketOpensOnlyUnderItsKeyAndDirection) {
+  const auto key = key_of(1);
+  net::StreamCipher seal(key, net::StreamDirection::HostToClient);
   const auto packet = seal.seal(bytes_of("frame"));
-  net::StreamCipher wrong_token("tokem", k.challenge, k.hello, net::StreamDirection::HostToClient);
-  net::StreamCipher wrong_nonce("token", other.challenge, k.hello, net::StreamDirection::HostToClient);
-  net::StreamCipher wrong_hello("token", k.challenge, bytes_of("another hello"), net::StreamDirection::HostToClient);
-  net::StreamCipher wrong_way("token", k.challenge, k.hello, net::StreamDirection::ClientToHost);
-  EXPECT_FALSE(wrong_token.open(packet).ok());
-  EXPECT_FALSE(wrong_nonce.open(packet).ok());
-  EXPECT_FALSE(wrong_hello.open(packet).ok());
+  auto other_key = key;
+  other_key[31] ^= 1;
+  net::StreamCipher wrong_key(other_key, net::StreamDirection::HostToClient);
+  net::StreamCipher wrong_way(key, net::StreamDirection::ClientToHost);
+  EXPECT_FALSE(wrong_key.open(packet).ok());
   EXPECT_FALSE(wrong_way.open(packet).ok()) << "a packet cannot be reflected back to its sender";
+  net::StreamCipher right(key, net::StreamDirection::HostToClient);
+  EXPECT_TRUE(right.open(packet).ok());
 }
 
 TEST(StreamCipher, ReplaysAndAlterationsAreRefusedReorderingIsNot) {
-  Keys k;
-  net::StreamCipher seal("t", k.challenge, k.hello, net::StreamDirection::ClientToHost);
-  net::StreamCipher open("t", k.challenge, k.hello, net::StreamDirection::ClientToHost);
+  const auto key = key_of(2);
+  net::StreamCipher seal(key, net::StreamDirection::ClientToHost);
+  net::StreamCipher open(key, net::StreamDirection::ClientToHost);
   std::vector<std::vector<std::uint8_t>> packets;
   for (int i = 0; i < 6; ++i) packets.push_back(seal.seal(bytes_of("frame " + std::to_string(i))));
   // Out of order within the window: accepted, each once.
@@ -93,28 +94,43 @@ TEST(StreamCipher, ReplaysAndAlterationsAreRefusedReorderingIsNot) {
 }
 
 // A raw ENet client speaking the sealed protocol by hand, so the test can replay, alter
-// and send plain packets after the handshake.
+// and send plain packets after the handshake. It records the handshake's packets as an
+// observer on the path would see them.
 class SealedPeer {
  public:
   SealedPeer(std::uint16_t port, const std::string& token) : raw_(port), token_(token) {}
 
-  // Hello, Challenge (must ask for a sealed stream), proof; then the keys.
+  // Hello, Challenge (must ask for a sealed stream), proof, the host's confirmation;
+  // then the keys.
   bool handshake() {
     if (!raw_.connected()) return false;
     msg::Hello hello;
     hello.slot_capacity = 100;
     hello.client_name = "sealed";
-    const auto hello_frame = wire::encode(hello).value();
+    hello_frame = wire::encode(hello).value();
     raw_.send(hello_frame);
-    auto m = raw_.receive_one();
+    auto challenge = raw_.receive_packet();
+    if (!challenge) return false;
+    challenge_frame = *challenge;
+    auto m = wire::decode(challenge_frame);
     if (!m || !std::holds_alternative<msg::Challenge>(*m)) return false;
-    const auto& challenge = std::get<msg::Challenge>(*m);
-    if (!(challenge.flags & msg::kChallengeEncrypt)) return false;
-    raw_.send(wire::encode(net::auth_proof(token_, challenge, hello_frame)).value());
-    sealer_ = std::make_unique<net::StreamCipher>(token_, challenge, hello_frame, net::StreamDirection::ClientToHost);
-    opener_ = std::make_unique<net::StreamCipher>(token_, challenge, hello_frame, net::StreamDirection::HostToClient);
+    if (!(std::get<msg::Challenge>(*m).flags & msg::kChallengeEncrypt)) return false;
+    auto answer = net::answer_challenge(token_, challenge_frame, hello_frame);
+    if (!answer) return false;
+    proof_frame = wire::encode(answer->proof).value();
+    raw_.send(proof_frame);
+    auto confirm_packet = raw_.receive_packet();
+    if (!confirm_packet) return false;
+    confirm_frame = *confirm_packet;
+    auto confirm = wire::decode(confirm_frame);
+    if (!confirm || !std::holds_alternative<msg::AuthConfirm>(*confirm) ||
+        !net::host_confirmed(answer->keys, std::get<msg::AuthConfirm>(*confirm)))
+      return false;
+    sealer_ = std::make_unique<net::StreamCipher>(answer->keys.client_to_host, net::StreamDirection::ClientToHost);
+    opener_ = std::make_unique<net::StreamCipher>(answer->keys.host_to_client, net::StreamDirection::HostToClient);
     return true;
   }
+  std::vector<std::uint8_t> hello_frame, challenge_frame, proof_frame, confirm_frame;
   void send(const std::vector<std::uint8_t>& bytes) { raw_.send(bytes); }
   std::vector<std::uint8_t> seal(const wire::Message& m) { return sealer_->seal(wire::encode(m).value()); }
   std::optional<std::vector<std::uint8_t>> receive_packet() { return raw_.receive_packet(); }
@@ -209,14 +225,84 @@ TEST(SealedStream, ALiveConnectionIsSealedBothWaysAndRefusesReplays) {
   EXPECT_EQ(hc.accepted, 1u);
 }
 
+// Forward secrecy and no offline test, on a live connection: an observer records the
+// whole handshake and the first sealed frames both ways, and later learns the token. None
+// of what it can compute opens them: not the keys version 2 derived from the token and
+// public bytes, not a fresh CPace run as the client (new scalar, the recorded Challenge),
+// not a fresh run as the host (the recorded nonce and the client's recorded message, a
+// new scalar), which the host's own check refuses too. The honest ends' keys did open
+// them, and are gone with the connection.
+TEST(SealedStream, ARecordedSessionStaysSealedEvenWithTheToken) {
+  const std::string token = "private scene";
+  net::NetHostConfig cfg;
+  cfg.bind.port = 0;
+  cfg.access_token = token;
+  cfg.encrypt_stream = true;
+  cfg.log = [](const std::string&) {};
+  auto host = net::NetHost::start(cfg);
+  ASSERT_TRUE(host.ok()) << host.message();
+  SealedPeer peer((*host)->port(), token);
+  ASSERT_TRUE(peer.handshake());
+  auto connected = events_until(**host, [](const net::HostEvent& e) { return e.kind == net::HostEventKind::Connected; });
+  ASSERT_FALSE(connected.empty());
+  const std::uint32_t id = connected.back().client;
+  ASSERT_TRUE((*host)->send(id, msg::Welcome{msg::kProtocolVersion, (*host)->session_id(), id, 100}).ok());
+  std::vector<std::vector<std::uint8_t>> down;  // host -> client, as recorded
+  auto welcome = peer.receive_packet();
+  ASSERT_TRUE(welcome.has_value());
+  ASSERT_TRUE(peer.open(*welcome).ok()) << "the honest client opens it";
+  down.push_back(*welcome);
+  msg::Ack ack;
+  ack.last_batch_id = 3;
+  const auto up = peer.seal(ack);  // client -> host, as recorded
+  peer.send(up);
+  ASSERT_FALSE(events_until(**host, [](const net::HostEvent& e) { return e.kind == net::HostEventKind::Message; }).empty());
+
+  // The recording, and what the attacker derives from it with the token.
+  const auto challenge = wire::decode(peer.challenge_frame);
+  const auto proof = wire::decode(peer.proof_frame);
+  ASSERT_TRUE(challenge.ok() && proof.ok());
+  const auto& c = std::get<msg::Challenge>(*challenge);
+  const auto& p = std::get<msg::AuthProof>(*proof);
+  std::vector<std::pair<std::string, net::StreamKey>> candidates;
+  for (std::uint8_t d : {1, 2})
+    candidates.push_back({"version 2's token key, direction " + std::to_string(d),
+                          test::old_stream_key(token, c.nonce, peer.hello_frame, d)});
+  auto as_client = net::answer_challenge(token, peer.challenge_frame, peer.hello_frame);
+  ASSERT_TRUE(as_client.ok()) << as_client.message();
+  EXPECT_NE(as_client->proof.tag, p.tag) << "a fresh run does not reproduce the recorded proof";
+  candidates.push_back({"a fresh client run, host to client", as_client->keys.host_to_client});
+  candidates.push_back({"a fresh client run, client to host", as_client->keys.client_to_host});
+  net::HostHandshake as_host(net::AuthSecrets{token, {}}, peer.hello_frame, c.flags, &c.nonce);
+  auto verified = as_host.verify(p);
+  EXPECT_FALSE(verified.ok()) << "a fresh host scalar does not match the recorded proof";
+  const auto party = net::cpace::start(std::span(reinterpret_cast<const std::uint8_t*>(token.data()), token.size()),
+                                       peer.hello_frame, c.nonce, {});
+  auto isk = net::cpace::finish_initiator(party, c.nonce, p.pake);
+  ASSERT_TRUE(isk.ok()) << isk.message();
+  const auto fresh_host = net::derive_session_keys(*isk, peer.hello_frame, peer.challenge_frame, p.secret);
+  candidates.push_back({"a fresh host run, host to client", fresh_host.host_to_client});
+  candidates.push_back({"a fresh host run, client to host", fresh_host.client_to_host});
+  for (const auto& [what, key] : candidates) {
+    for (auto dir : {net::StreamDirection::HostToClient, net::StreamDirection::ClientToHost}) {
+      net::StreamCipher opener(key, dir);
+      for (const auto& packet : down) EXPECT_FALSE(opener.open(packet).ok()) << what << " opened a recorded frame";
+      EXPECT_FALSE(opener.open(up).ok()) << what << " opened a recorded frame";
+    }
+  }
+}
+
 TEST(SealedStream, AChallengeWithUnknownFlagsIsRefused) {
   msg::Challenge c;
+  msg::AuthOffer offer;
+  offer.pake.front() = static_cast<std::uint8_t>(msg::kPakePointBytes);
+  c.offers.push_back(offer);
   c.flags = 0x80;
   EXPECT_FALSE(wire::encode(c).ok()) << "the encoder never writes what the decoder refuses";
   c.flags = msg::kChallengeEncrypt;
   auto frame = wire::encode(c).value();
   ASSERT_TRUE(wire::decode(frame).ok());
-  frame.back() |= 0x80;  // the flags byte ends the body
+  frame[wire::kHeaderBytes + msg::kAuthNonceBytes] |= 0x80;  // the flags byte follows the nonce
   auto bad = wire::decode(frame);
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.message().find("flags"), std::string::npos) << bad.message();

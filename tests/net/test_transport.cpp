@@ -130,7 +130,7 @@ TEST(Transport, EveryMessageCrossesBothWays) {
   for (auto& m : test::sample_messages()) {
     const auto t = wire::type_of(m);
     if (t == msg::MessageType::Welcome || t == msg::MessageType::Refuse || t == msg::MessageType::Hello ||
-        t == msg::MessageType::Challenge || t == msg::MessageType::AuthProof)
+        t == msg::MessageType::Challenge || t == msg::MessageType::AuthProof || t == msg::MessageType::AuthConfirm)
       continue;  // handshake only
     (msg::direction_of(t) == msg::Direction::HostToClient ? down : up).push_back(m);
   }
@@ -223,7 +223,8 @@ TEST(Transport, AccessTokenIsRequired) {
   ASSERT_TRUE(c2.ok());
   ASSERT_TRUE((*c2)->wait_for(net::ClientStatus::Refused, 20s));
   EXPECT_EQ(wrong.refused->reason, msg::RefuseReason::BadToken);
-  EXPECT_EQ(wrong.refused->detail, "authentication failed") << "says nothing about what was wrong";
+  EXPECT_EQ(wrong.refused->detail,
+            "authentication failed: the key confirmation does not match (a wrong access token or pairing code)");
 
   auto rc = client_config((*host)->port());
   rc.access_token = "open-sesame";
@@ -421,10 +422,10 @@ TEST(Transport, ASilentConnectionIsDroppedAfterTheHandshakeTimeout) {
   EXPECT_EQ((*host)->counters().handshake_timeouts, 1u);
 }
 
-// Challenge-response authentication, byte level: an honest handshake captured off the
-// wire (the Hello and the AuthProof frames a peer sent) and replayed on a new
-// connection is refused, because that connection's nonce differs; the token itself
-// never appears in what was captured.
+// CPace authentication, byte level: an honest handshake captured off the wire (the Hello
+// and the AuthProof frames a peer sent) and replayed on a new connection is refused,
+// because that connection's nonce and the host's scalar differ; the token itself never
+// appears in what was captured.
 TEST(Transport, AReplayedHandshakeIsRefused) {
   const std::string token = "correct horse battery staple";
   auto cfg = host_config();
@@ -440,12 +441,15 @@ TEST(Transport, AReplayedHandshakeIsRefused) {
     RawPeer honest((*host)->port());
     ASSERT_TRUE(honest.connected());
     honest.send(hello_frame);
-    auto challenge = honest.receive_one();
+    auto challenge = honest.receive_packet();
     ASSERT_TRUE(challenge.has_value());
-    ASSERT_TRUE(std::holds_alternative<msg::Challenge>(*challenge)) << msg::to_string(wire::type_of(*challenge));
-    const auto proof = net::auth_proof(token, std::get<msg::Challenge>(*challenge), hello_frame);
-    proof_frame = wire::encode(proof).value();
+    const auto answer = net::answer_challenge(token, *challenge, hello_frame);
+    ASSERT_TRUE(answer.ok()) << answer.message();
+    proof_frame = wire::encode(answer->proof).value();
     honest.send(proof_frame);
+    auto confirm = honest.receive_one();
+    ASSERT_TRUE(confirm.has_value() && std::holds_alternative<msg::AuthConfirm>(*confirm));
+    EXPECT_TRUE(net::host_confirmed(answer->keys, std::get<msg::AuthConfirm>(*confirm)));
     ASSERT_TRUE(wait_event(**host, [](const net::HostEvent& e) { return e.kind == net::HostEventKind::Connected; })
                     .has_value())
         << "the honest handshake is accepted";
@@ -463,7 +467,8 @@ TEST(Transport, AReplayedHandshakeIsRefused) {
   auto r = replay.refuse_then_disconnect();
   ASSERT_TRUE(r.has_value());
   EXPECT_EQ(r->reason, msg::RefuseReason::BadToken);
-  EXPECT_EQ(r->detail, "authentication failed");
+  EXPECT_EQ(r->detail,
+            "authentication failed: the key confirmation does not match (a wrong access token or pairing code)");
   const auto hc = (*host)->counters();
   EXPECT_EQ(hc.accepted, 1u);
   EXPECT_EQ(hc.refused_token, 1u);
@@ -483,14 +488,18 @@ TEST(Transport, AProofIsBoundToItsHelloAndTokensNeverTravel) {
     msg::Hello sent;
     sent.slot_capacity = 500;
     p.send(wire::encode(sent).value());
-    auto challenge = p.receive_one();
-    ASSERT_TRUE(challenge.has_value() && std::holds_alternative<msg::Challenge>(*challenge));
+    auto challenge = p.receive_packet();
+    ASSERT_TRUE(challenge.has_value());
     msg::Hello other = sent;
     other.slot_capacity = 400000;
-    p.send(wire::encode(net::auth_proof(token, std::get<msg::Challenge>(*challenge), wire::encode(other).value())).value());
+    // The right token, but CPace's CI is the other Hello: another generator, another key.
+    auto answer = net::answer_challenge(token, *challenge, wire::encode(other).value());
+    ASSERT_TRUE(answer.ok()) << answer.message();
+    p.send(wire::encode(answer->proof).value());
     auto r = p.refuse_then_disconnect();
     ASSERT_TRUE(r.has_value());
-    EXPECT_EQ(r->detail, "authentication failed");
+    EXPECT_EQ(r->detail,
+              "authentication failed: the key confirmation does not match (a wrong access token or pairing code)");
   }
   {
     RawPeer p((*host)->port());
@@ -559,22 +568,9 @@ TEST(Transport, AHostsRefusalTextIsEscapedOnTheClient) {
   enet_host_destroy(rogue);
 }
 
-TEST(Auth, ProofDependsOnTokenNonceAndHello) {
-  ASSERT_TRUE(net::auth_init().ok());
-  const msg::Challenge a = net::make_challenge(), b = net::make_challenge();
-  EXPECT_NE(a.nonce, b.nonce) << "fresh nonces";
-  const std::vector<std::uint8_t> hello{1, 2, 3, 4}, other{1, 2, 3, 5};
-  const msg::AuthProof p = net::auth_proof("k", a, hello);
-  EXPECT_TRUE(net::verify_auth_proof("k", a, hello, p));
-  EXPECT_FALSE(net::verify_auth_proof("K", a, hello, p));
-  EXPECT_FALSE(net::verify_auth_proof("k", b, hello, p));
-  EXPECT_FALSE(net::verify_auth_proof("k", a, other, p));
-  EXPECT_FALSE(net::verify_auth_proof("", a, hello, p));
-}
-
 // --token auto: 26 symbols of Crockford base32 in groups of four (130 bits), readable
 // aloud and typeable; fresh each time, each symbol drawn evenly, and never judged weak. A
-// token shorter than 20 characters is (offline guessing against a recorded handshake).
+// token shorter than 8 characters is (online guessing at the host's proof rate).
 TEST(Auth, GeneratedTokensAreLongRandomAndTypeable) {
   ASSERT_TRUE(net::auth_init().ok());
   const std::string alphabet = "0123456789abcdefghjkmnpqrstvwxyz";
@@ -598,8 +594,9 @@ TEST(Auth, GeneratedTokensAreLongRandomAndTypeable) {
   }
   // 5200 symbols: every one of the 32 appears about 162 times; none is missing or rare.
   for (int n : seen) EXPECT_GT(n, 80);
-  EXPECT_TRUE(net::weak_token_reason("open-sesame").has_value());
-  EXPECT_NE(net::weak_token_reason("123456").value_or("").find("offline"), std::string::npos);
+  EXPECT_FALSE(net::weak_token_reason("open-sesame").has_value());
+  EXPECT_TRUE(net::weak_token_reason("1234567").has_value());
+  EXPECT_NE(net::weak_token_reason("123456").value_or("").find("online guessing"), std::string::npos);
   EXPECT_FALSE(net::weak_token_reason("correct-horse-battery-staple").has_value());
 }
 

@@ -38,6 +38,7 @@ const std::map<msg::MessageType, std::string>& target_names() {
       {msg::MessageType::ClientStats, "client_stats"},
       {msg::MessageType::Challenge, "challenge"},
       {msg::MessageType::AuthProof, "auth_proof"},
+      {msg::MessageType::AuthConfirm, "auth_confirm"},
   };
   return names;
 }

@@ -158,10 +158,25 @@ inline std::vector<wire::Message> sample_messages() {
   msg::Challenge challenge;
   for (std::size_t k = 0; k < challenge.nonce.size(); ++k) challenge.nonce[k] = static_cast<std::uint8_t>(7 * k + 1);
   challenge.flags = msg::kChallengeEncrypt;
+  // CPace messages: 0x20, a 32-byte point (any bytes: the codec leaves judging it to
+  // net/), 0x00.
+  auto pake = [](std::uint8_t seed) {
+    msg::PakeMessage m{};
+    m.front() = static_cast<std::uint8_t>(msg::kPakePointBytes);
+    for (std::size_t k = 1; k + 1 < m.size(); ++k) m[k] = static_cast<std::uint8_t>(seed + 5 * k);
+    return m;
+  };
+  challenge.offers.push_back(msg::AuthOffer{msg::AuthSecret::AccessToken, pake(11)});
+  challenge.offers.push_back(msg::AuthOffer{msg::AuthSecret::PairingCode, pake(99)});
   out.push_back(challenge);
   msg::AuthProof proof;
-  for (std::size_t k = 0; k < proof.mac.size(); ++k) proof.mac[k] = static_cast<std::uint8_t>(255 - 3 * k);
+  proof.secret = msg::AuthSecret::PairingCode;
+  proof.pake = pake(42);
+  for (std::size_t k = 0; k < proof.tag.size(); ++k) proof.tag[k] = static_cast<std::uint8_t>(255 - 3 * k);
   out.push_back(proof);
+  msg::AuthConfirm confirm;
+  for (std::size_t k = 0; k < confirm.tag.size(); ++k) confirm.tag[k] = static_cast<std::uint8_t>(3 * k + 1);
+  out.push_back(confirm);
   return out;
 }
 

@@ -20,11 +20,9 @@ Status check(const msg::Query& m);
 Status check(const msg::QueryReply& m);
 Status check(const msg::Ack& m);
 Status check(const msg::ClientStats& m);
-inline Status check(const msg::Challenge& m) {  // any 32 bytes; only known flags
-  if ((m.flags & ~msg::kChallengeKnownFlags) != 0) return Error{"Challenge: unknown flag bits"};
-  return Ok{};
-}
-inline Status check(const msg::AuthProof&) { return Ok{}; }
+Status check(const msg::Challenge& m);
+Status check(const msg::AuthProof& m);
+inline Status check(const msg::AuthConfirm&) { return Ok{}; }  // any 32 bytes
 
 void write(const msg::Hello& m, Writer& w);
 void write(const msg::Welcome& m, Writer& w);
@@ -41,6 +39,7 @@ void write(const msg::Ack& m, Writer& w);
 void write(const msg::ClientStats& m, Writer& w);
 void write(const msg::Challenge& m, Writer& w);
 void write(const msg::AuthProof& m, Writer& w);
+void write(const msg::AuthConfirm& m, Writer& w);
 
 // An id list on the wire: u32 count, then each ObjectId as i32 (QueryReply targets,
 // ObjectTableUpdate removed). read_ids bounds the count by `max` and by the bytes left.

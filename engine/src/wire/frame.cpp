@@ -23,6 +23,7 @@ const char* to_string(MessageType t) {
     case MessageType::ClientStats: return "ClientStats";
     case MessageType::Challenge: return "Challenge";
     case MessageType::AuthProof: return "AuthProof";
+    case MessageType::AuthConfirm: return "AuthConfirm";
   }
   return "Unknown";
 }
@@ -47,6 +48,7 @@ constexpr msg::MessageType type_for() {
   else if constexpr (std::is_same_v<T, msg::Ack>) return msg::MessageType::Ack;
   else if constexpr (std::is_same_v<T, msg::Challenge>) return msg::MessageType::Challenge;
   else if constexpr (std::is_same_v<T, msg::AuthProof>) return msg::MessageType::AuthProof;
+  else if constexpr (std::is_same_v<T, msg::AuthConfirm>) return msg::MessageType::AuthConfirm;
   else {
     static_assert(std::is_same_v<T, msg::ClientStats>);
     return msg::MessageType::ClientStats;
@@ -144,6 +146,7 @@ Expected<Message> decode(std::span<const std::uint8_t> frame) {
     case msg::MessageType::ClientStats: return wrap(decode_client_stats(body));
     case msg::MessageType::Challenge: return wrap(decode_challenge(body));
     case msg::MessageType::AuthProof: return wrap(decode_auth_proof(body));
+    case msg::MessageType::AuthConfirm: return wrap(decode_auth_confirm(body));
   }
   return Error{"frame: unknown message type"};
 }

@@ -1,5 +1,6 @@
-// Hello / Welcome / Refuse: frozen forever (see messages.h), so any protocol
-// version can read them and refuse cleanly.
+// The handshake's messages. Hello / Welcome / Refuse: frozen forever (see messages.h), so
+// any protocol version can read them and refuse cleanly. Challenge / AuthProof /
+// AuthConfirm: the CPace exchange (messages.h; gauss/net/auth.h does the cryptography).
 #include <algorithm>
 #include <array>
 #include <string>
@@ -61,11 +62,65 @@ void write(const msg::Refuse& m, Writer& w) {
   w.str(m.detail);
 }
 
+namespace {
+
+// The CPace message's framing (messages.h, kPakeMessageBytes): the point's length byte
+// and the empty associated data's. The point itself is judged where it is used (net/).
+std::string pake_framing_error(const msg::PakeMessage& pake) {
+  if (pake.front() != msg::kPakePointBytes)
+    return "the point's length byte is " + std::to_string(pake.front()) + ", must be " +
+           std::to_string(msg::kPakePointBytes);
+  if (pake.back() != 0)
+    return "the associated data's length byte is " + std::to_string(pake.back()) + ", must be 0";
+  return {};
+}
+
+std::string auth_secret_error(msg::AuthSecret secret) {
+  const auto v = static_cast<std::uint8_t>(secret);
+  if (v < 1 || v > msg::kLastAuthSecret) return "unknown secret " + std::to_string(v);
+  return {};
+}
+
+}  // namespace
+
+Status check(const msg::Challenge& m) {
+  if ((m.flags & ~msg::kChallengeKnownFlags) != 0)
+    return field_error("Challenge", "flags", "unknown flag bits " + std::to_string(m.flags & ~msg::kChallengeKnownFlags));
+  if (m.offers.empty() || m.offers.size() > msg::kMaxAuthOffers)
+    return field_error("Challenge", "offers",
+                       std::to_string(m.offers.size()) + " offers, must be 1 to " + std::to_string(msg::kMaxAuthOffers));
+  for (std::size_t i = 0; i < m.offers.size(); ++i) {
+    const std::string field = "offers[" + std::to_string(i) + "]";
+    if (auto e = auth_secret_error(m.offers[i].secret); !e.empty()) return field_error("Challenge", field + ".secret", e);
+    for (std::size_t j = 0; j < i; ++j)
+      if (m.offers[j].secret == m.offers[i].secret)
+        return field_error("Challenge", field + ".secret", "offered twice (also offers[" + std::to_string(j) + "])");
+    if (auto e = pake_framing_error(m.offers[i].pake); !e.empty()) return field_error("Challenge", field + ".pake", e);
+  }
+  return Ok{};
+}
+
+Status check(const msg::AuthProof& m) {
+  if (auto e = auth_secret_error(m.secret); !e.empty()) return field_error("AuthProof", "secret", e);
+  if (auto e = pake_framing_error(m.pake); !e.empty()) return field_error("AuthProof", "pake", e);
+  return Ok{};
+}
+
 void write(const msg::Challenge& m, Writer& w) {
   w.raw(m.nonce);
   w.u8(m.flags);
+  w.u8(static_cast<std::uint8_t>(m.offers.size()));
+  for (const auto& o : m.offers) {
+    w.u8(static_cast<std::uint8_t>(o.secret));
+    w.raw(o.pake);
+  }
 }
-void write(const msg::AuthProof& m, Writer& w) { w.raw(m.mac); }
+void write(const msg::AuthProof& m, Writer& w) {
+  w.u8(static_cast<std::uint8_t>(m.secret));
+  w.raw(m.pake);
+  w.raw(m.tag);
+}
+void write(const msg::AuthConfirm& m, Writer& w) { w.raw(m.tag); }
 
 }  // namespace detail
 
@@ -114,8 +169,28 @@ bool read_fixed(detail::Reader& r, const char* field, std::array<std::uint8_t, N
   return true;
 }
 
+bool read_secret(detail::Reader& r, const char* field, msg::AuthSecret& out) {
+  const std::size_t at = r.offset();
+  std::uint8_t v = 0;
+  if (!r.u8(field, v)) return false;
+  out = static_cast<msg::AuthSecret>(v);
+  if (auto e = detail::auth_secret_error(out); !e.empty()) return r.fail_at(field, at, e);
+  return true;
+}
+
+// A CPace message: its fixed size, then its framing bytes (where they are wrong).
+bool read_pake(detail::Reader& r, const char* field, msg::PakeMessage& out) {
+  const std::size_t at = r.offset();
+  if (!read_fixed(r, field, out)) return false;
+  if (auto e = detail::pake_framing_error(out); !e.empty())
+    return r.fail_at(field, out.front() != msg::kPakePointBytes ? at : at + msg::kPakeMessageBytes - 1, e);
+  return true;
+}
+
 }  // namespace
 
+// The reads record the first failure with its field and offset; check() then states the
+// schema's rules (known flags and secrets, the offers' count, the CPace framing).
 Expected<msg::Challenge> decode_challenge(std::span<const std::uint8_t> body) {
   detail::Reader r(body, "Challenge");
   msg::Challenge m;
@@ -123,14 +198,35 @@ Expected<msg::Challenge> decode_challenge(std::span<const std::uint8_t> body) {
   r.u8("flags", m.flags);
   if (r.ok() && (m.flags & ~msg::kChallengeKnownFlags) != 0)
     r.fail_at("flags", msg::kAuthNonceBytes, "unknown flag bits " + std::to_string(m.flags & ~msg::kChallengeKnownFlags));
+  std::uint8_t n = 0;
+  const std::size_t count_at = r.offset();
+  r.u8("offers", n);
+  if (r.ok() && (n == 0 || n > msg::kMaxAuthOffers))
+    r.fail_at("offers", count_at, std::to_string(n) + " offers, must be 1 to " + std::to_string(msg::kMaxAuthOffers));
+  for (std::uint8_t i = 0; r.ok() && i < n; ++i) {
+    msg::AuthOffer o;
+    read_secret(r, "offer.secret", o.secret);
+    read_pake(r, "offer.pake", o.pake);
+    m.offers.push_back(o);
+  }
   if (!r.finish()) return r.error();
-  return m;
+  return detail::checked(std::move(m));
 }
 
 Expected<msg::AuthProof> decode_auth_proof(std::span<const std::uint8_t> body) {
   detail::Reader r(body, "AuthProof");
   msg::AuthProof m;
-  read_fixed(r, "mac", m.mac);
+  read_secret(r, "secret", m.secret);
+  read_pake(r, "pake", m.pake);
+  read_fixed(r, "tag", m.tag);
+  if (!r.finish()) return r.error();
+  return detail::checked(std::move(m));
+}
+
+Expected<msg::AuthConfirm> decode_auth_confirm(std::span<const std::uint8_t> body) {
+  detail::Reader r(body, "AuthConfirm");
+  msg::AuthConfirm m;
+  read_fixed(r, "tag", m.tag);
   if (!r.finish()) return r.error();
   return m;
 }

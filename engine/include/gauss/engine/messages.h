@@ -36,7 +36,9 @@ namespace gauss::msg {
 
 // Bumped whenever a message type is added or retired. A host refuses a Hello with a
 // different version (RefuseReason::VersionMismatch) instead of guessing.
-inline constexpr std::uint32_t kProtocolVersion = 2;  // 2: Challenge / AuthProof
+// 2: Challenge / AuthProof. 3: the handshake is CPace (a PAKE): Challenge and AuthProof
+// carry CPace messages, AuthConfirm is new.
+inline constexpr std::uint32_t kProtocolVersion = 3;
 
 // ---- Bounds (each enforced by the decoder) ----------------------------------
 // Largest encoded message, header included. The host sends one edit batch per
@@ -76,11 +78,12 @@ enum class MessageType : std::uint16_t {
   QueryReply = 10,        // H->C  how the host resolved a query
   Ack = 11,               // C->H  epochs received / published
   ClientStats = 12,       // C->H  client counters for the host's log
-  Challenge = 13,         // H->C  handshake: prove you hold the access token
-  AuthProof = 14,         // C->H  handshake: the proof
+  Challenge = 13,         // H->C  handshake: prove you hold the access token (CPace, from version 3)
+  AuthProof = 14,         // C->H  handshake: the proof (CPace, from version 3)
+  AuthConfirm = 15,       // H->C  handshake: the host proves it holds the token too
 };
 inline constexpr std::uint16_t kFirstMessageType = 1;
-inline constexpr std::uint16_t kLastMessageType = 14;
+inline constexpr std::uint16_t kLastMessageType = 15;
 
 enum class Direction : std::uint8_t { ClientToHost, HostToClient };
 
@@ -156,31 +159,69 @@ struct Refuse {
   bool operator==(const Refuse&) const = default;
 };
 
-// Token authentication over a network: the token itself never crosses the wire. A
-// client sends its Hello with an empty access_token; a host that requires a token
-// answers with a Challenge carrying a fresh random nonce, and the client proves it holds
-// the token with a keyed hash of the nonce and its Hello's encoded bytes under a key
-// derived from the token (gauss/net/auth.h). A captured handshake is worthless on
-// another connection: its nonce differs. Hello.access_token stays for in-process links,
-// where there is no wire.
+// Token authentication over a network: CPace, a password-authenticated key exchange
+// (gauss/net/auth.h, gauss/net/cpace.h). The secret never crosses the wire, and nothing
+// that does lets anyone test a guess of it offline: a guess costs a live exchange with
+// the host (or, posing as a host, with a client), one guess per connection.
+//   client: Hello (empty access_token)
+//   host:   Challenge  nonce (the CPace sid), flags, one CPace message per secret the
+//                      host accepts (the access token; a pairing code)
+//   client: AuthProof  which secret it answers for, its CPace message, its key
+//                      confirmation tag
+//   host:   AuthConfirm the host's tag (only after the client's tag verified), then
+//                      Welcome or Refuse as without a token
+// Both sides derive the tags and the sealed stream's keys from CPace's ISK, the Hello's
+// bytes and the Challenge's bytes: the flags (kChallengeEncrypt) cannot be altered on the
+// path, and the keys come from both sides' fresh scalars (forward secrecy).
+// Challenge and AuthProof changed in place at version 3 (the Hello's version check comes
+// before either, so no peer of another version ever decodes them). Hello.access_token
+// stays for in-process links, where there is no wire.
 inline constexpr std::size_t kAuthNonceBytes = 32;
-inline constexpr std::size_t kAuthProofBytes = 32;
+// A CPace message as the draft encodes it, prefix_free_cat(Y, AD), with Y one 32-byte
+// ristretto255 element and AD empty: 0x20 || Y || 0x00.
+inline constexpr std::size_t kPakePointBytes = 32;
+inline constexpr std::size_t kPakeMessageBytes = 1 + kPakePointBytes + 1;
+inline constexpr std::size_t kAuthTagBytes = 32;
 
-// Challenge flags. kChallengeEncrypt: everything after the proof, both ways, travels
-// sealed under keys derived from the token, this nonce and the Hello
-// (gauss/net/stream_cipher.h).
+// Challenge flags. kChallengeEncrypt: everything after the handshake, both ways, travels
+// sealed under keys from the exchange (gauss/net/stream_cipher.h).
 inline constexpr std::uint8_t kChallengeEncrypt = 1;
 inline constexpr std::uint8_t kChallengeKnownFlags = kChallengeEncrypt;
+
+// The secrets a host may accept (one CPace message each).
+enum class AuthSecret : std::uint8_t {
+  AccessToken = 1,  // the token (--token)
+  PairingCode = 2,  // the short code a person types (8 Crockford base32 symbols)
+};
+inline constexpr std::uint8_t kLastAuthSecret = 2;
+inline constexpr std::size_t kMaxAuthOffers = kLastAuthSecret;
+
+using PakeMessage = std::array<std::uint8_t, kPakeMessageBytes>;
+using AuthTag = std::array<std::uint8_t, kAuthTagBytes>;
+
+struct AuthOffer {
+  AuthSecret secret{AuthSecret::AccessToken};
+  PakeMessage pake{};  // the host's CPace message (initiator) for this secret
+  bool operator==(const AuthOffer&) const = default;
+};
 
 struct Challenge {
   std::array<std::uint8_t, kAuthNonceBytes> nonce{};
   std::uint8_t flags{0};  // kChallenge* bits; others must be 0
+  std::vector<AuthOffer> offers;  // 1..kMaxAuthOffers, each secret at most once
   bool operator==(const Challenge&) const = default;
 };
 
 struct AuthProof {
-  std::array<std::uint8_t, kAuthProofBytes> mac{};
+  AuthSecret secret{AuthSecret::AccessToken};  // the offer answered
+  PakeMessage pake{};  // the client's CPace message (responder)
+  AuthTag tag{};       // the client's key confirmation
   bool operator==(const AuthProof&) const = default;
+};
+
+struct AuthConfirm {
+  AuthTag tag{};  // the host's key confirmation
+  bool operator==(const AuthConfirm&) const = default;
 };
 
 // ---- Model stream (host -> client) -------------------------------------------------

@@ -25,7 +25,8 @@ namespace gauss::wire {
 
 using Message = std::variant<msg::Hello, msg::Welcome, msg::Refuse, msg::SceneInfo, msg::EditBatchMsg,
                              msg::SurfacePatch, msg::ObjectTableUpdate, msg::HeadPose, msg::Query,
-                             msg::QueryReply, msg::Ack, msg::ClientStats, msg::Challenge, msg::AuthProof>;
+                             msg::QueryReply, msg::Ack, msg::ClientStats, msg::Challenge, msg::AuthProof,
+                             msg::AuthConfirm>;
 
 inline constexpr std::size_t kHeaderBytes = 8;
 
@@ -56,6 +57,7 @@ Expected<msg::Welcome> decode_welcome(std::span<const std::uint8_t> body);
 Expected<msg::Refuse> decode_refuse(std::span<const std::uint8_t> body);
 Expected<msg::Challenge> decode_challenge(std::span<const std::uint8_t> body);
 Expected<msg::AuthProof> decode_auth_proof(std::span<const std::uint8_t> body);
+Expected<msg::AuthConfirm> decode_auth_confirm(std::span<const std::uint8_t> body);
 Expected<msg::SceneInfo> decode_scene_info(std::span<const std::uint8_t> body);
 Expected<msg::EditBatchMsg> decode_edit_batch_msg(std::span<const std::uint8_t> body);
 Expected<msg::SurfacePatch> decode_surface_patch(std::span<const std::uint8_t> body);

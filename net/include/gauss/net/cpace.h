@@ -2,9 +2,9 @@
 // CPace, the balanced PAKE of draft-irtf-cfrg-cpace, cipher suite CPACE-RISTR255-SHA512, on
 // libsodium's ristretto255 and SHA-512 (issue 28: the token handshake's replacement, so that
 // neither an observer nor an active attacker can test token guesses offline, and session
-// keys come from ephemeral secrets). Not yet wired into the handshake: this is the primitive,
-// checked byte for byte against the draft's ristretto255 test vectors, those of its revisions
-// that name the encoding lv_cat (tests/net/test_cpace.cpp says why not an older revision's).
+// keys come from ephemeral secrets). The primitive, checked byte for byte against the draft's
+// ristretto255 test vectors, those of its revisions that name the encoding lv_cat
+// (tests/net/test_cpace.cpp says why not an older revision's); auth.h runs the handshake on it.
 //
 // Both parties hold PRS (the token), a channel identifier CI and a session id sid. Each
 // samples a scalar y, sends MSG = prefix_free_cat(g^y, AD) with g a generator derived from
@@ -41,8 +41,9 @@ std::vector<std::uint8_t> generator_string(Bytes prs, Bytes ci, Bytes sid);
 Point calculate_generator(Bytes prs, Bytes ci, Bytes sid);
 // 32 random bytes with the bits from 252 up cleared (the draft's recommendation).
 Scalar sample_scalar();
-// encode(decode(x)^y); an error when x does not decode or the result is the identity (the
-// draft's scalar_mult_vfy returning G.I, on which a party MUST abort).
+// encode(decode(x)^y); an error naming which when x is the identity, x does not decode or
+// the result is the identity (the draft's scalar_mult_vfy returning G.I, on which a party
+// MUST abort).
 Expected<Point> scalar_mult_vfy(const Scalar& y, const Point& x);
 // MSG = prefix_free_cat(Y, AD), and its parse (exact lengths, a 32-byte Y, or an error).
 std::vector<std::uint8_t> message(const Point& y_public, Bytes ad);

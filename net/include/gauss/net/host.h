@@ -8,16 +8,18 @@
 //
 // Handshake: the first message of a connection must be a Hello of this protocol
 // version, within handshake_timeout, while fewer than max_clients are connected;
-// when an access_token is configured here, the host answers that Hello with a
-// Challenge and the client must prove the token (AuthProof, gauss/net/auth.h) within
-// the same timeout; the token itself never crosses the wire (a Hello carrying one is
-// refused). With encrypt_stream the Challenge says so, and every frame after the proof
-// travels sealed both ways (stream_cipher.h); a plain or altered one is rejected. Otherwise the host answers Refuse and disconnects, and the policy never
-// hears of it. A wrong or missing proof is refused as "authentication failed",
-// whatever was wrong, before anything else about the Hello is judged. A Hello that passes
-// becomes a Connected event with a fresh client id; the policy then replies with
-// Welcome (or Refuse: a Refuse sent through send() closes the connection after it
-// is delivered).
+// when an access_token (or a pairing_code) is configured here, the host answers that
+// Hello with a Challenge and the client must prove the secret (CPace, gauss/net/auth.h)
+// with an AuthProof within the same timeout; the host then proves it in turn
+// (AuthConfirm). The secret never crosses the wire and nothing on it lets a guess be
+// tested offline (a Hello carrying a token is refused). With encrypt_stream the Challenge
+// says so, and every frame after the handshake travels sealed both ways under keys from
+// the exchange (stream_cipher.h); a plain or altered one is rejected. Otherwise the host
+// answers Refuse and disconnects, and the policy never hears of it. A failed proof is
+// refused as "authentication failed: <what was wrong with the proof>" before anything
+// else about the Hello is judged. A Hello that passes becomes a Connected event with a
+// fresh client id; the policy then replies with Welcome (or Refuse: a Refuse sent through
+// send() closes the connection after it is delivered).
 //
 // Before and at the handshake the admission limits apply (admission.h: peer slots,
 // per-address limits, connect-request and handshake timeouts, the backoff after a wrong
@@ -48,9 +50,13 @@ using LogFn = std::function<void(const std::string&)>;
 
 struct NetHostConfig {
   Endpoint bind{};                    // loopback by default; port 0 = any free port (see port())
-  std::string access_token;           // non-empty: clients must prove it (challenge-response) here
+  std::string access_token;           // non-empty: clients must prove it (CPace, auth.h) here
+  // A second secret clients may prove instead: kPairingCodeSymbols Crockford base32
+  // symbols a person can type on a headset (gauss-host --token auto prints one). Empty:
+  // none. The access token must then not look like a code.
+  std::string pairing_code;
   // Seal every frame after the handshake, both ways (stream_cipher.h): for private
-  // scenes. Needs access_token (the keys derive from it).
+  // scenes. Needs a secret (the keys come from the exchange that proves it).
   bool encrypt_stream{false};
   std::size_t max_clients{16};        // handshaken clients at once; more are refused (HostFull)
   std::uint32_t max_slot_capacity{gauss::kMaxSlotCapacity};  // larger requests are refused

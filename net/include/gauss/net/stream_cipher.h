@@ -1,9 +1,10 @@
 #pragma once
 // Authenticated encryption of a connection's frames after the token handshake, for scenes
 // that are private (NetHostConfig::encrypt_stream; a Challenge with kChallengeEncrypt
-// tells the client). Both ends derive two keys, one per direction, from what only they
-// share: the token, the host's fresh nonce and the client's Hello bytes, so keys differ
-// per connection and a recorded session decrypts nowhere else.
+// tells the client). Both ends take two keys, one per direction, from the handshake's
+// CPace exchange (auth.h, SessionKeys): they depend on both sides' fresh scalars, so keys
+// differ per connection and a recorded session opens nowhere, not even to someone who
+// learns the token later.
 //
 // A sealed packet is
 //   u16 kSealedMagic | u16 kSealedVersion | u64 counter (LE) | XChaCha20-Poly1305(frame) | 16-byte tag
@@ -16,11 +17,10 @@
 #include <cstdint>
 #include <mutex>
 #include <span>
-#include <string_view>
 #include <vector>
 
-#include "gauss/engine/messages.h"
 #include "gauss/engine/result.h"
+#include "gauss/net/auth.h"
 
 namespace gauss::net {
 
@@ -38,10 +38,9 @@ bool looks_sealed(std::span<const std::uint8_t> packet);
 // One direction's key and counter (sealing) or replay window (opening). Thread-safe.
 class StreamCipher {
  public:
-  // The key for `direction` of the connection whose handshake had `challenge` and
-  // `hello_frame`, under `token`. Requires auth_init().
-  StreamCipher(std::string_view token, const msg::Challenge& challenge, std::span<const std::uint8_t> hello_frame,
-               StreamDirection direction);
+  // `key` is the handshake's key for `direction` (SessionKeys::host_to_client or
+  // client_to_host). Requires auth_init().
+  StreamCipher(const StreamKey& key, StreamDirection direction);
   ~StreamCipher();
   StreamCipher(const StreamCipher&) = delete;
   StreamCipher& operator=(const StreamCipher&) = delete;
@@ -56,7 +55,7 @@ class StreamCipher {
   bool accept_counter(std::uint64_t counter);  // under mu_
 
   std::mutex mu_;
-  std::array<std::uint8_t, 32> key_{};
+  StreamKey key_{};
   StreamDirection direction_;
   std::uint64_t next_{0};       // sealing
   bool any_{false};             // opening: a counter was accepted
