@@ -101,10 +101,14 @@ struct UdpRelay::Impl {
 
   double uniform() { return std::uniform_real_distribution<double>(0.0, 1.0)(rng); }
 
-  void schedule(int fd, const sockaddr_in& to, const std::uint8_t* data, std::size_t n) {
+  void schedule(int fd, const sockaddr_in& to, const std::uint8_t* data, std::size_t n, bool to_host) {
     std::lock_guard lock(mu);
     ++counters.received;
     const std::uint64_t seq = next_seq++;
+    if (to_host && policy.drop_to_host && policy.drop_to_host(std::span<const std::uint8_t>(data, n))) {
+      ++counters.filtered;
+      return;
+    }
     if (uniform() < policy.loss) {
       ++counters.dropped;
       return;
@@ -174,9 +178,9 @@ struct UdpRelay::Impl {
           if (n < 0) continue;
           if (p.fd == listen_fd) {
             const int up = upstream_for(from);
-            if (up >= 0) schedule(up, upstream, buf.data(), static_cast<std::size_t>(n));
+            if (up >= 0) schedule(up, upstream, buf.data(), static_cast<std::size_t>(n), true);
           } else {
-            schedule(listen_fd, client_by_up[p.fd], buf.data(), static_cast<std::size_t>(n));
+            schedule(listen_fd, client_by_up[p.fd], buf.data(), static_cast<std::size_t>(n), false);
           }
         }
       }

@@ -19,6 +19,7 @@
 #include "gauss/net/auth.h"
 #include "gauss/net/client.h"
 #include "gauss/net/host.h"
+#include "gauss/net/udp_relay.h"
 #include "hostile_peers.h"
 #include "raw_peer.h"
 
@@ -346,6 +347,87 @@ TEST(HostileClients, ClientsThatVanishFreeTheirSlotsWithinThePeerTimeout) {
               dump((*host)->counters()).c_str());
   ASSERT_GE(in, 0.0) << "not in 20 s";
   EXPECT_LE(after, std::chrono::duration<double>(cfg.peer_timeout_min).count() + 4.0);
+}
+
+// Issue 28, finding 5's stalled half: sessions whose reliable channel waits on a message
+// that never arrives. ENet holds everything behind the gap undelivered, so no garbage ever
+// reaches the rejection count, and at issue time such sessions held the client slots for
+// most of a minute. Here a relay loses one message of each for good (every retransmission
+// too); the host drops them after stall_timeout (1 s here), counts them, and a client gets
+// the slots back.
+TEST(HostileClients, StalledChannelsDoNotHoldTheClientSlots) {
+  LogCapture log;
+  auto cfg = host_config(log);
+  cfg.max_clients = 2;
+  cfg.admission.stall_timeout = 1s;
+  auto host = net::NetHost::start(cfg);
+  ASSERT_TRUE(host.ok()) << host.message();
+  const std::string marker = "this message is lost for good 0123456789";
+  net::RelayPolicy policy;
+  policy.drop_to_host = [marker](std::span<const std::uint8_t> d) {
+    return std::search(d.begin(), d.end(), marker.begin(), marker.end()) != d.end();
+  };
+  auto relay = net::UdpRelay::start({"127.0.0.1", 0}, {"127.0.0.1", (*host)->port()}, policy);
+  ASSERT_TRUE(relay.ok()) << relay.message();
+
+  enet_initialize();
+  ENetHost* h = enet_host_create(nullptr, 2, msg::kChannelCount, 0, 0);
+  ASSERT_NE(h, nullptr);
+  const ENetAddress to = test::loopback_port((*relay)->port());
+  std::vector<ENetPeer*> peers;
+  for (int k = 0; k < 2; ++k) peers.push_back(enet_host_connect(h, &to, msg::kChannelCount, 0));
+  auto hello = wire::encode(msg::Hello{msg::kProtocolVersion, 100, {}, "staller"});
+  ASSERT_TRUE(hello.ok());
+  int welcomed = 0;
+  auto service = [&] {
+    ENetEvent ev;
+    while (enet_host_service(h, &ev, 0) > 0) {
+      if (ev.type == ENET_EVENT_TYPE_CONNECT) {
+        enet_peer_send(ev.peer, msg::channel_of(msg::MessageType::Hello),
+                       enet_packet_create(hello->data(), hello->size(), ENET_PACKET_FLAG_RELIABLE));
+      } else if (ev.type == ENET_EVENT_TYPE_RECEIVE) {
+        auto m = wire::decode(std::span<const std::uint8_t>(ev.packet->data, ev.packet->dataLength));
+        welcomed += m && std::holds_alternative<msg::Welcome>(*m);
+        enet_packet_destroy(ev.packet);
+      }
+    }
+  };
+  ASSERT_TRUE(test::wait_until([&] {
+    welcome_all(**host);
+    service();
+    return welcomed == 2;
+  }, 20s)) << dump((*host)->counters());
+  EXPECT_LT(seconds_to_connect(**host, "while-full", 500ms), 0.0) << "the two hold every client slot";
+
+  // Each sends the lost message, then garbage that waits behind it (one datagram each).
+  const std::vector<std::uint8_t> lost(marker.begin(), marker.end());
+  const std::vector<std::uint8_t> garbage(200, 0xEE);
+  for (ENetPeer* p : peers) {
+    enet_peer_send(p, 0, enet_packet_create(lost.data(), lost.size(), ENET_PACKET_FLAG_RELIABLE));
+    enet_host_flush(h);
+    enet_peer_send(p, 0, enet_packet_create(garbage.data(), garbage.size(), ENET_PACKET_FLAG_RELIABLE));
+    enet_host_flush(h);
+  }
+  const auto t0 = Clock::now();
+  // The stallers stay alive (their ENet answers pings and retransmits the lost message,
+  // which the relay drops again) until the host drops them.
+  const bool dropped = test::wait_until([&] {
+    service();
+    return (*host)->counters().stalled >= 2;
+  }, 15s);
+  const double after = std::chrono::duration<double>(Clock::now() - t0).count();
+  const double in = seconds_to_connect(**host, "after-stall", 5s);
+  const auto c = (*host)->counters();
+  std::printf("2 stalled sessions: dropped %.1f s after stalling, a client in %.3f s; relay filtered %llu; %s\n", after,
+              in, static_cast<unsigned long long>((*relay)->counters().filtered), dump(c).c_str());
+  enet_host_destroy(h);
+  enet_deinitialize();
+  ASSERT_TRUE(dropped) << "not dropped in 15 s";
+  EXPECT_EQ(c.stalled, 2u);
+  EXPECT_GE(c.kicked, 2u);
+  EXPECT_EQ(c.malformed, 0u) << "the garbage never reached the host's decoder";
+  EXPECT_GE((*relay)->counters().filtered, 2u);
+  EXPECT_GE(in, 0.0) << "a client gets a slot once the stalled sessions are gone";
 }
 
 }  // namespace

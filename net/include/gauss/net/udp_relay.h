@@ -7,7 +7,9 @@
 // The same seed and traffic give the same decisions.
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <span>
 
 #include "gauss/engine/result.h"
 #include "gauss/net/address.h"
@@ -21,12 +23,17 @@ struct RelayPolicy {
   std::chrono::microseconds delay{0};      // one-way base delay
   std::chrono::microseconds jitter{0};     // extra uniform delay in [0, jitter): reorders datagrams
   std::size_t max_queued{1u << 16};        // datagrams in flight beyond this are dropped
+  // Client-to-host datagrams for which this returns true are dropped, every time (a
+  // retransmission carries the same bytes): a test's way to lose one message for good and
+  // leave a gap in a reliable channel. Not counted as loss: `filtered`.
+  std::function<bool(std::span<const std::uint8_t>)> drop_to_host;
 };
 
 struct RelayCounters {
   std::uint64_t received{0};
   std::uint64_t delivered{0};
   std::uint64_t dropped{0};      // by the loss policy
+  std::uint64_t filtered{0};     // by drop_to_host
   std::uint64_t duplicated{0};
   std::uint64_t overflow{0};     // queue full
   std::uint64_t reordered{0};    // delivered before a datagram that arrived earlier
