@@ -156,26 +156,33 @@ Expected<Selection> LodSelector::select(Selection leaves, const SceneStore& scen
 
   const auto gaussians = scene.gaussians();
   const Gaussian* base = gaussians.data();
-  // The reservation's leaves, in id order as the Selector wrote them.
-  auto& chosen = chosen_;  // kept between calls: ~M entries, page faults every call otherwise
-  chosen.clear();
-  chosen.reserve(leaves.object_selected + cut_.nodes.size());
+  if (gaussians.size() + hierarchy_->record_pool().size() > std::size_t{0xFFFFFFFFu})
+    return Error{"LoD: scene and hierarchy records exceed 2^32 indices"};
+  // The reservation's leaves, in id order as the Selector wrote them (with
+  // background_leaves false, they are all it wrote).
+  auto& reserved = chosen_;  // kept between calls
+  reserved.clear();
   if (leaves.query) {
     for (std::size_t k = 0; k < leaves.ids.size(); ++k) {
       const ObjectId o = gaussians[leaves.indices[k]].object;
       if (std::binary_search(excluded.begin(), excluded.end(), o,
                              [](ObjectId a, ObjectId b) { return to_underlying(a) < to_underlying(b); }))
-        chosen.emplace_back(to_underlying(leaves.ids[k]), leaves.indices[k]);
+        reserved.emplace_back(to_underlying(leaves.ids[k]), leaves.indices[k]);
     }
   }
-  const std::size_t object_entries = chosen.size();
-  interior_.clear();
-  for (std::size_t k = 0; k < cut_.nodes.size(); ++k) {
+  Selection out = std::move(leaves);
+  out.ids.resize(reserved.size() + cut_.nodes.size());
+  out.indices.resize(out.ids.size());
+  // The cut's leaves come in id order, then its interior nodes (lod_cut.h): the reservation
+  // merges in as they are written out.
+  std::size_t t = 0, r = 0;
+  auto put = [&](std::uint64_t id, std::uint32_t index) {
+    out.ids[t] = GaussianId{id};
+    out.indices[t++] = index;
+  };
+  for (std::size_t k = 0; k < cut_.leaves; ++k) {
     const std::uint64_t id = cut_.ids[k];
-    if (id & kLodInteriorIdBit) {
-      interior_.emplace_back(id, static_cast<std::uint32_t>(k));  // the cut's entry, for now
-      continue;
-    }
+    for (; r < reserved.size() && reserved[r].first < id; ++r) put(reserved[r].first, reserved[r].second);
     // Where the hierarchy last saw the leaf, without reading the Gaussian (a cache miss per
     // leaf was a third of the assembly at 1M). That place still holds it or lies beyond the
     // scene: a commit fills a removed Gaussian's place with the scene's last one, so only
@@ -185,32 +192,19 @@ Expected<Selection> LodSelector::select(Selection leaves, const SceneStore& scen
     if (index >= gaussians.size()) {
       const Gaussian* g = scene.find(GaussianId{id});
       if (!g) {
-        interior_.clear();  // holds cut entries, not pool indices, until the end
+        interior_.clear();
         return Error{"LoD: cut leaf " + std::to_string(id) + " is not in the scene"};
       }
       index = static_cast<std::uint32_t>(g - base);
     }
-    chosen.emplace_back(id, index);
+    put(id, index);
   }
-  // The cut's leaves come in id order, then its interior nodes (lod_cut.h): one merge.
-  std::inplace_merge(chosen.begin(), chosen.begin() + static_cast<std::ptrdiff_t>(object_entries), chosen.end());
-
-  Selection out = std::move(leaves);
-  out.ids.clear();
-  out.indices.clear();
-  out.ids.reserve(chosen.size() + interior_.size());
-  out.indices.reserve(chosen.size() + interior_.size());
-  for (const auto& [id, index] : chosen) {
-    out.ids.push_back(GaussianId{id});
-    out.indices.push_back(index);
-  }
-  if (gaussians.size() + hierarchy_->record_pool().size() > std::size_t{0xFFFFFFFFu})
-    return Error{"LoD: scene and hierarchy records exceed 2^32 indices"};
+  for (; r < reserved.size(); ++r) put(reserved[r].first, reserved[r].second);
   const auto scene_size = static_cast<std::uint32_t>(gaussians.size());
-  for (auto& [id, k] : interior_) {
-    out.ids.push_back(GaussianId{id});
-    out.indices.push_back(scene_size + cut_.places[k]);
-    k = cut_.nodes[k];  // find_interior() looks the node up in the pool
+  interior_.clear();
+  for (std::size_t k = cut_.leaves; k < cut_.nodes.size(); ++k) {
+    put(cut_.ids[k], scene_size + cut_.places[k]);
+    interior_.emplace_back(cut_.ids[k], cut_.nodes[k]);  // find_interior() looks the node up in the pool
   }
   out.background_selected = cut_.nodes.size();
   out.lod_interior = cut_.interior;

@@ -96,7 +96,7 @@ class LodSelector {
   std::vector<GaussianId> modified_;
   std::vector<std::uint32_t> subset_;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> interior_;  // last cut: id -> pool index, sorted
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> chosen_;    // select()'s leaves (scratch)
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> chosen_;    // select()'s reservation leaves (scratch)
 };
 
 // `params` with its log-scale range widened so that no record of a hierarchy over Gaussians
