@@ -218,12 +218,7 @@ json bench_select(const SceneStore& store, const SyntheticScene& scene, const Op
 
 json bench_lod(const SceneStore& store, const SyntheticScene& scene, const Options& o) {
   const CodecParams params = fit_lod_codec_params(fit_codec_params(store.gaussians(), store.sh_degree()));
-  SelectionRequest req;
-  req.budget = o.budget;
-  req.client_capacity = std::max<std::size_t>(o.budget, 400'000);
-  Selector selector;
   LodSelector lod(store.sh_degree());
-  Differ differ(params);
   double c0 = thread_cpu_ms();
   if (Status st = lod.update(store, nullptr); !st) {
     std::fprintf(stderr, "LoD: %s\n", st.message().c_str());
@@ -231,62 +226,76 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const Optio
   }
   const double build_ms = thread_cpu_ms() - c0;
   const LodHierarchy& h = *lod.hierarchy();
-  ClientPose pose = ClientPose::from_camera(scene.trajectory().front());
-  auto step = [&](const ClientPose& p, double* times) -> Expected<EditBatch> {
-    const double t0 = thread_cpu_ms();
-    auto sel = lod.select(selector, store, nullptr, p, req);
-    if (!sel) return sel.error();
-    const double t1 = thread_cpu_ms();
-    auto b = differ.diff(*sel, store, lod.records(), lod.modified());
-    lod.clear_modified();
-    const double t2 = thread_cpu_ms();
-    if (times) {
-      times[0] = t1 - t0;
-      times[1] = t2 - t1;
-    }
-    return b;
-  };
-  for (int i = 0; i < 3; ++i)  // the first batch, then settle at the start pose
-    if (auto b = step(pose, nullptr); !b) {
-      std::fprintf(stderr, "LoD step: %s\n", b.message().c_str());
-      return {};
-    }
-  std::vector<double> select_ms, diff_ms, total_ms, edit_frac;
-  for (int k = 0; k < o.updates; ++k) {
-    pose = small_motion(pose);
-    double t[2];
-    auto b = step(pose, t);
-    if (!b) return {};
-    select_ms.push_back(t[0]);
-    diff_ms.push_back(t[1]);
-    total_ms.push_back(t[0] + t[1]);
-    edit_frac.push_back(static_cast<double>(b->edits.size()) / static_cast<double>(o.budget));
-  }
-  const LodCut& cut = lod.last_cut();
   std::printf("\n== LoD: hierarchy and select + cut + diff per pose update (M = %zu, one thread) ==\n", o.budget);
   std::printf("  hierarchy build: %.0f ms thread CPU for %zu leaves (%zu interior nodes, height %u)\n", build_ms,
               h.leaf_count(), h.interior_count(), unsigned(h.node(h.root()).height));
-  std::printf("  last cut: %zu nodes, %zu of them interior, %zu refined\n", cut.nodes.size(), cut.interior,
-              cut.refined);
-  std::printf("  %-34s %10s %10s %10s\n", "(thread CPU time)", "median", "p90", "max");
-  // The reservation's leaves (none here: no query) and the cut; the Selector does not rank
-  // the background the cut replaces (LodSelector::select with a Selector).
-  print_median_p90_max("select (reservation + cut) ms", select_ms);
-  print_median_p90_max("diff ms", diff_ms);
-  print_median_p90_max("select + cut + diff ms (<= 10)", total_ms);
-  std::printf("  edits per step (walk): median %.3f %%  max %.3f %% of M\n", 100.0 * percentile(edit_frac, 0.5),
-              100.0 * percentile(edit_frac, 1.0));
-  return json{{"build_ms", build_ms},
-              {"leaves", h.leaf_count()},
-              {"interior", h.interior_count()},
-              {"cut_nodes", cut.nodes.size()},
-              {"cut_interior", cut.interior},
-              {"select_ms", {{"median", percentile(select_ms, 0.5)}, {"p90", percentile(select_ms, 0.9)}}},
-              {"diff_ms", {{"median", percentile(diff_ms, 0.5)}, {"p90", percentile(diff_ms, 0.9)}}},
-              {"select_cut_diff_ms",
-               {{"median", percentile(total_ms, 0.5)}, {"p90", percentile(total_ms, 0.9)}, {"max", percentile(total_ms, 1.0)}}},
-              {"edit_fraction_walk", {{"median", percentile(edit_frac, 0.5)}, {"max", percentile(edit_frac, 1.0)}}},
-              {"timing", "thread CPU time"}};
+  json out{{"build_ms", build_ms}, {"leaves", h.leaf_count()}, {"interior", h.interior_count()},
+           {"timing", "thread CPU time"}};
+  // The same walk twice: without a query (the cut is the whole selection), and with the
+  // demo's query at the paper's share (chairs, rho 0.9: the reservation's leaves, then the cut
+  // over what the query leaves of M).
+  for (const bool query : {false, true}) {
+    SelectionRequest req;
+    req.budget = o.budget;
+    req.client_capacity = std::max<std::size_t>(o.budget, 400'000);
+    if (query) {
+      req.query = SemanticQuery::for_class("chair");
+      req.rho = 0.9;
+    }
+    Selector selector;
+    Differ differ(params);
+    auto step = [&](const ClientPose& p, double* times) -> Expected<EditBatch> {
+      const double t0 = thread_cpu_ms();
+      auto sel = lod.select(selector, store, nullptr, p, req);
+      if (!sel) return sel.error();
+      const double t1 = thread_cpu_ms();
+      auto b = differ.diff(*sel, store, lod.records(), lod.modified());
+      lod.clear_modified();
+      const double t2 = thread_cpu_ms();
+      if (times) {
+        times[0] = t1 - t0;
+        times[1] = t2 - t1;
+      }
+      return b;
+    };
+    ClientPose pose = ClientPose::from_camera(scene.trajectory().front());
+    for (int i = 0; i < 3; ++i)  // the first batch, then settle at the start pose
+      if (auto b = step(pose, nullptr); !b) {
+        std::fprintf(stderr, "LoD step: %s\n", b.message().c_str());
+        return {};
+      }
+    std::vector<double> select_ms, diff_ms, total_ms, edit_frac;
+    for (int k = 0; k < o.updates; ++k) {
+      pose = small_motion(pose);
+      double t[2];
+      auto b = step(pose, t);
+      if (!b) return {};
+      select_ms.push_back(t[0]);
+      diff_ms.push_back(t[1]);
+      total_ms.push_back(t[0] + t[1]);
+      edit_frac.push_back(static_cast<double>(b->edits.size()) / static_cast<double>(o.budget));
+    }
+    const LodCut& cut = lod.last_cut();
+    std::printf("  -- %s: last cut %zu nodes, %zu of them interior, %zu refined\n",
+                query ? "query 'chair', rho 0.9" : "no query", cut.nodes.size(), cut.interior, cut.refined);
+    std::printf("  %-34s %10s %10s %10s\n", "(thread CPU time)", "median", "p90", "max");
+    // The reservation's leaves and the cut; the Selector does not rank the background the
+    // cut replaces (LodSelector::select with a Selector).
+    print_median_p90_max("select (reservation + cut) ms", select_ms);
+    print_median_p90_max("diff ms", diff_ms);
+    print_median_p90_max("select + cut + diff ms (<= 10)", total_ms);
+    std::printf("  edits per step (walk): median %.3f %%  max %.3f %% of M\n", 100.0 * percentile(edit_frac, 0.5),
+                100.0 * percentile(edit_frac, 1.0));
+    out[query ? "query" : "no_query"] = json{
+        {"cut_nodes", cut.nodes.size()},
+        {"cut_interior", cut.interior},
+        {"select_ms", {{"median", percentile(select_ms, 0.5)}, {"p90", percentile(select_ms, 0.9)}}},
+        {"diff_ms", {{"median", percentile(diff_ms, 0.5)}, {"p90", percentile(diff_ms, 0.9)}}},
+        {"select_cut_diff_ms",
+         {{"median", percentile(total_ms, 0.5)}, {"p90", percentile(total_ms, 0.9)}, {"max", percentile(total_ms, 1.0)}}},
+        {"edit_fraction_walk", {{"median", percentile(edit_frac, 0.5)}, {"max", percentile(edit_frac, 1.0)}}}};
+  }
+  return out;
 }
 
 // ---- 3: wire bytes and quantisation PSNR -------------------------------------------------
