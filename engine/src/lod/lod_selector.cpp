@@ -162,7 +162,11 @@ Expected<Selection> LodSelector::select(Selection leaves, const SceneStore& scen
   // background_leaves false, they are all it wrote).
   auto& reserved = chosen_;  // kept between calls
   reserved.clear();
-  if (leaves.query) {
+  if (leaves.query && leaves.background_selected == 0) {
+    // Asked without the background's leaves: every leaf is the reservation's.
+    for (std::size_t k = 0; k < leaves.ids.size(); ++k)
+      reserved.emplace_back(to_underlying(leaves.ids[k]), leaves.indices[k]);
+  } else if (leaves.query) {
     for (std::size_t k = 0; k < leaves.ids.size(); ++k) {
       const ObjectId o = gaussians[leaves.indices[k]].object;
       if (std::binary_search(excluded.begin(), excluded.end(), o,
