@@ -23,6 +23,15 @@ inline bool wait_until(const std::function<bool()>& pred, std::chrono::milliseco
   return pred();
 }
 
+// An ENet host on 127.0.0.1, any free port, that a test drives by hand: a rogue host a
+// client connects to (enet_initialize() first; the caller destroys it).
+inline ENetHost* rogue_host_on_loopback() {
+  ENetAddress bind{};
+  enet_address_set_host(&bind, "127.0.0.1");
+  bind.port = 0;
+  return enet_host_create(&bind, 4, msg::kChannelCount, 0, 0);
+}
+
 class RawPeer {
  public:
   explicit RawPeer(std::uint16_t port) {

@@ -467,10 +467,7 @@ TEST(PakeLoopback, AClientWithASecretRefusesAHostThatCannotProveIt) {
         << sink.refusal()->detail;
   }
   enet_initialize();
-  ENetAddress bind{};
-  enet_address_set_host(&bind, "127.0.0.1");
-  bind.port = 0;
-  ENetHost* rogue = enet_host_create(&bind, 4, msg::kChannelCount, 0, 0);
+  ENetHost* rogue = test::rogue_host_on_loopback();
   ASSERT_NE(rogue, nullptr);
   Sink sink;
   auto c = net::NetClient::start(client_config(rogue->address.port, "open-sesame"), sink);

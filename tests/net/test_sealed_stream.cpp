@@ -157,21 +157,31 @@ std::vector<net::HostEvent> events_until(net::NetHost& host, const std::function
   return seen;
 }
 
-TEST(SealedStream, ALiveConnectionIsSealedBothWaysAndRefusesReplays) {
-  const std::string token = "private scene";
+// A host that requires `token` and seals its stream.
+Expected<std::unique_ptr<net::NetHost>> start_sealed_host(const std::string& token) {
   net::NetHostConfig cfg;
   cfg.bind.port = 0;
   cfg.access_token = token;
   cfg.encrypt_stream = true;
   cfg.log = [](const std::string&) {};
-  auto host = net::NetHost::start(cfg);
+  return net::NetHost::start(cfg);
+}
+
+// Runs `peer`'s handshake with `host`: the client id the host announces, or 0.
+std::uint32_t connect_sealed(net::NetHost& host, SealedPeer& peer) {
+  if (!peer.handshake()) return 0;
+  auto connected = events_until(host, [](const net::HostEvent& e) { return e.kind == net::HostEventKind::Connected; });
+  if (connected.empty() || connected.back().kind != net::HostEventKind::Connected) return 0;
+  return connected.back().client;
+}
+
+TEST(SealedStream, ALiveConnectionIsSealedBothWaysAndRefusesReplays) {
+  const std::string token = "private scene";
+  auto host = start_sealed_host(token);
   ASSERT_TRUE(host.ok()) << host.message();
   SealedPeer peer((*host)->port(), token);
-  ASSERT_TRUE(peer.handshake());
-  auto connected = events_until(**host, [](const net::HostEvent& e) { return e.kind == net::HostEventKind::Connected; });
-  ASSERT_FALSE(connected.empty());
-  ASSERT_EQ(connected.back().kind, net::HostEventKind::Connected);
-  const std::uint32_t id = connected.back().client;
+  const std::uint32_t id = connect_sealed(**host, peer);
+  ASSERT_NE(id, 0u);
 
   // Host -> client: the Welcome and a reply with a telling label arrive sealed.
   ASSERT_TRUE((*host)->send(id, msg::Welcome{msg::kProtocolVersion, (*host)->session_id(), id, 100}).ok());
@@ -234,18 +244,11 @@ TEST(SealedStream, ALiveConnectionIsSealedBothWaysAndRefusesReplays) {
 // them, and are gone with the connection.
 TEST(SealedStream, ARecordedSessionStaysSealedEvenWithTheToken) {
   const std::string token = "private scene";
-  net::NetHostConfig cfg;
-  cfg.bind.port = 0;
-  cfg.access_token = token;
-  cfg.encrypt_stream = true;
-  cfg.log = [](const std::string&) {};
-  auto host = net::NetHost::start(cfg);
+  auto host = start_sealed_host(token);
   ASSERT_TRUE(host.ok()) << host.message();
   SealedPeer peer((*host)->port(), token);
-  ASSERT_TRUE(peer.handshake());
-  auto connected = events_until(**host, [](const net::HostEvent& e) { return e.kind == net::HostEventKind::Connected; });
-  ASSERT_FALSE(connected.empty());
-  const std::uint32_t id = connected.back().client;
+  const std::uint32_t id = connect_sealed(**host, peer);
+  ASSERT_NE(id, 0u);
   ASSERT_TRUE((*host)->send(id, msg::Welcome{msg::kProtocolVersion, (*host)->session_id(), id, 100}).ok());
   std::vector<std::vector<std::uint8_t>> down;  // host -> client, as recorded
   auto welcome = peer.receive_packet();

@@ -520,10 +520,7 @@ TEST(Transport, AProofIsBoundToItsHelloAndTokensNeverTravel) {
 // escape codes, in the log, the counters or what the sink is handed.
 TEST(Transport, AHostsRefusalTextIsEscapedOnTheClient) {
   enet_initialize();
-  ENetAddress bind{};
-  enet_address_set_host(&bind, "127.0.0.1");
-  bind.port = 0;
-  ENetHost* rogue = enet_host_create(&bind, 4, msg::kChannelCount, 0, 0);
+  ENetHost* rogue = test::rogue_host_on_loopback();
   ASSERT_NE(rogue, nullptr);
   const std::string evil = "no\nclient 1 'legit' left: sent 20000 Gaussians, checksum 42\x1b[2J\r";
   auto refusal = wire::encode(msg::Refuse{msg::RefuseReason::Other, msg::kProtocolVersion, evil});
