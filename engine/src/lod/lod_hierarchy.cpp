@@ -3,8 +3,11 @@
 #include "gauss/engine/lod_hierarchy.h"
 
 #include <algorithm>
+#include <bit>
 #include <atomic>
 #include <cmath>
+#include <cstddef>
+#include <cstring>
 #include <string>
 
 #include "lod_internal.h"
@@ -134,13 +137,26 @@ void LodHierarchy::store_leaf(std::uint32_t node, const Gaussian& g) {
 }
 
 bool LodHierarchy::same_leaf_value(std::uint32_t node, const Gaussian& g) const {
-  const LeafFields& f = leaf_fields_[nodes_[node].data];
+  const std::uint32_t slot = nodes_[node].data;
+  const LeafFields& f = leaf_fields_[slot];
+  const std::size_t rc = std::size_t(rest_count_);
+  const glm::vec3* rest = leaf_rest_.data() + std::size_t(slot) * rc;
+  // Equal bits are equal values: a stored leaf has no NaN (it was usable), so neither has g
+  // where the bits agree. Only where they differ (a change, or +0 against -0) does it take
+  // the field-by-field float comparison, which decides.
+  static_assert(offsetof(LeafFields, position) == offsetof(Gaussian, position) &&
+                offsetof(LeafFields, log_scale) == offsetof(Gaussian, log_scale) &&
+                offsetof(LeafFields, rotation) == offsetof(Gaussian, rotation) &&
+                offsetof(LeafFields, opacity_logit) == offsetof(Gaussian, opacity_logit) &&
+                offsetof(LeafFields, sh_dc) == offsetof(Gaussian, sh_dc) && offsetof(LeafFields, sh_dc) + 12 == 56);
+  if (std::memcmp(&f, &g, 56) == 0 && f.object == g.object && f.support == g.support &&
+      (rc == 0 || std::memcmp(rest, g.sh_rest.data(), rc * sizeof(glm::vec3)) == 0))
+    return true;
   if (!(f.position == g.position && f.log_scale == g.log_scale && f.rotation == g.rotation &&
         f.opacity_logit == g.opacity_logit && f.sh_dc == g.sh_dc && f.object == g.object && f.support == g.support))
     return false;
-  const std::size_t rc = std::size_t(rest_count_);
   for (std::size_t k = 0; k < rc; ++k)
-    if (leaf_rest_[std::size_t(nodes_[node].data) * rc + k] != g.sh_rest[k]) return false;
+    if (rest[k] != g.sh_rest[k]) return false;
   return true;
 }
 
@@ -180,7 +196,16 @@ Expected<LodUpdateReport> LodHierarchy::update_from(const Gaussian* base, std::s
   std::size_t met = 0;                       // leaves met (each once, or the update fails)
   const std::size_t hinted = std::min(count, input_nodes_.size());
   input_nodes_.resize(count, kNoLodNode);
+  constexpr std::size_t kBlock = 32;
   for (std::size_t k = 0; k < count; ++k) {
+    if (k % kBlock == 0) {
+      std::uint32_t acc = 0;
+      for (std::size_t i = k; i < std::min(count, k + kBlock); ++i) {
+        const Gaussian& gi = get(i);
+        acc += std::uint32_t(to_underlying(gi.id)) + std::bit_cast<std::uint32_t>(gi.position.x);
+      }
+      lod_detail::keep(acc);
+    }
     const Gaussian& g = get(k);
     // The leaf this place became last time, if it still is this id's leaf (ids are unique
     // among leaves, so a live leaf with the id is the one find_leaf would give); else by id.
@@ -427,7 +452,7 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
                                     [](const auto& a, const auto& b) { return a.first < b.first; });
     const bool had = root_it != group_roots_.end() && root_it->first == tree;
     TreeBuild b = make_build(tree, kGroupLevels, std::span<const std::uint64_t>(codes).subspan(i, j - i));
-    b.warm = all_new;
+    b.full = all_new;
     const std::uint32_t root = build_cell(b, items, 0, 0, had ? root_it->second : kNoLodNode);
     if (root == kNoLodNode) {
       if (had) group_roots_.erase(root_it);
@@ -485,7 +510,7 @@ void LodHierarchy::next_generation() {
 }
 
 void LodHierarchy::compact_children() {
-  std::vector<std::uint32_t> packed;
+  Pool<std::uint32_t> packed;
   packed.reserve(children_.size() - children_garbage_);
   for (LodNode& n : nodes_) {
     if (!n.live || n.leaf) continue;

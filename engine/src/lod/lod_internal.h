@@ -65,9 +65,9 @@ struct LodHierarchy::TreeBuild {
   std::vector<LodMoments>* moments{nullptr};     // merge scratch
   std::vector<glm::dvec3>* rest{nullptr};
   // A full build visits every leaf of the sorted order once, in order, so the first cell of
-  // at most kWarmLeaves leaves asks the cache for all of them (warm_leaves); warmed_to is how
-  // far the order is asked for. False in incremental updates (which visit few leaves).
-  bool warm{false};
+  // at most kWarmLeaves leaves loads all of them (warm_leaves); warmed_to is how far it has.
+  // False in incremental updates (which visit few leaves).
+  bool full{false};
   const Entry* warmed_to{nullptr};
 
   // True when a changed code lies in cell (level, prefix).

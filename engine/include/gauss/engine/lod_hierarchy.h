@@ -232,6 +232,7 @@ class LodHierarchy {
   void retire_node(TreeBuild& b, std::uint32_t node);
   void node_moments(std::uint32_t node, LodMoments& m, std::span<glm::dvec3> rest) const;
   void warm_leaves(std::span<const Entry> items) const;
+  void warm_kids(std::span<const std::uint32_t> kids) const;
   void leaf_slot_moments(std::uint32_t slot, LodMoments& m, glm::dvec3* rest) const;
 
   LodConfig config_;
@@ -243,39 +244,40 @@ class LodHierarchy {
   glm::dvec3 cube_min_{0.0};
   double cell_inv_{1.0};  // 2^21 / cube edge
 
-  // The per-leaf pools read at random (a build reads leaves in tree order, an update's compare
-  // and merges by id) sit on huge pages where the system allows: at 1M leaves they span
-  // ~110 MB, and on 4 KiB pages nearly every such read also missed the TLB.
+  // The pools sit on huge pages where the system allows. Leaves are read at random (a build
+  // reads them in tree order, an update's merges by cell): at 1M leaves nodes and fields span
+  // ~110 MB, and on 4 KiB pages nearly every such read also missed the TLB. And a build
+  // writes ~400 MB of new pools: on 4 KiB pages a tenth of its time went to page faults.
   template <class T>
   using Pool = std::vector<T, detail::TableAllocator<T>>;
   Pool<LodNode> nodes_;
   std::vector<std::uint32_t> free_nodes_;
-  std::vector<std::uint32_t> children_;
+  Pool<std::uint32_t> children_;
   std::size_t children_garbage_{0};
   // Leaf slots (node.data of a leaf): fields and SH rest (rest_count_ triples per slot).
   Pool<LeafFields> leaf_fields_;
-  std::vector<glm::vec3> leaf_rest_;
-  std::vector<std::uint32_t> leaf_source_;  // per leaf slot: index in the last update()'s span
+  Pool<glm::vec3> leaf_rest_;
+  Pool<std::uint32_t> leaf_source_;  // per leaf slot: index in the last update()'s span
   // The reverse, per place k of the last update()'s input (the k-th Gaussian it read): the
   // leaf node it became, or kNoLodNode. A hint only: update() tries gaussians[k] against this
   // node first (a sequential read when the epochs keep their order) and trusts it only if
   // that node is a live leaf with the same id; anything else is looked up by id.
-  std::vector<std::uint32_t> input_nodes_;
+  Pool<std::uint32_t> input_nodes_;
   std::vector<std::uint32_t> free_leaf_slots_;
   detail::IdIndex leaf_index_;  // leaf id -> node
   // Interior slots (node.data of an interior node).
-  std::vector<Gaussian> records_;
-  std::vector<LodMoments> moments_;
-  std::vector<glm::dvec3> moments_rest_;
-  std::vector<InteriorKey> keys_;
+  Pool<Gaussian> records_;
+  Pool<LodMoments> moments_;
+  Pool<glm::dvec3> moments_rest_;
+  Pool<InteriorKey> keys_;
   std::vector<std::uint32_t> free_interior_slots_;
   std::size_t interior_live_{0};
   std::uint64_t next_serial_{0};
 
-  std::vector<Entry> order_;  // every leaf, sorted by (tree, code, id)
-  std::vector<Entry> order_scratch_;
+  Pool<Entry> order_;  // every leaf, sorted by (tree, code, id)
+  Pool<Entry> order_scratch_;
   // Per pool entry: the update that last touched it (duplicate ids are found without a sort).
-  std::vector<std::uint32_t> touch_stamp_;
+  Pool<std::uint32_t> touch_stamp_;
   std::uint32_t stamp_{0};
   // Root node of each group tree, sorted by tree.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> group_roots_;
