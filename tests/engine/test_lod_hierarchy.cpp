@@ -539,6 +539,19 @@ std::vector<Gaussian> awkward_scene(std::size_t n, std::uint64_t seed) {
     }
     out.push_back(g);
   }
+  // Around the full build's shortcut for usable leaves (scales <= 1 m and >= e^-100, logit
+  // >= -200) and past it: each must get the status the exact test gives.
+  const float edges[][2] = {{0.0f, 0.0f},     {-100.0f, 2.0f},    {-100.5f, 2.0f}, {0.001f, 1.0f},
+                            {-3.0f, -200.0f}, {-3.0f, -200.5f},   {-300.0f, 0.0f}, {-3.0f, -740.0f},
+                            {-180.0f, -180.0f}, {-0.5f, -750.0f}, {9.3f, 0.0f},    {9.2f, 0.0f}};
+  for (std::size_t i = 0; i < std::size(edges) && !out.empty(); ++i) {
+    Gaussian g = out[i];
+    g.id = GaussianId{90 * n + i};
+    g.log_scale = glm::vec3(edges[i][0], edges[i][0] - 1.0f, edges[i][0] - 0.5f);
+    g.log_scale.x = edges[i][0];
+    g.opacity_logit = edges[i][1];
+    out.push_back(g);
+  }
   // A stack of 40 copies of one point: a bottom node at the finest level, over the limit.
   for (std::uint64_t i = 0; i < 40 && !out.empty(); ++i) {
     Gaussian g = out[0];
@@ -582,11 +595,12 @@ TEST(LodHierarchy, FullBuildEqualsTheGeneralPath) {
   // Gaussians takes the general path (no fast path there). Both start empty, so they must
   // agree node for node: pool layout, ids (serials in the same order), records bit for bit,
   // and the report. An incremental update from another epoch reaches the same tree too.
-  for (std::uint32_t max_leaves : {2u, 8u}) {
+  for (std::uint32_t max_leaves : {2u, 8u, 5u}) {
     for (std::uint64_t seed : {1u, 2u, 3u}) {
       const auto scene = awkward_scene(3000, seed);
       LodConfig config;
       config.max_leaves_per_node = max_leaves;
+      if (max_leaves == 5) config.merge.max_scale = 0.5;  // below 1 m: the shortcut must not apply
       auto fast = LodHierarchy::create(1, config);
       auto general = LodHierarchy::create(1, config);
       ASSERT_TRUE(fast.ok() && general.ok());

@@ -91,6 +91,16 @@ LodLeafStatus leaf_moments_of(const LeafFieldRefs& g, int rest_count, const LodM
     if (!finite3(g.rest[k])) return LodLeafStatus::NonFinite;
   glm::dmat3 r;
   if (!rotation_matrix(g.rotation, r)) return LodLeafStatus::NonFinite;
+  if (!out) {
+    // Status only (the full build asks it of every input Gaussian): where the answer is
+    // plain without the four exponentials below, give it. Scales of at most 1 m are within
+    // any max_scale >= 1 (exp(2 ls) <= 1), and scales >= e^-100 with a logit >= -200 weigh
+    // >= ~e^-400 > 0 (no underflow). Anything else goes the exact way.
+    const float lo = std::min({g.log_scale.x, g.log_scale.y, g.log_scale.z});
+    const float hi = std::max({g.log_scale.x, g.log_scale.y, g.log_scale.z});
+    if (lo >= -100.0f && hi <= 0.0f && g.opacity_logit >= -200.0f && config.max_scale >= 1.0)
+      return LodLeafStatus::Usable;
+  }
 
   const glm::dvec3 var(std::exp(2.0 * double(g.log_scale.x)), std::exp(2.0 * double(g.log_scale.y)),
                        std::exp(2.0 * double(g.log_scale.z)));
