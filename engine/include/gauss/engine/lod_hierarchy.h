@@ -35,7 +35,10 @@
 // Incremental cost. An update touches only the cells on the paths from changed leaves (old and
 // new positions) to the root: O(changes x depth) node merges, plus O(N) sequential work to keep
 // the sorted leaf order when leaves come or go (a merge of two sorted arrays); update() also
-// compares every Gaussian with its stored leaf (O(N)); apply() takes the changes as given.
+// compares every Gaussian with its stored leaf (O(N): first against the leaf its place in the
+// last update()'s input became, then by id); apply() takes the changes as given. update() of an
+// empty hierarchy is the full build, with no diffing: one pass over the input, a radix sort of
+// the leaves, every cell merged once (the same tree, ids and records as the general path).
 //
 // Storage is flat: nodes in one pool (indices stable while a node lives; retired entries are
 // reused by later updates, so walk from root(), never over the pool), children as runs in one
