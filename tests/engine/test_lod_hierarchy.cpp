@@ -512,6 +512,194 @@ TEST(LodHierarchy, BadInputIsRefusedAndChangesNothing) {
   check_invariants(*h, scene);
 }
 
+// A scene for the full build's fast path to get wrong: several objects, coincident points
+// (runs of one position, some longer than a bottom node holds, so they meet at the finest
+// level), degenerate Gaussians of every kind, SH degree 1, and ids out of order.
+std::vector<Gaussian> awkward_scene(std::size_t n, std::uint64_t seed) {
+  Rng rng{seed};
+  std::vector<Gaussian> out;
+  out.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    Gaussian g = random_gaussian(rng, 7 * n - 3 * i, 5);  // ids counting down, spaced
+    g.sh_rest[0] = glm::vec3(rng.uniform(-0.3f, 0.3f));
+    g.sh_rest[2] = glm::vec3(rng.uniform(-0.3f, 0.3f), 0.0f, rng.uniform(-0.3f, 0.3f));
+    const std::uint64_t roll = rng.next() % 100;
+    if (roll < 6 && !out.empty()) {
+      const Gaussian& twin = out[std::size_t(rng.next() % out.size())];
+      g.position = twin.position;  // coincident: same cell at every level
+      g.object = twin.object;
+    } else if (roll < 7) {
+      g.position.y = std::numeric_limits<float>::quiet_NaN();
+    } else if (roll < 8) {
+      g.opacity_logit = -1e4f;  // zero weight
+    } else if (roll < 9) {
+      g.log_scale = glm::vec3(30.0f);  // too large
+    } else if (roll < 10) {
+      g.sh_rest[1].z = std::numeric_limits<float>::infinity();
+    }
+    out.push_back(g);
+  }
+  // Around the full build's shortcut for usable leaves (scales <= 1 m and >= e^-100, logit
+  // >= -200) and past it: each must get the status the exact test gives.
+  const float edges[][2] = {{0.0f, 0.0f},     {-100.0f, 2.0f},    {-100.5f, 2.0f}, {0.001f, 1.0f},
+                            {-3.0f, -200.0f}, {-3.0f, -200.5f},   {-300.0f, 0.0f}, {-3.0f, -740.0f},
+                            {-180.0f, -180.0f}, {-0.5f, -750.0f}, {9.3f, 0.0f},    {9.2f, 0.0f}};
+  for (std::size_t i = 0; i < std::size(edges) && !out.empty(); ++i) {
+    Gaussian g = out[i];
+    g.id = GaussianId{90 * n + i};
+    g.log_scale = glm::vec3(edges[i][0], edges[i][0] - 1.0f, edges[i][0] - 0.5f);
+    g.log_scale.x = edges[i][0];
+    g.opacity_logit = edges[i][1];
+    out.push_back(g);
+  }
+  // A stack of 40 copies of one point: a bottom node at the finest level, over the limit.
+  for (std::uint64_t i = 0; i < 40 && !out.empty(); ++i) {
+    Gaussian g = out[0];
+    g.id = GaussianId{100 * n + i};
+    g.opacity_logit += 0.01f * float(i);
+    out.push_back(g);
+  }
+  return out;
+}
+
+// The pools, node for node: two hierarchies that took the same path through the same leaves.
+void expect_same_pools(const LodHierarchy& a, const LodHierarchy& b) {
+  ASSERT_EQ(a.root(), b.root());
+  ASSERT_EQ(a.nodes().size(), b.nodes().size());
+  EXPECT_EQ(a.leaf_count(), b.leaf_count());
+  EXPECT_EQ(a.interior_count(), b.interior_count());
+  for (std::uint32_t i = 0; i < a.nodes().size(); ++i) {
+    const LodNode& na = a.node(i);
+    const LodNode& nb = b.node(i);
+    ASSERT_EQ(na.live, nb.live) << "node " << i;
+    if (!na.live) continue;
+    ASSERT_EQ(na.leaf, nb.leaf) << "node " << i;
+    EXPECT_EQ(na.id, nb.id) << "node " << i;
+    EXPECT_EQ(na.parent, nb.parent) << "node " << i;
+    EXPECT_EQ(na.leaf_count, nb.leaf_count) << "node " << i;
+    EXPECT_EQ(na.height, nb.height) << "node " << i;
+    EXPECT_EQ(na.centre, nb.centre) << "node " << i;
+    EXPECT_EQ(na.radius, nb.radius) << "node " << i;
+    ASSERT_TRUE(std::ranges::equal(a.children(na), b.children(nb))) << "node " << i;
+    const Gaussian ga = a.gaussian(na), gb = b.gaussian(nb);
+    ASSERT_TRUE(same_value(ga, gb) && ga.id == gb.id) << "node " << i << (na.leaf ? " (leaf)" : " (interior)");
+    if (na.leaf) {
+      EXPECT_EQ(a.find_leaf(na.id), i);
+      EXPECT_EQ(b.find_leaf(nb.id), i);
+    }
+  }
+}
+
+TEST(LodHierarchy, FullBuildEqualsTheGeneralPath) {
+  // update() of an empty hierarchy takes the full build's fast path; apply() of the same
+  // Gaussians takes the general path (no fast path there). Both start empty, so they must
+  // agree node for node: pool layout, ids (serials in the same order), records bit for bit,
+  // and the report. An incremental update from another epoch reaches the same tree too.
+  for (std::uint32_t max_leaves : {2u, 8u, 5u}) {
+    for (std::uint64_t seed : {1u, 2u, 3u}) {
+      const auto scene = awkward_scene(3000, seed);
+      LodConfig config;
+      config.max_leaves_per_node = max_leaves;
+      if (max_leaves == 5) config.merge.max_scale = 0.5;  // below 1 m: the shortcut must not apply
+      auto fast = LodHierarchy::create(1, config);
+      auto general = LodHierarchy::create(1, config);
+      ASSERT_TRUE(fast.ok() && general.ok());
+      const auto rf = fast->update(scene);
+      const auto rg = general->apply(scene, {});
+      ASSERT_TRUE(rf.ok() && rg.ok()) << rf.message() << rg.message();
+      EXPECT_GT(rf->skipped, 0u);
+      EXPECT_EQ(rf->skipped, rg->skipped);
+      EXPECT_EQ(rf->leaves_inserted, rg->leaves_inserted);
+      EXPECT_EQ(rf->nodes_merged, rg->nodes_merged);
+      EXPECT_EQ(rf->added, rg->added);
+      EXPECT_TRUE(rf->removed.empty() && rf->modified.empty());
+      EXPECT_EQ(fast->cube().edge, general->cube().edge);
+      EXPECT_EQ(fast->cube().min, general->cube().min);
+      expect_same_pools(*fast, *general);
+      // update() notes where each leaf was in its input.
+      for (std::size_t k = 0; k < scene.size(); ++k) {
+        if (const std::uint32_t node = fast->find_leaf(scene[k].id); node != kNoLodNode) {
+          EXPECT_EQ(fast->leaf_source(fast->node(node)), k);
+        }
+      }
+
+      // From another epoch (half the scene, others moved, extra Gaussians) by the general
+      // update: the same canonical tree, record for record.
+      LodConfig fixed = config;
+      fixed.cube = fast->cube();
+      auto incremental = LodHierarchy::create(1, fixed);
+      ASSERT_TRUE(incremental.ok());
+      auto start = awkward_scene(1500, seed + 100);
+      for (std::size_t k = 0; k < scene.size(); k += 2) start.push_back(scene[k]);
+      for (std::size_t k = 1; k < scene.size(); k += 14) {  // odd: not in the half above
+        Gaussian g = scene[k];
+        g.position.x += 0.3f;
+        start.push_back(g);
+      }
+      const auto r0 = incremental->update(start);
+      ASSERT_TRUE(r0.ok()) << r0.message();
+      const auto r1 = incremental->update(scene);
+      ASSERT_TRUE(r1.ok()) << r1.message();
+      EXPECT_GT(r1->leaves_removed, 0u);
+      EXPECT_GT(r1->leaves_modified, 0u);
+      EXPECT_GT(r1->leaves_inserted, 0u);
+      expect_same_tree(*fast, *incremental);
+
+      // The same failures, naming the same id.
+      auto dup = scene;
+      dup.insert(dup.begin() + 10, scene[2000]);
+      auto fd = LodHierarchy::create(1, config);
+      auto gd = LodHierarchy::create(1, config);
+      const auto ef = fd->update(dup);
+      const auto eg = gd->apply(dup, {});
+      ASSERT_FALSE(ef.ok());
+      ASSERT_FALSE(eg.ok());
+      EXPECT_EQ(ef.message(), eg.message());
+      EXPECT_EQ(fd->root(), kNoLodNode);
+      EXPECT_EQ(fd->leaf_count(), 0u);
+      auto top = scene;
+      top[5].id = GaussianId{kLodInteriorIdBit | 3};
+      const auto tf = fd->update(top);
+      const auto tg = gd->apply(top, {});
+      ASSERT_FALSE(tf.ok());
+      EXPECT_EQ(tf.message(), tg.message());
+      // And after the failures the build goes through as if they never happened.
+      ASSERT_TRUE(fd->update(scene).ok());
+      expect_same_pools(*fd, *fast);
+    }
+  }
+}
+
+// After everything is removed, the next epoch is a full build again (the fast path over
+// pools that held a tree): the same tree as a fresh build, ids counting on.
+TEST(LodHierarchy, RebuildAfterEverythingWentEqualsAFreshBuild) {
+  const auto first = awkward_scene(2000, 11);
+  const auto second = awkward_scene(2500, 12);
+  auto h = LodHierarchy::build(first, 1);
+  ASSERT_TRUE(h.ok());
+  std::uint64_t highest = 0;
+  for (const LodNode& n : h->nodes())
+    if (n.live && !n.leaf) highest = std::max(highest, to_underlying(n.id) & ~kLodInteriorIdBit);
+  const auto gone = h->update({});
+  ASSERT_TRUE(gone.ok());
+  EXPECT_EQ(h->root(), kNoLodNode);
+  const auto r = h->update(second);
+  ASSERT_TRUE(r.ok());
+  for (GaussianId id : r->added) EXPECT_GT(to_underlying(id) & ~kLodInteriorIdBit, highest);  // never reused
+  std::size_t usable = 0;
+  for (const Gaussian& g : second) {
+    LodMoments m;
+    std::vector<glm::dvec3> rest(4);
+    if (leaf_moments(g, 1, LodMergeConfig{}, m, rest) == LodLeafStatus::Usable) ++usable;
+  }
+  EXPECT_EQ(h->leaf_count(), usable);
+  EXPECT_EQ(r->leaves_inserted, usable);
+  EXPECT_EQ(r->skipped, second.size() - usable);
+  auto fresh = rebuild_like(*h, second);
+  ASSERT_TRUE(fresh.ok());
+  expect_same_tree(*h, *fresh);
+}
+
 TEST(LodHierarchy, Timing) {
   // Reports, never asserts: full build, an update touching 1 % (one object's worth, then 1 %
   // random value edits, then 1 % churn: removals + inserts), and an unchanged epoch.

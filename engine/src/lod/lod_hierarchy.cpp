@@ -3,8 +3,11 @@
 #include "gauss/engine/lod_hierarchy.h"
 
 #include <algorithm>
+#include <bit>
 #include <atomic>
 #include <cmath>
+#include <cstddef>
+#include <cstring>
 #include <string>
 
 #include "lod_internal.h"
@@ -15,12 +18,10 @@ using lod_detail::kBackgroundTree;
 using lod_detail::kGroupLevels;
 using lod_detail::kObjectsLevels;
 using lod_detail::kObjectsTree;
+using lod_detail::kPendingLeaf;
 using lod_detail::kRootTree;
 
 namespace {
-
-// Marks a new id in leaf_index_ while an update is validated (rolled back on failure).
-constexpr std::uint32_t kPendingLeaf = 0xFFFFFFFEu;
 
 std::string id_text(GaussianId id) { return std::to_string(to_underlying(id)); }
 
@@ -136,13 +137,26 @@ void LodHierarchy::store_leaf(std::uint32_t node, const Gaussian& g) {
 }
 
 bool LodHierarchy::same_leaf_value(std::uint32_t node, const Gaussian& g) const {
-  const LeafFields& f = leaf_fields_[nodes_[node].data];
+  const std::uint32_t slot = nodes_[node].data;
+  const LeafFields& f = leaf_fields_[slot];
+  const std::size_t rc = std::size_t(rest_count_);
+  const glm::vec3* rest = leaf_rest_.data() + std::size_t(slot) * rc;
+  // Equal bits are equal values: a stored leaf has no NaN (it was usable), so neither has g
+  // where the bits agree. Only where they differ (a change, or +0 against -0) does it take
+  // the field-by-field float comparison, which decides.
+  static_assert(offsetof(LeafFields, position) == offsetof(Gaussian, position) &&
+                offsetof(LeafFields, log_scale) == offsetof(Gaussian, log_scale) &&
+                offsetof(LeafFields, rotation) == offsetof(Gaussian, rotation) &&
+                offsetof(LeafFields, opacity_logit) == offsetof(Gaussian, opacity_logit) &&
+                offsetof(LeafFields, sh_dc) == offsetof(Gaussian, sh_dc) && offsetof(LeafFields, sh_dc) + 12 == 56);
+  if (std::memcmp(&f, &g, 56) == 0 && f.object == g.object && f.support == g.support &&
+      (rc == 0 || std::memcmp(rest, g.sh_rest.data(), rc * sizeof(glm::vec3)) == 0))
+    return true;
   if (!(f.position == g.position && f.log_scale == g.log_scale && f.rotation == g.rotation &&
         f.opacity_logit == g.opacity_logit && f.sh_dc == g.sh_dc && f.object == g.object && f.support == g.support))
     return false;
-  const std::size_t rc = std::size_t(rest_count_);
   for (std::size_t k = 0; k < rc; ++k)
-    if (leaf_rest_[std::size_t(nodes_[node].data) * rc + k] != g.sh_rest[k]) return false;
+    if (rest[k] != g.sh_rest[k]) return false;
   return true;
 }
 
@@ -164,6 +178,13 @@ Expected<LodUpdateReport> LodHierarchy::update(std::span<const Gaussian> gaussia
 template <typename Get>
 Expected<LodUpdateReport> LodHierarchy::update_from(const Gaussian* base, std::size_t count, Get&& get) {
   next_generation();  // leaf places change below even when nothing else does
+  if (leaf_index_.size() == 0) {
+    // Nothing to compare with: the full build (same tree, records, ids and report as the
+    // general path below would give, without its per-leaf diffing; lod_full_build.cpp).
+    std::vector<const Gaussian*> all(count);
+    for (std::size_t k = 0; k < count; ++k) all[k] = &get(k);
+    return build_from_empty(all, base);
+  }
   // Leaves not met below are the removed ones; a leaf met twice is a duplicate id.
   if (++stamp_ == 0) {
     std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);
@@ -171,31 +192,56 @@ Expected<LodUpdateReport> LodHierarchy::update_from(const Gaussian* base, std::s
   }
   const std::uint32_t seen = stamp_;
   std::vector<const Gaussian*> upserts;
+  std::vector<std::uint32_t> upsert_places;  // k of each upsert
+  std::size_t met = 0;                       // leaves met (each once, or the update fails)
+  const std::size_t hinted = std::min(count, input_nodes_.size());
+  input_nodes_.resize(count, kNoLodNode);
+  constexpr std::size_t kBlock = 32;
   for (std::size_t k = 0; k < count; ++k) {
+    if (k % kBlock == 0) {
+      std::uint32_t acc = 0;
+      for (std::size_t i = k; i < std::min(count, k + kBlock); ++i) {
+        const Gaussian& gi = get(i);
+        acc += std::uint32_t(to_underlying(gi.id)) + std::bit_cast<std::uint32_t>(gi.position.x);
+      }
+      lod_detail::keep(acc);
+    }
     const Gaussian& g = get(k);
-    const std::uint32_t node = find_leaf(g.id);
+    // The leaf this place became last time, if it still is this id's leaf (ids are unique
+    // among leaves, so a live leaf with the id is the one find_leaf would give); else by id.
+    std::uint32_t node = k < hinted ? input_nodes_[k] : kNoLodNode;
+    if (node >= nodes_.size() || !nodes_[node].live || !nodes_[node].leaf || nodes_[node].id != g.id)
+      node = find_leaf(g.id);
+    input_nodes_[k] = node;
     if (node == kNoLodNode) {
       upserts.push_back(&g);
+      upsert_places.push_back(std::uint32_t(k));
       continue;
     }
     if (touch_stamp_[node] == seen) return Error{"LodHierarchy::update: Gaussian id " + id_text(g.id) + " appears twice"};
     touch_stamp_[node] = seen;
-    if (!same_leaf_value(node, g))
+    ++met;
+    if (!same_leaf_value(node, g)) {
       upserts.push_back(&g);
-    else
+      upsert_places.push_back(std::uint32_t(k));
+    } else {
       leaf_source_[nodes_[node].data] = static_cast<std::uint32_t>(&g - base);
+    }
   }
   std::vector<GaussianId> removed;
-  leaf_index_.for_each([&](std::uint64_t id, std::uint32_t node) {
-    if (touch_stamp_[node] != seen) removed.push_back(GaussianId{id});
-  });
+  if (met != leaf_index_.size())  // some leaf was not met: find which (in the index's order)
+    leaf_index_.for_each([&](std::uint64_t id, std::uint32_t node) {
+      if (touch_stamp_[node] != seen) removed.push_back(GaussianId{id});
+    });
   auto report = apply_changes(upserts, removed, false);
   if (!report) return report;
   // The changed leaves' places in the input (the unchanged ones were noted above), now that
   // new leaves have their slots; a Gaussian left out as unusable has none.
-  for (const Gaussian* g : upserts)
-    if (const std::uint32_t node = find_leaf(g->id); node != kNoLodNode)
-      leaf_source_[nodes_[node].data] = static_cast<std::uint32_t>(g - base);
+  for (std::size_t u = 0; u < upserts.size(); ++u) {
+    const std::uint32_t node = find_leaf(upserts[u]->id);
+    input_nodes_[upsert_places[u]] = node;
+    if (node != kNoLodNode) leaf_source_[nodes_[node].data] = static_cast<std::uint32_t>(upserts[u] - base);
+  }
   return report;
 }
 
@@ -257,21 +303,13 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
     for (std::size_t i = 0; i < upserts.size(); ++i) status[i] = leaf_moments(*upserts[i], sh_degree_, config_.merge, m, rest);
   }
   if (!cube_set_) {
-    // The quantisation cube: 16x the first non-empty epoch's extent (at least 16 m) around its
-    // centre, fixed from then on so codes, cells and ids stay comparable between epochs.
     glm::dvec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
     for (std::size_t i = 0; i < upserts.size(); ++i)
       if (status[i] == LodLeafStatus::Usable) {
         lo = glm::min(lo, glm::dvec3(upserts[i]->position));
         hi = glm::max(hi, glm::dvec3(upserts[i]->position));
       }
-    if (lo.x <= hi.x) {
-      const glm::dvec3 e = hi - lo;
-      const double half = 8.0 * std::max({e.x, e.y, e.z, 1.0});
-      cube_min_ = 0.5 * (lo + hi) - half;
-      cell_inv_ = double(1u << kGroupLevels) / (2.0 * half);
-      cube_set_ = true;
-    }
+    fix_cube(lo, hi);
   }
 
   std::vector<std::pair<std::uint32_t, std::uint64_t>> dirty;  // (tree, code)
@@ -353,13 +391,40 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
     order_.swap(order_scratch_);
   }
 
-  // --- 4. Group trees with changes. -----------------------------------------------------
+  // --- 4-5. Group trees with changes, the objects tree and the root. --------------------
   std::sort(dirty.begin(), dirty.end());
   dirty.erase(std::unique(dirty.begin(), dirty.end()), dirty.end());
+  std::vector<std::uint32_t> retired;
+  update_trees(dirty, report, retired, false);
+
+  // --- 6. Free what left, compact the children runs, sort the report. --------------------
+  for (std::uint32_t n : retired) {
+    free_interior_slots_.push_back(nodes_[n].data);
+    free_nodes_.push_back(n);
+  }
+  for (std::uint32_t n : dead_leaves) {
+    nodes_[n].live = false;
+    free_leaf_slots_.push_back(nodes_[n].data);
+    free_nodes_.push_back(n);
+  }
+  if (children_garbage_ > 4096 && children_garbage_ * 2 > children_.size()) compact_children();
+  sort_report(report);
+  return report;
+}
+
+void LodHierarchy::sort_report(LodUpdateReport& report) const {
+  // Serials count up in creation order, so the added list is often sorted already.
+  for (std::vector<GaussianId>* list : {&report.added, &report.removed, &report.modified})
+    if (!std::is_sorted(list->begin(), list->end())) std::sort(list->begin(), list->end());
+}
+
+void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::uint64_t>> dirty,
+                                LodUpdateReport& report, std::vector<std::uint32_t>& retired, bool all_new) {
+  // --- 4. Group trees with changes. -----------------------------------------------------
   std::vector<std::uint64_t> codes;
   codes.reserve(dirty.size());
   for (const auto& d : dirty) codes.push_back(d.second);
-  std::vector<std::uint32_t> retired, stack;
+  std::vector<std::uint32_t> stack;
   std::vector<LodMoments> scratch_moments;
   std::vector<glm::dvec3> scratch_rest;
   auto make_build = [&](std::uint32_t tree, int levels, std::span<const std::uint64_t> changed) {
@@ -387,6 +452,7 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
                                     [](const auto& a, const auto& b) { return a.first < b.first; });
     const bool had = root_it != group_roots_.end() && root_it->first == tree;
     TreeBuild b = make_build(tree, kGroupLevels, std::span<const std::uint64_t>(codes).subspan(i, j - i));
+    b.full = all_new;
     const std::uint32_t root = build_cell(b, items, 0, 0, had ? root_it->second : kNoLodNode);
     if (root == kNoLodNode) {
       if (had) group_roots_.erase(root_it);
@@ -425,22 +491,17 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
     }
     if (root_ != kNoLodNode) nodes_[root_].parent = kNoLodNode;
   }
+}
 
-  // --- 6. Free what left, compact the children runs, sort the report. --------------------
-  for (std::uint32_t n : retired) {
-    free_interior_slots_.push_back(nodes_[n].data);
-    free_nodes_.push_back(n);
-  }
-  for (std::uint32_t n : dead_leaves) {
-    nodes_[n].live = false;
-    free_leaf_slots_.push_back(nodes_[n].data);
-    free_nodes_.push_back(n);
-  }
-  if (children_garbage_ > 4096 && children_garbage_ * 2 > children_.size()) compact_children();
-  std::sort(report.added.begin(), report.added.end());
-  std::sort(report.removed.begin(), report.removed.end());
-  std::sort(report.modified.begin(), report.modified.end());
-  return report;
+void LodHierarchy::fix_cube(const glm::dvec3& lo, const glm::dvec3& hi) {
+  // The quantisation cube: 16x the first non-empty epoch's extent (at least 16 m) around its
+  // centre, fixed from then on so codes, cells and ids stay comparable between epochs.
+  if (cube_set_ || !(lo.x <= hi.x)) return;
+  const glm::dvec3 e = hi - lo;
+  const double half = 8.0 * std::max({e.x, e.y, e.z, 1.0});
+  cube_min_ = 0.5 * (lo + hi) - half;
+  cell_inv_ = double(1u << kGroupLevels) / (2.0 * half);
+  cube_set_ = true;
 }
 
 void LodHierarchy::next_generation() {
@@ -449,7 +510,7 @@ void LodHierarchy::next_generation() {
 }
 
 void LodHierarchy::compact_children() {
-  std::vector<std::uint32_t> packed;
+  Pool<std::uint32_t> packed;
   packed.reserve(children_.size() - children_garbage_);
   for (LodNode& n : nodes_) {
     if (!n.live || n.leaf) continue;

@@ -1,5 +1,6 @@
 #pragma once
 // Constants and bit tricks shared by the LoD hierarchy's translation units.
+#include <cstddef>
 #include <cstdint>
 
 namespace gauss::lod_detail {
@@ -9,6 +10,16 @@ namespace gauss::lod_detail {
 inline constexpr std::uint32_t kBackgroundTree = 0xFFFFFFF0u;
 inline constexpr std::uint32_t kObjectsTree = 0xFFFFFFF1u;
 inline constexpr std::uint32_t kRootTree = 0xFFFFFFF2u;
+
+// Leaves a full build asks the cache for at once: their nodes and fields (~230 KB) stay in
+// L2 until the merges under the cell have read them.
+inline constexpr std::size_t kWarmLeaves = 2048;
+
+// Keeps a value computed only for its loads' effect on the cache (warm_leaves).
+inline void keep(std::uint32_t v) { asm volatile("" : : "r"(v)); }
+
+// Marks a new id in leaf_index_ while an update is validated (rolled back on failure).
+inline constexpr std::uint32_t kPendingLeaf = 0xFFFFFFFEu;
 
 // Octree depth of a group tree: 21 bits per axis = a 63-bit Morton code.
 inline constexpr int kGroupLevels = 21;
@@ -53,6 +64,11 @@ struct LodHierarchy::TreeBuild {
   std::vector<std::uint32_t>* stack{nullptr};    // children under construction
   std::vector<LodMoments>* moments{nullptr};     // merge scratch
   std::vector<glm::dvec3>* rest{nullptr};
+  // A full build visits every leaf of the sorted order once, in order, so the first cell of
+  // at most kWarmLeaves leaves loads all of them (warm_leaves); warmed_to is how far it has.
+  // False in incremental updates (which visit few leaves).
+  bool full{false};
+  const Entry* warmed_to{nullptr};
 
   // True when a changed code lies in cell (level, prefix).
   bool dirty_cell(int level, std::uint64_t prefix) const;

@@ -9,6 +9,7 @@
 #include <glm/matrix.hpp>
 
 #include "gauss/engine/sym_eigen3.h"
+#include "lod_leaf_moments.h"
 
 namespace gauss {
 namespace {
@@ -80,15 +81,26 @@ glm::dmat3 gaussian_covariance(const Gaussian& g) {
   return r * s * glm::transpose(r);
 }
 
-LodLeafStatus leaf_moments(const Gaussian& g, int sh_degree, const LodMergeConfig& config, LodMoments& out,
-                           std::span<glm::dvec3> rest_out) {
-  const int rest_count = sh_rest_count(std::clamp(sh_degree, 0, kMaxShDegree));
+namespace lod_detail {
+
+LodLeafStatus leaf_moments_of(const LeafFieldRefs& g, int rest_count, const LodMergeConfig& config, LodMoments* out,
+                              glm::dvec3* rest_out) {
   if (!finite3(g.position) || !finite3(g.log_scale) || !finite3(g.sh_dc) || !std::isfinite(g.opacity_logit))
     return LodLeafStatus::NonFinite;
   for (int k = 0; k < rest_count; ++k)
-    if (!finite3(g.sh_rest[std::size_t(k)])) return LodLeafStatus::NonFinite;
+    if (!finite3(g.rest[k])) return LodLeafStatus::NonFinite;
   glm::dmat3 r;
   if (!rotation_matrix(g.rotation, r)) return LodLeafStatus::NonFinite;
+  if (!out) {
+    // Status only (the full build asks it of every input Gaussian): where the answer is
+    // plain without the four exponentials below, give it. Scales of at most 1 m are within
+    // any max_scale >= 1 (exp(2 ls) <= 1), and scales >= e^-100 with a logit >= -200 weigh
+    // >= ~e^-400 > 0 (no underflow). Anything else goes the exact way.
+    const float lo = std::min({g.log_scale.x, g.log_scale.y, g.log_scale.z});
+    const float hi = std::max({g.log_scale.x, g.log_scale.y, g.log_scale.z});
+    if (lo >= -100.0f && hi <= 0.0f && g.opacity_logit >= -200.0f && config.max_scale >= 1.0)
+      return LodLeafStatus::Usable;
+  }
 
   const glm::dvec3 var(std::exp(2.0 * double(g.log_scale.x)), std::exp(2.0 * double(g.log_scale.y)),
                        std::exp(2.0 * double(g.log_scale.z)));
@@ -99,23 +111,34 @@ LodLeafStatus leaf_moments(const Gaussian& g, int sh_degree, const LodMergeConfi
   const double opacity = 1.0 / (1.0 + std::exp(-double(g.opacity_logit)));
   const double weight = opacity * area;
   if (!(weight > 0.0)) return LodLeafStatus::ZeroWeight;
+  if (!out) return LodLeafStatus::Usable;
 
-  out.weight = weight;
-  out.mean = glm::dvec3(g.position);
+  out->weight = weight;
+  out->mean = glm::dvec3(g.position);
   // S = R diag(var) R^T, entry (a, b) = sum_k r[k][a] r[k][b] var_k (r[k] is column k).
   const int ia[6] = {0, 0, 0, 1, 1, 2}, ib[6] = {0, 1, 2, 1, 2, 2};
   for (int e = 0; e < 6; ++e) {
     double sum = 0.0;
     for (int k = 0; k < 3; ++k) sum += r[k][ia[e]] * r[k][ib[e]] * var[k];
-    out.cov[e] = sum;
-    out.within[e] = sum;
+    out->cov[e] = sum;
+    out->within[e] = sum;
   }
-  out.optical_mass = softplus(g.opacity_logit) * area;
-  out.sh_dc = glm::dvec3(g.sh_dc);
-  out.support = g.support;
-  out.object = g.object;
-  for (int k = 0; k < rest_count; ++k) rest_out[std::size_t(k)] = glm::dvec3(g.sh_rest[std::size_t(k)]);
+  out->optical_mass = softplus(g.opacity_logit) * area;
+  out->sh_dc = glm::dvec3(g.sh_dc);
+  out->support = g.support;
+  out->object = g.object;
+  for (int k = 0; k < rest_count; ++k) rest_out[k] = glm::dvec3(g.rest[k]);
   return LodLeafStatus::Usable;
+}
+
+}  // namespace lod_detail
+
+LodLeafStatus leaf_moments(const Gaussian& g, int sh_degree, const LodMergeConfig& config, LodMoments& out,
+                           std::span<glm::dvec3> rest_out) {
+  const int rest_count = sh_rest_count(std::clamp(sh_degree, 0, kMaxShDegree));
+  const lod_detail::LeafFieldRefs leaf{g.position, g.log_scale, g.rotation, g.opacity_logit,
+                                       g.sh_dc,    g.sh_rest.data(), g.object, g.support};
+  return lod_detail::leaf_moments_of(leaf, rest_count, config, &out, rest_out.data());
 }
 
 void combine_moments(std::span<const LodMoments> children, std::span<const glm::dvec3> children_rest,

@@ -35,7 +35,10 @@
 // Incremental cost. An update touches only the cells on the paths from changed leaves (old and
 // new positions) to the root: O(changes x depth) node merges, plus O(N) sequential work to keep
 // the sorted leaf order when leaves come or go (a merge of two sorted arrays); update() also
-// compares every Gaussian with its stored leaf (O(N)); apply() takes the changes as given.
+// compares every Gaussian with its stored leaf (O(N): first against the leaf its place in the
+// last update()'s input became, then by id); apply() takes the changes as given. update() of an
+// empty hierarchy is the full build, with no diffing: one pass over the input, a radix sort of
+// the leaves, every cell merged once (the same tree, ids and records as the general path).
 //
 // Storage is flat: nodes in one pool (indices stable while a node lives; retired entries are
 // reused by later updates, so walk from root(), never over the pool), children as runs in one
@@ -204,6 +207,12 @@ class LodHierarchy {
   Expected<LodUpdateReport> update_from(const Gaussian* base, std::size_t count, Get&& get);
   Expected<LodUpdateReport> apply_changes(std::span<const Gaussian* const> upserts,
                                           std::span<const GaussianId> removed, bool lenient);
+  // Steps 4-5 of an update: rebuilds the group trees named in `dirty` ((tree, code) of every
+  // changed leaf, sorted, unique), then the objects tree and the root as needed. `all_new`:
+  // the full build (no old tree; every leaf of the order is visited).
+  void update_trees(std::span<const std::pair<std::uint32_t, std::uint64_t>> dirty, LodUpdateReport& report,
+                    std::vector<std::uint32_t>& retired, bool all_new);
+  void sort_report(LodUpdateReport& report) const;
   std::uint64_t morton(const glm::vec3& p) const;
   std::uint32_t tree_of(ObjectId o) const;
   std::uint32_t alloc_node();
@@ -211,6 +220,12 @@ class LodHierarchy {
   bool same_leaf_value(std::uint32_t node, const Gaussian& g) const;
   void compact_children();
   void next_generation();
+  // Fixes the cube around [lo, hi] (the first non-empty epoch's usable positions) unless it is
+  // fixed already or the box is empty.
+  void fix_cube(const glm::dvec3& lo, const glm::dvec3& hi);
+  // lod_full_build.cpp
+  Expected<LodUpdateReport> build_from_empty(std::span<const Gaussian* const> gaussians, const Gaussian* base);
+  void clear_pools();
   // lod_tree_build.cpp
   std::uint32_t build_cell(TreeBuild& b, std::span<const Entry> items, int level, std::uint64_t prefix,
                            std::uint32_t candidate);
@@ -219,6 +234,9 @@ class LodHierarchy {
   void retire_subtree(TreeBuild& b, std::uint32_t node);
   void retire_node(TreeBuild& b, std::uint32_t node);
   void node_moments(std::uint32_t node, LodMoments& m, std::span<glm::dvec3> rest) const;
+  void warm_leaves(std::span<const Entry> items) const;
+  void warm_kids(std::span<const std::uint32_t> kids) const;
+  void leaf_slot_moments(std::uint32_t slot, LodMoments& m, glm::dvec3* rest) const;
 
   LodConfig config_;
   int sh_degree_{0};
@@ -229,29 +247,40 @@ class LodHierarchy {
   glm::dvec3 cube_min_{0.0};
   double cell_inv_{1.0};  // 2^21 / cube edge
 
-  std::vector<LodNode> nodes_;
+  // The pools sit on huge pages where the system allows. Leaves are read at random (a build
+  // reads them in tree order, an update's merges by cell): at 1M leaves nodes and fields span
+  // ~110 MB, and on 4 KiB pages nearly every such read also missed the TLB. And a build
+  // writes ~400 MB of new pools: on 4 KiB pages a tenth of its time went to page faults.
+  template <class T>
+  using Pool = std::vector<T, detail::TableAllocator<T>>;
+  Pool<LodNode> nodes_;
   std::vector<std::uint32_t> free_nodes_;
-  std::vector<std::uint32_t> children_;
+  Pool<std::uint32_t> children_;
   std::size_t children_garbage_{0};
   // Leaf slots (node.data of a leaf): fields and SH rest (rest_count_ triples per slot).
-  std::vector<LeafFields> leaf_fields_;
-  std::vector<glm::vec3> leaf_rest_;
-  std::vector<std::uint32_t> leaf_source_;  // per leaf slot: index in the last update()'s span
+  Pool<LeafFields> leaf_fields_;
+  Pool<glm::vec3> leaf_rest_;
+  Pool<std::uint32_t> leaf_source_;  // per leaf slot: index in the last update()'s span
+  // The reverse, per place k of the last update()'s input (the k-th Gaussian it read): the
+  // leaf node it became, or kNoLodNode. A hint only: update() tries gaussians[k] against this
+  // node first (a sequential read when the epochs keep their order) and trusts it only if
+  // that node is a live leaf with the same id; anything else is looked up by id.
+  Pool<std::uint32_t> input_nodes_;
   std::vector<std::uint32_t> free_leaf_slots_;
   detail::IdIndex leaf_index_;  // leaf id -> node
   // Interior slots (node.data of an interior node).
-  std::vector<Gaussian> records_;
-  std::vector<LodMoments> moments_;
-  std::vector<glm::dvec3> moments_rest_;
-  std::vector<InteriorKey> keys_;
+  Pool<Gaussian> records_;
+  Pool<LodMoments> moments_;
+  Pool<glm::dvec3> moments_rest_;
+  Pool<InteriorKey> keys_;
   std::vector<std::uint32_t> free_interior_slots_;
   std::size_t interior_live_{0};
   std::uint64_t next_serial_{0};
 
-  std::vector<Entry> order_;  // every leaf, sorted by (tree, code, id)
-  std::vector<Entry> order_scratch_;
+  Pool<Entry> order_;  // every leaf, sorted by (tree, code, id)
+  Pool<Entry> order_scratch_;
   // Per pool entry: the update that last touched it (duplicate ids are found without a sort).
-  std::vector<std::uint32_t> touch_stamp_;
+  Pool<std::uint32_t> touch_stamp_;
   std::uint32_t stamp_{0};
   // Root node of each group tree, sorted by tree.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> group_roots_;
