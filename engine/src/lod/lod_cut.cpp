@@ -145,24 +145,19 @@ struct LodCutter::Layout {
       leaf_count.resize(pool.size());
     }
     // Ranks by id: a cut marks what it emits by rank and reads it out in id order.
-    sort_pairs.clear();
-    for (std::uint32_t j = 0; j < leaf_id.size(); ++j) sort_pairs.emplace_back(leaf_id[j], j);
-    lod_detail::sort_by_id(sort_pairs, sort_scratch);
-    leaf_rank.resize(leaf_id.size());
-    for (std::uint32_t r = 0; r < sort_pairs.size(); ++r) {
-      const std::uint32_t j = sort_pairs[r].second;
-      leaf_rank[j] = r;
-      rank_leaf.push_back(Emitted{leaf_id[j], leaf_pool[j], leaf_place[j]});
-    }
-    sort_pairs.clear();
-    for (std::uint32_t k = 0; k < id.size(); ++k) sort_pairs.emplace_back(id[k], k);
-    lod_detail::sort_by_id(sort_pairs, sort_scratch);
-    k_rank.resize(id.size());
-    for (std::uint32_t r = 0; r < sort_pairs.size(); ++r) {
-      const std::uint32_t k = sort_pairs[r].second;
-      k_rank[k] = r;
-      rank_interior.push_back(Emitted{id[k], pool[k], slot[k]});
-    }
+    auto rank = [&](const std::vector<std::uint64_t>& ids, std::vector<std::uint32_t>& rank_of,
+                    std::vector<Emitted>& by_rank, auto&& emitted) {
+      sort_pairs.clear();
+      for (std::uint32_t i = 0; i < ids.size(); ++i) sort_pairs.emplace_back(ids[i], i);
+      lod_detail::sort_by_id(sort_pairs, sort_scratch);
+      rank_of.resize(ids.size());
+      for (std::uint32_t r = 0; r < sort_pairs.size(); ++r) {
+        rank_of[sort_pairs[r].second] = r;
+        by_rank.push_back(emitted(sort_pairs[r].second));
+      }
+    };
+    rank(leaf_id, leaf_rank, rank_leaf, [&](std::uint32_t j) { return Emitted{leaf_id[j], leaf_pool[j], leaf_place[j]}; });
+    rank(id, k_rank, rank_interior, [&](std::uint32_t k) { return Emitted{id[k], pool[k], slot[k]}; });
     sort_pairs = {};
     sort_scratch = {};
   }
@@ -174,6 +169,7 @@ struct LodCutter::Scratch {
   std::vector<float> p;               // effective priority; < 0: excluded (not in the cut)
   std::vector<std::pair<std::uint32_t, std::uint32_t>> mixed;  // mixed nodes and their refinement's size
   std::vector<std::uint8_t> mark;     // kExcludedAll / kExcludedMixed
+  std::vector<std::uint32_t> marked;  // the nodes with a mark, ascending
   std::vector<std::uint8_t> refined;  // this call
   std::vector<std::uint8_t> was_refined;    // the previous call (hysteresis)
   std::uint64_t was_refined_generation{0};  // layout generation was_refined is indexed for
@@ -193,6 +189,7 @@ LodCutter::~LodCutter() = default;
 
 void LodCutter::clear_previous() {
   refined_prev_.clear();
+  scratch_->was_refined.clear();
   scratch_->was_refined_generation = 0;
 }
 
@@ -214,7 +211,15 @@ Status LodCutter::cut_into(LodCut& out, const LodHierarchy& h, const ClientPose&
   Layout& L = *layout_;
   Scratch& S = *scratch_;
   out.layout_rebuilt = L.hierarchy != &h || L.generation != h.generation();
-  if (out.layout_rebuilt) L.build(h);
+  if (out.layout_rebuilt) {
+    // The hysteresis state outlives the layout by id (a pool entry reused by the update
+    // never inherits the bonus): the previous cut's refined nodes, read off the old layout.
+    refined_prev_.clear();
+    if (S.was_refined_generation == L.generation)
+      for (std::uint32_t k = 0; k < S.was_refined.size(); ++k)
+        if (S.was_refined[k]) refined_prev_.emplace_back(L.pool[k], L.id[k]);
+    L.build(h);
+  }
   const std::size_t n = L.size();
   const std::size_t leaves = L.leaf_rank.size();
 
@@ -252,16 +257,25 @@ Status LodCutter::cut_into(LodCut& out, const LodHierarchy& h, const ClientPose&
     scan(S.interior_bits, L.rank_interior);
     out.interior = i - out.leaves;
   };
+  // This cut's refinements are the next call's hysteresis state: flags on this layout.
   auto finish = [&](std::span<const std::uint32_t> refined_k) {
-    // This cut's refinements are the next call's hysteresis state.
-    refined_prev_.clear();
-    for (std::uint32_t k : refined_k) refined_prev_.emplace_back(L.pool[k], L.id[k]);
+    S.was_refined.assign(n, 0);
+    for (std::uint32_t k : refined_k) S.was_refined[k] = 1;
+    S.was_refined_generation = L.generation;
     out.refined = refined_k.size();
-    S.was_refined_generation = 0;  // flags from refined_prev_ next time (the main path keeps its own)
   };
 
   // The excluded objects' subtrees, and every node above them (the mixed ones).
-  S.mark.assign(n, 0);
+  // Only the nodes marked last time are cleared: a pose update without a query touches none.
+  if (S.mark.size() != n || out.layout_rebuilt)
+    S.mark.assign(n, 0);
+  else
+    for (std::uint32_t k : S.marked) S.mark[k] = 0;
+  S.marked.clear();
+  auto set_mark = [&](std::uint32_t k, std::uint8_t m) {
+    if (S.mark[k] == 0) S.marked.push_back(k);
+    S.mark[k] = m;
+  };
   S.excluded_leaves.clear();
   bool root_excluded = false;
   for (ObjectId o : excluded) {
@@ -274,11 +288,12 @@ Status LodCutter::cut_into(LodCut& out, const LodHierarchy& h, const ClientPose&
       up = h.node(r).parent == kNoLodNode ? kNone : L.k_of_pool[h.node(r).parent];
     } else {
       const std::uint32_t k = L.k_of_pool[r];
-      S.mark[k] = kExcludedAll;
+      set_mark(k, kExcludedAll);
       up = L.parent[k];
     }
-    for (; up != kNone && S.mark[up] != kExcludedMixed; up = L.parent[up]) S.mark[up] = kExcludedMixed;
+    for (; up != kNone && S.mark[up] != kExcludedMixed; up = L.parent[up]) set_mark(up, kExcludedMixed);
   }
+  std::sort(S.marked.begin(), S.marked.end());
   std::sort(S.excluded_leaves.begin(), S.excluded_leaves.end());
   auto leaf_excluded = [&](std::uint32_t j) {
     return std::binary_search(S.excluded_leaves.begin(), S.excluded_leaves.end(), L.rank_leaf[L.leaf_rank[j]].pool);
@@ -320,7 +335,7 @@ Status LodCutter::cut_into(LodCut& out, const LodHierarchy& h, const ClientPose&
   // refinement of a mixed node adds its children that are not excluded, less itself.
   std::size_t forced_cut = S.mark[0] == kExcludedMixed ? 0 : 1;
   S.mixed.clear();
-  for (std::uint32_t k = 0; k < n; ++k) {  // the marked nodes are few; this loop is a scan of bytes
+  for (std::uint32_t k : S.marked) {
     if (S.mark[k] == kExcludedAll) {
       S.key[k] = std::bit_cast<std::uint32_t>(-1.0f);
     } else if (S.mark[k] == kExcludedMixed) {
@@ -462,10 +477,10 @@ Status LodCutter::cut_into(LodCut& out, const LodHierarchy& h, const ClientPose&
       if (!mixed || !leaf_excluded(j)) emit_leaf(j);
   }
   write_out();
-  finish(refined_k);
   // The flags just set are the next call's hysteresis state on this layout.
   S.was_refined.swap(S.refined);
   S.was_refined_generation = L.generation;
+  out.refined = refined_k.size();
   return Ok{};
 }
 

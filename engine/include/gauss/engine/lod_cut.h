@@ -87,8 +87,8 @@ class LodCutter {
   SelectorConfig config_;
   std::unique_ptr<Layout> layout_;
   std::unique_ptr<Scratch> scratch_;
-  // The previous cut's refined nodes (pool index, id): the hysteresis state, carried across
-  // a new layout by id (a pool entry reused by a later update never inherits the bonus).
+  // The previous cut's refined nodes (pool index, id), taken from the hysteresis flags when
+  // the layout is rebuilt and carried to the new one by id.
   std::vector<std::pair<std::uint32_t, std::uint64_t>> refined_prev_;
 };
 
