@@ -211,7 +211,8 @@ json bench_select(const SceneStore& store, const SyntheticScene& scene, const Op
               {"walk_digest", digest},
               {"first_batch_sh0_raw_bytes_per_gaussian", first_bpg},
               {"edit_fraction_one_step", {{"median", percentile(one_step, 0.5)}, {"max", percentile(one_step, 1.0)}}},
-              {"edit_fraction_walk", {{"median", percentile(edit_frac, 0.5)}, {"max", percentile(edit_frac, 1.0)}}}};
+              {"edit_fraction_walk", {{"median", percentile(edit_frac, 0.5)}, {"max", percentile(edit_frac, 1.0)}}},
+        {"walk_digest", digest}};
 }
 
 // ---- 2b: the same walk with LoD: hierarchy build, select + cut + diff ----------------------
@@ -244,6 +245,10 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const Optio
     }
     Selector selector;
     Differ differ(params);
+    // FNV-1a over the walk's selections and edits, values included (as the client would
+    // decode them): an optimisation of the selector, cut or differ must leave it unchanged.
+    std::uint64_t digest = 0xcbf29ce484222325ull;
+    auto mix = [&digest](std::uint64_t v) { digest = (digest ^ v) * 0x100000001b3ull; };
     auto step = [&](const ClientPose& p, double* times) -> Expected<EditBatch> {
       const double t0 = thread_cpu_ms();
       auto sel = lod.select(selector, store, nullptr, p, req);
@@ -255,6 +260,7 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const Optio
       if (times) {
         times[0] = t1 - t0;
         times[1] = t2 - t1;
+        for (GaussianId id : sel->ids) mix(to_underlying(id));
       }
       return b;
     };
@@ -270,6 +276,11 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const Optio
       double t[2];
       auto b = step(pose, t);
       if (!b) return {};
+      for (const Edit& e : b->edits) {
+        mix(to_underlying(e.id) * 4 + static_cast<std::uint64_t>(e.kind));
+        mix(to_underlying(e.leaving));
+        if (e.kind != EditKind::Remove) mix(quantized_hash(e.value, params));
+      }
       select_ms.push_back(t[0]);
       diff_ms.push_back(t[1]);
       total_ms.push_back(t[0] + t[1]);
@@ -286,6 +297,7 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const Optio
     print_median_p90_max("select + cut + diff ms (<= 10)", total_ms);
     std::printf("  edits per step (walk): median %.3f %%  max %.3f %% of M\n", 100.0 * percentile(edit_frac, 0.5),
                 100.0 * percentile(edit_frac, 1.0));
+    std::printf("  walk digest (selected ids + edits + values): %016llx\n", static_cast<unsigned long long>(digest));
     out[query ? "query" : "no_query"] = json{
         {"cut_nodes", cut.nodes.size()},
         {"cut_interior", cut.interior},

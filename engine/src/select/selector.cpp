@@ -162,6 +162,40 @@ struct Selector::Impl {
   select_detail::TopK top;
   std::vector<std::uint8_t> object_flags;  // object id -> in query (ids < kFlagLimit)
 
+  // The query's partition alone, gathered (for a request without the background's leaves):
+  // its positions ascending and their terms, so a pose update scores and ranks the object's
+  // Gaussians instead of all N. Valid with the partition it was gathered from.
+  struct ObjectTerms {
+    bool valid{false};
+    std::vector<std::uint32_t> pos;  // ascending positions j with part[j] == kObject
+    std::vector<float> px, py, pz, radius, weight;
+    std::vector<std::uint8_t> part, view_part, global;  // part (all kObject), view_part, global flags
+    std::vector<std::uint8_t> resident, selected;
+    std::vector<std::uint32_t> view_key;
+  } object_terms;
+
+  void gather_object_terms() {
+    ObjectTerms& o = object_terms;
+    o.pos.clear();
+    for (std::size_t j = 0; j < n; ++j)
+      if (part[j] == kObject) o.pos.push_back(static_cast<std::uint32_t>(j));
+    const std::size_t m = o.pos.size();
+    for (auto* v : {&o.px, &o.py, &o.pz, &o.radius, &o.weight}) v->resize(m);
+    for (auto* v : {&o.part, &o.view_part, &o.global}) v->resize(m);
+    for (std::size_t i = 0; i < m; ++i) {
+      const std::uint32_t j = o.pos[i];
+      o.px[i] = px[j];
+      o.py[i] = py[j];
+      o.pz[i] = pz[j];
+      o.radius[i] = radius[j];
+      o.weight[i] = weight[j];
+      o.part[i] = part[j];
+      o.view_part[i] = view_part[j];
+      o.global[i] = global_flags[j];
+    }
+    o.valid = true;
+  }
+
   void rebuild(std::span<const Gaussian> g, std::uint64_t v) {
     n = g.size();
     // Terms are computed in span order (one sequential pass over the Gaussians), then
@@ -402,31 +436,61 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
     for (std::size_t j = 0; j < n; ++j) s.view_part[j] = s.global_flags[j] ? kExcluded : s.part[j];
     s.partition_key = std::move(key);
     s.partition_valid = true;
+    s.object_terms.valid = false;
   }
   out.object_candidates = s.n_obj;
   out.background_candidates = s.n_bg;
   out.object_budget = s.object_budget;
 
-  const bool background = request.background_leaves;
-  if (background || s.object_budget > 0) {
-    s.view_key.resize(n);
-    select_detail::score_view(n, s.px.data(), s.py.data(), s.pz.data(), s.radius.data(), s.weight.data(),
-                              s.part.data(), s.resident_flags.data(), vp, s.view_key.data());
+  if (!request.background_leaves) {
+    // The reservation alone: the query's partition, gathered once per partition, is scored
+    // and ranked by itself. Its positions ascend, so the tie rule (lower position) and the
+    // keys are the full pass's: the same leaves.
+    if (!s.object_terms.valid) s.gather_object_terms();
+    Impl::ObjectTerms& o = s.object_terms;
+    const std::size_t m = o.pos.size();
+    o.resident.resize(m);
+    for (std::size_t i = 0; i < m; ++i) o.resident[i] = s.resident_flags[o.pos[i]];
+    o.selected = o.global;  // the global layer's picks of the partition
+    out.global_selected = s.global_obj;
+    out.object_selected = 0;
+    if (s.object_budget > 0) {
+      o.view_key.resize(m);
+      select_detail::score_view(m, o.px.data(), o.py.data(), o.pz.data(), o.radius.data(), o.weight.data(),
+                                o.part.data(), o.resident.data(), vp, o.view_key.data());
+      out.object_selected =
+          s.global_obj + s.top.select(o.view_key, o.view_part, kObject, s.object_budget - s.global_obj, o.selected);
+    }
+    out.ids.clear();
+    out.indices.clear();
+    out.ids.reserve(out.object_selected);
+    out.indices.reserve(out.object_selected);
+    // The next call's hysteresis flags: the selected positions only.
+    s.resident_flags.assign(n, 0);
+    std::size_t retained = 0;
+    for (std::size_t i = 0; i < m; ++i) {
+      if (!o.selected[i]) continue;
+      const std::uint32_t j = o.pos[i];
+      out.ids.push_back(GaussianId{s.ids[j]});
+      out.indices.push_back(s.span_index(j));
+      retained += o.resident[i];
+      s.resident_flags[j] = 1;
+    }
+    out.retained = retained;
+    s.resident_ids_from_flags = true;
+    return out;
   }
 
-  if (background) {
-    s.selected = s.global_flags;  // same size: a copy, no allocation once warm
-  } else {
-    // The global layer's picks of the query's partition only.
-    s.selected.resize(n);
-    for (std::size_t j = 0; j < n; ++j) s.selected[j] = s.global_flags[j] & (s.part[j] == kObject);
-  }
-  out.global_selected = s.global_obj + (background ? s.global_bg : 0);
+  s.view_key.resize(n);
+  select_detail::score_view(n, s.px.data(), s.py.data(), s.pz.data(), s.radius.data(), s.weight.data(),
+                            s.part.data(), s.resident_flags.data(), vp, s.view_key.data());
+  s.selected = s.global_flags;  // same size: a copy, no allocation once warm
+  out.global_selected = s.global_obj + s.global_bg;
   auto fill = [&](std::uint8_t p, std::size_t budget, std::size_t global) {
     return global + s.top.select(s.view_key, s.view_part, p, budget - global, s.selected);
   };
   out.object_selected = s.object_budget > 0 ? fill(kObject, s.object_budget, s.global_obj) : 0;
-  out.background_selected = background && s.bg_budget > 0 ? fill(kBackground, s.bg_budget, s.global_bg) : 0;
+  out.background_selected = s.bg_budget > 0 ? fill(kBackground, s.bg_budget, s.global_bg) : 0;
 
   // The set in ascending id order: positions are id ranks, so one sequential pass. About
   // four in five flags are 0 at M = N / 5: skip zero words eight flags at a time.
