@@ -138,30 +138,49 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
   s.leavers.clear();
   s.enterers.clear();
   s.enterer_slots.clear();
-  s.next.clear();
-  s.next.reserve(m);
   s.updated.clear();
+  // One entry of the next sent state per desired id, written in id order.
+  s.next.resize(m);
+  Impl::Sent* next = s.next.data();
+  const Impl::Sent* sent = s.sent.data();
+  const std::size_t sent_n = s.sent.size();
+  const GaussianId* ids = desired.ids.data();
   std::size_t a = 0;   // sent
   std::size_t b = 0;   // desired (id order)
+  std::size_t t = 0;   // next
   std::size_t mi = 0;  // modified
-  while (a < s.sent.size() || b < m) {
-    const bool has_a = a < s.sent.size();
+  while (a < sent_n || b < m) {
+    if (sorted && !rehash_all && b < m) {
+      // Most of a pose update's sent set stays, and stays unmodified: runs of equal ids
+      // below the next modified one are copied across without a branch per entry kind.
+      while (mi < mod.size() && mod[mi] < ids[b]) ++mi;
+      const GaussianId next_modified = mi < mod.size() ? mod[mi] : GaussianId{~std::uint64_t{0}};
+      const std::size_t most = std::min(sent_n - a, m - b);
+      std::size_t r = 0;
+      while (r < most && sent[a + r].id == ids[b + r] && ids[b + r] < next_modified) ++r;
+      std::copy(sent + a, sent + a + r, next + t);
+      a += r;
+      b += r;
+      t += r;
+      if (a == sent_n && b == m) break;
+    }
+    const bool has_a = a < sent_n;
     const bool has_b = b < m;
-    if (has_a && (!has_b || s.sent[a].id < desired.ids[at(b)])) {
-      s.leavers.push_back(s.sent[a++].id);
+    if (has_a && (!has_b || sent[a].id < ids[at(b)])) {
+      s.leavers.push_back(sent[a++].id);
       continue;
     }
     const std::uint32_t k = at(b++);
-    const GaussianId id = desired.ids[k];
-    if (!has_a || id < s.sent[a].id) {
-      if (auto err = mismatch(k)) return *err;
+    const GaussianId id = ids[k];
+    if (!has_a || id < sent[a].id) {
+      // Checked against the scene where its record is copied (below), prefetched.
       s.enterers.push_back(k);
-      s.enterer_slots.push_back(static_cast<std::uint32_t>(s.next.size()));
-      s.next.push_back(Impl::Sent{id, 0});  // hash filled below
+      s.enterer_slots.push_back(static_cast<std::uint32_t>(t));
+      next[t++] = Impl::Sent{id, 0};  // hash filled below
       continue;
     }
     // Staying: re-quantise only when it may have changed.
-    Impl::Sent e = s.sent[a++];
+    Impl::Sent e = sent[a++];
     bool check = rehash_all;
     if (!check) {
       while (mi < mod.size() && mod[mi] < id) ++mi;
@@ -177,45 +196,46 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
         s.updated.push_back(k);
       }
     }
-    s.next.push_back(e);
+    next[t++] = e;
   }
 
   EditBatch batch;
   batch.epoch = epoch;
   const std::size_t replaces = std::min(s.leavers.size(), s.enterers.size());
-  // Edits are built in place: a Gaussian is copied once, straight from the scene (an
-  // Edit{...} temporary pushed back would copy it twice). The scene is large and the
-  // copied Gaussians are scattered through it, so the copy is cache misses more than
-  // work: the Gaussians a few edits ahead are prefetched, and an enterer's hash is taken
-  // from its fresh copy rather than from the scene again.
+  // Edits are built in place: a Gaussian is copied once, straight from the scene into its
+  // edit (an Edit{...} temporary, or a default-constructed edit assigned to, would write it
+  // twice). The scene is large and the copied Gaussians are scattered through it, so the
+  // copy is cache misses more than work: the Gaussians a few edits ahead are prefetched, an
+  // enterer is checked against the scene there (its record is read anyway), and its hash is
+  // taken from its fresh copy rather than from the scene again.
   batch.edits.reserve(s.leavers.size() + s.enterers.size() - replaces + s.updated.size());
   auto prefetch = [&](std::uint32_t k) {
     const auto* p = reinterpret_cast<const char*>(&record(desired.indices[k]));
     for (std::size_t line = 0; line < sizeof(Gaussian); line += 64) __builtin_prefetch(p + line);
   };
   constexpr std::size_t kAhead = 8;
-  auto emit = [&](EditKind kind, GaussianId id, GaussianId leaving, const Gaussian* value) -> Edit& {
-    Edit& e = batch.edits.emplace_back();
-    e.kind = kind;
-    e.id = id;
-    e.leaving = leaving;
-    if (value) e.value = *value;
-    return e;
+  for (std::size_t j = 0; j < std::min(kAhead, s.enterers.size()); ++j) prefetch(s.enterers[j]);
+  auto emit = [&](EditKind kind, GaussianId id, GaussianId leaving, const Gaussian& value) -> const Edit& {
+    return batch.edits.emplace_back(kind, id, leaving, value);
   };
-  auto enter = [&](std::size_t j) {
+  auto enter = [&](std::size_t j) -> std::optional<Error> {
     if (j + kAhead < s.enterers.size()) prefetch(s.enterers[j + kAhead]);
     const std::uint32_t k = s.enterers[j];
+    if (auto err = mismatch(k)) return err;
     const bool replace = j < replaces;
     const Edit& e = emit(replace ? EditKind::Replace : EditKind::Insert, desired.ids[k],
-                         replace ? s.leavers[j] : GaussianId{0}, &record(desired.indices[k]));
+                         replace ? s.leavers[j] : GaussianId{0}, record(desired.indices[k]));
     s.next[s.enterer_slots[j]].hash = quantized_hash(e.value, s.params);
+    return std::nullopt;
   };
   // Batch order: removes, replaces, updates, inserts. Leavers and enterers are both in
   // ascending id order: a replace pairs them in that order.
-  for (std::size_t j = replaces; j < s.leavers.size(); ++j) emit(EditKind::Remove, s.leavers[j], GaussianId{0}, nullptr);
-  for (std::size_t j = 0; j < replaces; ++j) enter(j);
-  for (std::uint32_t k : s.updated) emit(EditKind::Update, desired.ids[k], GaussianId{0}, &record(desired.indices[k]));
-  for (std::size_t j = replaces; j < s.enterers.size(); ++j) enter(j);
+  for (std::size_t j = replaces; j < s.leavers.size(); ++j) batch.edits.push_back(Edit{EditKind::Remove, s.leavers[j]});
+  for (std::size_t j = 0; j < replaces; ++j)
+    if (auto err = enter(j)) return *err;
+  for (std::uint32_t k : s.updated) emit(EditKind::Update, desired.ids[k], GaussianId{0}, record(desired.indices[k]));
+  for (std::size_t j = replaces; j < s.enterers.size(); ++j)
+    if (auto err = enter(j)) return *err;
   s.sent.swap(s.next);
   s.stats.replaces = replaces;
   s.stats.removes = s.leavers.size() - replaces;
