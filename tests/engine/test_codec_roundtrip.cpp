@@ -211,6 +211,65 @@ TEST(CodecRoundtrip, RecordIsFifteenBytesAndAGaussianFitsSixteen) {
 
 // Column codes at their extremes: ids next to 2^64 - 1, leaving ids jumping across the
 // whole range, object ids alternating between the int32 ends, saturated support.
+// Every uniform field inside its range decodes to lo + (hi - lo) * code / max with code =
+// nearbyint((x - lo) / (hi - lo) * max): the quantiser as specified, whichever path the
+// encoder takes (fields are quantised several at a time when a record's group is in range,
+// one by one when a field of it is not). Values at the range ends and near the rounding
+// midpoints, where another rounding rule would differ, are drawn on purpose.
+TEST(CodecRoundtrip, InRangeFieldsTakeTheNearestCodeTiesToEvenOnEveryPath) {
+  CodecParams p = test_params(3);
+  p.box = {glm::vec3(0.0f), glm::vec3(float((1 << kPositionBits) - 1))};  // position step 1
+  std::mt19937_64 rng(29);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  auto draw = [&](double lo, double hi, int top) {
+    const double r = u(rng);
+    if (r < 0.1) return float(lo);
+    if (r < 0.2) return float(hi);
+    if (r < 0.6) {  // near a midpoint between two codes
+      const double k = std::floor(u(rng) * top);
+      return float(lo + (hi - lo) * (k + 0.5) / top);
+    }
+    return float(lo + (hi - lo) * u(rng));
+  };
+  auto expected = [](double x, double lo, double hi, int top) {
+    const double code = std::nearbyint((x - lo) / (hi - lo) * top);
+    return float(lo + (hi - lo) * code / top);
+  };
+  const int pos_top = (1 << kPositionBits) - 1, scale_top = (1 << kLogScaleBits) - 1, dc_top = (1 << kDcBits) - 1;
+  const int rest_top = (1 << kShRestBits) - 2;
+  std::size_t checked = 0;
+  for (int i = 0; i < 4000; ++i) {
+    Gaussian g;
+    for (int a = 0; a < 3; ++a) {
+      g.position[a] = draw(p.box.min[a], p.box.max[a], pos_top);
+      g.log_scale[a] = draw(p.log_scale_min, p.log_scale_max, scale_top);
+      g.sh_dc[a] = draw(p.dc_min, p.dc_max, dc_top);
+    }
+    for (auto& c : g.sh_rest)
+      for (int a = 0; a < 3; ++a) c[a] = draw(-p.sh_rest_abs_max, p.sh_rest_abs_max, rest_top);
+    // One record in four has one field out of range or NaN: its group takes the one-by-one
+    // path, and its other fields must come out the same.
+    float* fields[] = {&g.position.x, &g.log_scale.z, &g.sh_dc.y, &g.sh_rest[7].x, &g.sh_rest[14].z};
+    float* odd = i % 4 == 0 ? fields[(i / 4) % 5] : nullptr;
+    if (odd) *odd = (i / 20) % 2 ? std::numeric_limits<float>::quiet_NaN() : 1e6f;
+    const Gaussian out = quantize_roundtrip(g, p);
+    auto check = [&](const float& in, float got, double lo, double hi, int top) {
+      if (&in == odd) return;
+      EXPECT_EQ(got, expected(in, lo, hi, top)) << "record " << i << ", value " << in;
+      ++checked;
+    };
+    for (int a = 0; a < 3; ++a) {
+      check(g.position[a], out.position[a], p.box.min[a], p.box.max[a], pos_top);
+      check(g.log_scale[a], out.log_scale[a], p.log_scale_min, p.log_scale_max, scale_top);
+      check(g.sh_dc[a], out.sh_dc[a], p.dc_min, p.dc_max, dc_top);
+    }
+    for (std::size_t k = 0; k < g.sh_rest.size(); ++k)
+      for (int a = 0; a < 3; ++a)
+        check(g.sh_rest[k][a], out.sh_rest[k][a], -p.sh_rest_abs_max, p.sh_rest_abs_max, rest_top);
+  }
+  EXPECT_GT(checked, 4000u * 50u);
+}
+
 TEST(CodecRoundtrip, ColumnExtremesRoundTripExactly) {
   const CodecParams p = test_params(0);
   EditBatch b;

@@ -1,6 +1,7 @@
 // Per-Gaussian quantisation: the 15-byte record (+ SH rest bytes), its inverse, the
 // record hash the differ compares, and fitting quantiser ranges to a scene.
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -8,6 +9,10 @@
 #include <vector>
 
 #include <glm/common.hpp>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "codec/record_bits.h"
 #include "gauss/engine/codec.h"
@@ -58,6 +63,48 @@ double dequantize_uniform(std::uint32_t code, double lo, double hi, std::uint32_
   code = std::min(code, max_code);
   return lo + (hi - lo) * static_cast<double>(code) / static_cast<double>(max_code);
 }
+
+// quantize_uniform of n values at once, for the common case where every one is finite and
+// inside its range with lo < hi: then neither the clamps nor the NaN rule apply, and the
+// codes are the scalar quantiser's own operations in the same order, two lanes at a time
+// (IEEE subtraction, division, multiplication and addition are exactly rounded per lane,
+// so each code is bit for bit the scalar one). Returns false when any value is not; the
+// caller then quantises them one by one, counting clamps and NaNs. A record hash (Differ)
+// and an encode quantise twenty to sixty fields each; one call per field, with its range
+// checks, was most of that.
+// `Range` gives (lo, hi, top) of value i; the two forms below: per value, and one range.
+template <class Range>
+bool quantize_in_range(std::size_t n, const double* x, Range range, std::uint32_t* out) {
+  std::size_t i = 0;
+#if defined(__SSE2__)
+  // Adding 2^52 rounds as round_non_negative does; the code is then the low word of the
+  // sum's bits (codes are exact integers below 2^32).
+  const __m128d shift = _mm_set1_pd(0x1p52);
+  __m128d inside = _mm_castsi128_pd(_mm_set1_epi32(-1));
+  for (; i + 2 <= n; i += 2) {
+    const auto [l0, h0, t0] = range(i);
+    const auto [l1, h1, t1] = range(i + 1);
+    const __m128d xv = _mm_loadu_pd(x + i), lv = _mm_set_pd(l1, l0), hv = _mm_set_pd(h1, h0);
+    inside = _mm_and_pd(inside, _mm_and_pd(_mm_and_pd(_mm_cmpge_pd(xv, lv), _mm_cmple_pd(xv, hv)), _mm_cmplt_pd(lv, hv)));
+    const __m128d t = _mm_div_pd(_mm_sub_pd(xv, lv), _mm_sub_pd(hv, lv));
+    alignas(16) double c[2];
+    _mm_store_pd(c, _mm_add_pd(_mm_mul_pd(t, _mm_set_pd(t1, t0)), shift));
+    out[i] = static_cast<std::uint32_t>(std::bit_cast<std::uint64_t>(c[0]));
+    out[i + 1] = static_cast<std::uint32_t>(std::bit_cast<std::uint64_t>(c[1]));
+  }
+  if (_mm_movemask_pd(inside) != 3) return false;
+#endif
+  for (; i < n; ++i) {
+    const auto [lo, hi, top] = range(i);
+    if (!(x[i] >= lo && x[i] <= hi && lo < hi)) return false;
+    out[i] = static_cast<std::uint32_t>(round_non_negative((x[i] - lo) / (hi - lo) * top));
+  }
+  return true;
+}
+
+struct FieldRange {
+  double lo, hi, top;
+};
 
 // Smallest-three: the largest-magnitude component is dropped (its index kept) and
 // made non-negative (q and -q are the same rotation), so the other three lie in
@@ -133,27 +180,49 @@ std::uint8_t support_code(std::uint32_t support, CodecStats* stats) {
 void write_record(const Gaussian& g, const CodecParams& p, std::uint8_t* out, CodecStats* stats) {
   std::uint64_t* pos_clamp = stats ? &stats->position_clamped : nullptr;
   std::uint64_t* nf = stats ? &stats->non_finite : nullptr;
-  BitWriter128 w;
-  for (int a = 0; a < 3; ++a) {
-    const double lo = p.box.min[a];
-    const double hi = p.box.max[a];
-    double x = g.position[a];
-    if (std::isnan(x)) {  // NaN position: the box centre, counted
-      if (nf) ++*nf;
-      x = 0.5 * (lo + hi);
+  // The uniform fields of the 15-byte head: position, log-scale, DC colour (codes in that
+  // order), in one go where all lie inside their ranges, else one by one (counting).
+  std::uint32_t head[9];
+  {
+    double x[9], lo[9], hi[9], top[9];
+    auto per_value = [&](std::size_t i) { return FieldRange{lo[i], hi[i], top[i]}; };
+    for (int a = 0; a < 3; ++a) {
+      x[a] = g.position[a];
+      lo[a] = p.box.min[a];
+      hi[a] = p.box.max[a];
+      top[a] = max_code_of(kPositionBits, false);
+      x[3 + a] = g.log_scale[a];
+      lo[3 + a] = p.log_scale_min;
+      hi[3 + a] = p.log_scale_max;
+      top[3 + a] = max_code_of(kLogScaleBits, false);
+      x[6 + a] = g.sh_dc[a];
+      lo[6 + a] = p.dc_min;
+      hi[6 + a] = p.dc_max;
+      top[6 + a] = max_code_of(kDcBits, false);
     }
-    w.put(quantize_uniform(x, lo, hi, max_code_of(kPositionBits, false), pos_clamp, nf), kPositionBits);
+    if (!quantize_in_range(9, x, per_value, head)) {
+      for (int a = 0; a < 3; ++a) {
+        double xa = x[a];
+        if (std::isnan(xa)) {  // NaN position: the box centre, counted
+          if (nf) ++*nf;
+          xa = 0.5 * (lo[a] + hi[a]);
+        }
+        head[a] = quantize_uniform(xa, lo[a], hi[a], max_code_of(kPositionBits, false), pos_clamp, nf);
+        head[3 + a] = quantize_uniform(x[3 + a], lo[3 + a], hi[3 + a], max_code_of(kLogScaleBits, false),
+                                       stats ? &stats->log_scale_clamped : nullptr, nf);
+        head[6 + a] = quantize_uniform(x[6 + a], lo[6 + a], hi[6 + a], max_code_of(kDcBits, false),
+                                       stats ? &stats->dc_clamped : nullptr, nf);
+      }
+    }
   }
+  BitWriter128 w;
+  for (int a = 0; a < 3; ++a) w.put(head[a], kPositionBits);
   std::uint32_t rot_index = 0;
   std::uint32_t rot_codes[3];
   quantize_rotation(g.rotation, rot_index, rot_codes, stats);
   w.put(rot_index, 2);
   for (std::uint32_t c : rot_codes) w.put(c, kRotationBits);
-  for (int a = 0; a < 3; ++a) {
-    w.put(quantize_uniform(g.log_scale[a], p.log_scale_min, p.log_scale_max, max_code_of(kLogScaleBits, false),
-                           stats ? &stats->log_scale_clamped : nullptr, nf),
-          kLogScaleBits);
-  }
+  for (int a = 0; a < 3; ++a) w.put(head[3 + a], kLogScaleBits);
   // Opacity in sigmoid space: +-Inf logits are legitimate limits (0 and 1), NaN is not.
   double logit = g.opacity_logit;
   if (std::isnan(logit)) {
@@ -161,20 +230,22 @@ void write_record(const Gaussian& g, const CodecParams& p, std::uint8_t* out, Co
     logit = 0.0;
   }
   w.put(quantize_uniform(sigmoid(logit), 0.0, 1.0, max_code_of(kOpacityBits, false), nullptr, nullptr), kOpacityBits);
-  for (int c = 0; c < 3; ++c) {
-    w.put(quantize_uniform(g.sh_dc[c], p.dc_min, p.dc_max, max_code_of(kDcBits, false), stats ? &stats->dc_clamped : nullptr, nf),
-          kDcBits);
-  }
+  for (int a = 0; a < 3; ++a) w.put(head[6 + a], kDcBits);
   w.store(out, static_cast<int>(kRecordBytesSh0));
-  const int rest = sh_rest_count(std::clamp(p.sh_degree, 0, kMaxShDegree));
-  std::uint8_t* r = out + kRecordBytesSh0;
-  for (int k = 0; k < rest; ++k) {
-    for (int c = 0; c < 3; ++c) {
-      *r++ = static_cast<std::uint8_t>(quantize_uniform(g.sh_rest[static_cast<std::size_t>(k)][c],
-                                                        -p.sh_rest_abs_max, p.sh_rest_abs_max, max_code_of(kShRestBits, true),
-                                                        stats ? &stats->sh_rest_clamped : nullptr, nf));
-    }
+  // SH rest, one byte each: likewise in one go where all are inside the symmetric range.
+  const int rest = 3 * sh_rest_count(std::clamp(p.sh_degree, 0, kMaxShDegree));
+  const double bound = p.sh_rest_abs_max;
+  constexpr std::uint32_t kRestTop = max_code_of(kShRestBits, true);
+  double x[3 * kMaxShRest];
+  std::uint32_t codes[3 * kMaxShRest];
+  for (int i = 0; i < rest; ++i) x[i] = g.sh_rest[static_cast<std::size_t>(i / 3)][i % 3];
+  const FieldRange rest_range{-bound, bound, double(kRestTop)};
+  if (!quantize_in_range(static_cast<std::size_t>(rest), x, [&](std::size_t) { return rest_range; }, codes)) {
+    for (int i = 0; i < rest; ++i)
+      codes[i] = quantize_uniform(x[i], -bound, bound, kRestTop, stats ? &stats->sh_rest_clamped : nullptr, nf);
   }
+  std::uint8_t* r = out + kRecordBytesSh0;
+  for (int i = 0; i < rest; ++i) r[i] = static_cast<std::uint8_t>(codes[i]);
 }
 
 void read_record(const std::uint8_t* in, const CodecParams& p, Gaussian& g) {
