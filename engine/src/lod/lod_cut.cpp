@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "id_sort.h"
@@ -179,6 +180,12 @@ struct LodCutter::Scratch {
   std::vector<std::uint32_t> excluded_leaves;  // pool indices, sorted: objects of one leaf
   std::vector<std::uint64_t> leaf_bits, interior_bits;  // what the cut emits, by rank
   std::vector<std::uint32_t> refined_k;
+  // The last cut (what last() returns) and what it was made for: the next cut on the same
+  // layout and exclusions is that one with the changes of the nodes whose refinement flipped.
+  LodCut own, next;
+  bool own_incremental_base{false};  // own came from the refinement flags in was_refined
+  std::vector<ObjectId> own_excluded;  // sorted, unique
+  std::vector<ObjectId> excluded_now;
 };
 
 LodCutter::LodCutter(SelectorConfig config)
@@ -191,25 +198,52 @@ void LodCutter::clear_previous() {
   refined_prev_.clear();
   scratch_->was_refined.clear();
   scratch_->was_refined_generation = 0;
+  scratch_->own_incremental_base = false;
 }
 
 Expected<LodCut> LodCutter::cut(const LodHierarchy& h, const ClientPose& pose, std::size_t budget,
                                 std::span<const ObjectId> excluded) {
-  LodCut out;
-  if (Status st = cut_into(out, h, pose, budget, excluded); !st) return st.error();
-  return out;
+  if (Status st = cut_in_place(h, pose, budget, excluded); !st) return st.error();
+  return scratch_->own;
 }
 
 Status LodCutter::cut_into(LodCut& out, const LodHierarchy& h, const ClientPose& pose, std::size_t budget,
                            std::span<const ObjectId> excluded) {
-  out.nodes.clear();
-  out.ids.clear();
-  out.places.clear();
-  out.leaves = out.interior = out.refined = out.retained = 0;
-  if (Status st = validate_client_pose(pose); !st) return st;
-  if (Status st = validate_selector_config(config_); !st) return st;
+  Status st = cut_in_place(h, pose, budget, excluded);
+  out = scratch_->own;
+  return st;
+}
+
+const LodCut& LodCutter::last() const { return scratch_->own; }
+
+Status LodCutter::cut_in_place(const LodHierarchy& h, const ClientPose& pose, std::size_t budget,
+                               std::span<const ObjectId> excluded) {
   Layout& L = *layout_;
   Scratch& S = *scratch_;
+  LodCut& out = S.own;
+  // The previous cut stays in `out` until this one is written: the incremental path reads it.
+  const bool had_base = S.own_incremental_base;
+  S.own_incremental_base = false;
+  auto clear_output = [&] {
+    out.nodes.clear();
+    out.ids.clear();
+    out.places.clear();
+    out.leaves = out.interior = 0;
+  };
+  out.refined = out.retained = 0;
+  out.layout_rebuilt = false;
+  if (Status st = validate_client_pose(pose); !st) {
+    clear_output();
+    return st;
+  }
+  if (Status st = validate_selector_config(config_); !st) {
+    clear_output();
+    return st;
+  }
+  S.excluded_now.assign(excluded.begin(), excluded.end());
+  std::sort(S.excluded_now.begin(), S.excluded_now.end(),
+            [](ObjectId a, ObjectId b) { return to_underlying(a) < to_underlying(b); });
+  S.excluded_now.erase(std::unique(S.excluded_now.begin(), S.excluded_now.end()), S.excluded_now.end());
   out.layout_rebuilt = L.hierarchy != &h || L.generation != h.generation();
   if (out.layout_rebuilt) {
     // The hysteresis state outlives the layout by id (a pool entry reused by the update
@@ -300,10 +334,12 @@ Status LodCutter::cut_into(LodCut& out, const LodHierarchy& h, const ClientPose&
   };
 
   if (budget == 0 || h.root() == kNoLodNode || (L.root_leaf == kNone && S.mark[0] == kExcludedAll)) {
+    clear_output();
     finish({});
     return Ok{};
   }
   if (L.root_leaf != kNone) {  // a hierarchy of one leaf
+    clear_output();
     if (!root_excluded) {
       const LodNode& leaf = h.node(L.root_leaf);
       out.nodes.push_back(L.root_leaf);
@@ -358,8 +394,15 @@ Status LodCutter::cut_into(LodCut& out, const LodHierarchy& h, const ClientPose&
     const std::uint32_t* __restrict key = S.key.data();
     const std::uint32_t* __restrict parent = L.parent.data();
     float* __restrict p = S.p.data();
-    p[0] = std::bit_cast<float>(key[0]);
-    for (std::size_t k = 1; k < n; ++k) p[k] = std::min(std::bit_cast<float>(key[k]), p[parent[k]]);
+    // A NaN error (a sphere too far for float arithmetic from a far pose) counts as 0, as
+    // the plain greedy's sphere_error has it: every p is then a number, and a node's
+    // exclusion (p < 0) depends on the marks alone.
+    auto error = [&](std::size_t k) {
+      const float e = std::bit_cast<float>(key[k]);
+      return e == e ? e : 0.0f;
+    };
+    p[0] = error(0);
+    for (std::size_t k = 1; k < n; ++k) p[k] = std::min(error(k), p[parent[k]]);
   }
   auto& refined_k = S.refined_k;
   refined_k.clear();
@@ -466,22 +509,137 @@ Status LodCutter::cut_into(LodCut& out, const LodHierarchy& h, const ClientPose&
     }
   }
 
-  // The cut: what refined nodes open and do not refine themselves.
-  if (!S.refined[0]) emit_interior(0);
-  for (std::uint32_t k : refined_k) {
-    out.retained += S.was_refined[k];
-    for (std::uint32_t c = L.kid_begin[k]; c < L.kid_begin[k] + L.kid_count[k]; ++c)
-      if (!S.refined[c] && S.p[c] >= 0.0f) emit_interior(c);
-    const bool mixed = S.mark[k] == kExcludedMixed;
-    for (std::uint32_t j = L.leaf_begin[k]; j < L.leaf_begin[k] + L.leaf_count[k]; ++j)
-      if (!mixed || !leaf_excluded(j)) emit_leaf(j);
+  // The cut: what refined nodes open and do not refine themselves. When the last cut came
+  // from the flags in was_refined on this layout with the same exclusions, only the nodes
+  // whose refinement flipped, and their children, can enter or leave it: that cut is merged
+  // with those changes (a pose update flips a few percent of the nodes). Else every refined
+  // node is opened.
+  const bool incremental = had_base && !out.layout_rebuilt && S.was_refined_generation == L.generation &&
+                           S.was_refined.size() == n && S.own_excluded == S.excluded_now &&
+                           out.leaves + out.interior == out.nodes.size() && merge_changes(budget);
+  if (!incremental) {
+    if (!S.refined[0]) emit_interior(0);
+    for (std::uint32_t k : refined_k) {
+      out.retained += S.was_refined[k];
+      for (std::uint32_t c = L.kid_begin[k]; c < L.kid_begin[k] + L.kid_count[k]; ++c)
+        if (!S.refined[c] && S.p[c] >= 0.0f) emit_interior(c);
+      const bool mixed = S.mark[k] == kExcludedMixed;
+      for (std::uint32_t j = L.leaf_begin[k]; j < L.leaf_begin[k] + L.leaf_count[k]; ++j)
+        if (!mixed || !leaf_excluded(j)) emit_leaf(j);
+    }
+    write_out();
   }
-  write_out();
+  S.own_incremental_base = true;
+  S.own_excluded = S.excluded_now;
   // The flags just set are the next call's hysteresis state on this layout.
   S.was_refined.swap(S.refined);
   S.was_refined_generation = L.generation;
   out.refined = refined_k.size();
   return Ok{};
+}
+
+bool LodCutter::merge_changes(std::size_t budget) {
+  const Layout& L = *layout_;
+  Scratch& S = *scratch_;
+  const LodCut& out = S.own;
+  const std::size_t n = L.size();
+  const std::uint8_t* now = S.refined.data();
+  const std::uint8_t* was = S.was_refined.data();
+  // Nodes whose membership flips, marked by rank (the bitmaps the full path would fill are
+  // still clear): scanning them gives the changes in id order without a sort.
+  std::uint64_t* leaf_bits = S.leaf_bits.data();
+  std::uint64_t* interior_bits = S.interior_bits.data();
+  std::size_t newly_refined = 0, changes = 0;
+  auto interior_in = [&](const std::uint8_t* f, std::uint32_t k) {
+    return k == 0 ? !f[0] : f[L.parent[k]] && !f[k] && S.p[k] >= 0.0f;
+  };
+  auto change = [&](std::uint32_t k) {
+    if (interior_in(was, k) == interior_in(now, k)) return;
+    const std::uint32_t r = L.k_rank[k];
+    interior_bits[r >> 6] |= std::uint64_t{1} << (r & 63);
+    ++changes;
+  };
+  // A flipped node: itself, its interior children whose own flag stayed (a flipped child is
+  // visited by itself), and its leaf children, which are in the cut exactly when it is refined.
+  auto visit = [&](std::uint32_t k) {
+    newly_refined += now[k] != 0;
+    change(k);
+    for (std::uint32_t c = L.kid_begin[k]; c < L.kid_begin[k] + L.kid_count[k]; ++c)
+      if ((now[c] != 0) == (was[c] != 0)) change(c);
+    const bool mixed = S.mark[k] == kExcludedMixed;
+    for (std::uint32_t j = L.leaf_begin[k]; j < L.leaf_begin[k] + L.leaf_count[k]; ++j) {
+      const std::uint32_t r = L.leaf_rank[j];
+      if (!mixed || !std::binary_search(S.excluded_leaves.begin(), S.excluded_leaves.end(), L.rank_leaf[r].pool)) {
+        leaf_bits[r >> 6] |= std::uint64_t{1} << (r & 63);
+        ++changes;
+      }
+    }
+  };
+  std::size_t k = 0;
+  for (; k + 8 <= n; k += 8) {  // most words of flags are unchanged
+    std::uint64_t a, b;
+    std::memcpy(&a, now + k, 8);
+    std::memcpy(&b, was + k, 8);
+    if (a == b) continue;
+    for (std::size_t i = k; i < k + 8; ++i)
+      if ((now[i] != 0) != (was[i] != 0)) visit(static_cast<std::uint32_t>(i));
+  }
+  for (; k < n; ++k)
+    if ((now[k] != 0) != (was[k] != 0)) visit(static_cast<std::uint32_t>(k));
+
+  // Merge: a changed node that the last cut holds leaves it, any other enters.
+  LodCut& next = S.next;
+  next.nodes.resize(out.nodes.size() + changes);
+  next.ids.resize(next.nodes.size());
+  next.places.resize(next.nodes.size());
+  std::size_t t = 0;
+  auto merge = [&](std::size_t a, std::size_t to, const std::vector<std::uint64_t>& marks,
+                   const std::vector<Layout::Emitted>& by_rank) {
+    for (std::size_t w = 0; w < marks.size(); ++w) {
+      for (std::uint64_t bits = marks[w]; bits != 0; bits &= bits - 1) {
+        const Layout::Emitted& e = by_rank[w * 64 + static_cast<std::size_t>(std::countr_zero(bits))];
+        for (; a < to && out.ids[a] < e.id; ++a, ++t) {
+          next.nodes[t] = out.nodes[a];
+          next.ids[t] = out.ids[a];
+          next.places[t] = out.places[a];
+        }
+        if (a < to && out.ids[a] == e.id) {
+          ++a;  // leaves
+        } else {
+          if (t == next.nodes.size()) return false;
+          next.nodes[t] = e.pool;
+          next.ids[t] = e.id;
+          next.places[t] = e.place;
+          ++t;
+        }
+      }
+    }
+    for (; a < to; ++a, ++t) {
+      next.nodes[t] = out.nodes[a];
+      next.ids[t] = out.ids[a];
+      next.places[t] = out.places[a];
+    }
+    return true;
+  };
+  // Should the changes not fit the last cut (a bug), the full path runs on clear bitmaps.
+  auto fail = [&] {
+    std::fill(S.leaf_bits.begin(), S.leaf_bits.end(), 0);
+    std::fill(S.interior_bits.begin(), S.interior_bits.end(), 0);
+    return false;
+  };
+  if (!merge(0, out.leaves, S.leaf_bits, L.rank_leaf)) return fail();
+  const std::size_t leaves = t;
+  if (!merge(out.leaves, out.nodes.size(), S.interior_bits, L.rank_interior) || t > budget) return fail();
+  next.nodes.resize(t);
+  next.ids.resize(t);
+  next.places.resize(t);
+  next.leaves = leaves;
+  next.interior = t - leaves;
+  next.refined = out.refined;
+  next.retained = S.refined_k.size() - newly_refined;
+  next.layout_rebuilt = out.layout_rebuilt;
+  std::swap(S.own, S.next);
+  return true;
 }
 
 }  // namespace gauss

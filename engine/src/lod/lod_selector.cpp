@@ -56,7 +56,7 @@ Status LodSelector::update(const SceneStore& scene, const EligibleSet* eligible)
 Status LodSelector::drop_hierarchy(const SceneStore& scene, const std::string& why) {
   hierarchy_.reset();
   cutter_.clear_previous();
-  interior_.clear();
+  cut_used_ = false;
   // Said once per reason: a scene that keeps the cause (an id with the top bit, say) would
   // otherwise log a line every epoch.
   if (why == last_failure_) return Ok{};
@@ -110,11 +110,19 @@ std::span<const Gaussian> LodSelector::records() const {
   return hierarchy_ ? hierarchy_->record_pool() : std::span<const Gaussian>{};
 }
 
+const LodCut& LodSelector::last_cut() const {
+  static const LodCut kNone;
+  return cut_used_ ? cutter_.last() : kNone;
+}
+
 const Gaussian* LodSelector::find_interior(GaussianId id) const {
-  if (!hierarchy_) return nullptr;
-  auto it = std::lower_bound(interior_.begin(), interior_.end(), std::pair{to_underlying(id), 0u});
-  if (it == interior_.end() || it->first != to_underlying(id)) return nullptr;
-  const LodNode& n = hierarchy_->node(it->second);
+  if (!hierarchy_ || !cut_used_) return nullptr;
+  // The cut's interior nodes, in ascending id order after its leaves.
+  const LodCut& cut = cutter_.last();
+  const auto first = cut.ids.begin() + static_cast<std::ptrdiff_t>(cut.leaves);
+  const auto it = std::lower_bound(first, cut.ids.end(), to_underlying(id));
+  if (it == cut.ids.end() || *it != to_underlying(id)) return nullptr;
+  const LodNode& n = hierarchy_->node(cut.nodes[static_cast<std::size_t>(it - cut.ids.begin())]);
   if (!n.live || n.leaf || n.id != id) return nullptr;
   return &hierarchy_->record(n);
 }
@@ -140,19 +148,15 @@ Expected<Selection> LodSelector::select(Selector& selector, const SceneStore& sc
 Expected<Selection> LodSelector::select(Selection leaves, const SceneStore& scene, const ClientPose& pose,
                                         const SelectionRequest& request) {
   const std::size_t background_budget = request.budget - std::min(request.budget, leaves.object_selected);
-  if (!hierarchy_ || leaves.background_candidates <= background_budget) {
-    cut_ = LodCut{};
-    interior_.clear();
-    return leaves;
-  }
-  if (epoch_ != leaves.epoch || epoch_ != scene.epoch()) {
-    cut_ = LodCut{};
+  cut_used_ = false;
+  if (!hierarchy_ || leaves.background_candidates <= background_budget) return leaves;
+  if (epoch_ != leaves.epoch || epoch_ != scene.epoch())
     return Error{"LoD: the hierarchy is at another epoch than the selection (call update() first)"};
-  }
   std::vector<ObjectId> excluded;
   if (leaves.query) excluded = leaves.query->ids();
-  if (Status st = cutter_.cut_into(cut_, *hierarchy_, pose, background_budget, excluded); !st)
+  if (Status st = cutter_.cut_in_place(*hierarchy_, pose, background_budget, excluded); !st)
     return Error{"LoD cut: " + st.message()};
+  const LodCut& cut = cutter_.last();
 
   const auto gaussians = scene.gaussians();
   const Gaussian* base = gaussians.data();
@@ -175,7 +179,7 @@ Expected<Selection> LodSelector::select(Selection leaves, const SceneStore& scen
     }
   }
   Selection out = std::move(leaves);
-  out.ids.resize(reserved.size() + cut_.nodes.size());
+  out.ids.resize(reserved.size() + cut.nodes.size());
   out.indices.resize(out.ids.size());
   // The cut's leaves come in id order, then its interior nodes (lod_cut.h): the reservation
   // merges in as they are written out.
@@ -184,34 +188,28 @@ Expected<Selection> LodSelector::select(Selection leaves, const SceneStore& scen
     out.ids[t] = GaussianId{id};
     out.indices[t++] = index;
   };
-  for (std::size_t k = 0; k < cut_.leaves; ++k) {
-    const std::uint64_t id = cut_.ids[k];
+  for (std::size_t k = 0; k < cut.leaves; ++k) {
+    const std::uint64_t id = cut.ids[k];
     for (; r < reserved.size() && reserved[r].first < id; ++r) put(reserved[r].first, reserved[r].second);
     // Where the hierarchy last saw the leaf, without reading the Gaussian (a cache miss per
     // leaf was a third of the assembly at 1M). That place still holds it or lies beyond the
     // scene: a commit fills a removed Gaussian's place with the scene's last one, so only
     // Gaussians from the tail move, and a leaf placed by apply() has none. The differ checks
     // the id of every record it reads.
-    std::uint32_t index = cut_.places[k];
+    std::uint32_t index = cut.places[k];
     if (index >= gaussians.size()) {
       const Gaussian* g = scene.find(GaussianId{id});
-      if (!g) {
-        interior_.clear();
-        return Error{"LoD: cut leaf " + std::to_string(id) + " is not in the scene"};
-      }
+      if (!g) return Error{"LoD: cut leaf " + std::to_string(id) + " is not in the scene"};
       index = static_cast<std::uint32_t>(g - base);
     }
     put(id, index);
   }
   for (; r < reserved.size(); ++r) put(reserved[r].first, reserved[r].second);
   const auto scene_size = static_cast<std::uint32_t>(gaussians.size());
-  interior_.clear();
-  for (std::size_t k = cut_.leaves; k < cut_.nodes.size(); ++k) {
-    put(cut_.ids[k], scene_size + cut_.places[k]);
-    interior_.emplace_back(cut_.ids[k], cut_.nodes[k]);  // find_interior() looks the node up in the pool
-  }
-  out.background_selected = cut_.nodes.size();
-  out.lod_interior = cut_.interior;
+  for (std::size_t k = cut.leaves; k < cut.nodes.size(); ++k) put(cut.ids[k], scene_size + cut.places[k]);
+  cut_used_ = true;
+  out.background_selected = cut.nodes.size();
+  out.lod_interior = cut.interior;
   return out;
 }
 

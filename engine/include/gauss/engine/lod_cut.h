@@ -74,9 +74,16 @@ class LodCutter {
   // kept elsewhere (any order, repeats allowed). Fails on an invalid pose or config.
   Expected<LodCut> cut(const LodHierarchy& hierarchy, const ClientPose& pose, std::size_t budget,
                        std::span<const ObjectId> excluded = {});
-  // The same into `out`, reusing its vectors' memory (a host's cut every pose update).
+  // The same into `out`, reusing its vectors' memory.
   Status cut_into(LodCut& out, const LodHierarchy& hierarchy, const ClientPose& pose, std::size_t budget,
                   std::span<const ObjectId> excluded = {});
+  // The same kept in the cutter, read with last() (a host's cut every pose update: no copy).
+  // On the same hierarchy generation and exclusions as the last cut, the new cut is the last
+  // one with the changes of the nodes whose refinement flipped merged in, not every refined
+  // node opened again; both give the same cut. On failure last() is empty.
+  Status cut_in_place(const LodHierarchy& hierarchy, const ClientPose& pose, std::size_t budget,
+                      std::span<const ObjectId> excluded = {});
+  const LodCut& last() const;
 
   // The hysteresis state: by default the nodes the previous cut refined.
   void clear_previous();
@@ -84,6 +91,9 @@ class LodCutter {
  private:
   struct Layout;  // the tree in breadth-first order (lod_cut.cpp)
   struct Scratch;
+  // cut_in_place's incremental path; false if the changes contradict the last cut (a bug),
+  // which then is left for the full path to overwrite.
+  bool merge_changes(std::size_t budget);
   SelectorConfig config_;
   std::unique_ptr<Layout> layout_;
   std::unique_ptr<Scratch> scratch_;

@@ -75,7 +75,7 @@ class LodSelector {
   // The hierarchy, when one is held.
   const LodHierarchy* hierarchy() const { return hierarchy_ ? &*hierarchy_ : nullptr; }
   // The last cut's figures (zero when the last selection needed none).
-  const LodCut& last_cut() const { return cut_; }
+  const LodCut& last_cut() const;
 
  private:
   // The scene's change log since epoch_ applied to the hierarchy; nullopt when the log no
@@ -92,10 +92,9 @@ class LodSelector {
   std::optional<Epoch> epoch_;  // scene epoch the hierarchy stands for
   std::string last_failure_;    // why the last update failed (empty after a success)
   LodCutter cutter_;
-  LodCut cut_;
+  bool cut_used_{false};  // the last selection holds cutter_.last()
   std::vector<GaussianId> modified_;
   std::vector<std::uint32_t> subset_;
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> interior_;  // last cut: id -> pool index, sorted
   std::vector<std::pair<std::uint64_t, std::uint32_t>> chosen_;    // select()'s reservation leaves (scratch)
 };
 
