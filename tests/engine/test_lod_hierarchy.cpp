@@ -404,6 +404,41 @@ TEST(LodHierarchy, RandomEpochsMatchAFullBuild) {
   }
 }
 
+// A remerge whose geometry moments come out bit for bit as before keeps the node's geometry
+// and recomputes its appearance (a recolouring skips the eigen decomposition). Leaves that
+// share their centre and shape keep mean, spread and shape whatever their opacities: an
+// opacity edit must still reach the parent through its optical mass, and a recolouring
+// through its colour, exactly as a fresh build has them.
+TEST(LodHierarchy, RemergesWithTheSameShapeStillTakeNewOpacityAndColour) {
+  std::vector<Gaussian> scene;
+  for (std::uint64_t i = 1; i <= 6; ++i) {
+    Gaussian g;
+    g.id = GaussianId{i};
+    g.position = {1.0f, 2.0f, 3.0f};
+    g.log_scale = glm::vec3(-3.0f);
+    g.opacity_logit = 0.5f;
+    g.sh_dc = glm::vec3(0.1f * float(i));
+    g.sh_rest[0] = glm::vec3(0.05f);
+    scene.push_back(g);
+  }
+  auto h = LodHierarchy::build(scene, 1);
+  ASSERT_TRUE(h.ok());
+  for (int edit = 0; edit < 2; ++edit) {
+    Gaussian g = scene[2];
+    if (edit == 0) g.opacity_logit = -1.0f;  // the optical mass alone changes
+    else g.sh_rest[0] = glm::vec3(-0.2f);    // the appearance alone
+    scene[2] = g;
+    const auto before = interior_records(*h);
+    const auto r = h->apply(std::vector<Gaussian>{g}, {});
+    ASSERT_TRUE(r.ok()) << r.message();
+    EXPECT_FALSE(r->modified.empty()) << "edit " << edit;
+    expect_report_matches(before, interior_records(*h), *r);
+    auto fresh = rebuild_like(*h, scene);
+    ASSERT_TRUE(fresh.ok());
+    expect_same_tree(*h, *fresh);
+  }
+}
+
 TEST(LodHierarchy, ApplyEqualsUpdate) {
   auto scene = random_scene(8000, 5, 31);
   auto a = LodHierarchy::build(scene, 0);

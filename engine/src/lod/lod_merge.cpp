@@ -1,6 +1,7 @@
 #include "gauss/engine/lod_merge.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -213,12 +214,24 @@ Gaussian moments_to_gaussian(const LodMoments& m, std::span<const glm::dvec3> re
   // logit(1 - e^-t) = ln(e^t - 1); for large t that is t + ln(1 - e^-t) (no overflow).
   const double logit = t > 30.0 ? t + std::log1p(-std::exp(-t)) : std::log(std::expm1(t));
   g.opacity_logit = float(std::isnan(logit) ? -60.0 : std::clamp(logit, -60.0, 60.0));
+  moments_appearance(m, rest, rest_count, g);
+  return g;
+}
+
+void moments_appearance(const LodMoments& m, std::span<const glm::dvec3> rest, int rest_count, Gaussian& g) {
   g.sh_dc = glm::vec3(m.sh_dc);
   for (int k = 0; k < rest_count; ++k) g.sh_rest[std::size_t(k)] = glm::vec3(rest[std::size_t(k)]);
   g.object = m.object;
   g.support = std::uint32_t(std::min<std::uint64_t>(m.support, std::numeric_limits<std::uint32_t>::max()));
   g.carrier = false;
-  return g;
+}
+
+bool same_geometry(const LodMoments& a, const LodMoments& b) {
+  auto bits = [](double x) { return std::bit_cast<std::uint64_t>(x); };
+  bool same = bits(a.optical_mass) == bits(b.optical_mass);
+  for (int k = 0; k < 3; ++k) same = same && bits(a.mean[k]) == bits(b.mean[k]);
+  for (int e = 0; e < 6; ++e) same = same && bits(a.cov[e]) == bits(b.cov[e]) && bits(a.within[e]) == bits(b.within[e]);
+  return same;
 }
 
 Expected<Gaussian> merge_gaussians(std::span<const Gaussian> children, int sh_degree,

@@ -250,11 +250,17 @@ std::uint32_t LodHierarchy::make_interior(TreeBuild& b, int level, std::uint64_t
     lo = glm::min(lo, k.centre - k.radius);
     hi = glm::max(hi, k.centre + k.radius);
   }
+  const LodMoments before = moments_[slot];
   combine_moments(*b.moments, *b.rest, rest_count_, moments_[slot],
                   std::span<glm::dvec3>(moments_rest_).subspan(std::size_t(slot) * rc, rc));
-  Gaussian rec = moments_to_gaussian(moments_[slot],
-                                     std::span<const glm::dvec3>(moments_rest_).subspan(std::size_t(slot) * rc, rc),
-                                     rest_count_, config_.merge.spread);
+  const auto rest = std::span<const glm::dvec3>(moments_rest_).subspan(std::size_t(slot) * rc, rc);
+  Gaussian rec;
+  if (reuse != kNoLodNode && same_geometry(before, moments_[slot])) {
+    rec = old_record;  // a recolouring: the eigen decomposition would give what it gave
+    moments_appearance(moments_[slot], rest, rest_count_, rec);
+  } else {
+    rec = moments_to_gaussian(moments_[slot], rest, rest_count_, config_.merge.spread);
+  }
   rec.id = nodes_[node].id;
   if (reuse != kNoLodNode && !(same_value(old_record, rec))) b.report->modified.push_back(rec.id);
   records_[slot] = rec;

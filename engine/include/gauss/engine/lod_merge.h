@@ -102,6 +102,13 @@ void combine_moments(std::span<const LodMoments> children, std::span<const glm::
 // the exact moment match).
 Gaussian moments_to_gaussian(const LodMoments& m, std::span<const glm::dvec3> rest, int rest_count,
                              double spread = 1.0);
+// Its appearance fields alone (colour, SH rest, object, support) into `g`. Its geometry
+// (position, scale, rotation, opacity) is a function of mean, cov, within and optical_mass
+// only: a remerge that leaves those bit for bit as they were keeps the old geometry and
+// writes these (a recolouring changes no eigen decomposition).
+void moments_appearance(const LodMoments& m, std::span<const glm::dvec3> rest, int rest_count, Gaussian& g);
+// Whether two moments give the same geometry: mean, cov, within and optical_mass bit for bit.
+bool same_geometry(const LodMoments& a, const LodMoments& b);
 
 // Covariance of a Gaussian as a symmetric matrix in double (R diag(exp(2 log_scale)) R^T, the
 // rotation normalised): what leaf_moments uses, exposed for tests and callers that measure.
