@@ -59,6 +59,19 @@ inline ViewParams make_view_params(const ClientPose& pose, const SelectorConfig&
 // weight x radius / distance x facing x (1 + bonus if resident), 0 where part is 0. `weight`
 // null: 1; `part` null: every sphere counts. This loop is most of a pose update's cost, so it
 // reads only the structure-of-arrays terms and has no data-dependent branches.
+#if defined(__x86_64__)
+// The same loop eight at a time with AVX2 (view_score_avx2.cpp), for CPUs that have it: the
+// same operations in the same order again (no FMA), so the same keys. Returns how many
+// spheres it scored (a multiple of 8); the caller scores the rest.
+template <bool kWeighted, bool kPartitioned>
+std::size_t score_view_avx2(std::size_t n, const float* px, const float* py, const float* pz, const float* radius,
+                            const float* weight, const std::uint8_t* part, const std::uint8_t* resident,
+                            const ViewParams& v, std::uint32_t* out);
+// Whether score_view uses it: the CPU has AVX2 and GAUSS_SIMD is not "sse2" (read each call,
+// so a test can compare both paths in one process).
+bool use_avx2();
+#endif
+
 template <bool kWeighted, bool kPartitioned>
 void score_view_impl(std::size_t n, const float* __restrict px, const float* __restrict py,
                      const float* __restrict pz, const float* __restrict radius, const float* __restrict weight,
@@ -66,6 +79,10 @@ void score_view_impl(std::size_t n, const float* __restrict px, const float* __r
                      const ViewParams& v, std::uint32_t* __restrict out) {
   const ViewParams p = v;
   std::size_t i = 0;
+#if defined(__x86_64__)
+  if (n >= 8 && use_avx2())
+    i = score_view_avx2<kWeighted, kPartitioned>(n, px, py, pz, radius, weight, part, resident, p, out);
+#endif
 #if defined(__SSE2__)
   // Four at a time with SSE2: the same operations in the same order as the scalar loop
   // below (IEEE add/mul/div/sqrt are exactly rounded), so the keys are bit-identical.
