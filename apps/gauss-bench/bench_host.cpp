@@ -12,6 +12,7 @@
 //      CPU ms per client, and wall time relative to K = 1.
 // Prints a table and optionally writes JSON (--json). Timing never decides a test.
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -249,6 +250,18 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const Optio
     // decode them): an optimisation of the selector, cut or differ must leave it unchanged.
     std::uint64_t digest = 0xcbf29ce484222325ull;
     auto mix = [&digest](std::uint64_t v) { digest = (digest ^ v) * 0x100000001b3ull; };
+    auto mix_value = [&mix](const Gaussian& g) {  // every field the client decodes, by its bits
+      auto f = [&mix](float x) { mix(std::bit_cast<std::uint32_t>(x)); };
+      for (int a = 0; a < 3; ++a) {
+        f(g.position[a]);
+        f(g.log_scale[a]);
+        f(g.sh_dc[a]);
+        for (const glm::vec3& c : g.sh_rest) f(c[a]);
+      }
+      for (int a = 0; a < 4; ++a) f(g.rotation[a]);
+      f(g.opacity_logit);
+      mix(std::uint64_t(std::uint32_t(to_underlying(g.object))) << 32 | g.support);
+    };
     auto step = [&](const ClientPose& p, double* times) -> Expected<EditBatch> {
       const double t0 = thread_cpu_ms();
       auto sel = lod.select(selector, store, nullptr, p, req);
@@ -279,7 +292,7 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const Optio
       for (const Edit& e : b->edits) {
         mix(to_underlying(e.id) * 4 + static_cast<std::uint64_t>(e.kind));
         mix(to_underlying(e.leaving));
-        if (e.kind != EditKind::Remove) mix(quantized_hash(e.value, params));
+        if (e.kind != EditKind::Remove) mix_value(quantize_roundtrip(e.value, params));
       }
       select_ms.push_back(t[0]);
       diff_ms.push_back(t[1]);

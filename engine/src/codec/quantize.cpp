@@ -293,17 +293,28 @@ std::uint64_t quantized_hash(const Gaussian& g, const CodecParams& params) {
   std::uint8_t buf[record_bytes(kMaxShDegree)];
   codec_detail::write_record(g, params, buf, nullptr);
   const std::size_t n = record_bytes(std::clamp(params.sh_degree, 0, kMaxShDegree));
-  // FNV-1a over the record, then the object id and support code: any byte that
-  // reaches the client changes the hash.
+  // FNV-1a over the record eight bytes a step (the tail zero-padded), then the object id
+  // and support code: any byte that reaches the client changes the hash. Each step, h -> (h
+  // xor w) * odd, is a bijection of h, so two records that differ in one word never collide,
+  // and a step per word instead of per byte is 3-8x fewer multiplies (SH1 to SH3).
   std::uint64_t h = 0xcbf29ce484222325ull;
-  auto mix = [&h](std::uint8_t b) {
-    h ^= b;
+  auto mix = [&h](std::uint64_t w) {
+    h ^= w;
     h *= 0x100000001b3ull;
   };
-  for (std::size_t i = 0; i < n; ++i) mix(buf[i]);
+  std::size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    std::uint64_t w;
+    std::memcpy(&w, buf + i, 8);
+    mix(w);
+  }
+  if (i < n) {
+    std::uint64_t w = 0;
+    std::memcpy(&w, buf + i, n - i);
+    mix(w);
+  }
   const auto obj = static_cast<std::uint32_t>(to_underlying(g.object));
-  for (int s = 0; s < 32; s += 8) mix(static_cast<std::uint8_t>(obj >> s));
-  mix(codec_detail::support_code(g.support, nullptr));
+  mix(std::uint64_t{obj} << 8 | codec_detail::support_code(g.support, nullptr));
   return h;
 }
 
