@@ -119,8 +119,8 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
                  "write what each client was sent when its session ends (see below)")
       ->type_name("DIR");
   app.add_option("--lod", o.lod,
-                 "level of detail: 'on' sends what the budget cannot hold in detail as a coarse cut through a merge "
-                 "hierarchy (no black holes; each client's session holds its own hierarchy, about 0.7 KB per "
+                 "level of detail: 'on' (default) sends what a client's budget cannot hold in detail as a coarse cut "
+                 "through a merge hierarchy (no black holes; one hierarchy for all clients, about 0.7 KB per "
                  "Gaussian), 'off' sends the best Gaussians only")
       ->transform(CLI::Transformer(std::map<std::string, bool>{{"on", true}, {"off", false}}))
       ->type_name("on|off");

@@ -40,10 +40,10 @@ struct Options {
   std::string events_path;     // empty: no event log
   std::filesystem::path sessions_path;  // empty: no sessions record
   std::filesystem::path dump_sent_dir;  // empty: no dumps
-  // --lod on: a coarse background under the budget (LoD cut). Off by default while each
-  // session builds its own hierarchy: about 0.7 KB per Gaussian per client (40 MB per client at
-  // 60k Gaussians, measured by scripts/soak); a hierarchy shared by the sessions comes first.
-  bool lod{false};
+  // --lod: a coarse background under the budget (LoD cut), on by default: what a client's
+  // budget cannot hold in detail is sent coarse instead of left out. The sessions share one
+  // hierarchy (about 0.7 KB per Gaussian for the host, whatever the number of clients).
+  bool lod{true};
   bool quiet{false};
 };
 

@@ -22,7 +22,12 @@ Expected<std::unique_ptr<SessionHost>> SessionHost::start(SessionHostConfig conf
 }
 
 SessionHost::SessionHost(SessionHostConfig config, CodecParams params, std::unique_ptr<NetHost> net)
-    : config_(std::move(config)), params_(params), net_(std::move(net)), pool_(config_.tick_threads) {}
+    : config_(std::move(config)), params_(params), net_(std::move(net)), pool_(config_.tick_threads) {
+  // Every session has the same eligibility rule, so one hierarchy serves them all: built and
+  // updated once per epoch, by whichever session ticks first, instead of once per client.
+  if (config_.session.lod && !config_.session.shared_lod)
+    config_.session.shared_lod = std::make_shared<LodEpochHierarchy>(params_.sh_degree, *config_.session.lod);
+}
 
 void SessionHost::log(const std::string& line) {
   if (config_.net.log) config_.net.log(line);

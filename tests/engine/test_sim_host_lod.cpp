@@ -246,3 +246,70 @@ TEST(HostSessionLod, AGaussianTheHierarchyRefusesMeansLeavesWithOneNoticeUntilIt
   EXPECT_EQ(p.client.published_checksum(), p.client.desired().desired_checksum());
   EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum(w.store));
 }
+
+TEST(HostSessionLod, SessionsSharingOneHierarchyStreamWhatEachWouldWithItsOwn) {
+  // Two sessions read one LodEpochHierarchy (as SessionHost's do), two others have their own.
+  // Epoch after epoch an object is recoloured (its coarse records change, the tree's shape
+  // stays). One shared session ticks every epoch; the other sits out more epochs than the
+  // shared log keeps, as a session held back by its link would, then catches up in one batch.
+  // Each must send byte for byte what a session with its own hierarchy on the same schedule
+  // sends, and its client must end exact.
+  World w;
+  const CodecParams params = lod_params(w);
+  const std::uint32_t m = 250;
+  auto shared = std::make_shared<LodEpochHierarchy>(params.sh_degree, LodConfig{});
+  auto connect_shared = [&] {
+    HostSessionConfig c = lod_config(true);
+    c.shared_lod = shared;
+    HostSession host(1, 9, params, c);
+    ClientConfig cfg;
+    cfg.capacity = m;
+    auto client = ClientState::create(0, cfg);
+    EXPECT_TRUE(client.ok());
+    for (const auto& msg : host.on_message(client->hello(), w.store, 0.0)) EXPECT_TRUE(client->on_message(msg, 0.0).ok());
+    return Pair{std::move(host), std::move(*client)};
+  };
+  Pair every_own = connect(w, params, true, m);
+  Pair late_own = connect(w, params, true, m);
+  Pair every_shared = connect_shared();
+  Pair late_shared = connect_shared();
+  EXPECT_EQ(step(every_shared, w, params, 0.0).payloads, step(every_own, w, params, 0.0).payloads);
+  EXPECT_EQ(step(late_shared, w, params, 0.0).payloads, step(late_own, w, params, 0.0).payloads);
+  ASSERT_NE(every_shared.host.lod()->hierarchy(), nullptr);
+  EXPECT_EQ(every_shared.host.lod()->hierarchy(), late_shared.host.lod()->hierarchy()) << "one hierarchy";
+  EXPECT_NE(every_own.host.lod()->hierarchy(), late_own.host.lod()->hierarchy());
+  EXPECT_EQ(shared->updates(), 1u) << "built once for both sessions";
+
+  std::vector<ObjectId> objects;
+  for (const auto& o : w.store.objects()) objects.push_back(o.id);
+  ASSERT_FALSE(objects.empty());
+  const std::size_t epochs = LodEpochHierarchy::kLogLength + 3;
+  std::size_t interior_updates = 0;
+  for (std::size_t e = 0; e < epochs; ++e) {
+    ASSERT_TRUE(w.store.begin_next_epoch().ok());
+    const ObjectId o = objects[e % objects.size()];
+    for (const Gaussian& g : w.store.gaussians()) {
+      if (g.object != o) continue;
+      Gaussian c = g;
+      c.sh_dc = glm::vec3(0.05f * float(e % 7), 0.3f, -0.2f);
+      ASSERT_TRUE(w.store.modify(c).ok());
+    }
+    ASSERT_TRUE(w.store.commit_epoch().ok());
+    const double t = 1.0 + double(e);
+    const Step a = step(every_shared, w, params, t);
+    const Step b = step(every_own, w, params, t);
+    EXPECT_EQ(a.payloads, b.payloads) << "epoch step " << e;
+    for (const Edit& edit : a.edits) interior_updates += edit.kind == EditKind::Update && is_lod_interior_id(edit.id);
+  }
+  EXPECT_GT(interior_updates, 0u) << "recolouring must reach the coarse records";
+  EXPECT_EQ(shared->updates(), 1u + epochs);
+  const double t = 1.0 + double(epochs);
+  const Step late_a = step(late_shared, w, params, t);
+  const Step late_b = step(late_own, w, params, t);
+  EXPECT_EQ(late_a.payloads, late_b.payloads) << "a session past the log's reach catches up all the same";
+  for (Pair* p : {&every_shared, &late_shared}) {
+    EXPECT_EQ(p->client.published_checksum(), p->client.desired().desired_checksum());
+    EXPECT_EQ(p->client.desired().desired_checksum(), p->host.sent_checksum(w.store));
+  }
+  EXPECT_GT(interior_count(late_shared.host.sent_ids()), 0u);
+}

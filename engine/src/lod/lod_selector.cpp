@@ -13,101 +13,37 @@
 namespace gauss {
 
 LodSelector::LodSelector(int sh_degree, SelectorConfig selector, LodConfig lod)
-    : sh_degree_(sh_degree), lod_config_(lod), cutter_(selector) {}
+    : LodSelector(std::make_shared<LodEpochHierarchy>(sh_degree, lod), selector) {}
+
+LodSelector::LodSelector(std::shared_ptr<LodEpochHierarchy> shared, SelectorConfig selector)
+    : source_(std::move(shared)), seen_lineage_(source_->lineage()), cutter_(selector) {}
 
 Status LodSelector::update(const SceneStore& scene, const EligibleSet* eligible) {
-  if (scene.in_epoch()) return Error{"LoD: the scene has an open epoch; update between epochs"};
-  // Once per epoch: a failed update is not retried (and reported again) every tick.
-  if (epoch_ && *epoch_ == scene.epoch()) return Ok{};
-  if (eligible && eligible->epoch != scene.epoch())
-    return Error{"LoD: eligible set is from epoch " + std::to_string(to_underlying(eligible->epoch)) +
-                 ", the scene is at epoch " + std::to_string(to_underlying(scene.epoch()))};
-  const auto gaussians = scene.gaussians();
-  if (hierarchy_ && !eligible && epoch_) {
-    // Without an eligibility filter the scene's change log says what changed: apply it (work
-    // in the changes) instead of comparing every Gaussian (work in N; 2.5x the cost at 1 %).
-    if (auto applied = apply_change_log(scene)) {
-      epoch_ = scene.epoch();
-      return *applied ? Status(Ok{}) : drop_hierarchy(scene, applied->message());
+  const Status status = source_->update(scene, eligible);
+  // What this selector's differ must re-quantise: the interior ids the updates since it last
+  // looked changed. Before its first cut it holds none, so there is nothing to learn.
+  const std::uint64_t updates = source_->updates();
+  if (seen_updates_ && !source_->changes_since(*seen_updates_, modified_)) {
+    // It skipped more updates than the log keeps (a session held back by its link): every
+    // interior record its client holds, all from its last cut, counts as changed.
+    if (cut_used_) {
+      const LodCut& last = cutter_.last();
+      for (std::size_t k = last.leaves; k < last.ids.size(); ++k) modified_.push_back(GaussianId{last.ids[k]});
     }
   }
-  subset_.clear();
-  if (eligible) {
-    subset_.assign(eligible->indices.begin(), eligible->indices.end());
-  } else {
-    for (std::size_t i = 0; i < gaussians.size(); ++i)
-      if (!gaussians[i].carrier) subset_.push_back(static_cast<std::uint32_t>(i));
+  seen_updates_ = updates;
+  if (source_->lineage() != seen_lineage_) {
+    // Built from scratch or dropped: the last cut's node indices name nothing any more.
+    seen_lineage_ = source_->lineage();
+    cutter_.clear_previous();
+    cut_used_ = false;
   }
-  const bool fresh = !hierarchy_;
-  if (fresh) {
-    auto h = LodHierarchy::create(sh_degree_, lod_config_);
-    if (!h) return Error{"LoD: " + h.message()};
-    hierarchy_ = std::move(*h);
-  }
-  auto report = hierarchy_->update(gaussians, subset_);
-  epoch_ = scene.epoch();
-  if (!report) return drop_hierarchy(scene, report.message());
-  if (fresh) cutter_.clear_previous();
-  last_failure_.clear();
-  note_changes(*report);
-  return Ok{};
-}
-
-Status LodSelector::drop_hierarchy(const SceneStore& scene, const std::string& why) {
-  hierarchy_.reset();
-  cutter_.clear_previous();
-  cut_used_ = false;
-  // Said once per reason: a scene that keeps the cause (an id with the top bit, say) would
-  // otherwise log a line every epoch.
-  if (why == last_failure_) return Ok{};
-  last_failure_ = why;
-  return Error{"LoD: no hierarchy for epoch " + std::to_string(to_underlying(scene.epoch())) + ": " + why +
-               "; selecting leaves until it can be built"};
-}
-
-void LodSelector::note_changes(const LodUpdateReport& report) {
-  // Modified records are re-quantised by the differ; retired ones leave the next cut (the
-  // differ removes them as leavers), listed too so a stale pool slot is never trusted; added
-  // ones too: a hierarchy built again after a fallback counts its serials from 0, so a new node
-  // may carry an id the client held before (the fallback's leaf batch removed those; this
-  // keeps the differ from trusting an old record if one ever stays).
-  modified_.insert(modified_.end(), report.modified.begin(), report.modified.end());
-  modified_.insert(modified_.end(), report.removed.begin(), report.removed.end());
-  modified_.insert(modified_.end(), report.added.begin(), report.added.end());
-}
-
-std::optional<Status> LodSelector::apply_change_log(const SceneStore& scene) {
-  std::vector<GaussianId> touched, removed;
-  for (std::uint64_t e = to_underlying(*epoch_) + 1; e <= to_underlying(scene.epoch()); ++e) {
-    const EpochChanges* c = scene.changes(Epoch{e});
-    if (!c) return std::nullopt;  // the log no longer reaches back: compare everything
-    touched.insert(touched.end(), c->inserted.begin(), c->inserted.end());
-    touched.insert(touched.end(), c->modified.begin(), c->modified.end());
-    removed.insert(removed.end(), c->removed.begin(), c->removed.end());
-  }
-  std::sort(touched.begin(), touched.end());
-  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
-  std::vector<Gaussian> upserts;
-  upserts.reserve(touched.size());
-  for (GaussianId id : touched) {
-    const Gaussian* g = scene.find(id);
-    if (!g) continue;  // inserted or modified, then removed: in `removed`
-    if (g->carrier)
-      removed.push_back(id);  // turned carrier: no longer an appearance leaf
-    else
-      upserts.push_back(*g);
-  }
-  std::sort(removed.begin(), removed.end());
-  removed.erase(std::unique(removed.begin(), removed.end()), removed.end());
-  // Removed ids that were never leaves (carriers, unusable ones) are fine: lenient.
-  auto report = hierarchy_->apply(upserts, removed, /*lenient_removes=*/true);
-  if (!report) return Status(report.error());
-  note_changes(*report);
-  return Status(Ok{});
+  return status;
 }
 
 std::span<const Gaussian> LodSelector::records() const {
-  return hierarchy_ ? hierarchy_->record_pool() : std::span<const Gaussian>{};
+  const LodHierarchy* h = source_->hierarchy();
+  return h ? h->record_pool() : std::span<const Gaussian>{};
 }
 
 const LodCut& LodSelector::last_cut() const {
@@ -116,21 +52,24 @@ const LodCut& LodSelector::last_cut() const {
 }
 
 const Gaussian* LodSelector::find_interior(GaussianId id) const {
-  if (!hierarchy_ || !cut_used_) return nullptr;
+  const LodHierarchy* hierarchy = source_->hierarchy();
+  if (!hierarchy || !cut_used_) return nullptr;
   // The cut's interior nodes, in ascending id order after its leaves.
   const LodCut& cut = cutter_.last();
   const auto first = cut.ids.begin() + static_cast<std::ptrdiff_t>(cut.leaves);
   const auto it = std::lower_bound(first, cut.ids.end(), to_underlying(id));
   if (it == cut.ids.end() || *it != to_underlying(id)) return nullptr;
-  const LodNode& n = hierarchy_->node(cut.nodes[static_cast<std::size_t>(it - cut.ids.begin())]);
+  const std::uint32_t node = cut.nodes[static_cast<std::size_t>(it - cut.ids.begin())];
+  if (node >= hierarchy->nodes().size()) return nullptr;
+  const LodNode& n = hierarchy->node(node);
   if (!n.live || n.leaf || n.id != id) return nullptr;
-  return &hierarchy_->record(n);
+  return &hierarchy->record(n);
 }
 
 Expected<Selection> LodSelector::select(Selector& selector, const SceneStore& scene, const EligibleSet* eligible,
                                         const ClientPose& pose, const SelectionRequest& request) {
   SelectionRequest req = request;
-  req.background_leaves = !hierarchy_;  // a cut will stand in for the background's leaves
+  req.background_leaves = !source_->hierarchy();  // a cut will stand in for the background's leaves
   auto run = [&] { return eligible ? selector.select(scene, pose, req, *eligible) : selector.select(scene, pose, req); };
   auto leaves = run();
   if (!leaves) return leaves;
@@ -149,18 +88,19 @@ Expected<Selection> LodSelector::select(Selection leaves, const SceneStore& scen
                                         const SelectionRequest& request) {
   const std::size_t background_budget = request.budget - std::min(request.budget, leaves.object_selected);
   cut_used_ = false;
-  if (!hierarchy_ || leaves.background_candidates <= background_budget) return leaves;
-  if (epoch_ != leaves.epoch || epoch_ != scene.epoch())
+  const LodHierarchy* hierarchy = source_->hierarchy();
+  if (!hierarchy || leaves.background_candidates <= background_budget) return leaves;
+  if (source_->epoch() != leaves.epoch || source_->epoch() != scene.epoch())
     return Error{"LoD: the hierarchy is at another epoch than the selection (call update() first)"};
   std::vector<ObjectId> excluded;
   if (leaves.query) excluded = leaves.query->ids();
-  if (Status st = cutter_.cut_in_place(*hierarchy_, pose, background_budget, excluded); !st)
+  if (Status st = cutter_.cut_in_place(*hierarchy, pose, background_budget, excluded); !st)
     return Error{"LoD cut: " + st.message()};
   const LodCut& cut = cutter_.last();
 
   const auto gaussians = scene.gaussians();
   const Gaussian* base = gaussians.data();
-  if (gaussians.size() + hierarchy_->record_pool().size() > std::size_t{0xFFFFFFFFu})
+  if (gaussians.size() + hierarchy->record_pool().size() > std::size_t{0xFFFFFFFFu})
     return Error{"LoD: scene and hierarchy records exceed 2^32 indices"};
   // The reservation's leaves, in id order as the Selector wrote them (with
   // background_leaves false, they are all it wrote).

@@ -61,7 +61,10 @@ HostSession::HostSession(std::uint32_t client_id, std::uint64_t session_id, Code
       selector_(config_.selector),
       differ_(params),
       bucket_(config_.query_burst) {
-  if (config_.lod) lod_.emplace(params_.sh_degree, config_.selector, *config_.lod);
+  if (config_.lod && config_.shared_lod)
+    lod_.emplace(config_.shared_lod, config_.selector);
+  else if (config_.lod)
+    lod_.emplace(params_.sh_degree, config_.selector, *config_.lod);
 }
 
 void HostSession::reject(std::string reason) {

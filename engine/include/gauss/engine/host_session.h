@@ -15,6 +15,7 @@
 // reason in the log and a counter; the connection stays, the session state is
 // untouched. Only a refused Hello ends the connection (closed() becomes true).
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
@@ -78,6 +79,10 @@ struct HostSessionConfig {
   // leaves and shares are unchanged; at M >= N the set is exactly the leaf selection's. The
   // codec's log-scale range must reach the interior records' (fit_lod_codec_params).
   std::optional<LodConfig> lod;
+  // With lod: the hierarchy to read, shared with other sessions (one per host instead of one
+  // per client: the sessions sharing it must have the same eligibility and SH degree; `lod` is
+  // then only a switch, the shared one's config applies). Null: the session builds its own.
+  std::shared_ptr<LodEpochHierarchy> shared_lod;
 };
 
 struct HostSessionStats {

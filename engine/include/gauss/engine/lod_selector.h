@@ -1,7 +1,7 @@
 #pragma once
-// LodSelector: a host session's selection with a coarse background. It keeps a LodHierarchy
-// over the scene's eligible appearance Gaussians (updated once per epoch, incrementally) and
-// turns the leaf selector's choice into: the semantic reservation's leaves, exactly as the
+// LodSelector: a host session's selection with a coarse background. It reads a LodHierarchy
+// over the scene's eligible appearance Gaussians (updated once per epoch, incrementally; its
+// own, or one shared with the host's other sessions: lod_epoch_hierarchy.h) and turns the leaf selector's choice into: the semantic reservation's leaves, exactly as the
 // Selector chose them (min(|G_obj|, floor(rho M)) of the query's target, counted in leaves),
 // plus a cut of at most M - M_obj nodes through the rest of the hierarchy (lod_cut.h) instead
 // of M - M_obj background leaves. So what the budget cannot hold in detail is still on the
@@ -17,9 +17,11 @@
 //
 // A hierarchy that cannot be updated for an epoch (an id with the top bit set, say) leaves the
 // selector without one: select() then returns the leaf selection, and update() says why, once
-// per reason (the next epochs try again from scratch, quietly while the reason is the same).
+// per reason and hierarchy (the next epochs try again from scratch, quietly while the reason
+// is the same).
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -30,6 +32,7 @@
 #include "gauss/engine/gaussian.h"
 #include "gauss/engine/ids.h"
 #include "gauss/engine/lod_cut.h"
+#include "gauss/engine/lod_epoch_hierarchy.h"
 #include "gauss/engine/lod_hierarchy.h"
 #include "gauss/engine/result.h"
 #include "gauss/engine/scene_store.h"
@@ -39,15 +42,18 @@ namespace gauss {
 
 class LodSelector {
  public:
+  // With its own hierarchy.
   LodSelector(int sh_degree, SelectorConfig selector = {}, LodConfig lod = {});
+  // Reading `shared` (not null), which other selectors may read too: they must all pass the
+  // same eligibility filter to update().
+  LodSelector(std::shared_ptr<LodEpochHierarchy> shared, SelectorConfig selector = {});
 
   // Brings the hierarchy to the scene's eligible appearance Gaussians (`eligible` null: every
-  // non-carrier) when the scene's epoch moved since the last call: without an eligibility
-  // filter from the scene's change log (work in the changes), else (or when the log no longer
-  // reaches back) by comparing every Gaussian (work in N). Fails when the hierarchy
-  // cannot be updated for a reason not reported just before (a repeat returns Ok); the
-  // selector then holds none, select() returns leaf selections, and the next epoch builds it
-  // again from scratch.
+  // non-carrier) unless it stands for the scene's epoch already (LodEpochHierarchy::update),
+  // and learns which interior records changed since this selector last looked. Fails when
+  // the hierarchy cannot be updated for a reason not reported just before (a repeat returns
+  // Ok); the selector then holds none, select() returns leaf selections, and the next epoch
+  // builds it again from scratch.
   Status update(const SceneStore& scene, const EligibleSet* eligible);
 
   // A host session's whole selection: `selector`'s reservation, and a cut where the
@@ -73,28 +79,17 @@ class LodSelector {
   // The current record of interior node `id`, or null when the hierarchy has no such node.
   const Gaussian* find_interior(GaussianId id) const;
   // The hierarchy, when one is held.
-  const LodHierarchy* hierarchy() const { return hierarchy_ ? &*hierarchy_ : nullptr; }
+  const LodHierarchy* hierarchy() const { return source_->hierarchy(); }
   // The last cut's figures (zero when the last selection needed none).
   const LodCut& last_cut() const;
 
  private:
-  // The scene's change log since epoch_ applied to the hierarchy; nullopt when the log no
-  // longer reaches back (the caller then compares every Gaussian).
-  std::optional<Status> apply_change_log(const SceneStore& scene);
-  // Forgets the hierarchy after a failed update; the error names the epoch and `why`.
-  Status drop_hierarchy(const SceneStore& scene, const std::string& why);
-  // Adds an update's changed interior ids to modified_.
-  void note_changes(const LodUpdateReport& report);
-
-  int sh_degree_;
-  LodConfig lod_config_;
-  std::optional<LodHierarchy> hierarchy_;
-  std::optional<Epoch> epoch_;  // scene epoch the hierarchy stands for
-  std::string last_failure_;    // why the last update failed (empty after a success)
+  std::shared_ptr<LodEpochHierarchy> source_;
+  std::optional<std::uint64_t> seen_updates_;  // source_->updates() when last looked
+  std::uint64_t seen_lineage_{0};
   LodCutter cutter_;
   bool cut_used_{false};  // the last selection holds cutter_.last()
   std::vector<GaussianId> modified_;
-  std::vector<std::uint32_t> subset_;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> chosen_;    // select()'s reservation leaves (scratch)
 };
 
