@@ -11,6 +11,8 @@
 #include <optional>
 #include <cmath>
 #include <set>
+#include <thread>
+#include <tuple>
 #include <vector>
 
 #include <glm/gtc/quaternion.hpp>
@@ -384,6 +386,66 @@ TEST(LodCut, EqualsThePlainGreedyRefinement) {
     ASSERT_TRUE(cut.ok()) << cut.message();
     ASSERT_EQ(sorted(cut->nodes), reference_cut(h, pose, budget, cfg, {}).nodes) << "budget " << budget;
   }
+}
+
+TEST(LodCut, CuttersSharingLayoutsCutWhatEachWouldAloneWithOneLayoutPerGeneration) {
+  // Sessions reading one hierarchy share its breadth-first copy: the cuts must be those of
+  // cutters with their own copies, through a hierarchy update and with each cutter's own
+  // hysteresis (different poses), and the copy is built once per generation. Then the same
+  // from two threads at once, as a host's worker pool ticks sessions.
+  World w;
+  g_world = &w;
+  std::vector<Gaussian> leaves;
+  for (const Gaussian& g : w.store.gaussians())
+    if (!g.carrier) leaves.push_back(g);
+  auto built = LodHierarchy::build(leaves, w.store.sh_degree());
+  ASSERT_TRUE(built.ok()) << built.message();
+  LodHierarchy h = std::move(*built);
+  auto layouts = std::make_shared<LodCutLayouts>();
+  SelectorConfig cfg;
+  LodCutter shared_a(cfg), shared_b(cfg), own_a(cfg), own_b(cfg);
+  shared_a.share_layouts(layouts);
+  shared_b.share_layouts(layouts);
+  for (int step = 0; step < 8; ++step) {
+    if (step == 4) {
+      std::vector<Gaussian> fewer;
+      for (std::size_t i = 0; i < leaves.size(); ++i)
+        if (i % 5 != 1) fewer.push_back(leaves[i]);
+      fewer[3].position += glm::vec3(0.2f);
+      ASSERT_TRUE(h.update(fewer).ok());
+    }
+    const double t = 0.05 * step;
+    const ClientPose pa = look({0.1 + t, 0.5, 0.1}, {0.9, 0.5, 0.9});
+    const ClientPose pb = look({0.9 - t, 0.4, 0.8}, {0.1, 0.5, 0.2});
+    for (auto [shared, own, pose] : {std::tuple{&shared_a, &own_a, pa}, std::tuple{&shared_b, &own_b, pb}}) {
+      ASSERT_TRUE(shared->cut_in_place(h, pose, 300).ok());
+      ASSERT_TRUE(own->cut_in_place(h, pose, 300).ok());
+      EXPECT_EQ(shared->last().nodes, own->last().nodes) << "step " << step;
+      EXPECT_EQ(shared->last().places, own->last().places) << "step " << step;
+      EXPECT_EQ(shared->last().retained, own->last().retained) << "step " << step;
+    }
+  }
+  EXPECT_EQ(layouts->builds(), 2u) << "one layout before the update and one after, for both cutters";
+
+  // Two threads, each with its own cutter on the shared layouts, against one cutter alone.
+  ASSERT_TRUE(h.update(leaves).ok());  // a new generation: the threads race to build it
+  std::vector<std::vector<std::uint32_t>> got(2), want(2);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < 2; ++i)
+    threads.emplace_back([&, i] {
+      LodCutter c(cfg);
+      c.share_layouts(layouts);
+      for (int k = 0; k < 5; ++k)
+        if (c.cut_in_place(h, look({0.2 + 0.1 * i, 0.5, 0.1 * k}, {0.8, 0.5, 0.9}), 250).ok()) got[i] = c.last().nodes;
+    });
+  for (auto& th : threads) th.join();
+  for (int i = 0; i < 2; ++i) {
+    LodCutter c(cfg);
+    for (int k = 0; k < 5; ++k) ASSERT_TRUE(c.cut_in_place(h, look({0.2 + 0.1 * i, 0.5, 0.1 * k}, {0.8, 0.5, 0.9}), 250).ok());
+    want[i] = c.last().nodes;
+    EXPECT_EQ(got[i], want[i]) << "thread " << i;
+  }
+  EXPECT_EQ(layouts->builds(), 3u);
 }
 
 TEST(LodCut, BadPoseOrConfigIsAnError) {

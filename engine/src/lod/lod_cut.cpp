@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <mutex>
 
 #include "id_sort.h"
 #include "select/view_score.h"
@@ -188,8 +189,23 @@ struct LodCutter::Scratch {
   std::vector<ObjectId> excluded_now;
 };
 
-LodCutter::LodCutter(SelectorConfig config)
-    : config_(config), layout_(std::make_unique<Layout>()), scratch_(std::make_unique<Scratch>()) {}
+struct LodCutLayouts::Impl {
+  std::mutex mutex;
+  std::shared_ptr<const LodCutter::Layout> latest;
+  std::uint64_t builds{0};
+};
+
+LodCutLayouts::LodCutLayouts() : impl_(std::make_unique<Impl>()) {}
+LodCutLayouts::~LodCutLayouts() = default;
+
+std::uint64_t LodCutLayouts::builds() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->builds;
+}
+
+LodCutter::LodCutter(SelectorConfig config) : config_(config), scratch_(std::make_unique<Scratch>()) {}
+
+void LodCutter::share_layouts(std::shared_ptr<LodCutLayouts> layouts) { layouts_ = std::move(layouts); }
 LodCutter::LodCutter(LodCutter&&) noexcept = default;
 LodCutter& LodCutter::operator=(LodCutter&&) noexcept = default;
 LodCutter::~LodCutter() = default;
@@ -218,7 +234,6 @@ const LodCut& LodCutter::last() const { return scratch_->own; }
 
 Status LodCutter::cut_in_place(const LodHierarchy& h, const ClientPose& pose, std::size_t budget,
                                std::span<const ObjectId> excluded) {
-  Layout& L = *layout_;
   Scratch& S = *scratch_;
   LodCut& out = S.own;
   // The previous cut stays in `out` until this one is written: the incremental path reads it.
@@ -244,16 +259,33 @@ Status LodCutter::cut_in_place(const LodHierarchy& h, const ClientPose& pose, st
   std::sort(S.excluded_now.begin(), S.excluded_now.end(),
             [](ObjectId a, ObjectId b) { return to_underlying(a) < to_underlying(b); });
   S.excluded_now.erase(std::unique(S.excluded_now.begin(), S.excluded_now.end()), S.excluded_now.end());
-  out.layout_rebuilt = L.hierarchy != &h || L.generation != h.generation();
+  out.layout_rebuilt = !layout_ || layout_->hierarchy != &h || layout_->generation != h.generation();
   if (out.layout_rebuilt) {
     // The hysteresis state outlives the layout by id (a pool entry reused by the update
     // never inherits the bonus): the previous cut's refined nodes, read off the old layout.
     refined_prev_.clear();
-    if (S.was_refined_generation == L.generation)
+    if (layout_ && S.was_refined_generation == layout_->generation)
       for (std::uint32_t k = 0; k < S.was_refined.size(); ++k)
-        if (S.was_refined[k]) refined_prev_.emplace_back(L.pool[k], L.id[k]);
-    L.build(h);
+        if (S.was_refined[k]) refined_prev_.emplace_back(layout_->pool[k], layout_->id[k]);
+    if (layouts_) {
+      std::lock_guard lock(layouts_->impl_->mutex);
+      auto& latest = layouts_->impl_->latest;
+      if (!latest || latest->hierarchy != &h || latest->generation != h.generation()) {
+        auto fresh = std::make_shared<Layout>();
+        fresh->build(h);
+        latest = std::move(fresh);
+        ++layouts_->impl_->builds;
+      }
+      layout_ = latest;
+    } else {
+      // Its own: the old one's memory is reused (nobody else holds it).
+      std::shared_ptr<Layout> own = std::const_pointer_cast<Layout>(std::move(layout_));
+      if (!own) own = std::make_shared<Layout>();
+      own->build(h);
+      layout_ = std::move(own);
+    }
   }
+  const Layout& L = *layout_;
   const std::size_t n = L.size();
   const std::size_t leaves = L.leaf_rank.size();
 

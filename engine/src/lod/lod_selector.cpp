@@ -16,7 +16,9 @@ LodSelector::LodSelector(int sh_degree, SelectorConfig selector, LodConfig lod)
     : LodSelector(std::make_shared<LodEpochHierarchy>(sh_degree, lod), selector) {}
 
 LodSelector::LodSelector(std::shared_ptr<LodEpochHierarchy> shared, SelectorConfig selector)
-    : source_(std::move(shared)), seen_lineage_(source_->lineage()), cutter_(selector) {}
+    : source_(std::move(shared)), seen_lineage_(source_->lineage()), cutter_(selector) {
+  cutter_.share_layouts(source_->layouts());
+}
 
 Status LodSelector::update(const SceneStore& scene, const EligibleSet* eligible) {
   const Status status = source_->update(scene, eligible);

@@ -62,6 +62,25 @@ struct LodCut {
   bool layout_rebuilt{false};        // the hierarchy changed since the last cut: its layout was rebuilt
 };
 
+// The breadth-first copies of a hierarchy that cuts read, built once per hierarchy generation
+// and shared by every cutter given this (the sessions reading one shared hierarchy): without
+// it each cutter builds its own, in time and memory per session. Thread-safe: the first cutter
+// to see a generation builds its copy while the others wait.
+class LodCutLayouts {
+ public:
+  LodCutLayouts();
+  ~LodCutLayouts();
+  LodCutLayouts(const LodCutLayouts&) = delete;
+  LodCutLayouts& operator=(const LodCutLayouts&) = delete;
+  // Layouts built so far (one per hierarchy generation some cutter asked for).
+  std::uint64_t builds() const;
+
+ private:
+  friend class LodCutter;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
 class LodCutter {
  public:
   // The selector's config supplies the view terms (margin, floor, near distance, bonus).
@@ -87,15 +106,19 @@ class LodCutter {
 
   // The hysteresis state: by default the nodes the previous cut refined.
   void clear_previous();
+  // Takes the layouts from `layouts` (shared with other cutters) instead of building its own.
+  void share_layouts(std::shared_ptr<LodCutLayouts> layouts);
 
  private:
+  friend class LodCutLayouts;
   struct Layout;  // the tree in breadth-first order (lod_cut.cpp)
   struct Scratch;
   // cut_in_place's incremental path; false if the changes contradict the last cut (a bug),
   // which then is left for the full path to overwrite.
   bool merge_changes(std::size_t budget);
   SelectorConfig config_;
-  std::unique_ptr<Layout> layout_;
+  std::shared_ptr<const Layout> layout_;       // null until the first cut
+  std::shared_ptr<LodCutLayouts> layouts_;     // null: layout_ is this cutter's own
   std::unique_ptr<Scratch> scratch_;
   // The previous cut's refined nodes (pool index, id), taken from the hysteresis flags when
   // the layout is rebuilt and carried to the new one by id.

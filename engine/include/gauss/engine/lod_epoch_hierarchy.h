@@ -16,10 +16,12 @@
 // modified), so each reader learns what it must re-quantise since it last looked
 // (changes_since), even when it skipped epochs. A hierarchy that cannot be updated for an
 // epoch is dropped (the readers select leaves) and built again from scratch at the next
-// epoch; `lineage()` changes whenever that happens.
+// epoch; `lineage()` changes whenever that happens. The readers' cutters share one
+// breadth-first copy of the tree per generation too (layouts()).
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <span>
@@ -28,6 +30,7 @@
 
 #include "gauss/engine/eligibility.h"
 #include "gauss/engine/ids.h"
+#include "gauss/engine/lod_cut.h"
 #include "gauss/engine/lod_hierarchy.h"
 #include "gauss/engine/result.h"
 #include "gauss/engine/scene_store.h"
@@ -60,6 +63,8 @@ class LodEpochHierarchy {
   // Changes whenever the hierarchy is built from scratch or dropped: a reader's caches of
   // node indices (a previous cut) are then meaningless.
   std::uint64_t lineage() const { return lineage_; }
+  // The cutters' breadth-first copies of this hierarchy, one per generation for all readers.
+  const std::shared_ptr<LodCutLayouts>& layouts() const { return layouts_; }
 
   // Update reports the log keeps (each a few ids per changed cell).
   static constexpr std::size_t kLogLength = 32;
@@ -80,6 +85,7 @@ class LodEpochHierarchy {
   std::uint64_t updates_{0};
   std::deque<std::vector<GaussianId>> log_;  // the last kLogLength updates' ids, oldest first
   std::vector<std::uint32_t> subset_;        // scratch
+  std::shared_ptr<LodCutLayouts> layouts_ = std::make_shared<LodCutLayouts>();
 };
 
 }  // namespace gauss
