@@ -44,6 +44,14 @@ LodHierarchy build(const World& w, const LodConfig& config = {}) {
   return std::move(*h);
 }
 
+// The room's appearance Gaussians (the leaves build() puts in its hierarchy).
+std::vector<Gaussian> appearance_leaves(const World& w) {
+  std::vector<Gaussian> leaves;
+  for (const Gaussian& g : w.store.gaussians())
+    if (!g.carrier) leaves.push_back(g);
+  return leaves;
+}
+
 // A head at `eye` looking at `at`, both given as fractions of the room's box (the room's
 // world is y down), with a 62-degree horizontal field of view.
 const World* g_world = nullptr;
@@ -324,12 +332,8 @@ void expect_cut_arrays(const LodHierarchy& h, const LodCut& cut) {
 TEST(LodCut, EqualsThePlainGreedyRefinement) {
   World w;
   g_world = &w;
-  std::vector<Gaussian> leaves;
-  for (const Gaussian& g : w.store.gaussians())
-    if (!g.carrier) leaves.push_back(g);
-  auto built = LodHierarchy::build(leaves, w.store.sh_degree());
-  ASSERT_TRUE(built.ok()) << built.message();
-  LodHierarchy h = std::move(*built);
+  const std::vector<Gaussian> leaves = appearance_leaves(w);
+  LodHierarchy h = build(w);
   // The object with the most leaves, for the excluded steps.
   std::map<std::int32_t, std::size_t> per_object;
   for (const Gaussian& g : leaves)
@@ -395,12 +399,8 @@ TEST(LodCut, CuttersSharingLayoutsCutWhatEachWouldAloneWithOneLayoutPerGeneratio
   // from two threads at once, as a host's worker pool ticks sessions.
   World w;
   g_world = &w;
-  std::vector<Gaussian> leaves;
-  for (const Gaussian& g : w.store.gaussians())
-    if (!g.carrier) leaves.push_back(g);
-  auto built = LodHierarchy::build(leaves, w.store.sh_degree());
-  ASSERT_TRUE(built.ok()) << built.message();
-  LodHierarchy h = std::move(*built);
+  const std::vector<Gaussian> leaves = appearance_leaves(w);
+  LodHierarchy h = build(w);
   auto layouts = std::make_shared<LodCutLayouts>();
   SelectorConfig cfg;
   LodCutter shared_a(cfg), shared_b(cfg), own_a(cfg), own_b(cfg);

@@ -37,14 +37,17 @@ struct Pair {
   ClientState client;
 };
 
-Pair connect(World& w, const CodecParams& params, bool lod, std::uint32_t capacity) {
-  HostSession host(1, 9, params, lod_config(lod));
+Pair connect(World& w, const CodecParams& params, const HostSessionConfig& config, std::uint32_t capacity) {
+  HostSession host(1, 9, params, config);
   ClientConfig cfg;
   cfg.capacity = capacity;
   auto client = ClientState::create(0, cfg);
   EXPECT_TRUE(client.ok());
   for (const auto& m : host.on_message(client->hello(), w.store, 0.0)) EXPECT_TRUE(client->on_message(m, 0.0).ok());
   return Pair{std::move(host), std::move(*client)};
+}
+Pair connect(World& w, const CodecParams& params, bool lod, std::uint32_t capacity) {
+  return connect(w, params, lod_config(lod), capacity);
 }
 
 // Ticks the host at t, delivers, displays until nothing is pending; returns the batches'
@@ -258,21 +261,12 @@ TEST(HostSessionLod, SessionsSharingOneHierarchyStreamWhatEachWouldWithItsOwn) {
   const CodecParams params = lod_params(w);
   const std::uint32_t m = 250;
   auto shared = std::make_shared<LodEpochHierarchy>(params.sh_degree, LodConfig{});
-  auto connect_shared = [&] {
-    HostSessionConfig c = lod_config(true);
-    c.shared_lod = shared;
-    HostSession host(1, 9, params, c);
-    ClientConfig cfg;
-    cfg.capacity = m;
-    auto client = ClientState::create(0, cfg);
-    EXPECT_TRUE(client.ok());
-    for (const auto& msg : host.on_message(client->hello(), w.store, 0.0)) EXPECT_TRUE(client->on_message(msg, 0.0).ok());
-    return Pair{std::move(host), std::move(*client)};
-  };
+  HostSessionConfig shared_config = lod_config(true);
+  shared_config.shared_lod = shared;
   Pair every_own = connect(w, params, true, m);
   Pair late_own = connect(w, params, true, m);
-  Pair every_shared = connect_shared();
-  Pair late_shared = connect_shared();
+  Pair every_shared = connect(w, params, shared_config, m);
+  Pair late_shared = connect(w, params, shared_config, m);
   EXPECT_EQ(step(every_shared, w, params, 0.0).payloads, step(every_own, w, params, 0.0).payloads);
   EXPECT_EQ(step(late_shared, w, params, 0.0).payloads, step(late_own, w, params, 0.0).payloads);
   ASSERT_NE(every_shared.host.lod()->hierarchy(), nullptr);
