@@ -10,6 +10,9 @@
 //      its own path, ticked together per pose update the way SessionHost::pump does it
 //      (a WorkerPool over the machine's threads): wall ms per update of all K, process
 //      CPU ms per client, and wall time relative to K = 1.
+//   5b. the same with LoD, the K sessions sharing one hierarchy (as SessionHost's do): wall ms
+//      per pose update of all K, and per epoch that recolours 1 % of the Gaussians (the
+//      hierarchy updated once for all K).
 // Prints a table and optionally writes JSON (--json). Timing never decides a test.
 #include <algorithm>
 #include <bit>
@@ -647,6 +650,83 @@ json bench_clients(const SceneStore& store, const SyntheticScene& scene, const O
   return json{{"threads", pool.threads()}, {"budget", o.budget}, {"rows", rows}};
 }
 
+// The same with LoD, the sessions sharing one hierarchy as SessionHost's do: pose updates,
+// then epochs that recolour 1 % of the Gaussians (the hierarchy updated once per epoch for
+// all K, by whichever session ticks first). Leaves the store at a later epoch.
+json bench_clients_lod(SceneStore& store, const SyntheticScene& scene, const Options& o) {
+  net::WorkerPool pool(0);
+  std::printf("\n5b. several clients with LoD, one shared hierarchy (M = %zu each, %u threads; wall ms)\n", o.budget,
+              pool.threads());
+  std::printf("   %8s %16s %16s %18s %18s\n", "clients", "pose update p50", "pose update p90", "1 % epoch p50",
+              "1 % epoch max");
+  const CodecParams params = fit_lod_codec_params(fit_codec_params(store.gaussians(), store.sh_degree()));
+  json rows = json::array();
+  const auto& path = scene.trajectory();
+  std::uint64_t seed = 1;
+  for (unsigned k : o.client_counts) {
+    HostSessionConfig cfg;
+    cfg.pose_smoothing_s = 0.0;
+    cfg.pose_epsilon_m = 0.01;
+    cfg.lod = LodConfig{};
+    cfg.shared_lod = std::make_shared<LodEpochHierarchy>(store.sh_degree(), *cfg.lod);
+    std::vector<BenchClient> clients(k);
+    double now = 0.0;
+    for (unsigned i = 0; i < k; ++i) {
+      clients[i].session = std::make_unique<HostSession>(i + 1, 1, params, cfg);
+      clients[i].pose = ClientPose::from_camera(path[(i * path.size()) / std::max(1u, k)]);
+      msg::Hello hello;
+      hello.slot_capacity = static_cast<std::uint32_t>(o.budget);
+      hello.client_name = "bench-lod-" + std::to_string(i);
+      (void)clients[i].session->on_message(wire::Message{hello}, store, now);
+    }
+    auto tick_all = [&] {
+      for (BenchClient& c : clients) feed(c, store, now);
+      const auto t0 = Clock::now();
+      pool.parallel_for(clients.size(), [&](std::size_t i) {
+        auto r = clients[i].session->tick(store, now);
+        if (r) clients[i].out = std::move(r).value();
+        else clients[i].error = r.error();
+      });
+      now += 0.1;
+      return ms_since(t0);
+    };
+    for (int settle = 0; settle < 3; ++settle) tick_all();  // the build, the first cuts and full batches
+    std::vector<double> pose_ms, epoch_ms;
+    for (int u = 0; u < std::max(3, o.updates / 2); ++u) {
+      for (BenchClient& c : clients) c.pose = small_motion(c.pose);
+      pose_ms.push_back(tick_all());
+    }
+    for (int e = 0; e < 4; ++e) {
+      if (!store.begin_next_epoch()) break;
+      std::mt19937_64 rng(seed++);
+      std::vector<Gaussian> edits;
+      for (const Gaussian& g : store.gaussians())
+        if (!g.carrier && rng() % 100 == 0) edits.push_back(g);
+      for (Gaussian& g : edits) {
+        g.sh_dc.x = -g.sh_dc.x;
+        (void)store.modify(g);
+      }
+      if (!store.commit_epoch()) break;
+      epoch_ms.push_back(tick_all());
+    }
+    for (const BenchClient& c : clients)
+      if (!c.error) {
+        std::fprintf(stderr, "bench clients (LoD): %s\n", c.error.message().c_str());
+        return json{{"error", c.error.message()}};
+      }
+    const double e50 = epoch_ms.empty() ? 0.0 : percentile(epoch_ms, 0.5);
+    const double emax = epoch_ms.empty() ? 0.0 : *std::max_element(epoch_ms.begin(), epoch_ms.end());
+    std::printf("   %8u %16.1f %16.1f %18.1f %18.1f\n", k, percentile(pose_ms, 0.5), percentile(pose_ms, 0.9), e50, emax);
+    rows.push_back(json{{"clients", k},
+                        {"pose_update_wall_ms_p50", percentile(pose_ms, 0.5)},
+                        {"pose_update_wall_ms_p90", percentile(pose_ms, 0.9)},
+                        {"epoch_1pct_wall_ms_p50", e50},
+                        {"epoch_1pct_wall_ms_max", emax},
+                        {"epochs", epoch_ms.size()}});
+  }
+  return json{{"threads", pool.threads()}, {"budget", o.budget}, {"rows", rows}};
+}
+
 int bench_host_main(const Options& o) {
   SceneStore store;
   double build_ms = 0.0;
@@ -666,6 +746,7 @@ int bench_host_main(const Options& o) {
   if (o.codec) out["codec"] = bench_codec(store, o);
   if (o.identity) out["identity"] = bench_identity(store);
   if (o.clients) out["clients"] = bench_clients(store, *scene, o);
+  if (o.clients && o.lod) out["clients_lod"] = bench_clients_lod(store, *scene, o);
   if (!o.json_out.empty() && !write_json(o.json_out, out, "host")) return 1;
   return 0;
 }
