@@ -10,9 +10,10 @@
 //      its own path, ticked together per pose update the way SessionHost::pump does it
 //      (a WorkerPool over the machine's threads): wall ms per update of all K, process
 //      CPU ms per client, and wall time relative to K = 1.
-//   5b. the same with LoD, the K sessions sharing one hierarchy (as SessionHost's do): wall ms
+//   5b. the same with LoD, the K sessions sharing one hierarchy and the selector's terms (as
+//      SessionHost's do): wall ms
 //      per pose update of all K, and per epoch that recolours 1 % of the Gaussians (the
-//      hierarchy updated once for all K).
+//      hierarchy and the terms updated once for all K).
 // Prints a table and optionally writes JSON (--json). Timing never decides a test.
 #include <algorithm>
 #include <bit>
@@ -597,6 +598,7 @@ json bench_clients(const SceneStore& store, const SyntheticScene& scene, const O
   HostSessionConfig cfg;
   cfg.pose_smoothing_s = 0.0;  // every step of the walk re-selects (no sway rejection)
   cfg.pose_epsilon_m = 0.01;
+  cfg.shared_selector_terms = std::make_shared<SelectorTerms>();  // as SessionHost's sessions
   json rows = json::array();
   double base_ms = 0.0;
   const auto& path = scene.trajectory();
@@ -669,6 +671,7 @@ json bench_clients_lod(SceneStore& store, const SyntheticScene& scene, const Opt
     cfg.pose_epsilon_m = 0.01;
     cfg.lod = LodConfig{};
     cfg.shared_lod = std::make_shared<LodEpochHierarchy>(store.sh_degree(), *cfg.lod);
+    cfg.shared_selector_terms = std::make_shared<SelectorTerms>();
     std::vector<BenchClient> clients(k);
     double now = 0.0;
     for (unsigned i = 0; i < k; ++i) {

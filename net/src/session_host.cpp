@@ -27,6 +27,8 @@ SessionHost::SessionHost(SessionHostConfig config, CodecParams params, std::uniq
   // updated once per epoch, by whichever session ticks first, instead of once per client.
   if (config_.session.lod && !config_.session.shared_lod)
     config_.session.shared_lod = std::make_shared<LodEpochHierarchy>(params_.sh_degree, *config_.session.lod);
+  // The selectors' per-Gaussian terms depend on the scene alone: computed once per epoch.
+  if (!config_.session.shared_selector_terms) config_.session.shared_selector_terms = std::make_shared<SelectorTerms>();
 }
 
 void SessionHost::log(const std::string& line) {

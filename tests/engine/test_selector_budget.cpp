@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <random>
 #include <set>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -327,6 +328,96 @@ TEST(SelectorBudget, SpanOrderDoesNotChangeTheSelection) {
       }
     }
   }
+}
+
+TEST(SelectorBudget, SelectorsSharingTermsSelectWhatEachWouldAlone) {
+  // A host's sessions share the per-Gaussian terms of the scene they read: each must select
+  // what a Selector with its own terms selects (its own query, budget and hysteresis), through
+  // epochs that change the scene, with the terms computed once per epoch. A Selector of
+  // another span sharing the same set must not be handed the first span's terms. Then two
+  // threads at once, as a host's worker pool ticks sessions.
+  SceneStore store;
+  test::fill_test_scene(store, 6000, 5);
+  std::mt19937_64 rng(9);
+  auto terms = std::make_shared<SelectorTerms>();
+  Selector shared_a, shared_b, own_a, own_b, shared_copy, own_copy;
+  for (Selector* s : {&shared_a, &shared_b, &shared_copy}) s->share_terms(terms);
+  SelectionRequest chairs;
+  chairs.budget = 900;
+  chairs.client_capacity = 4000;
+  chairs.query = SemanticQuery::for_class("chair");
+  chairs.rho = 0.5;
+  SelectionRequest plain = chairs;
+  plain.budget = 1700;
+  plain.query.reset();
+  plain.rho = 0.0;
+  ClientPose pa = test::random_test_pose(rng), pb = test::random_test_pose(rng);
+  std::size_t epochs = 1;
+  std::vector<Gaussian> copy;  // rewritten in place: one span, a new version with each epoch
+  for (int step = 0; step < 9; ++step) {
+    if (step % 3 == 2) {  // a new epoch: some Gaussians move, one goes
+      ASSERT_TRUE(store.begin_next_epoch().ok());
+      for (std::size_t i = std::size_t(step); i < store.gaussians().size(); i += 97) {
+        Gaussian g = store.gaussians()[i];
+        g.position.x += 0.3f;
+        ASSERT_TRUE(store.modify(g).ok());
+      }
+      ASSERT_TRUE(store.remove(store.gaussians()[5].id).ok());
+      ASSERT_TRUE(store.commit_epoch().ok());
+      ++epochs;
+    }
+    pa.position.x += 0.04;
+    pb.orientation = glm::angleAxis(0.05, glm::dvec3(0, 1, 0)) * pb.orientation;
+    auto a = shared_a.select(store, pa, chairs);
+    auto a0 = own_a.select(store, pa, chairs);
+    auto b = shared_b.select(store, pb, plain);
+    auto b0 = own_b.select(store, pb, plain);
+    ASSERT_TRUE(a.ok() && a0.ok() && b.ok() && b0.ok());
+    EXPECT_EQ(a->ids, a0->ids) << "step " << step;
+    EXPECT_EQ(a->indices, a0->indices) << "step " << step;
+    EXPECT_EQ(a->retained, a0->retained) << "step " << step;
+    EXPECT_EQ(b->ids, b0->ids) << "step " << step;
+    EXPECT_EQ(b->retained, b0->retained) << "step " << step;
+    // Another span (a reversed copy, same version number) through the same shared set.
+    copy.assign(store.gaussians().rbegin(), store.gaussians().rend());
+    auto c = shared_copy.select(copy, store.objects(), to_underlying(store.epoch()), store.epoch(), pb, plain);
+    auto c0 = own_copy.select(copy, store.objects(), to_underlying(store.epoch()), store.epoch(), pb, plain);
+    ASSERT_TRUE(c.ok() && c0.ok());
+    EXPECT_EQ(c->ids, c0->ids) << "step " << step;
+    EXPECT_EQ(c->indices, c0->indices) << "step " << step;
+  }
+  // Per epoch one set for the store's two selectors and one for the copy's (which replaces
+  // the store's as the shared latest, so the next epoch builds both again).
+  EXPECT_EQ(terms->builds(), 2 * epochs);
+
+  // Two threads, each a Selector on the shared terms, at a version neither has seen.
+  auto threaded = std::make_shared<SelectorTerms>();
+  std::vector<std::vector<GaussianId>> got(2);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < 2; ++i)
+    threads.emplace_back([&, i] {
+      Selector s;
+      s.share_terms(threaded);
+      ClientPose p = pa;
+      for (int k = 0; k < 4; ++k) {
+        p.position.z += 0.05 * (i + 1);
+        if (auto r = s.select(store, p, i ? plain : chairs); r.ok()) got[i] = r->ids;
+      }
+    });
+  for (auto& t : threads) t.join();
+  for (int i = 0; i < 2; ++i) {
+    Selector s;
+    ClientPose p = pa;
+    std::vector<GaussianId> want;
+    for (int k = 0; k < 4; ++k) {
+      p.position.z += 0.05 * (i + 1);
+      auto r = s.select(store, p, i ? plain : chairs);
+      ASSERT_TRUE(r.ok());
+      want = r->ids;
+    }
+    EXPECT_EQ(got[i], want) << "thread " << i;
+  }
+  EXPECT_EQ(threaded->builds(), 1u);
 }
 
 TEST(SelectorBudget, CarriersAndIneligibleNeverSelected) {

@@ -2,6 +2,7 @@
 #include "gauss/engine/selector.h"
 
 #include <algorithm>
+#include <mutex>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -105,15 +106,13 @@ std::uint64_t mask_hash(std::span<const std::uint8_t> m) {
 
 }  // namespace
 
-struct Selector::Impl {
-  SelectorConfig config;
-
-  // Static per-Gaussian terms (structure of arrays), valid for one scene version. Every
-  // array is indexed by the Gaussian's rank in ascending id order ("position" j), not by
-  // its index in the span: a pose update then reads and writes everything sequentially,
-  // ties by id are ties by position, and the selection comes out sorted by id without a
-  // sort or a random-access pass over the scene.
-  bool cached{false};
+// Static per-Gaussian terms (structure of arrays), valid for one scene version. Every
+// array is indexed by the Gaussian's rank in ascending id order ("position" j), not by
+// its index in the span: a pose update then reads and writes everything sequentially,
+// ties by id are ties by position, and the selection comes out sorted by id without a
+// sort or a random-access pass over the scene. Never written once built, so the Selectors
+// of sessions reading one scene share them (SelectorTerms).
+struct Selector::StaticTerms {
   std::uint64_t version{0};
   const Gaussian* data{nullptr};
   std::size_t n{0};
@@ -121,15 +120,62 @@ struct Selector::Impl {
   std::vector<std::uint64_t> ids;     // ascending
   std::vector<std::int32_t> object;
   std::vector<std::uint8_t> carrier;
+  std::vector<std::uint32_t> global_key;  // score_key(global utility)
   // Span index of position j; empty when the span is already sorted by id (identity).
   std::vector<std::uint32_t> index_of;
   std::uint32_t span_index(std::size_t j) const {
     return index_of.empty() ? static_cast<std::uint32_t>(j) : index_of[j];
   }
+  bool matches(std::span<const Gaussian> g, std::uint64_t v) const {
+    return version == v && data == g.data() && n == g.size();
+  }
+  void build(std::span<const Gaussian> g, std::uint64_t v);
+};
+
+struct SelectorTerms::Impl {
+  std::mutex mutex;
+  std::shared_ptr<const Selector::StaticTerms> latest;
+  std::uint64_t builds{0};
+};
+
+SelectorTerms::SelectorTerms() : impl_(std::make_unique<Impl>()) {}
+SelectorTerms::~SelectorTerms() = default;
+
+std::uint64_t SelectorTerms::builds() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->builds;
+}
+
+struct Selector::Impl {
+  SelectorConfig config;
+  std::shared_ptr<const StaticTerms> terms;  // null until the first selection
+  std::shared_ptr<SelectorTerms> shared;     // null: terms are this selector's own
+
+  // Brings `terms` to this span and version: the shared set (built by whichever selector
+  // asks first) or its own, rebuilt in place when nobody else holds it.
+  void adopt_terms(std::span<const Gaussian> g, std::uint64_t v) {
+    if (shared) {
+      std::lock_guard lock(shared->impl_->mutex);
+      auto& latest = shared->impl_->latest;
+      if (!latest || !latest->matches(g, v)) {
+        auto fresh = std::make_shared<StaticTerms>();
+        fresh->build(g, v);
+        latest = std::move(fresh);
+        ++shared->impl_->builds;
+      }
+      terms = latest;
+    } else {
+      std::shared_ptr<StaticTerms> own = std::const_pointer_cast<StaticTerms>(std::move(terms));
+      if (!own || own.use_count() > 1) own = std::make_shared<StaticTerms>();
+      own->build(g, v);
+      terms = std::move(own);
+    }
+    ++generation;
+    partition_valid = false;
+  }
 
   // Per-call scratch, kept between calls so a warm selector does not allocate.
-  std::uint64_t generation{0};  // bumped at every rebuild
-  std::vector<std::uint32_t> global_key;  // static: score_key(global utility)
+  std::uint64_t generation{0};  // bumped at every new set of terms
   std::vector<std::uint8_t> part;         // partition code per position
   std::vector<std::uint8_t> view_part;    // part, or kExcluded where the global layer took it
   std::vector<std::uint8_t> selected, global_flags;
@@ -156,7 +202,7 @@ struct Selector::Impl {
     if (!resident_ids_from_flags) return;
     resident_ids.clear();
     for (std::size_t j = 0; j < resident_flags.size(); ++j)
-      if (resident_flags[j]) resident_ids.push_back(GaussianId{ids[j]});
+      if (resident_flags[j]) resident_ids.push_back(GaussianId{terms->ids[j]});
     resident_ids_from_flags = false;
   }
   select_detail::TopK top;
@@ -175,6 +221,8 @@ struct Selector::Impl {
   } object_terms;
 
   void gather_object_terms() {
+    const StaticTerms& t = *terms;
+    const std::size_t n = t.n;
     ObjectTerms& o = object_terms;
     o.pos.clear();
     for (std::size_t j = 0; j < n; ++j)
@@ -184,11 +232,11 @@ struct Selector::Impl {
     for (auto* v : {&o.part, &o.view_part, &o.global}) v->resize(m);
     for (std::size_t i = 0; i < m; ++i) {
       const std::uint32_t j = o.pos[i];
-      o.px[i] = px[j];
-      o.py[i] = py[j];
-      o.pz[i] = pz[j];
-      o.radius[i] = radius[j];
-      o.weight[i] = weight[j];
+      o.px[i] = t.px[j];
+      o.py[i] = t.py[j];
+      o.pz[i] = t.pz[j];
+      o.radius[i] = t.radius[j];
+      o.weight[i] = t.weight[j];
       o.part[i] = part[j];
       o.view_part[i] = view_part[j];
       o.global[i] = global_flags[j];
@@ -196,95 +244,95 @@ struct Selector::Impl {
     o.valid = true;
   }
 
-  void rebuild(std::span<const Gaussian> g, std::uint64_t v) {
-    n = g.size();
-    // Terms are computed in span order (one sequential pass over the Gaussians), then
-    // each array is permuted into id order: gathering from the small arrays is far
-    // cheaper than reading the large Gaussians in id order.
-    px.resize(n);
-    py.resize(n);
-    pz.resize(n);
-    radius.resize(n);
-    weight.resize(n);
-    ids.resize(n);
-    object.resize(n);
-    carrier.resize(n);
-    global_key.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      const Gaussian& x = g[i];
-      ids[i] = to_underlying(x.id);
-      object[i] = to_underlying(x.object);
-      carrier[i] = x.carrier ? 1 : 0;
-      px[i] = x.position.x;
-      py[i] = x.position.y;
-      pz[i] = x.position.z;
-      // 3 sigma of the largest axis: the extent a renderer would touch.
-      const float r = 3.0f * std::exp(std::max({x.log_scale.x, x.log_scale.y, x.log_scale.z}));
-      radius[i] = std::isfinite(r) ? r : 0.0f;
-      // Support enters logarithmically: well-observed Gaussians win, but a tenfold
-      // support does not beat a tenfold opacity.
-      const float w = sigmoid(x.opacity_logit) * (1.0f + std::log2(1.0f + static_cast<float>(x.support)));
-      weight[i] = std::isfinite(w) ? w : 0.0f;
-      float global_utility = weight[i] * radius[i];
-      // A non-finite position cannot be ranked: it never enters (like a carrier).
-      if (!std::isfinite(x.position.x) || !std::isfinite(x.position.y) || !std::isfinite(x.position.z)) {
-        weight[i] = 0.0f;
-        global_utility = 0.0f;
-        px[i] = py[i] = pz[i] = 0.0f;
-        carrier[i] = 1;
-      }
-      global_key[i] = select_detail::score_key(global_utility);
-    }
-    index_of.clear();
-    if (!std::is_sorted(ids.begin(), ids.end())) {
-      index_of.resize(n);
-      const auto [lo, hi] = std::minmax_element(ids.begin(), ids.end());
-      const std::uint64_t range = *hi - *lo;
-      // Host ids are handed out sequentially, so they usually span a few times N: a
-      // counting sort (one slot per id in the range) is then O(N) and several times
-      // faster than a comparison sort. Equal ids (a plain span may repeat one) and wide
-      // ranges take the comparison sort; both keep equal ids in span order.
-      std::vector<std::uint32_t> first(range < 4 * std::uint64_t{n} ? range + 1 : 0, 0xFFFFFFFFu);
-      bool unique = !first.empty();
-      for (std::size_t i = 0; i < n && unique; ++i) {
-        std::uint32_t& slot = first[ids[i] - *lo];
-        unique = slot == 0xFFFFFFFFu;
-        slot = static_cast<std::uint32_t>(i);
-      }
-      if (unique) {
-        std::size_t j = 0;
-        for (std::uint32_t i : first)
-          if (i != 0xFFFFFFFFu) index_of[j++] = i;
-      } else {
-        // (id, span index) pairs sort without touching the Gaussians.
-        std::vector<std::pair<std::uint64_t, std::uint32_t>> order(n);
-        for (std::size_t i = 0; i < n; ++i) order[i] = {ids[i], static_cast<std::uint32_t>(i)};
-        std::sort(order.begin(), order.end());
-        for (std::size_t j = 0; j < n; ++j) index_of[j] = order[j].second;
-      }
-      auto permute = [&](auto& a) {
-        auto tmp = a;
-        for (std::size_t j = 0; j < n; ++j) a[j] = tmp[index_of[j]];
-      };
-      permute(px);
-      permute(py);
-      permute(pz);
-      permute(radius);
-      permute(weight);
-      permute(ids);
-      permute(object);
-      permute(carrier);
-      permute(global_key);
-    }
-    ++generation;
-    partition_valid = false;
-    data = g.data();
-    version = v;
-    cached = true;
-  }
 };
 
+void Selector::StaticTerms::build(std::span<const Gaussian> g, std::uint64_t v) {
+  n = g.size();
+  // Terms are computed in span order (one sequential pass over the Gaussians), then
+  // each array is permuted into id order: gathering from the small arrays is far
+  // cheaper than reading the large Gaussians in id order.
+  px.resize(n);
+  py.resize(n);
+  pz.resize(n);
+  radius.resize(n);
+  weight.resize(n);
+  ids.resize(n);
+  object.resize(n);
+  carrier.resize(n);
+  global_key.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Gaussian& x = g[i];
+    ids[i] = to_underlying(x.id);
+    object[i] = to_underlying(x.object);
+    carrier[i] = x.carrier ? 1 : 0;
+    px[i] = x.position.x;
+    py[i] = x.position.y;
+    pz[i] = x.position.z;
+    // 3 sigma of the largest axis: the extent a renderer would touch.
+    const float r = 3.0f * std::exp(std::max({x.log_scale.x, x.log_scale.y, x.log_scale.z}));
+    radius[i] = std::isfinite(r) ? r : 0.0f;
+    // Support enters logarithmically: well-observed Gaussians win, but a tenfold
+    // support does not beat a tenfold opacity.
+    const float w = sigmoid(x.opacity_logit) * (1.0f + std::log2(1.0f + static_cast<float>(x.support)));
+    weight[i] = std::isfinite(w) ? w : 0.0f;
+    float global_utility = weight[i] * radius[i];
+    // A non-finite position cannot be ranked: it never enters (like a carrier).
+    if (!std::isfinite(x.position.x) || !std::isfinite(x.position.y) || !std::isfinite(x.position.z)) {
+      weight[i] = 0.0f;
+      global_utility = 0.0f;
+      px[i] = py[i] = pz[i] = 0.0f;
+      carrier[i] = 1;
+    }
+    global_key[i] = select_detail::score_key(global_utility);
+  }
+  index_of.clear();
+  if (!std::is_sorted(ids.begin(), ids.end())) {
+    index_of.resize(n);
+    const auto [lo, hi] = std::minmax_element(ids.begin(), ids.end());
+    const std::uint64_t range = *hi - *lo;
+    // Host ids are handed out sequentially, so they usually span a few times N: a
+    // counting sort (one slot per id in the range) is then O(N) and several times
+    // faster than a comparison sort. Equal ids (a plain span may repeat one) and wide
+    // ranges take the comparison sort; both keep equal ids in span order.
+    std::vector<std::uint32_t> first(range < 4 * std::uint64_t{n} ? range + 1 : 0, 0xFFFFFFFFu);
+    bool unique = !first.empty();
+    for (std::size_t i = 0; i < n && unique; ++i) {
+      std::uint32_t& slot = first[ids[i] - *lo];
+      unique = slot == 0xFFFFFFFFu;
+      slot = static_cast<std::uint32_t>(i);
+    }
+    if (unique) {
+      std::size_t j = 0;
+      for (std::uint32_t i : first)
+        if (i != 0xFFFFFFFFu) index_of[j++] = i;
+    } else {
+      // (id, span index) pairs sort without touching the Gaussians.
+      std::vector<std::pair<std::uint64_t, std::uint32_t>> order(n);
+      for (std::size_t i = 0; i < n; ++i) order[i] = {ids[i], static_cast<std::uint32_t>(i)};
+      std::sort(order.begin(), order.end());
+      for (std::size_t j = 0; j < n; ++j) index_of[j] = order[j].second;
+    }
+    auto permute = [&](auto& a) {
+      auto tmp = a;
+      for (std::size_t j = 0; j < n; ++j) a[j] = tmp[index_of[j]];
+    };
+    permute(px);
+    permute(py);
+    permute(pz);
+    permute(radius);
+    permute(weight);
+    permute(ids);
+    permute(object);
+    permute(carrier);
+    permute(global_key);
+  }
+  data = g.data();
+  version = v;
+}
+
 Selector::Selector(SelectorConfig config) : impl_(std::make_unique<Impl>()) { impl_->config = config; }
+
+void Selector::share_terms(std::shared_ptr<SelectorTerms> terms) { impl_->shared = std::move(terms); }
 Selector::Selector(Selector&&) noexcept = default;
 Selector& Selector::operator=(Selector&&) noexcept = default;
 Selector::~Selector() = default;
@@ -351,25 +399,26 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
     if (!res) return res.error();
     out.query = std::move(*res);
   }
-  if (!s.cached || s.version != scene_version || s.data != gaussians.data() || s.n != gaussians.size()) {
+  if (!s.terms || !s.terms->matches(gaussians, scene_version)) {
     s.materialise_resident_ids();
-    s.rebuild(gaussians, scene_version);
+    s.adopt_terms(gaussians, scene_version);
     s.resident_flags_valid = false;
   }
+  const StaticTerms& T = *s.terms;
   if (!s.resident_flags_valid) {
-    s.resident_flags.assign(s.n, 0);
+    s.resident_flags.assign(T.n, 0);
     if (!s.resident_ids.empty()) {
       std::vector<GaussianId> r = s.resident_ids;
       std::sort(r.begin(), r.end());
       std::size_t a = 0;
-      for (std::size_t j = 0; j < s.n && a < r.size(); ++j) {
-        while (a < r.size() && to_underlying(r[a]) < s.ids[j]) ++a;
-        s.resident_flags[j] = a < r.size() && to_underlying(r[a]) == s.ids[j];
+      for (std::size_t j = 0; j < T.n && a < r.size(); ++j) {
+        while (a < r.size() && to_underlying(r[a]) < T.ids[j]) ++a;
+        s.resident_flags[j] = a < r.size() && to_underlying(r[a]) == T.ids[j];
       }
     }
     s.resident_flags_valid = true;
   }
-  const std::size_t n = s.n;
+  const std::size_t n = T.n;
 
   // Query membership by object id: a flat flag table for the usual small ids.
   constexpr std::int64_t kFlagLimit = 1 << 20;
@@ -407,8 +456,8 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
     std::size_t n_bg = 0;
     for (std::size_t j = 0; j < n; ++j) {
       std::uint8_t p = kExcluded;
-      if (!s.carrier[j] && (eligible.empty() || eligible[s.span_index(j)] != 0)) {
-        p = (out.query && in_query(s.object[j])) ? kObject : kBackground;
+      if (!T.carrier[j] && (eligible.empty() || eligible[T.span_index(j)] != 0)) {
+        p = (out.query && in_query(T.object[j])) ? kObject : kBackground;
       }
       s.part[j] = p;
       n_obj += p == kObject;
@@ -427,7 +476,7 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
     for (std::uint8_t p : {kObject, kBackground}) {
       const std::size_t budget = p == kObject ? s.object_budget : s.bg_budget;
       const auto global_budget = static_cast<std::size_t>(std::floor(cfg.global_fraction * static_cast<double>(budget)));
-      global_taken[p] = s.top.select(s.global_key, s.part, p, global_budget, s.global_flags);
+      global_taken[p] = s.top.select(T.global_key, s.part, p, global_budget, s.global_flags);
     }
     s.global_obj = global_taken[kObject];
     s.global_bg = global_taken[kBackground];
@@ -471,8 +520,8 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
     for (std::size_t i = 0; i < m; ++i) {
       if (!o.selected[i]) continue;
       const std::uint32_t j = o.pos[i];
-      out.ids.push_back(GaussianId{s.ids[j]});
-      out.indices.push_back(s.span_index(j));
+      out.ids.push_back(GaussianId{T.ids[j]});
+      out.indices.push_back(T.span_index(j));
       retained += o.resident[i];
       s.resident_flags[j] = 1;
     }
@@ -482,7 +531,7 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
   }
 
   s.view_key.resize(n);
-  select_detail::score_view(n, s.px.data(), s.py.data(), s.pz.data(), s.radius.data(), s.weight.data(),
+  select_detail::score_view(n, T.px.data(), T.py.data(), T.pz.data(), T.radius.data(), T.weight.data(),
                             s.part.data(), s.resident_flags.data(), vp, s.view_key.data());
   s.selected = s.global_flags;  // same size: a copy, no allocation once warm
   out.global_selected = s.global_obj + s.global_bg;
@@ -516,8 +565,8 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
     const std::size_t end = std::min(n, j + 8);
     for (; j < end && t < total; ++j) {
       if (!sel[j]) continue;
-      out_id[t] = GaussianId{s.ids[j]};
-      out_index[t] = s.span_index(j);
+      out_id[t] = GaussianId{T.ids[j]};
+      out_index[t] = T.span_index(j);
       retained += s.resident_flags[j];
       ++t;
     }

@@ -61,6 +61,7 @@ HostSession::HostSession(std::uint32_t client_id, std::uint64_t session_id, Code
       selector_(config_.selector),
       differ_(params),
       bucket_(config_.query_burst) {
+  if (config_.shared_selector_terms) selector_.share_terms(config_.shared_selector_terms);
   if (config_.lod && config_.shared_lod)
     lod_.emplace(config_.shared_lod, config_.selector);
   else if (config_.lod)

@@ -83,6 +83,9 @@ struct HostSessionConfig {
   // per client: the sessions sharing it must have the same eligibility and SH degree; `lod` is
   // then only a switch, the shared one's config applies). Null: the session builds its own.
   std::shared_ptr<LodEpochHierarchy> shared_lod;
+  // The selection's per-Gaussian terms, shared with the other sessions reading the same
+  // scene (SessionHost shares one set between all its sessions). Null: the session's own.
+  std::shared_ptr<SelectorTerms> shared_selector_terms;
 };
 
 struct HostSessionStats {

@@ -107,6 +107,26 @@ Status validate_client_pose(const ClientPose& pose);
 // Every SelectorConfig field in its documented range (the error names the field).
 Status validate_selector_config(const SelectorConfig& config);
 
+// The per-Gaussian terms Selectors rank by (positions, extents, weights, in id order), one
+// set per scene version, shared by every Selector given this: the sessions of one host
+// reading one scene then compute them once per epoch instead of once each (about 40 bytes
+// per Gaussian and an O(N) pass per session). Thread-safe: the first Selector to see a
+// version builds the set while the others wait.
+class SelectorTerms {
+ public:
+  SelectorTerms();
+  ~SelectorTerms();
+  SelectorTerms(const SelectorTerms&) = delete;
+  SelectorTerms& operator=(const SelectorTerms&) = delete;
+  // Sets built so far (one per scene version some Selector asked for).
+  std::uint64_t builds() const;
+
+ private:
+  friend class Selector;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
 class Selector {
  public:
   explicit Selector(SelectorConfig config = {});
@@ -134,8 +154,13 @@ class Selector {
   // client acknowledged may set it explicitly; clear_resident() forgets it.
   void set_resident(std::span<const GaussianId> ids);
   void clear_resident();
+  // Takes its static terms from `terms` (shared with other Selectors of the same scene)
+  // instead of computing its own.
+  void share_terms(std::shared_ptr<SelectorTerms> terms);
 
  private:
+  friend class SelectorTerms;
+  struct StaticTerms;
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
