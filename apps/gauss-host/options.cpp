@@ -120,7 +120,7 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
       ->type_name("DIR");
   app.add_option("--lod", o.lod,
                  "level of detail: 'on' (default) sends what a client's budget cannot hold in detail as a coarse cut "
-                 "through a merge hierarchy (no black holes; one hierarchy for all clients, about 0.7 KB per "
+                 "through a merge hierarchy (no black holes; one hierarchy for all clients, about 0.6 KB per "
                  "Gaussian), 'off' sends the best Gaussians only")
       ->transform(CLI::Transformer(std::map<std::string, bool>{{"on", true}, {"off", false}}))
       ->type_name("on|off");

@@ -42,7 +42,7 @@ struct Options {
   std::filesystem::path dump_sent_dir;  // empty: no dumps
   // --lod: a coarse background under the budget (LoD cut), on by default: what a client's
   // budget cannot hold in detail is sent coarse instead of left out. The sessions share one
-  // hierarchy (about 0.7 KB per Gaussian for the host, whatever the number of clients).
+  // hierarchy (about 0.6 KB per Gaussian for the host, whatever the number of clients).
   bool lod{true};
   bool quiet{false};
 };
