@@ -123,7 +123,8 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
                  "through a merge hierarchy (no black holes; one hierarchy for all clients, about 0.6 KB per "
                  "Gaussian), 'off' sends the best Gaussians only")
       ->transform(CLI::Transformer(std::map<std::string, bool>{{"on", true}, {"off", false}}))
-      ->type_name("on|off");
+      ->type_name("on|off")
+      ->default_str(o.lod ? "on" : "off");
   app.add_flag("--quiet", o.quiet, "no once-a-second status line");
   app.footer(
       "--dump-sent DIR: when a client's session ends (it disconnects, or the host exits), writes\n"
