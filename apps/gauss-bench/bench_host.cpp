@@ -589,6 +589,22 @@ void feed(BenchClient& c, const SceneStore& store, double now) {
   (void)c.session->on_message(wire::Message{p}, store, now);
 }
 
+// K sessions, each welcomed and looking from its own point of the trajectory.
+std::vector<BenchClient> connect_clients(unsigned k, const CodecParams& params, const HostSessionConfig& cfg,
+                                         const SceneStore& store, const std::vector<Camera>& path, std::size_t budget,
+                                         const std::string& name) {
+  std::vector<BenchClient> clients(k);
+  for (unsigned i = 0; i < k; ++i) {
+    clients[i].session = std::make_unique<HostSession>(i + 1, 1, params, cfg);
+    clients[i].pose = ClientPose::from_camera(path[(i * path.size()) / std::max(1u, k)]);
+    msg::Hello hello;
+    hello.slot_capacity = static_cast<std::uint32_t>(budget);
+    hello.client_name = name + std::to_string(i);
+    (void)clients[i].session->on_message(wire::Message{hello}, store, 0.0);
+  }
+  return clients;
+}
+
 json bench_clients(const SceneStore& store, const SyntheticScene& scene, const Options& o) {
   net::WorkerPool pool(0);
   std::printf("\n5. several clients, one host (M = %zu each, %u threads tick the sessions; wall and process CPU)\n",
@@ -603,16 +619,8 @@ json bench_clients(const SceneStore& store, const SyntheticScene& scene, const O
   double base_ms = 0.0;
   const auto& path = scene.trajectory();
   for (unsigned k : o.client_counts) {
-    std::vector<BenchClient> clients(k);
     double now = 0.0;
-    for (unsigned i = 0; i < k; ++i) {
-      clients[i].session = std::make_unique<HostSession>(i + 1, 1, params, cfg);
-      clients[i].pose = ClientPose::from_camera(path[(i * path.size()) / std::max(1u, k)]);
-      msg::Hello hello;
-      hello.slot_capacity = static_cast<std::uint32_t>(o.budget);
-      hello.client_name = "bench-" + std::to_string(i);
-      (void)clients[i].session->on_message(wire::Message{hello}, store, now);
-    }
+    std::vector<BenchClient> clients = connect_clients(k, params, cfg, store, path, o.budget, "bench-");
     auto tick_all = [&] {
       for (BenchClient& c : clients) feed(c, store, now);
       pool.parallel_for(clients.size(), [&](std::size_t i) {
@@ -672,16 +680,8 @@ json bench_clients_lod(SceneStore& store, const SyntheticScene& scene, const Opt
     cfg.lod = LodConfig{};
     cfg.shared_lod = std::make_shared<LodEpochHierarchy>(store.sh_degree(), *cfg.lod);
     cfg.shared_selector_terms = std::make_shared<SelectorTerms>();
-    std::vector<BenchClient> clients(k);
     double now = 0.0;
-    for (unsigned i = 0; i < k; ++i) {
-      clients[i].session = std::make_unique<HostSession>(i + 1, 1, params, cfg);
-      clients[i].pose = ClientPose::from_camera(path[(i * path.size()) / std::max(1u, k)]);
-      msg::Hello hello;
-      hello.slot_capacity = static_cast<std::uint32_t>(o.budget);
-      hello.client_name = "bench-lod-" + std::to_string(i);
-      (void)clients[i].session->on_message(wire::Message{hello}, store, now);
-    }
+    std::vector<BenchClient> clients = connect_clients(k, params, cfg, store, path, o.budget, "bench-lod-");
     auto tick_all = [&] {
       for (BenchClient& c : clients) feed(c, store, now);
       const auto t0 = Clock::now();
