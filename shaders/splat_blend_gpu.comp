@@ -14,6 +14,13 @@
 // wants many invocations per tile to hide load latency and coalesced loads: 256 per tile
 // instead of 32, each with one pixel instead of eight.
 //
+// Each splat is skipped for the rows of the tile it cannot reach: the invocation that loads
+// it also finds those rows (tile_rows_reachable, 16 bits), and a pixel in a row the splat
+// misses goes on to the next splat, so a subgroup whose rows all miss skips the splat's
+// arithmetic as a whole. The bound is the blend's own test made conservative, so every
+// pixel blends exactly the splats it blended without it, and the image keeps its bytes;
+// splats smaller than a tile, and the edges of large ones, reach a few of its rows only.
+//
 // The workgroup stops once every pixel is done (transmittance stop or outside the image):
 // each subgroup with a live pixel adds one to a shared count before the batch's barrier,
 // and a batch that sees zero ends the loop for all invocations alike. Two counts
@@ -32,6 +39,7 @@
 const uint BATCH = SPLAT_TILE * SPLAT_TILE;
 layout(local_size_x = BATCH) in;
 layout(constant_id = SPLAT_SPEC_MESH) const bool MESH = false;
+layout(constant_id = SPLAT_SPEC_ROW_SKIP) const bool ROW_SKIP = true;
 
 layout(std430, binding = SPLAT_BINDING_VALS_IN) readonly buffer ValsBuf { uint vals[]; };
 layout(std430, binding = SPLAT_BINDING_RANGES) readonly buffer RangesBuf { uvec2 ranges[]; };
@@ -42,6 +50,7 @@ layout(binding = SPLAT_BINDING_MESH_DEPTH) uniform sampler2D mesh_depth;
 shared vec4 s_cdo[BATCH];     // centre u, v, depth, opacity
 shared vec4 s_conic[BATCH];   // A, B, C, unused
 shared vec4 s_colour[BATCH];  // rgb, unused
+shared uint s_rows[BATCH];    // the tile's rows the splat can reach (tile_rows_reachable)
 shared uint s_live[2];        // subgroups with a live pixel, per batch parity
 
 uint to_unorm8(float x) {
@@ -54,7 +63,8 @@ void main() {
   const uvec2 tile = gl_WorkGroupID.xy;
   const uint lid = gl_LocalInvocationIndex;
   const uint x = tile.x * SPLAT_TILE + lid % SPLAT_TILE;
-  const uint y = tile.y * SPLAT_TILE + lid / SPLAT_TILE;
+  const uint row = lid / SPLAT_TILE;
+  const uint y = tile.y * SPLAT_TILE + row;
   const uvec2 range = ranges[tile.y * view.size.z + tile.x];
   const float px = float(x) + 0.5, py = float(y) + 0.5;
 
@@ -84,16 +94,21 @@ void main() {
         s_cdo[lid] = pr.centre_depth_opacity;
         s_conic[lid] = pr.conic;
         s_colour[lid] = pr.colour;
+        s_rows[lid] = ROW_SKIP ? tile_rows_reachable(pr.conic.xyz, pr.centre_depth_opacity.xy,
+                                                     exact_cull_qmax(pr.centre_depth_opacity.w), tile.x, tile.y)
+                               : 0xFFFFu;
       } else {
         s_cdo[lid] = vec4(0.0);
         s_conic[lid] = vec4(0.0);
         s_colour[lid] = vec4(0.0);
+        s_rows[lid] = 0u;
       }
     }
     barrier();
     if (s_live[parity] == 0u) break;  // the same value for every invocation
     const uint n = min(BATCH, range.y - base);
     for (uint j = 0u; j < n && !done; ++j) {
+      if (ROW_SKIP && (s_rows[j] & (1u << row)) == 0u) continue;  // alpha < 1/255 at every pixel of this row
       const vec4 cdo = s_cdo[j];
       const vec3 conic = s_conic[j].xyz;
       const float dx = cdo.x - px;

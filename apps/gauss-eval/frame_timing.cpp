@@ -30,6 +30,9 @@ struct Phase {
   std::uint64_t first{0}, last{0};  // display frame indices, inclusive
   std::vector<double> cpu_ms;
   Timing gpu;
+  // What the GPU passes worked on, per frame: the slots' high-water mark (preprocess and
+  // compact run over it), and each eye's visible splats (the depth sort's keys) and pairs.
+  std::vector<double> high_water, visible, pairs;
 };
 
 }  // namespace
@@ -84,7 +87,14 @@ Expected<Json> measure_stereo_timing(Room& room, Json& timing) {
   if (auto img = session.client().renderer().read_image(); !img) return img.error();
   for (const client::GpuFrameStats& g : session.client().take_gpu_stats())
     for (Phase& p : phases)
-      if (g.frame_index >= p.first && g.frame_index <= p.last) p.gpu.add_gpu({g});
+      if (g.frame_index >= p.first && g.frame_index <= p.last) {
+        p.gpu.add_gpu({g});
+        p.high_water.push_back(g.view[0].high_water);
+        for (std::uint32_t v = 0; v < g.views && v < g.view.size(); ++v) {
+          p.visible.push_back(g.view[v].visible);
+          p.pairs.push_back(g.view[v].pairs);
+        }
+      }
   const std::uint32_t resident_b = session.client().with_state([](const ClientState& s) {
     return s.slots().size();
   });
@@ -95,7 +105,10 @@ Expected<Json> measure_stereo_timing(Room& room, Json& timing) {
     for (const auto& [pass, ms] : p.gpu.pass_gpu_ms) passes[pass] = percentiles(ms);
     phase_timing[p.name] = Json{{"frame_cpu_ms", percentiles(p.cpu_ms)},
                                 {"frame_gpu_ms", percentiles(p.gpu.frame_gpu_ms)},
-                                {"pass_gpu_ms", std::move(passes)}};
+                                {"pass_gpu_ms", std::move(passes)},
+                                {"high_water", percentiles(p.high_water)},
+                                {"visible_per_eye", percentiles(p.visible)},
+                                {"pairs_per_eye", percentiles(p.pairs)}};
     room.timing.frame_cpu_ms.insert(room.timing.frame_cpu_ms.end(), p.cpu_ms.begin(), p.cpu_ms.end());
   }
   timing = Json{{"budget", o.stereo_budget},

@@ -267,5 +267,41 @@ TEST_F(SplatPassShapesTest, SameBytesOverMoreThan256PairBlocks) {
   EXPECT_FALSE(big.stats.pair_overflow);
 }
 
+// The GPU blend skips a splat for the tile rows it cannot reach (tile_rows_reachable); the
+// CPU shape has no such skip, so equal bytes mean the skip never drops a pixel the blend
+// would have blended. Faint, thin and rotated splats end their alpha >= 1/255 region inside
+// tiles at every angle and at every row boundary (opacity from just under 1/255 to 0.9,
+// aspect up to 1000:1), huge ones have their centres far off the image, and exact culling
+// is off so that tiles also get splats that reach none of their rows.
+TEST_F(SplatPassShapesTest, SameBytesWhereTheBlendSkipsRows) {
+  const Camera cam = forward_camera(160, 120);
+  Rng rng;
+  rng.s ^= 0xB1E5D0ull;
+  std::vector<Gaussian> scene(6000);
+  for (std::size_t i = 0; i < scene.size(); ++i) {
+    Gaussian& g = scene[i];
+    const float z = float(rng.uniform(1.5, 6.0));
+    g.position = {rng.uniform(-0.5 * z, 0.5 * z), rng.uniform(-0.37 * z, 0.37 * z), z};
+    const double thin = rng.uniform(-7.0, -3.5), wide = rng.uniform(-3.5, -1.5);
+    g.log_scale = glm::vec3(float(wide), float(i % 3 == 0 ? wide : thin), float(thin));
+    g.rotation = glm::normalize(glm::vec4(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)));
+    // opacity from 1/300 (below the 1/255 cut everywhere) to 0.9
+    g.opacity_logit = float(rng.uniform(-5.7, 2.2));
+    g.sh_dc = {rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5)};
+    if (i % 97 == 0) {  // huge, centre far off the image, its faint edge crossing it
+      g.position.x = (i % 2 ? 3.0f : -3.0f) * z;
+      g.log_scale = glm::vec3(float(std::log(1.2 * z)), float(std::log(0.05 * z)), float(std::log(0.3 * z)));
+      g.opacity_logit = -3.0f;
+    }
+  }
+  render::SplatRenderOptions loose;
+  loose.exact_culling = false;
+  both_equal(scene, cam, std::uint32_t(scene.size()), "row_skip_loose", 0, loose);
+  const Rendered exact = both_equal(scene, cam, std::uint32_t(scene.size()), "row_skip_exact");
+  auto ref = render::render_reference(scene, {}, 0, cam);
+  ASSERT_TRUE(ref.ok()) << ref.message();
+  EXPECT_TRUE(close_to_reference(ref->rgba8, exact.image, "pass_shapes_row_skip_reference"));
+}
+
 }  // namespace
 }  // namespace gauss::test

@@ -126,7 +126,18 @@ Expected<SplatPassProfile> choose_pass_shapes(const vk::Context& context, SplatP
       digits = std::string(v) + "-bit digits (GAUSS_SORT_RADIX_BITS)";
     }
   }
-  profile.reason = std::string(pass_shapes_name(requested)) + " (" + describe(context, why) + "; " + digits + ")";
+  std::string rows;
+  if (requested == SplatPassShapes::Gpu) {
+    if (const char* env = std::getenv("GAUSS_BLEND_ROW_SKIP"); env && *env) {
+      const std::string_view v = env;
+      if (v != "0" && v != "1") return Error{"GAUSS_BLEND_ROW_SKIP=" + std::string(v) + ": expected 0 or 1"};
+      profile.blend_row_skip = v == "1";
+      rows = profile.blend_row_skip ? "; blend row skip (GAUSS_BLEND_ROW_SKIP)" : "; no blend row skip (GAUSS_BLEND_ROW_SKIP)";
+    } else {
+      rows = "; blend row skip";
+    }
+  }
+  profile.reason = std::string(pass_shapes_name(requested)) + " (" + describe(context, why) + "; " + digits + rows + ")";
   return profile;
 }
 

@@ -135,6 +135,7 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
                  std::to_string(profile.sort_rows) + " scatter rows (4 or 8 bits, 1.." +
                  std::to_string(gpu::SPLAT_MAX_SUBGROUPS) + " rows)"};
   p.radix_bits_ = g ? profile.radix_bits : gpu::SORT_RADIX_BITS;
+  p.blend_row_skip_ = g && profile.blend_row_skip;
   const vk::SpecConstant digit_spec{gpu::SORT_SPEC_RADIX_BITS, p.radix_bits_};
   struct Fixed {
     vk::ComputePipeline* out;
@@ -270,6 +271,7 @@ Expected<const vk::ComputePipeline*> SplatPipelines::blend(bool mesh) {
   // shared-memory batches (splat_blend_gpu.comp).
   const bool g = shapes_ == SplatPassShapes::Gpu;
   if (!g) spec.push_back({gpu::SPLAT_SPEC_BALLOT_WORDS, ballot_words(*context_)});
+  else spec.push_back({gpu::SPLAT_SPEC_ROW_SKIP, blend_row_skip_ ? 1u : 0u});
   auto pipe = make(*context_, g ? "splat blend (batched)" : "splat blend",
                    g ? vk::spirv(gauss_spv_splat_blend_gpu_comp) : vk::spirv(gauss_spv_splat_blend_comp),
                    std::move(bindings), std::move(spec));
