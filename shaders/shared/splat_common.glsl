@@ -76,31 +76,4 @@ bool tile_reachable(vec3 conic, vec2 centre, float q_max, uint tx, uint ty, uint
                         float(min(ty * SPLAT_TILE + SPLAT_TILE, height) - 1u) + 0.5);
 }
 
-// The rows of screen tile (tile_x, tile_y) a splat can reach: bit r stands for pixel row
-// tile_y * SPLAT_TILE + r. The GPU blend skips a splat for the pixels of rows it cannot
-// reach (a subgroup whose rows all miss skips it as a whole). For any dx,
-// q >= dy^2 (AC - B^2) / A, the minimum of the quadratic in dx, so a row whose dy (computed
-// as the blend computes it) puts that bound above q_max cannot pass at any of its pixels.
-// Slack, as in rect_reachable: the determinant is lowered by 1e-6 of its terms (its own
-// rounding), the bound by 1e-5 (the rest of this test's), and it must clear q_max by 1e-4
-// of q's terms over the row (|dx| at most the tile's farthest column: the blend's rounding).
-// A conic that is not positive definite, or a NaN anywhere, reaches every row.
-uint tile_rows_reachable(vec3 conic, vec2 centre, float q_max, uint tile_x, uint tile_y) {
-  const uint every_row = (1u << SPLAT_TILE) - 1u;
-  const float a = conic.x, b = conic.y, c = conic.z;
-  const float det = a * c - b * b - 1e-6 * (a * c + b * b);
-  if (!(a > 0.0 && c > 0.0 && det > 0.0)) return every_row;
-  const float dx_far = max(abs(centre.x - (float(tile_x * SPLAT_TILE) + 0.5)),
-                           abs(centre.x - (float(tile_x * SPLAT_TILE + SPLAT_TILE - 1u) + 0.5)));
-  const float k = det / a;
-  uint rows = 0u;
-  for (uint r = 0u; r < SPLAT_TILE; ++r) {
-    const float dy = centre.y - (float(tile_y * SPLAT_TILE + r) + 0.5);
-    const float bound = dy * dy * k * (1.0 - 1e-5);
-    const float terms = a * dx_far * dx_far + 2.0 * abs(b * dx_far * dy) + c * dy * dy;
-    if (!(bound > q_max + 1e-4 * terms)) rows |= 1u << r;
-  }
-  return rows;
-}
-
 #endif  // GAUSS_SHADERS_SHARED_SPLAT_COMMON_GLSL

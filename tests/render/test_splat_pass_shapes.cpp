@@ -34,23 +34,23 @@ struct Rendered {
   render::SplatFrameStats stats;
 };
 
-// Sets GAUSS_SORT_RADIX_BITS for its lifetime (nullptr: unset), restoring what was there.
-class RadixBitsOverride {
+// Sets an environment variable for its lifetime (nullptr: unset), restoring what was there.
+class EnvOverride {
  public:
-  explicit RadixBitsOverride(const char* bits) {
-    if (const char* before = std::getenv(kName)) saved_ = before;
-    if (bits) ::setenv(kName, bits, 1);
-    else ::unsetenv(kName);
+  EnvOverride(const char* name, const char* value) : name_(name) {
+    if (const char* before = std::getenv(name)) saved_ = before;
+    if (value) ::setenv(name, value, 1);
+    else ::unsetenv(name);
   }
-  ~RadixBitsOverride() {
-    if (saved_) ::setenv(kName, saved_->c_str(), 1);
-    else ::unsetenv(kName);
+  ~EnvOverride() {
+    if (saved_) ::setenv(name_, saved_->c_str(), 1);
+    else ::unsetenv(name_);
   }
-  RadixBitsOverride(const RadixBitsOverride&) = delete;
-  RadixBitsOverride& operator=(const RadixBitsOverride&) = delete;
+  EnvOverride(const EnvOverride&) = delete;
+  EnvOverride& operator=(const EnvOverride&) = delete;
 
  private:
-  static constexpr const char* kName = "GAUSS_SORT_RADIX_BITS";
+  const char* name_;
   std::optional<std::string> saved_;
 };
 
@@ -84,7 +84,7 @@ class SplatPassShapesTest : public VkTest {
     const Rendered cpu = render_with(SplatPassShapes::Cpu, scene, cam, capacity, first_slot, options);
     Rendered gpu;
     for (const char* bits : {"4", "8"}) {
-      RadixBitsOverride digits(bits);
+      EnvOverride digits("GAUSS_SORT_RADIX_BITS", bits);
       auto profile = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
       if (!profile.ok()) continue;  // 8-bit rows do not fit this device's subgroups
       const std::string what = name + " (" + bits + "-bit digits)";
@@ -140,7 +140,7 @@ TEST_F(SplatPassShapesTest, ProfileFollowsTheDeviceAndTheOverride) {
 // more (the scatter's shared rows fit); the override picks either width where it fits and
 // is refused, with the numbers, where it does not or is not a width.
 TEST_F(SplatPassShapesTest, DigitWidthFollowsTheSubgroupSize) {
-  RadixBitsOverride none(nullptr);
+  EnvOverride none("GAUSS_SORT_RADIX_BITS", nullptr);
   auto gpu = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
   ASSERT_TRUE(gpu.ok()) << gpu.message();
   const bool wide = context().min_subgroup_size() >= 16;
@@ -151,22 +151,45 @@ TEST_F(SplatPassShapesTest, DigitWidthFollowsTheSubgroupSize) {
   ASSERT_TRUE(cpu.ok()) << cpu.message();
   EXPECT_EQ(cpu->radix_bits, 4u);
   {
-    RadixBitsOverride four("4");
+    EnvOverride four("GAUSS_SORT_RADIX_BITS", "4");
     auto asked = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
     ASSERT_TRUE(asked.ok()) << asked.message();
     EXPECT_EQ(asked->radix_bits, 4u);
   }
   {
-    RadixBitsOverride eight("8");
+    EnvOverride eight("GAUSS_SORT_RADIX_BITS", "8");
     auto asked = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
     ASSERT_EQ(asked.ok(), wide) << (asked.ok() ? asked->reason : asked.message());
     if (asked.ok()) EXPECT_EQ(asked->radix_bits, 8u);
     else EXPECT_NE(asked.message().find("bytes of shared memory"), std::string::npos) << asked.message();
   }
-  RadixBitsOverride six("6");
+  EnvOverride six("GAUSS_SORT_RADIX_BITS", "6");
   auto bad = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.message().find("GAUSS_SORT_RADIX_BITS=6"), std::string::npos) << bad.message();
+}
+
+// The GPU blend's pixels per invocation: 2 unless overridden with 1, 2 or 4; any other
+// value is refused by name. The CPU shapes ignore it.
+TEST_F(SplatPassShapesTest, BlendWidthFollowsTheOverride) {
+  {
+    EnvOverride none("GAUSS_BLEND_PIXELS", nullptr);
+    auto gpu = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
+    ASSERT_TRUE(gpu.ok()) << gpu.message();
+    EXPECT_EQ(gpu->blend_pixels, 2u);
+    EXPECT_NE(gpu->reason.find("blend 2 pixels per invocation"), std::string::npos) << gpu->reason;
+  }
+  for (const char* v : {"1", "4"}) {
+    EnvOverride width("GAUSS_BLEND_PIXELS", v);
+    auto gpu = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
+    ASSERT_TRUE(gpu.ok()) << gpu.message();
+    EXPECT_EQ(gpu->blend_pixels, std::uint32_t(v[0] - '0'));
+  }
+  EnvOverride three("GAUSS_BLEND_PIXELS", "3");
+  auto bad = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.message().find("GAUSS_BLEND_PIXELS=3"), std::string::npos) << bad.message();
+  EXPECT_TRUE(render::choose_pass_shapes(context(), SplatPassShapes::Cpu).ok());
 }
 
 // A misspelt override is refused by name, not silently ignored.
@@ -267,13 +290,12 @@ TEST_F(SplatPassShapesTest, SameBytesOverMoreThan256PairBlocks) {
   EXPECT_FALSE(big.stats.pair_overflow);
 }
 
-// The GPU blend skips a splat for the tile rows it cannot reach (tile_rows_reachable); the
-// CPU shape has no such skip, so equal bytes mean the skip never drops a pixel the blend
-// would have blended. Faint, thin and rotated splats end their alpha >= 1/255 region inside
-// tiles at every angle and at every row boundary (opacity from just under 1/255 to 0.9,
-// aspect up to 1000:1), huge ones have their centres far off the image, and exact culling
-// is off so that tiles also get splats that reach none of their rows.
-TEST_F(SplatPassShapesTest, SameBytesWhereTheBlendSkipsRows) {
+// Splats whose alpha >= 1/255 region ends inside tiles at every angle: faint, thin and
+// rotated ones (opacity from just under 1/255 to 0.9, aspect up to 1000:1), and huge ones
+// whose centres lie far off the image, with exact culling off too so that tiles also get
+// splats that reach none of their pixels. The GPU blend at each pixels-per-invocation
+// width (GAUSS_BLEND_PIXELS 1, 2, 4) renders the CPU shape's bytes.
+TEST_F(SplatPassShapesTest, SameBytesWithFaintThinAndFarSplatsAtEveryBlendWidth) {
   const Camera cam = forward_camera(160, 120);
   Rng rng;
   rng.s ^= 0xB1E5D0ull;
@@ -296,11 +318,16 @@ TEST_F(SplatPassShapesTest, SameBytesWhereTheBlendSkipsRows) {
   }
   render::SplatRenderOptions loose;
   loose.exact_culling = false;
-  both_equal(scene, cam, std::uint32_t(scene.size()), "row_skip_loose", 0, loose);
-  const Rendered exact = both_equal(scene, cam, std::uint32_t(scene.size()), "row_skip_exact");
+  Rendered exact;
+  for (const char* pixels : {"1", "2", "4"}) {
+    EnvOverride width("GAUSS_BLEND_PIXELS", pixels);
+    const std::string name = std::string("faint_thin_far_px") + pixels;
+    both_equal(scene, cam, std::uint32_t(scene.size()), name + "_loose", 0, loose);
+    exact = both_equal(scene, cam, std::uint32_t(scene.size()), name);
+  }
   auto ref = render::render_reference(scene, {}, 0, cam);
   ASSERT_TRUE(ref.ok()) << ref.message();
-  EXPECT_TRUE(close_to_reference(ref->rgba8, exact.image, "pass_shapes_row_skip_reference"));
+  EXPECT_TRUE(close_to_reference(ref->rgba8, exact.image, "pass_shapes_faint_thin_far_reference"));
 }
 
 }  // namespace

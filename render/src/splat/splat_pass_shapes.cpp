@@ -126,18 +126,17 @@ Expected<SplatPassProfile> choose_pass_shapes(const vk::Context& context, SplatP
       digits = std::string(v) + "-bit digits (GAUSS_SORT_RADIX_BITS)";
     }
   }
-  std::string rows;
+  std::string blend;
   if (requested == SplatPassShapes::Gpu) {
-    if (const char* env = std::getenv("GAUSS_BLEND_ROW_SKIP"); env && *env) {
+    blend = "; blend " + std::to_string(profile.blend_pixels) + " pixels per invocation";
+    if (const char* env = std::getenv("GAUSS_BLEND_PIXELS"); env && *env) {
       const std::string_view v = env;
-      if (v != "0" && v != "1") return Error{"GAUSS_BLEND_ROW_SKIP=" + std::string(v) + ": expected 0 or 1"};
-      profile.blend_row_skip = v == "1";
-      rows = profile.blend_row_skip ? "; blend row skip (GAUSS_BLEND_ROW_SKIP)" : "; no blend row skip (GAUSS_BLEND_ROW_SKIP)";
-    } else {
-      rows = "; blend row skip";
+      if (v != "1" && v != "2" && v != "4") return Error{"GAUSS_BLEND_PIXELS=" + std::string(v) + ": expected 1, 2 or 4"};
+      profile.blend_pixels = std::uint32_t(v[0] - '0');
+      blend = "; blend " + std::string(v) + " pixels per invocation (GAUSS_BLEND_PIXELS)";
     }
   }
-  profile.reason = std::string(pass_shapes_name(requested)) + " (" + describe(context, why) + "; " + digits + rows + ")";
+  profile.reason = std::string(pass_shapes_name(requested)) + " (" + describe(context, why) + "; " + digits + blend + ")";
   return profile;
 }
 
