@@ -343,7 +343,9 @@ void stereo_timing_section(std::ostream& md, const Json& report) {
   md << "## Frame timing while publication runs (stereo)\n\n"
      << "Two eyes per frame, progressive publication at a fixed allowance on the client's publication thread "
         "(in lock step: each step, asked for in one frame, reaches the next; deterministic): idle at A, then a far "
-        "teleport to B streaming in until the client converged, then idle at B. CPU: the display thread per frame "
+        "teleport to B streaming in until the client converged, then idle at B; then frames at B back to back, "
+        "without the simulated host's ticks between them (sustained: the GPU kept busy, at the clocks a busy GPU "
+        "runs; an idling GPU lowers them). CPU: the display thread per frame "
         "(its publication share, uploads, rendering and the wait for the frame two back); GPU: both "
         "eyes, per frame and per pass (wall clock, on " << report["device"].get<std::string>() << ").\n\n"
      << "| scene | M | size | resident A / B | streaming frames (virtual s) | phase | frames | CPU ms p50 / p95 / p99 "
@@ -353,7 +355,7 @@ void stereo_timing_section(std::ostream& md, const Json& report) {
     const Json& st = s["stereo_timing"];
     const Json& t = scene_timing(report, s["name"].get<std::string>());
     const Json& phases = t.is_object() && t.contains("stereo_timing") ? t["stereo_timing"]["phases"] : Json();
-    for (const char* phase : {"idle_before", "streaming", "idle_after"}) {
+    for (const char* phase : {"idle_before", "streaming", "idle_after", "sustained"}) {
       const Json& p = phases.is_object() ? phases[phase] : Json();
       const Json& c = p.is_object() ? p["frame_cpu_ms"] : Json();
       const Json& g = p.is_object() ? p["frame_gpu_ms"] : Json();
@@ -373,7 +375,7 @@ void stereo_timing_section(std::ostream& md, const Json& report) {
   for (const Json& s : report["scenes"]) {
     const Json& t = scene_timing(report, s["name"].get<std::string>());
     if (!s.contains("stereo_timing") || !t.is_object() || !t.contains("stereo_timing")) continue;
-    for (const char* phase : {"idle_before", "streaming", "idle_after"})
+    for (const char* phase : {"idle_before", "streaming", "idle_after", "sustained"})
       md << "| " << s["name"].get<std::string>() << " | " << phase
          << pass_cells(t["stereo_timing"]["phases"][phase]["pass_gpu_ms"]) << " |\n";
   }

@@ -207,9 +207,6 @@ GAUSS_CONST(uint, SORT_SPEC_ROWS, 9u)
 // offsets pass), for sorts whose keys are known on the CPU to need at most
 // SORT_FUSED_OFFSETS_MAX_BLOCKS blocks (the depth sort: the high-water mark bounds them).
 GAUSS_CONST(uint, SORT_SPEC_FUSED_OFFSETS, 10u)
-// splat_blend_gpu.comp: pixels per invocation (one column), and the workgroup size 256 / that
-GAUSS_CONST(uint, SPLAT_SPEC_BLEND_PIXELS, 11u)
-GAUSS_CONST(uint, SPLAT_SPEC_BLEND_THREADS, 12u)
 GAUSS_CONST(uint, SORT_FUSED_OFFSETS_MAX_BLOCKS, 64u)
 
 // ---- Push constants ---------------------------------------------------------------------------

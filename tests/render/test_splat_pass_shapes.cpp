@@ -169,29 +169,6 @@ TEST_F(SplatPassShapesTest, DigitWidthFollowsTheSubgroupSize) {
   EXPECT_NE(bad.message().find("GAUSS_SORT_RADIX_BITS=6"), std::string::npos) << bad.message();
 }
 
-// The GPU blend's pixels per invocation: 2 unless overridden with 1, 2 or 4; any other
-// value is refused by name. The CPU shapes ignore it.
-TEST_F(SplatPassShapesTest, BlendWidthFollowsTheOverride) {
-  {
-    EnvOverride none("GAUSS_BLEND_PIXELS", nullptr);
-    auto gpu = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
-    ASSERT_TRUE(gpu.ok()) << gpu.message();
-    EXPECT_EQ(gpu->blend_pixels, 2u);
-    EXPECT_NE(gpu->reason.find("blend 2 pixels per invocation"), std::string::npos) << gpu->reason;
-  }
-  for (const char* v : {"1", "4"}) {
-    EnvOverride width("GAUSS_BLEND_PIXELS", v);
-    auto gpu = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
-    ASSERT_TRUE(gpu.ok()) << gpu.message();
-    EXPECT_EQ(gpu->blend_pixels, std::uint32_t(v[0] - '0'));
-  }
-  EnvOverride three("GAUSS_BLEND_PIXELS", "3");
-  auto bad = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
-  ASSERT_FALSE(bad.ok());
-  EXPECT_NE(bad.message().find("GAUSS_BLEND_PIXELS=3"), std::string::npos) << bad.message();
-  EXPECT_TRUE(render::choose_pass_shapes(context(), SplatPassShapes::Cpu).ok());
-}
-
 // A misspelt override is refused by name, not silently ignored.
 TEST_F(SplatPassShapesTest, RejectsAnUnknownOverride) {
   const char* before = std::getenv("GAUSS_PASS_SHAPES");
@@ -293,9 +270,8 @@ TEST_F(SplatPassShapesTest, SameBytesOverMoreThan256PairBlocks) {
 // Splats whose alpha >= 1/255 region ends inside tiles at every angle: faint, thin and
 // rotated ones (opacity from just under 1/255 to 0.9, aspect up to 1000:1), and huge ones
 // whose centres lie far off the image, with exact culling off too so that tiles also get
-// splats that reach none of their pixels. The GPU blend at each pixels-per-invocation
-// width (GAUSS_BLEND_PIXELS 1, 2, 4) renders the CPU shape's bytes.
-TEST_F(SplatPassShapesTest, SameBytesWithFaintThinAndFarSplatsAtEveryBlendWidth) {
+// splats that reach none of their pixels. The GPU shapes render the CPU shapes' bytes.
+TEST_F(SplatPassShapesTest, SameBytesWithFaintThinAndFarSplats) {
   const Camera cam = forward_camera(160, 120);
   Rng rng;
   rng.s ^= 0xB1E5D0ull;
@@ -318,13 +294,8 @@ TEST_F(SplatPassShapesTest, SameBytesWithFaintThinAndFarSplatsAtEveryBlendWidth)
   }
   render::SplatRenderOptions loose;
   loose.exact_culling = false;
-  Rendered exact;
-  for (const char* pixels : {"1", "2", "4"}) {
-    EnvOverride width("GAUSS_BLEND_PIXELS", pixels);
-    const std::string name = std::string("faint_thin_far_px") + pixels;
-    both_equal(scene, cam, std::uint32_t(scene.size()), name + "_loose", 0, loose);
-    exact = both_equal(scene, cam, std::uint32_t(scene.size()), name);
-  }
+  both_equal(scene, cam, std::uint32_t(scene.size()), "faint_thin_far_loose", 0, loose);
+  const Rendered exact = both_equal(scene, cam, std::uint32_t(scene.size()), "faint_thin_far");
   auto ref = render::render_reference(scene, {}, 0, cam);
   ASSERT_TRUE(ref.ok()) << ref.message();
   EXPECT_TRUE(close_to_reference(ref->rgba8, exact.image, "pass_shapes_faint_thin_far_reference"));

@@ -126,17 +126,7 @@ Expected<SplatPassProfile> choose_pass_shapes(const vk::Context& context, SplatP
       digits = std::string(v) + "-bit digits (GAUSS_SORT_RADIX_BITS)";
     }
   }
-  std::string blend;
-  if (requested == SplatPassShapes::Gpu) {
-    blend = "; blend " + std::to_string(profile.blend_pixels) + " pixels per invocation";
-    if (const char* env = std::getenv("GAUSS_BLEND_PIXELS"); env && *env) {
-      const std::string_view v = env;
-      if (v != "1" && v != "2" && v != "4") return Error{"GAUSS_BLEND_PIXELS=" + std::string(v) + ": expected 1, 2 or 4"};
-      profile.blend_pixels = std::uint32_t(v[0] - '0');
-      blend = "; blend " + std::string(v) + " pixels per invocation (GAUSS_BLEND_PIXELS)";
-    }
-  }
-  profile.reason = std::string(pass_shapes_name(requested)) + " (" + describe(context, why) + "; " + digits + blend + ")";
+  profile.reason = std::string(pass_shapes_name(requested)) + " (" + describe(context, why) + "; " + digits + ")";
   return profile;
 }
 

@@ -135,9 +135,6 @@ Expected<SplatPipelines> SplatPipelines::create(vk::Context& context, const Slot
                  std::to_string(profile.sort_rows) + " scatter rows (4 or 8 bits, 1.." +
                  std::to_string(gpu::SPLAT_MAX_SUBGROUPS) + " rows)"};
   p.radix_bits_ = g ? profile.radix_bits : gpu::SORT_RADIX_BITS;
-  if (g && !(profile.blend_pixels == 1 || profile.blend_pixels == 2 || profile.blend_pixels == 4))
-    return Error{"splat renderer: " + std::to_string(profile.blend_pixels) + " blend pixels per invocation (1, 2 or 4)"};
-  p.blend_pixels_ = g ? profile.blend_pixels : gpu::SPLAT_BLEND_PIXELS;
   const vk::SpecConstant digit_spec{gpu::SORT_SPEC_RADIX_BITS, p.radix_bits_};
   struct Fixed {
     vk::ComputePipeline* out;
@@ -273,10 +270,6 @@ Expected<const vk::ComputePipeline*> SplatPipelines::blend(bool mesh) {
   // shared-memory batches (splat_blend_gpu.comp).
   const bool g = shapes_ == SplatPassShapes::Gpu;
   if (!g) spec.push_back({gpu::SPLAT_SPEC_BALLOT_WORDS, ballot_words(*context_)});
-  else {
-    spec.push_back({gpu::SPLAT_SPEC_BLEND_PIXELS, blend_pixels_});
-    spec.push_back({gpu::SPLAT_SPEC_BLEND_THREADS, gpu::SPLAT_TILE * gpu::SPLAT_TILE / blend_pixels_});
-  }
   auto pipe = make(*context_, g ? "splat blend (batched)" : "splat blend",
                    g ? vk::spirv(gauss_spv_splat_blend_gpu_comp) : vk::spirv(gauss_spv_splat_blend_comp),
                    std::move(bindings), std::move(spec));

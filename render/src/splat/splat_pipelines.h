@@ -71,7 +71,6 @@ class SplatPipelines {
   SlotChunkLayout chunks_;
   SplatPassShapes shapes_{SplatPassShapes::Cpu};
   std::uint32_t radix_bits_{4};
-  std::uint32_t blend_pixels_{1};
   std::map<PreprocessKey, vk::ComputePipeline> preprocess_;
   std::map<std::uint32_t, vk::ComputePipeline> emit_;
   std::map<std::uint32_t, vk::ComputePipeline> blend_;

@@ -84,9 +84,6 @@ struct SplatPassProfile {
   std::uint32_t radix_bits{4};
   // Shared rows of the GPU radix scatter: SPLAT_WORKGROUP / the smallest subgroup.
   std::uint32_t sort_rows{64};
-  // GPU shapes' blend: pixels per invocation, a column of 1, 2 or 4 in a workgroup of
-  // 256 / that (splat_blend_gpu.comp; the same bytes). GAUSS_BLEND_PIXELS=1|2|4 overrides it.
-  std::uint32_t blend_pixels{2};
   std::string reason;
 };
 // Resolves `requested` (Auto: GAUSS_PASS_SHAPES, else the device type). Errors:
