@@ -3,7 +3,8 @@
 // of the frame against the CPU reference rasterizer (PSNR, max abs error).
 //
 // Sizes are "N@WxH" (N with k/M suffixes) or "N@WxH:stereo" (two eyes, 64 mm apart, one
-// render_stereo call per frame). Cameras: shared/bench/box_camera_WxH.json when it exists,
+// render_stereo call per frame); "capture@WxH" renders the --capture file instead of the box
+// scene, placed in front of the same camera (bench_capture.h), at its own SH degree. Cameras: shared/bench/box_camera_WxH.json when it exists,
 // else the 1280x720 one rescaled keeping its horizontal field of view, square pixels and
 // the principal point at the image centre (equal to the file cameras at their sizes).
 // Timing never decides a test; this prints a table and optionally writes JSON.
@@ -28,6 +29,7 @@
 #include <zlib.h>
 
 #include "bench_box.h"
+#include "bench_capture.h"
 #include "bench_peer.h"
 #include "bench_registry.h"
 #include "bench_util.h"
@@ -53,6 +55,8 @@ struct Config {
   long n{0};
   std::uint32_t width{0}, height{0};
   bool stereo{false};
+  bool capture{false};  // "capture@WxH": the --capture file; n is its size once loaded
+  int sh_degree{3};     // the box scene's; a capture's own
 };
 
 std::optional<long> parse_count(const std::string& s) {
@@ -80,7 +84,9 @@ std::optional<Config> parse_config(const std::string& s) {
   }
   const auto at = body.find('@'), x = body.find('x', at == std::string::npos ? 0 : at);
   if (at == std::string::npos || x == std::string::npos) return std::nullopt;
-  const auto n = parse_count(body.substr(0, at));
+  const std::string count = body.substr(0, at);
+  c.capture = count == "capture";
+  const auto n = c.capture ? std::optional<long>(1) : parse_count(count);
   char* end = nullptr;
   const std::string ws = body.substr(at + 1, x - at - 1), hs = body.substr(x + 1);
   const long w = std::strtol(ws.c_str(), &end, 10);
@@ -119,7 +125,7 @@ Expected<Camera> box_camera(const fs::path& dir, std::uint32_t w, std::uint32_t 
 constexpr const char* kBaselineLabel =
     "peer shg8/3DGS.cpp, side by side before 2026-11-23 (issue 15), lavapipe 22.3.6, 2 cores";
 double baseline_ms(const Config& c) {
-  if (c.stereo) return 0.0;
+  if (c.stereo || c.capture) return 0.0;
   struct B {
     long n;
     std::uint32_t w, h;
@@ -152,6 +158,7 @@ struct Options {
   fs::path json_out;
   fs::path bench_dir{default_bench_dir()};
   fs::path verify_box_file;
+  fs::path capture;  // capture@WxH rows
   fs::path peer;  // empty: the stored lavapipe baseline column
   int peer_rounds{2};
   int peer_timeout_s{600};
@@ -190,10 +197,10 @@ void add_options(CLI::App& cmd, Options& o, std::vector<std::string>& sizes) {
       ->delimiter(',')
       ->check(CLI::Validator(
           [](std::string& in) -> std::string {
-            return parse_config(in) ? std::string{} : "bad size '" + in + "' (want N@WxH or N@WxH:stereo)";
+            return parse_config(in) ? std::string{} : "bad size '" + in + "' (want N@WxH, N@WxH:stereo or capture@WxH)";
           },
           ""))
-      ->type_name("N@WxH[:stereo],...")
+      ->type_name("N@WxH[:stereo]|capture@WxH,...")
       ->default_str(kDefaultSizes);
   cmd.add_option("--frames", o.frames, "measured frames per size after one warm-up frame")
       ->check(gauss::apps::in_range(1, 1000))
@@ -217,6 +224,11 @@ void add_options(CLI::App& cmd, Options& o, std::vector<std::string>& sizes) {
                  "first check that the in-process box scene equals this output of box_scene.c (N=1000)")
       ->check(CLI::ExistingFile)
       ->type_name("PLY");
+  cmd.add_option("--capture", o.capture,
+                 "a real capture (any scene file gauss-view reads) for the capture@WxH sizes: placed in front of the "
+                 "box camera, rendered at its own SH degree; with --peer the peer gets it too")
+      ->check(CLI::ExistingPath)
+      ->type_name("FILE");
   cmd.add_option("--peer", o.peer,
                  "run this peer renderer (shg8/3DGS.cpp built with ../shared/gpu/peer/3dgs_bench.patch) on the same "
                  "box scenes, alternating with ours, and print ours/peer per size instead of the stored baseline")
@@ -273,7 +285,7 @@ double median_of(const std::vector<FrameTimes>& v, F f) {
 // The renderer of one row: the box scene is SH degree 3.
 render::SplatRendererCreateInfo renderer_info(const Options& o, const Config& c) {
   return {.capacity = static_cast<std::uint32_t>(std::clamp<long>(c.n, 1, 0xFFFFFFFFl)),
-          .sh_degree = 3,
+          .sh_degree = c.sh_degree,
           .max_width = c.width,
           .max_height = c.height,
           .pass_shapes = o.pass_shapes};
@@ -389,7 +401,7 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
       ro.row_end = row_end;
       ro.threads = o.ref_threads;
       const auto t0 = std::chrono::steady_clock::now();
-      auto ref = render::render_reference(scene.first(n), {}, 3, c.stereo ? (v == 0 ? left : right) : *cam, ro);
+      auto ref = render::render_reference(scene.first(n), {}, c.sh_degree, c.stereo ? (v == 0 ? left : right) : *cam, ro);
       ref_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       if (!ref) {
         std::fprintf(stderr, "gauss-bench render: %s\n", ref.message().c_str());
@@ -446,8 +458,13 @@ Expected<int> run_config_with_peer(vk::Context& ctx, const Options& o, const Con
   }
   auto cam = box_camera(o.bench_dir, c.width, c.height);
   if (!cam) return Error{cam.message()};
-  const fs::path ply = work_dir / ("box" + std::to_string(c.n) + ".ply");
-  if (auto st = write_box_ply(ply, c.n); !st) return Error{st.message()};
+  const fs::path ply = work_dir / (c.capture ? "capture.ply" : "box" + std::to_string(c.n) + ".ply");
+  if (c.capture) {
+    BenchCapture placed{.gaussians = {scene.begin(), scene.end()}, .sh_degree = c.sh_degree, .placement = {}};
+    if (auto st = write_peer_capture_ply(ply, placed); !st) return Error{st.message()};
+  } else if (auto st = write_box_ply(ply, c.n); !st) {
+    return Error{st.message()};
+  }
   std::vector<double> peer_ms, ours_ms;
   for (int round = 1; round <= o.peer_rounds; ++round) {
     auto p = run_peer({.binary = o.peer,
@@ -500,9 +517,29 @@ int bench_render_main(const Options& o) {
     std::fprintf(stderr, "gauss-bench render: %s\n", shapes.message().c_str());
     return 1;
   }
+  // capture@WxH rows: the file once; its size and degree into those rows.
+  std::vector<Config> configs = o.configs;
+  std::optional<LoadedScene> capture;
+  for (Config& c : configs) {
+    if (!c.capture) continue;
+    if (o.capture.empty()) {
+      std::fprintf(stderr, "gauss-bench render: %s needs --capture FILE\n", c.label.c_str());
+      return 1;
+    }
+    if (!capture) {
+      auto loaded = load_scene_file(o.capture, std::nullopt);
+      if (!loaded) {
+        std::fprintf(stderr, "gauss-bench render: --capture: %s\n", loaded.message().c_str());
+        return 1;
+      }
+      capture = std::move(*loaded);
+    }
+    c.n = long(capture->scene.cloud.gaussians.size());
+    c.sh_degree = capture->scene.cloud.sh_degree;
+  }
   long max_n = 0;
-  for (const Config& c : o.configs)
-    if (render::plan_splat_memory(**ctx, renderer_info(o, c)).ok()) max_n = std::max(max_n, c.n);
+  for (const Config& c : configs)
+    if (!c.capture && render::plan_splat_memory(**ctx, renderer_info(o, c)).ok()) max_n = std::max(max_n, c.n);
   // The box scene for N is the first N Gaussians of the scene for any larger N.
   const auto t0 = std::chrono::steady_clock::now();
   const std::vector<Gaussian> scene = box_gaussians(max_n);
@@ -526,10 +563,23 @@ int bench_render_main(const Options& o) {
   std::optional<PeerWorkDir> work_dir;
   if (!o.peer.empty()) work_dir.emplace();
   int rc = 0;
-  for (const Config& c : o.configs) {
+  for (const Config& c : configs) {
+    // A capture row's scene: the capture placed in front of this row's camera.
+    std::vector<Gaussian> placed_capture;
+    if (c.capture) {
+      auto cam = box_camera(o.bench_dir, c.width, c.height);
+      if (!cam) {
+        std::fprintf(stderr, "gauss-bench render: %s\n", cam.message().c_str());
+        return 1;
+      }
+      BenchCapture placed = place_capture(*capture, *cam);
+      std::printf("%s: %s, %s\n", c.label.c_str(), o.capture.string().c_str(), placed.placement.c_str());
+      placed_capture = std::move(placed.gaussians);
+    }
+    const std::span<const Gaussian> row_scene = c.capture ? std::span<const Gaussian>(placed_capture) : std::span<const Gaussian>(scene);
     if (work_dir) {
       PeerRow summary;
-      auto st = run_config_with_peer(**ctx, o, c, scene, work_dir->path, results, summary);
+      auto st = run_config_with_peer(**ctx, o, c, row_scene, work_dir->path, results, summary);
       if (!st) {
         std::fflush(stdout);
         std::fprintf(stderr, "gauss-bench render: --peer %s gave no time: %s\n", o.peer.string().c_str(),
@@ -542,10 +592,11 @@ int bench_render_main(const Options& o) {
     }
     nlohmann::json row;
     const double base = baseline_ms(c);
-    if (run_config(**ctx, o, c, scene, base, o.reference, row) != 0) {
+    if (run_config(**ctx, o, c, row_scene, base, o.reference, row) != 0) {
       rc = 1;
       row["error"] = true;
     }
+    if (c.capture) row["capture"] = o.capture.string();
     if (base > 0) {
       row["baseline_wall_ms"] = base;
       row["baseline"] = kBaselineLabel;
