@@ -2,26 +2,13 @@
 #include "bench_capture.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdio>
 
 #include "gauss/engine/ply_gaussian.h"
+#include "gauss/engine/scene_up.h"
 
 namespace gauss::bench {
-
-namespace {
-
-// The sign of each SH rest coefficient (3DGS order, coefficients 1..15) under the half turn
-// about x, (x, y, z) -> (x, -y, -z): -1 where the basis function is odd in y and z together.
-// Degree 1: y, z, x. Degree 2: xy, yz, 3z^2 - 1, xz, x^2 - y^2. Degree 3: y(3x^2 - y^2), xyz,
-// y(4z^2 - x^2 - y^2), z(2z^2 - 3x^2 - 3y^2), x(4z^2 - x^2 - y^2), z(x^2 - y^2), x(x^2 - 3y^2).
-constexpr std::array<float, 15> kHalfTurnXSigns = {-1, -1, 1, -1, 1, 1, -1, 1, -1, 1, -1, -1, 1, -1, 1};
-
-// q' = (0, 1, 0, 0) * q: the half turn about x applied after q (w, x, y, z order).
-glm::vec4 half_turn_x(const glm::vec4& q) { return {-q[1], q[0], -q[3], q[2]}; }
-
-}  // namespace
 
 BenchCapture place_capture(const LoadedScene& loaded, const Camera& camera) {
   BenchCapture out;
@@ -33,15 +20,9 @@ BenchCapture place_capture(const LoadedScene& loaded, const Camera& camera) {
   const glm::dvec3 up = loaded.up.up;
   const bool turn = up.y < -0.999, as_is = up.y > 0.999;
   out.gaussians = loaded.scene.cloud.gaussians;
-  for (Gaussian& g : out.gaussians) {
-    glm::dvec3 p = glm::dvec3(g.position) - centre;
-    if (turn) {
-      p = {p.x, -p.y, -p.z};
-      g.rotation = half_turn_x(g.rotation);
-      for (std::size_t k = 0; k < kHalfTurnXSigns.size(); ++k) g.sh_rest[k] *= kHalfTurnXSigns[k];
-    }
-    g.position = glm::vec3(p + glm::dvec3(0.0, 0.0, -distance));
-  }
+  for (Gaussian& g : out.gaussians) g.position = glm::vec3(glm::dvec3(g.position) - centre);
+  if (turn) half_turn_about_x(out.gaussians);
+  for (Gaussian& g : out.gaussians) g.position = glm::vec3(glm::dvec3(g.position) + glm::dvec3(0.0, 0.0, -distance));
   const std::string up_text = turn ? "-y turned to +y" : as_is ? "+y" : "left as stored (" + loaded.up.detail + ")";
   char text[160];
   std::snprintf(text, sizeof text, "%zu Gaussians, SH %d, robust box centred at z = -%.3g (half diagonal %.3g), up ",

@@ -15,17 +15,26 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 
 #include <glm/vec3.hpp>
 
+#include "gauss/engine/gaussian.h"
 #include "gauss/engine/result.h"
 
 namespace gauss {
 
 // The 3DGS / COLMAP convention: OpenCV camera frames, y down.
 inline constexpr glm::dvec3 kColmapUp{0.0, -1.0, 0.0};
+
+// Turns Gaussians a half turn about the x axis, (x, y, z) -> (x, -y, -z), which makes a
+// y-down scene y-up: positions, rotations, and the SH rest coefficients whose basis
+// functions are odd in y and z together (their sign flips; the turn is its own inverse, so
+// nothing else changes). Exact: the turned Gaussians seen from a camera turned the same way
+// render the image the originals give.
+void half_turn_about_x(std::span<Gaussian> gaussians);
 
 // "+x", "-x", "+y", "-y", "+z", "-z" (a bare "x" means "+x"; case-insensitive) to the unit
 // axis. Errors name the text and list the accepted values.
