@@ -4,9 +4,10 @@
 //
 // Sizes are "N@WxH" (N with k/M suffixes) or "N@WxH:stereo" (two eyes, 64 mm apart, one
 // render_stereo call per frame); "capture@WxH" renders the --capture file instead of the box
-// scene, placed in front of the same camera (bench_capture.h), at its own SH degree. Cameras: shared/bench/box_camera_WxH.json when it exists,
-// else the 1280x720 one rescaled keeping its horizontal field of view, square pixels and
-// the principal point at the image centre (equal to the file cameras at their sizes).
+// scene, placed in front of the same camera (bench_capture.h), at its own SH degree.
+// Cameras: shared/bench/box_camera_WxH.json when it exists, else the 1280x720 one rescaled
+// keeping its horizontal field of view, square pixels and the principal point at the image
+// centre (equal to the file cameras at their sizes).
 // Timing never decides a test; this prints a table and optionally writes JSON.
 #include <algorithm>
 #include <chrono>
@@ -282,7 +283,7 @@ double median_of(const std::vector<FrameTimes>& v, F f) {
   return median(x);
 }
 
-// The renderer of one row: the box scene is SH degree 3.
+// The renderer of one row: the box scene is SH degree 3, a capture its own degree.
 render::SplatRendererCreateInfo renderer_info(const Options& o, const Config& c) {
   return {.capacity = static_cast<std::uint32_t>(std::clamp<long>(c.n, 1, 0xFFFFFFFFl)),
           .sh_degree = c.sh_degree,
@@ -576,7 +577,8 @@ int bench_render_main(const Options& o) {
       std::printf("%s: %s, %s\n", c.label.c_str(), o.capture.string().c_str(), placed.placement.c_str());
       placed_capture = std::move(placed.gaussians);
     }
-    const std::span<const Gaussian> row_scene = c.capture ? std::span<const Gaussian>(placed_capture) : std::span<const Gaussian>(scene);
+    const std::span<const Gaussian> row_scene =
+        c.capture ? std::span<const Gaussian>(placed_capture) : std::span<const Gaussian>(scene);
     if (work_dir) {
       PeerRow summary;
       auto st = run_config_with_peer(**ctx, o, c, row_scene, work_dir->path, results, summary);

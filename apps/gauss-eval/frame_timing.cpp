@@ -104,7 +104,7 @@ Expected<Json> measure_stereo_timing(Room& room, Json& timing) {
   if (auto img = session.client().renderer().read_image(); !img) return img.error();
   for (const client::GpuFrameStats& g : session.client().take_gpu_stats())
     for (Phase& p : phases)
-      if (g.frame_index >= p.first && g.frame_index <= p.last) {
+      if (!p.cpu_ms.empty() && g.frame_index >= p.first && g.frame_index <= p.last) {  // empty: not run
         p.gpu.add_gpu({g});
         p.high_water.push_back(g.view[0].high_water);
         for (std::uint32_t v = 0; v < g.views && v < g.view.size(); ++v) {
