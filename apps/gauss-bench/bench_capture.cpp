@@ -31,10 +31,10 @@ BenchCapture place_capture(const LoadedScene& loaded, const Camera& camera) {
   return out;
 }
 
-Status write_peer_capture_ply(const std::filesystem::path& path, const BenchCapture& capture) {
+Status write_peer_capture_ply(const std::filesystem::path& path, std::span<const Gaussian> gaussians) {
   GaussianCloud cloud;
   cloud.sh_degree = 3;  // entries past the capture's degree are zero (Gaussian::sh_rest)
-  cloud.gaussians = capture.gaussians;
+  cloud.gaussians.assign(gaussians.begin(), gaussians.end());
   return write_gaussian_ply(path, cloud, {.write_normals = true});
 }
 

@@ -3,6 +3,7 @@
 // placed in front of the box cameras (the camera at the origin looking down -z, y up, which
 // the peer's camera is too), so that ours and the peer render the same view of it.
 #include <filesystem>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -26,8 +27,8 @@ struct BenchCapture {
 // is exact) or +y; any other up is left as stored and said so.
 BenchCapture place_capture(const LoadedScene& loaded, const Camera& camera);
 
-// The capture as the peer reads it: a binary PLY with normals and all 45 SH rest
+// Placed Gaussians as the peer reads them: a binary PLY with normals and all 45 SH rest
 // coefficients (zero past the capture's degree), the one layout its loader takes.
-Status write_peer_capture_ply(const std::filesystem::path& path, const BenchCapture& capture);
+Status write_peer_capture_ply(const std::filesystem::path& path, std::span<const Gaussian> gaussians);
 
 }  // namespace gauss::bench

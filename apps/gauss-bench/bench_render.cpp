@@ -460,12 +460,8 @@ Expected<int> run_config_with_peer(vk::Context& ctx, const Options& o, const Con
   auto cam = box_camera(o.bench_dir, c.width, c.height);
   if (!cam) return Error{cam.message()};
   const fs::path ply = work_dir / (c.capture ? "capture.ply" : "box" + std::to_string(c.n) + ".ply");
-  if (c.capture) {
-    BenchCapture placed{.gaussians = {scene.begin(), scene.end()}, .sh_degree = c.sh_degree, .placement = {}};
-    if (auto st = write_peer_capture_ply(ply, placed); !st) return Error{st.message()};
-  } else if (auto st = write_box_ply(ply, c.n); !st) {
+  if (auto st = c.capture ? write_peer_capture_ply(ply, scene) : write_box_ply(ply, c.n); !st)
     return Error{st.message()};
-  }
   std::vector<double> peer_ms, ours_ms;
   for (int round = 1; round <= o.peer_rounds; ++round) {
     auto p = run_peer({.binary = o.peer,

@@ -18,26 +18,13 @@ namespace gauss {
 
 namespace {
 
+using nlohmann::json;
+
 // The sign of each SH rest coefficient (3DGS order, coefficients 1..15) under the half turn
 // about x: -1 where the basis function is odd in y and z together. Degree 1: y, z, x.
 // Degree 2: xy, yz, 3z^2 - 1, xz, x^2 - y^2. Degree 3: y(3x^2 - y^2), xyz, y(4z^2 - x^2 - y^2),
 // z(2z^2 - 3x^2 - 3y^2), x(4z^2 - x^2 - y^2), z(x^2 - y^2), x(x^2 - 3y^2).
 constexpr float kHalfTurnXShSigns[kMaxShRest] = {-1, -1, 1, -1, 1, 1, -1, 1, -1, 1, -1, -1, 1, -1, 1};
-
-}  // namespace
-
-void half_turn_about_x(std::span<Gaussian> gaussians) {
-  for (Gaussian& g : gaussians) {
-    g.position = {g.position.x, -g.position.y, -g.position.z};
-    // (0, 1, 0, 0) * q in (w, x, y, z) order: the turn applied after the Gaussian's own rotation.
-    const glm::vec4 q = g.rotation;
-    g.rotation = {-q[1], q[0], -q[3], q[2]};
-    for (int k = 0; k < kMaxShRest; ++k) g.sh_rest[k] *= kHalfTurnXShSigns[k];
-  }
-}
-namespace {
-
-using nlohmann::json;
 
 Error up_error(const std::filesystem::path& file, const std::string& what) { return Error{file.string() + ": " + what}; }
 
@@ -166,6 +153,16 @@ SceneUp choose_scene_up(const std::optional<glm::dvec3>& option, const std::file
   out.detail = cams->string() + " (" + std::to_string(capture->cameras) + " capture cameras)";
   out.capture_position = capture->mean_position;
   return out;
+}
+
+void half_turn_about_x(std::span<Gaussian> gaussians) {
+  for (Gaussian& g : gaussians) {
+    g.position = {g.position.x, -g.position.y, -g.position.z};
+    // (0, 1, 0, 0) * q in (w, x, y, z) order: the turn applied after the Gaussian's own rotation.
+    const glm::vec4 q = g.rotation;
+    g.rotation = {-q[1], q[0], -q[3], q[2]};
+    for (int k = 0; k < kMaxShRest; ++k) g.sh_rest[k] *= kHalfTurnXShSigns[k];
+  }
 }
 
 }  // namespace gauss
