@@ -194,7 +194,9 @@ int main(int argc, char** argv) {
   while (!g_stop.load()) {
     const double now = seconds();
     if (o.duration_s > 0.0 && now >= o.duration_s) break;
-    auto stepped = (*feed)->step(store, now);
+    // The next epoch waits while the hierarchy of this one is still being updated in the
+    // background: the LoD clients get every epoch they waited for.
+    auto stepped = (*host)->lod_busy() ? gauss::Expected<bool>(false) : (*feed)->step(store, now);
     if (!stepped) {
       std::fprintf(stderr, "gauss-host: %s\n", stepped.message().c_str());
       exit_code = 1;

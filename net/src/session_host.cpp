@@ -27,6 +27,7 @@ SessionHost::SessionHost(SessionHostConfig config, CodecParams params, std::uniq
   // updated once per epoch, by whichever session ticks first, instead of once per client.
   if (config_.session.lod && !config_.session.shared_lod)
     config_.session.shared_lod = std::make_shared<LodEpochHierarchy>(params_.sh_degree, *config_.session.lod);
+  config_.session.lod_in_background = config_.lod_in_background && config_.session.lod;
   // The selectors' per-Gaussian terms depend on the scene alone: computed once per epoch.
   if (!config_.session.shared_selector_terms) config_.session.shared_selector_terms = std::make_shared<SelectorTerms>();
 }
@@ -46,7 +47,37 @@ void SessionHost::send_all(std::uint32_t client, const std::vector<wire::Message
   }
 }
 
+bool SessionHost::lod_busy() const {
+  return config_.session.lod_in_background && config_.session.shared_lod->busy();
+}
+
+void SessionHost::advance_lod(const SceneStore& scene) {
+  if (!config_.session.lod_in_background || scene.in_epoch() || to_underlying(scene.epoch()) == 0) return;
+  const EligibleSet* eligible = nullptr;
+  if (config_.session.eligibility) {
+    if (!lod_eligible_ || lod_eligible_->epoch != scene.epoch()) {
+      auto e = filter_eligible(scene, *config_.session.eligibility);
+      if (!e) {
+        ++stats_.lod_failures;
+        log("LoD: eligibility: " + e.message());
+        return;
+      }
+      lod_eligible_ = std::move(*e);
+    }
+    eligible = &*lod_eligible_;
+  }
+  if (auto p = config_.session.shared_lod->update_in_background(scene, eligible); !p) {
+    ++stats_.lod_failures;
+    stats_.last_error = p.message();
+    log(p.message());
+  }
+}
+
 void SessionHost::pump(const SceneStore& scene, double now) {
+  // The hierarchy's update for a new epoch starts before anything else (with no client yet,
+  // too: the first one finds it built), and a finished one is taken up again right before the
+  // ticks, so a small scene's update is read in the pump that started it.
+  advance_lod(scene);
   for (auto& e : net_->poll()) {
     switch (e.kind) {
       case HostEventKind::Connected: {
@@ -80,6 +111,7 @@ void SessionHost::pump(const SceneStore& scene, double now) {
     }
     due.emplace_back(client, &session);
   }
+  advance_lod(scene);
   std::vector<std::optional<Expected<std::vector<wire::Message>>>> out(due.size());
   pool_.parallel_for(due.size(), [&](std::size_t i) { out[i] = due[i].second->tick(scene, now); });
   for (std::size_t i = 0; i < due.size(); ++i) {

@@ -307,3 +307,167 @@ TEST(HostSessionLod, SessionsSharingOneHierarchyStreamWhatEachWouldWithItsOwn) {
   }
   EXPECT_GT(interior_count(late_shared.host.sent_ids()), 0u);
 }
+
+namespace {
+
+// One epoch of churn: object `o` recoloured, the first live Gaussian of another object
+// removed, and a copy of one of o's Gaussians inserted, moved by `shift`.
+void churn_epoch(World& w, ObjectId o, int e) {
+  ASSERT_TRUE(w.store.begin_next_epoch().ok());
+  const Gaussian* removed = nullptr;
+  const Gaussian* template_g = nullptr;
+  for (const Gaussian& g : w.store.gaussians()) {
+    if (g.carrier || !w.store.contains(g.id)) continue;
+    if (g.object != o && !removed) removed = &g;
+    if (g.object == o && !template_g) template_g = &g;
+  }
+  ASSERT_NE(removed, nullptr);
+  ASSERT_NE(template_g, nullptr);
+  Gaussian fresh = *template_g;
+  fresh.id = w.store.allocate_id();
+  fresh.position += glm::vec3(0.01f * float(e % 5), 0.02f, -0.01f);
+  const GaussianId gone = removed->id;
+  std::vector<Gaussian> recoloured;
+  for (const Gaussian& g : w.store.gaussians())
+    if (g.object == o && w.store.contains(g.id)) {
+      Gaussian c = g;
+      c.sh_dc = glm::vec3(0.05f * float(e % 7), 0.3f, -0.2f);
+      recoloured.push_back(c);
+    }
+  for (const Gaussian& c : recoloured) ASSERT_TRUE(w.store.modify(c).ok());
+  ASSERT_TRUE(w.store.remove(gone).ok());
+  ASSERT_TRUE(w.store.insert(fresh).ok());
+  ASSERT_TRUE(w.store.commit_epoch().ok());
+}
+
+// Drives a background hierarchy to the scene's epoch as a host loop does: start, wait, take up.
+void settle_background(LodEpochHierarchy& h, const SceneStore& scene) {
+  for (int k = 0; k < 4; ++k) {
+    auto p = h.update_in_background(scene, nullptr);
+    ASSERT_TRUE(p.ok()) << p.message();
+    if (*p == LodEpochHierarchy::Progress::Ready) return;
+    h.wait_idle();
+  }
+  FAIL() << "the background update never became ready";
+}
+
+}  // namespace
+
+TEST(HostSessionLod, SessionsFollowingABackgroundHierarchyStreamWhatASynchronousOneSends) {
+  // SessionHost updates its hierarchy on a worker thread and its sessions only follow it. A
+  // session must send nothing while the update is at work, and afterwards byte for byte what a
+  // session updating its hierarchy itself sends. Every other epoch the scene moves on while the
+  // worker still reads the last one (the job's copy of the scene is what it must read): the
+  // session then waits for the second update too.
+  World w;
+  const CodecParams params = lod_params(w);
+  const std::uint32_t m = 250;
+  auto background = std::make_shared<LodEpochHierarchy>(params.sh_degree, LodConfig{});
+  auto inline_h = std::make_shared<LodEpochHierarchy>(params.sh_degree, LodConfig{});
+  HostSessionConfig follows = lod_config(true);
+  follows.shared_lod = background;
+  follows.lod_in_background = true;
+  HostSessionConfig updates_itself = lod_config(true);
+  updates_itself.shared_lod = inline_h;
+  Pair a = connect(w, params, follows, m);
+  Pair b = connect(w, params, updates_itself, m);
+
+  auto quiet = [&](Pair& p, double t) {
+    auto out = p.host.tick(w.store, t);
+    ASSERT_TRUE(out.ok()) << out.message();
+    EXPECT_TRUE(out->empty()) << "a session must wait for the hierarchy of its epoch";
+  };
+  auto started = background->update_in_background(w.store, nullptr);
+  ASSERT_TRUE(started.ok());
+  EXPECT_EQ(*started, LodEpochHierarchy::Progress::Working) << "the first build runs on the worker";
+  EXPECT_TRUE(background->busy());
+  quiet(a, 0.0);
+  background->wait_idle();
+  EXPECT_TRUE(background->busy()) << "finished but not taken up";
+  quiet(a, 0.0);
+  settle_background(*background, w.store);
+  EXPECT_FALSE(background->busy());
+  EXPECT_EQ(step(a, w, params, 0.0).payloads, step(b, w, params, 0.0).payloads);
+  ASSERT_GT(interior_count(a.host.sent_ids()), 0u);
+
+  std::vector<ObjectId> objects;
+  for (const auto& o : w.store.objects()) objects.push_back(o.id);
+  ASSERT_FALSE(objects.empty());
+  std::size_t interior_updates = 0;
+  for (int e = 0; e < 8; ++e) {
+    churn_epoch(w, objects[std::size_t(e) % objects.size()], e);
+    ASSERT_TRUE(inline_h->update(w.store, nullptr).ok());
+    auto p = background->update_in_background(w.store, nullptr);
+    ASSERT_TRUE(p.ok()) << p.message();
+    ASSERT_EQ(*p, LodEpochHierarchy::Progress::Working);
+    const double t = 1.0 + e;
+    if (e % 2 == 1) {
+      // The scene moves on while the worker may still read the epoch before.
+      churn_epoch(w, objects[std::size_t(e + 3) % objects.size()], e + 100);
+      ASSERT_TRUE(inline_h->update(w.store, nullptr).ok());
+      background->wait_idle();
+      auto next = background->update_in_background(w.store, nullptr);
+      ASSERT_TRUE(next.ok()) << next.message();
+      EXPECT_EQ(*next, LodEpochHierarchy::Progress::Working) << "the scene's new epoch is the next job";
+    }
+    quiet(a, t);
+    settle_background(*background, w.store);
+    const Step sa = step(a, w, params, t);
+    const Step sb = step(b, w, params, t);
+    EXPECT_EQ(sa.payloads, sb.payloads) << "epoch step " << e;
+    EXPECT_FALSE(sa.payloads.empty());
+    for (const Edit& edit : sa.edits) interior_updates += edit.kind == EditKind::Update && is_lod_interior_id(edit.id);
+  }
+  EXPECT_GT(interior_updates, 0u) << "the churn must reach the coarse records";
+  EXPECT_EQ(background->updates(), inline_h->updates());
+  EXPECT_EQ(a.client.published_checksum(), a.client.desired().desired_checksum());
+  EXPECT_EQ(a.client.desired().desired_checksum(), a.host.sent_checksum(w.store));
+}
+
+TEST(HostSessionLod, ABackgroundUpdateThatFailsIsSaidOnceAndLeavesAreSelected) {
+  // The refused Gaussian of the test above, through the worker: the failure comes back from
+  // the call that takes the update up, once; the hierarchy is then dropped (readers select
+  // leaves, the client stays exact); a later epoch with the same cause is quiet, and once the
+  // Gaussian is gone the cut comes back.
+  World w;
+  const CodecParams params = lod_params(w);
+  auto background = std::make_shared<LodEpochHierarchy>(params.sh_degree, LodConfig{});
+  HostSessionConfig follows = lod_config(true);
+  follows.shared_lod = background;
+  follows.lod_in_background = true;
+  ASSERT_TRUE(w.store.begin_next_epoch().ok());
+  Gaussian odd = w.store.gaussians()[0];
+  odd.id = GaussianId{kLodInteriorIdBit | 5};
+  odd.log_scale += glm::vec3(2.0f);
+  odd.opacity_logit = 6.0f;
+  ASSERT_TRUE(w.store.insert(odd).ok());
+  ASSERT_TRUE(w.store.commit_epoch().ok());
+  Pair p = connect(w, params, follows, 250);
+  ASSERT_EQ(*background->update_in_background(w.store, nullptr), LodEpochHierarchy::Progress::Working);
+  background->wait_idle();
+  auto failed = background->update_in_background(w.store, nullptr);
+  ASSERT_FALSE(failed.ok());
+  EXPECT_NE(failed.message().find("top bit"), std::string::npos) << failed.message();
+  EXPECT_FALSE(background->busy());
+  ASSERT_EQ(*background->update_in_background(w.store, nullptr), LodEpochHierarchy::Progress::Ready);
+  EXPECT_EQ(background->hierarchy(), nullptr);
+  step(p, w, params, 0.0);
+  EXPECT_EQ(interior_count(p.host.sent_ids()), 1u) << "the odd Gaussian itself, as a leaf";
+  EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum(w.store));
+  ASSERT_TRUE(w.store.begin_next_epoch().ok());
+  ASSERT_TRUE(w.store.commit_epoch().ok());
+  ASSERT_EQ(*background->update_in_background(w.store, nullptr), LodEpochHierarchy::Progress::Working);
+  background->wait_idle();
+  auto quiet = background->update_in_background(w.store, nullptr);
+  ASSERT_TRUE(quiet.ok()) << "the same cause is said once: " << quiet.message();
+  EXPECT_EQ(*quiet, LodEpochHierarchy::Progress::Ready);
+  ASSERT_TRUE(w.store.begin_next_epoch().ok());
+  ASSERT_TRUE(w.store.remove(odd.id).ok());
+  ASSERT_TRUE(w.store.commit_epoch().ok());
+  settle_background(*background, w.store);
+  ASSERT_NE(background->hierarchy(), nullptr);
+  step(p, w, params, 5.0);
+  EXPECT_GT(interior_count(p.host.sent_ids()), 1u) << "the cut is back";
+  EXPECT_LE(p.host.sent_ids().size(), 250u);
+  EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum(w.store));
+}

@@ -22,6 +22,17 @@ LodSelector::LodSelector(std::shared_ptr<LodEpochHierarchy> shared, SelectorConf
 
 Status LodSelector::update(const SceneStore& scene, const EligibleSet* eligible) {
   const Status status = source_->update(scene, eligible);
+  learn_changes();
+  return status;
+}
+
+bool LodSelector::follow(const SceneStore& scene) {
+  if (source_->progress(scene) != LodEpochHierarchy::Progress::Ready) return false;
+  learn_changes();
+  return true;
+}
+
+void LodSelector::learn_changes() {
   // What this selector's differ must re-quantise: the interior ids the updates since it last
   // looked changed. Before its first cut it holds none, so there is nothing to learn.
   const std::uint64_t updates = source_->updates();
@@ -40,7 +51,6 @@ Status LodSelector::update(const SceneStore& scene, const EligibleSet* eligible)
     cutter_.clear_previous();
     cut_used_ = false;
   }
-  return status;
 }
 
 std::span<const Gaussian> LodSelector::records() const {
@@ -54,6 +64,7 @@ const LodCut& LodSelector::last_cut() const {
 }
 
 const Gaussian* LodSelector::find_interior(GaussianId id) const {
+  source_->wait_idle();  // a background update writes the hierarchy: let it finish
   const LodHierarchy* hierarchy = source_->hierarchy();
   if (!hierarchy || !cut_used_) return nullptr;
   // The cut's interior nodes, in ascending id order after its leaves.

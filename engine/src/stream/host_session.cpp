@@ -250,6 +250,10 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
   const Motion motion = pose_motion();
   const bool moved = motion != Motion::None || query_changed_;
   if (!needs_resync_ && !new_epoch && !(moved && link_keeps_up)) return out;
+  // A hierarchy updated in the background is not read until it stands for this epoch: the
+  // tick waits (nothing changes here) and a later one selects.
+  const bool lod_follows = lod_ && config_.lod_in_background && config_.shared_lod;
+  if (lod_follows && !lod_->follow(scene)) return out;
 
   SelectionRequest req;
   req.budget = capacity_;
@@ -269,7 +273,7 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
     if (!e) return Error{"host session " + std::to_string(client_id_) + ": eligibility: " + e.message()};
     eligible_ = std::move(*e);
   }
-  if (lod_) {
+  if (lod_ && !lod_follows) {
     if (Status st = lod_->update(scene, eligible_ ? &*eligible_ : nullptr); !st) {
       ++stats_.lod_fallbacks;
       notices_.push_back("client " + std::to_string(client_id_) + ": " + st.message());

@@ -83,6 +83,11 @@ struct HostSessionConfig {
   // per client: the sessions sharing it must have the same eligibility and SH degree; `lod` is
   // then only a switch, the shared one's config applies). Null: the session builds its own.
   std::shared_ptr<LodEpochHierarchy> shared_lod;
+  // With shared_lod: its owner updates it off the serving path
+  // (LodEpochHierarchy::update_in_background, between the sessions' ticks), and the session
+  // only reads it: a tick while it is not yet at the scene's epoch sends nothing and waits
+  // for a later one. Ignored without shared_lod.
+  bool lod_in_background{false};
   // The selection's per-Gaussian terms, shared with the other sessions reading the same
   // scene (SessionHost shares one set between all its sessions). Null: the session's own.
   std::shared_ptr<SelectorTerms> shared_selector_terms;

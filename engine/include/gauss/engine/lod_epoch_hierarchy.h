@@ -18,6 +18,17 @@
 // epoch is dropped (the readers select leaves) and built again from scratch at the next
 // epoch; `lineage()` changes whenever that happens. The readers' cutters share one
 // breadth-first copy of the tree per generation too (layouts()).
+//
+// In the background. update() does the work on the caller's thread: at a million Gaussians
+// that is 50-120 ms per 1 % epoch and about a second for the first build, during which a host's
+// serving thread answered nobody. update_in_background() hands it to a worker thread instead:
+// the caller copies what the update reads out of the scene (the changed Gaussians on the
+// change-log path, the whole span on the others), so the scene may change while the worker
+// runs, and gets Working back until the hierarchy stands for the scene's epoch. Its readers
+// ask progress() and read nothing of the hierarchy while it says Working; the next
+// update_in_background() takes the finished work up and, when the scene moved on meanwhile,
+// starts the next.
+#include <condition_variable>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -26,6 +37,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "gauss/engine/eligibility.h"
@@ -42,13 +54,34 @@ class LodEpochHierarchy {
   LodEpochHierarchy(int sh_degree, LodConfig config = {});
   LodEpochHierarchy(const LodEpochHierarchy&) = delete;
   LodEpochHierarchy& operator=(const LodEpochHierarchy&) = delete;
+  // Waits for a background update still running.
+  ~LodEpochHierarchy();
 
   // Brings the hierarchy to the scene's eligible appearance Gaussians (`eligible` null: every
   // non-carrier), unless it already stands for the scene's epoch. Fails on an open epoch, on
   // an eligible set of another epoch, and when the hierarchy cannot be updated for a reason
   // not reported just before (a repeat returns Ok, so a shared failure is said once); the
   // hierarchy is then dropped until the next epoch.
+  // Waits for a background update first (and takes it up).
   Status update(const SceneStore& scene, const EligibleSet* eligible);
+
+  enum class Progress { Ready, Working };
+  // update() on a worker thread, for one caller (a host's loop, between its sessions' ticks).
+  // Ready: the hierarchy stands for the scene's epoch (or was dropped for it: hierarchy() null)
+  // and may be read until the scene's next epoch. Working: an update runs (started now or
+  // before); read nothing of the hierarchy. A failure is reported as update() reports it,
+  // once per reason; the next call then starts the update for the scene's epoch.
+  Expected<Progress> update_in_background(const SceneStore& scene, const EligibleSet* eligible);
+  // What update_in_background() would say of the scene now, without starting or taking up
+  // anything: for the readers (the sessions' ticks, in parallel).
+  Progress progress(const SceneStore& scene) const;
+  // Whether background work is outstanding: running, or finished and not yet taken up. A host
+  // that commits epochs faster than updates finish would otherwise never serve one: it waits
+  // for this to clear before committing the next (gauss-host does).
+  bool busy() const;
+  // Blocks until no background update runs (the next update call takes its result up). For a
+  // reader outside the ticks that must read the hierarchy now (a closing session's records).
+  void wait_idle() const;
 
   // The hierarchy, or null when none is held (never built, or dropped). Read between updates.
   const LodHierarchy* hierarchy() const { return hierarchy_ ? &*hierarchy_ : nullptr; }
@@ -70,10 +103,29 @@ class LodEpochHierarchy {
   static constexpr std::size_t kLogLength = 32;
 
  private:
-  // The scene's change log since epoch_ applied; nullopt when the log no longer reaches back.
-  std::optional<Status> apply_change_log(const SceneStore& scene);
-  Status drop(const SceneStore& scene, const std::string& why);
+  // One update's inputs, copied out of the scene so that it may change meanwhile, and its result.
+  struct Job {
+    Epoch epoch{0};
+    bool from_change_log{false};
+    std::vector<Gaussian> upserts;     // change log: inserted or modified appearance Gaussians
+    std::vector<GaussianId> removed;   // change log: removed, or turned carrier
+    std::vector<Gaussian> gaussians;   // otherwise: the scene's whole span (places matter)
+    std::vector<std::uint32_t> subset; //   and the indices of the eligible ones in it
+    std::optional<Expected<LodUpdateReport>> result;
+  };
+  // Fills `job` for the scene's epoch: from the change log when it reaches back to epoch_ and
+  // there is no eligibility filter, else the whole span. Creates the hierarchy when none is held.
+  Status prepare(const SceneStore& scene, const EligibleSet* eligible, Job& job);
+  // Runs a prepared job on the hierarchy (the caller's thread or the worker).
+  void run(Job& job);
+  // Takes a finished job's result up: the epoch, the log, or a drop. Under mutex_.
+  Status finish(Job& job);
+  Status checked(const SceneStore& scene, const EligibleSet* eligible) const;
+  Status drop(Epoch epoch, const std::string& why);
   void log_changes(const LodUpdateReport& report);
+  // Waits (under `lock` on mutex_) for a running job and takes it up; returns its status.
+  Status settle(std::unique_lock<std::mutex>& lock);
+  void worker_loop();
 
   int sh_degree_;
   LodConfig config_;
@@ -84,8 +136,16 @@ class LodEpochHierarchy {
   std::uint64_t lineage_{0};
   std::uint64_t updates_{0};
   std::deque<std::vector<GaussianId>> log_;  // the last kLogLength updates' ids, oldest first
-  std::vector<std::uint32_t> subset_;        // scratch
   std::shared_ptr<LodCutLayouts> layouts_ = std::make_shared<LodCutLayouts>();
+
+  // The background update: one job at a time, run by worker_ (started at the first).
+  Job job_;
+  bool job_posted_{false};  // job_ handed to the worker and not yet taken up
+  bool job_done_{false};    // the worker finished job_ (its result is in job_.result)
+  bool stopping_{false};
+  mutable std::condition_variable job_cv_;   // worker: a job is posted or stopping
+  mutable std::condition_variable done_cv_;  // waiters: the job is done
+  std::thread worker_;
 };
 
 }  // namespace gauss

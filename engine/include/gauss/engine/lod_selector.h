@@ -55,6 +55,11 @@ class LodSelector {
   // Ok); the selector then holds none, select() returns leaf selections, and the next epoch
   // builds it again from scratch.
   Status update(const SceneStore& scene, const EligibleSet* eligible);
+  // update()'s reader side alone, for a hierarchy that another caller updates in the
+  // background (LodEpochHierarchy::update_in_background): true when it stands for the scene's
+  // epoch (what changed since this selector last looked is then learnt, and select() may run),
+  // false while an update is still at work (select nothing yet).
+  bool follow(const SceneStore& scene);
 
   // A host session's whole selection: `selector`'s reservation, and a cut where the
   // background's leaves do not all fit. The Selector then never ranks the background
@@ -77,6 +82,7 @@ class LodSelector {
   std::span<const GaussianId> modified() const { return modified_; }
   void clear_modified() { modified_.clear(); }
   // The current record of interior node `id`, or null when the hierarchy has no such node.
+  // Waits for a background update still running.
   const Gaussian* find_interior(GaussianId id) const;
   // The hierarchy, when one is held.
   const LodHierarchy* hierarchy() const { return source_->hierarchy(); }
@@ -84,6 +90,9 @@ class LodSelector {
   const LodCut& last_cut() const;
 
  private:
+  // After an update: the interior ids changed since this selector last looked, into modified_.
+  void learn_changes();
+
   std::shared_ptr<LodEpochHierarchy> source_;
   std::optional<std::uint64_t> seen_updates_;  // source_->updates() when last looked
   std::uint64_t seen_lineage_{0};

@@ -7,6 +7,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,13 @@ struct SessionHostConfig {
   // session's selection + diff + encode only reads the scene, so N clients cost about
   // N / threads times one client's time.
   unsigned tick_threads{0};
+  // With LoD (session.lod): the hierarchy is updated on a worker thread, started by pump()
+  // when the scene has a new epoch (and taken up by a later pump), instead of inside the
+  // first session's tick, where a 1M scene's first build held every client ~1 s and each 1 %
+  // epoch 50-120 ms. Meanwhile the pump goes on (messages, acks, connections, sessions
+  // without LoD) and the LoD sessions send nothing; they select once it stands for the epoch.
+  // The loop should not commit another epoch while lod_busy(). Off: the first tick updates it.
+  bool lod_in_background{true};
   // Called with each session right before it is erased: on its client's disconnect
   // (inside pump()) and for every session still open in close_all(). `client_name` is
   // the name from the client's Hello. Runs on the thread calling pump()/close_all();
@@ -48,6 +56,7 @@ struct SessionHostStats {
   std::uint64_t held_back{0};        // ticks skipped for a client whose link was behind
   std::uint64_t tick_errors{0};      // HostSession::tick failures (logged)
   std::uint64_t send_errors{0};      // messages the transport refused to queue (logged)
+  std::uint64_t lod_failures{0};     // background hierarchy updates that failed (logged; leaves selected)
   std::string last_error;
 };
 
@@ -71,6 +80,10 @@ class SessionHost {
   HostSession* session(std::uint32_t client);
   std::vector<std::uint32_t> clients() const;
   const SessionHostStats& stats() const noexcept { return stats_; }
+  // Whether a background hierarchy update is still outstanding (lod_in_background): the host
+  // loop holds its next epoch back until it clears, so the sessions serve every epoch they
+  // wait for instead of waiting on the next one's update.
+  bool lod_busy() const;
 
  private:
   SessionHost(SessionHostConfig config, CodecParams params, std::unique_ptr<NetHost> net);
@@ -78,6 +91,8 @@ class SessionHost {
   void log(const std::string& line);
   // Runs on_session_closed for `it` and erases it.
   void close(std::map<std::uint32_t, HostSession>::iterator it);
+  // Starts the hierarchy's update for the scene's epoch, or takes a finished one up.
+  void advance_lod(const SceneStore& scene);
 
   SessionHostConfig config_;
   CodecParams params_;
@@ -86,6 +101,7 @@ class SessionHost {
   std::map<std::uint32_t, std::string> client_names_;  // from each session's Hello
   SessionHostStats stats_;
   WorkerPool pool_;
+  std::optional<EligibleSet> lod_eligible_;  // the eligibility filter's verdict the hierarchy was given
 };
 
 }  // namespace gauss::net
