@@ -11,9 +11,10 @@
 //      (a WorkerPool over the machine's threads): wall ms per update of all K, process
 //      CPU ms per client, and wall time relative to K = 1.
 //   5b. the same with LoD, the K sessions sharing one hierarchy and the selector's terms (as
-//      SessionHost's do): wall ms
-//      per pose update of all K, and per epoch that recolours 1 % of the Gaussians (the
-//      hierarchy and the terms updated once for all K).
+//      SessionHost's do): wall ms per pose update of all K, and per epoch that recolours 1 %
+//      of the Gaussians (the hierarchy and the terms updated once for all K), with the
+//      hierarchy updated by the first tick and in the background (serving thread's ms, and
+//      ms until the epoch is sent).
 // Prints a table and optionally writes JSON (--json). Timing never decides a test.
 #include <algorithm>
 #include <bit>
@@ -661,70 +662,115 @@ json bench_clients(const SceneStore& store, const SyntheticScene& scene, const O
 }
 
 // The same with LoD, the sessions sharing one hierarchy as SessionHost's do: pose updates,
-// then epochs that recolour 1 % of the Gaussians (the hierarchy updated once per epoch for
-// all K, by whichever session ticks first). Leaves the store at a later epoch.
+// then epochs that recolour 1 % of the Gaussians, the hierarchy updated once per epoch for all
+// K. Twice: updated by whichever session ticks first (the serving thread waits for it), and
+// updated in the background (SessionHost's way: the serving thread copies the changes out and
+// the sessions wait; "served" is the time until they have sent the epoch). Leaves the store
+// at a later epoch.
 json bench_clients_lod(SceneStore& store, const SyntheticScene& scene, const Options& o) {
   net::WorkerPool pool(0);
   std::printf("\n5b. several clients with LoD, one shared hierarchy (M = %zu each, %u threads; wall ms)\n", o.budget,
               pool.threads());
-  std::printf("   %8s %16s %16s %18s %18s\n", "clients", "pose update p50", "pose update p90", "1 % epoch p50",
-              "1 % epoch max");
+  std::printf("   %8s %12s %12s %14s %14s %16s %16s\n", "clients", "pose p50", "pose p90", "1 % epoch p50",
+              "1 % epoch max", "bg: serving p50", "bg: served p50");
   const CodecParams params = fit_lod_codec_params(fit_codec_params(store.gaussians(), store.sh_degree()));
   json rows = json::array();
   const auto& path = scene.trajectory();
   std::uint64_t seed = 1;
+  auto recolour_one_percent = [&] {
+    if (!store.begin_next_epoch()) return false;
+    std::mt19937_64 rng(seed++);
+    std::vector<Gaussian> edits;
+    for (const Gaussian& g : store.gaussians())
+      if (!g.carrier && rng() % 100 == 0) edits.push_back(g);
+    for (Gaussian& g : edits) {
+      g.sh_dc.x = -g.sh_dc.x;
+      (void)store.modify(g);
+    }
+    return store.commit_epoch().ok();
+  };
   for (unsigned k : o.client_counts) {
-    HostSessionConfig cfg;
-    cfg.pose_smoothing_s = 0.0;
-    cfg.pose_epsilon_m = 0.01;
-    cfg.lod = LodConfig{};
-    cfg.shared_lod = std::make_shared<LodEpochHierarchy>(store.sh_degree(), *cfg.lod);
-    cfg.shared_selector_terms = std::make_shared<SelectorTerms>();
-    double now = 0.0;
-    std::vector<BenchClient> clients = connect_clients(k, params, cfg, store, path, o.budget, "bench-lod-");
-    auto tick_all = [&] {
-      for (BenchClient& c : clients) feed(c, store, now);
-      const auto t0 = Clock::now();
-      pool.parallel_for(clients.size(), [&](std::size_t i) {
-        auto r = clients[i].session->tick(store, now);
-        if (r) clients[i].out = std::move(r).value();
-        else clients[i].error = r.error();
-      });
-      now += 0.1;
-      return ms_since(t0);
-    };
-    for (int settle = 0; settle < 3; ++settle) tick_all();  // the build, the first cuts and full batches
-    std::vector<double> pose_ms, epoch_ms;
-    for (int u = 0; u < std::max(3, o.updates / 2); ++u) {
-      for (BenchClient& c : clients) c.pose = small_motion(c.pose);
-      pose_ms.push_back(tick_all());
-    }
-    for (int e = 0; e < 4; ++e) {
-      if (!store.begin_next_epoch()) break;
-      std::mt19937_64 rng(seed++);
-      std::vector<Gaussian> edits;
-      for (const Gaussian& g : store.gaussians())
-        if (!g.carrier && rng() % 100 == 0) edits.push_back(g);
-      for (Gaussian& g : edits) {
-        g.sh_dc.x = -g.sh_dc.x;
-        (void)store.modify(g);
+    std::vector<double> pose_ms, epoch_ms, serving_ms, served_ms;
+    double first_build_serving_ms = 0.0, first_build_ready_ms = 0.0;
+    for (const bool background : {false, true}) {
+      HostSessionConfig cfg;
+      cfg.pose_smoothing_s = 0.0;
+      cfg.pose_epsilon_m = 0.01;
+      cfg.lod = LodConfig{};
+      cfg.shared_lod = std::make_shared<LodEpochHierarchy>(store.sh_degree(), *cfg.lod);
+      cfg.lod_in_background = background;
+      cfg.shared_selector_terms = std::make_shared<SelectorTerms>();
+      LodEpochHierarchy& hierarchy = *cfg.shared_lod;
+      double now = 0.0;
+      std::vector<BenchClient> clients = connect_clients(k, params, cfg, store, path, o.budget, "bench-lod-");
+      auto tick_all = [&] {
+        for (BenchClient& c : clients) feed(c, store, now);
+        const auto t0 = Clock::now();
+        pool.parallel_for(clients.size(), [&](std::size_t i) {
+          auto r = clients[i].session->tick(store, now);
+          if (r) clients[i].out = std::move(r).value();
+          else clients[i].error = r.error();
+        });
+        now += 0.1;
+        return ms_since(t0);
+      };
+      // The host loop's part: start the update, or take a finished one up.
+      auto advance = [&] {
+        auto p = hierarchy.update_in_background(store, nullptr);
+        return p && *p == LodEpochHierarchy::Progress::Ready;
+      };
+      auto settle = [&] {
+        for (int tries = 0; background && tries < 3 && !advance(); ++tries) hierarchy.wait_idle();
+      };
+      if (background) {
+        // The first build: the serving thread copies the scene out, the worker builds.
+        const auto t0 = Clock::now();
+        advance();
+        first_build_serving_ms = ms_since(t0);
+        settle();
+        first_build_ready_ms = ms_since(t0);
       }
-      if (!store.commit_epoch()) break;
-      epoch_ms.push_back(tick_all());
-    }
-    for (const BenchClient& c : clients)
-      if (!c.error) {
-        std::fprintf(stderr, "bench clients (LoD): %s\n", c.error.message().c_str());
-        return json{{"error", c.error.message()}};
+      for (int s = 0; s < 3; ++s) tick_all();  // the build, the first cuts and full batches
+      if (!background)
+        for (int u = 0; u < std::max(3, o.updates / 2); ++u) {
+          for (BenchClient& c : clients) c.pose = small_motion(c.pose);
+          pose_ms.push_back(tick_all());
+        }
+      for (int e = 0; e < 4; ++e) {
+        if (!recolour_one_percent()) break;
+        if (!background) {
+          epoch_ms.push_back(tick_all());
+          continue;
+        }
+        const auto t0 = Clock::now();
+        advance();        // copies the changes out and starts the worker
+        (void)tick_all(); // the sessions find it at work and send nothing
+        serving_ms.push_back(ms_since(t0));
+        settle();
+        (void)tick_all();
+        served_ms.push_back(ms_since(t0));
       }
-    const double e50 = epoch_ms.empty() ? 0.0 : percentile(epoch_ms, 0.5);
+      for (const BenchClient& c : clients)
+        if (!c.error) {
+          std::fprintf(stderr, "bench clients (LoD): %s\n", c.error.message().c_str());
+          return json{{"error", c.error.message()}};
+        }
+    }
+    auto p50 = [](const std::vector<double>& v) { return v.empty() ? 0.0 : percentile(v, 0.5); };
     const double emax = epoch_ms.empty() ? 0.0 : *std::max_element(epoch_ms.begin(), epoch_ms.end());
-    std::printf("   %8u %16.1f %16.1f %18.1f %18.1f\n", k, percentile(pose_ms, 0.5), percentile(pose_ms, 0.9), e50, emax);
+    std::printf("   %8u %12.1f %12.1f %14.1f %14.1f %16.1f %16.1f\n", k, p50(pose_ms), percentile(pose_ms, 0.9),
+                p50(epoch_ms), emax, p50(serving_ms), p50(served_ms));
+    std::printf("   %8s first build in the background: serving thread %.1f ms (the scene copied out), ready after %.1f ms\n",
+                "", first_build_serving_ms, first_build_ready_ms);
     rows.push_back(json{{"clients", k},
-                        {"pose_update_wall_ms_p50", percentile(pose_ms, 0.5)},
+                        {"pose_update_wall_ms_p50", p50(pose_ms)},
                         {"pose_update_wall_ms_p90", percentile(pose_ms, 0.9)},
-                        {"epoch_1pct_wall_ms_p50", e50},
+                        {"epoch_1pct_wall_ms_p50", p50(epoch_ms)},
                         {"epoch_1pct_wall_ms_max", emax},
+                        {"epoch_1pct_background_serving_thread_ms_p50", p50(serving_ms)},
+                        {"epoch_1pct_background_served_ms_p50", p50(served_ms)},
+                        {"first_build_background_serving_thread_ms", first_build_serving_ms},
+                        {"first_build_background_ready_ms", first_build_ready_ms},
                         {"epochs", epoch_ms.size()}});
   }
   return json{{"threads", pool.threads()}, {"budget", o.budget}, {"rows", rows}};
