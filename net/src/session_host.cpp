@@ -48,7 +48,9 @@ void SessionHost::send_all(std::uint32_t client, const std::vector<wire::Message
 }
 
 bool SessionHost::lod_busy() const {
-  return config_.session.lod_in_background && config_.session.shared_lod->busy();
+  // Without a session nobody waits: the scene may move on, and the next update catches up
+  // with every epoch since through the change log.
+  return config_.session.lod_in_background && !sessions_.empty() && config_.session.shared_lod->busy();
 }
 
 void SessionHost::advance_lod(const SceneStore& scene) {

@@ -40,6 +40,9 @@ class StreamHarness {
     double epoch_period_s{0.15};
     std::string access_token;
     bool encrypt_stream{false};  // seal the stream (needs access_token)
+    // LoD on, its hierarchy updated in the background (SessionHost's default); epochs wait
+    // for it as gauss-host's loop does (SessionHost::lod_busy).
+    bool lod{false};
   };
 
   explicit StreamHarness(Options o) : opt_(std::move(o)), start_(std::chrono::steady_clock::now()) {
@@ -55,7 +58,9 @@ class StreamHarness {
     params.sh_degree = 1;
     params.box.min = scene_->room_min() - glm::vec3(0.5f);
     params.box.max = scene_->room_max() + glm::vec3(0.5f);
+    if (opt_.lod) params = fit_lod_codec_params(params);
     net::SessionHostConfig hc;
+    if (opt_.lod) hc.session.lod = LodConfig{};
     hc.net.bind.port = 0;
     hc.net.access_token = opt_.access_token;
     hc.net.encrypt_stream = opt_.encrypt_stream;
@@ -116,7 +121,7 @@ class StreamHarness {
 
   // One host pump and one display frame per client, with every invariant checked.
   void step(const std::vector<StreamClient*>& clients) {
-    if (!scene_->finished() && now() >= next_epoch_at_) produce();
+    if (!scene_->finished() && now() >= next_epoch_at_ && !host_->lod_busy()) produce();
     host_->pump(store_, now());
     for (StreamClient* c : clients) {
       c->sink->with_state([&](ClientState& s) {
@@ -146,7 +151,7 @@ class StreamHarness {
     return c.sink->with_state([&](ClientState& s) {
       return s.welcomed() && s.desired().pending_count() == 0 && s.last_batch_id() == hs->last_batch_id() &&
              s.desired().desired_checksum() == sent && s.published_checksum() == sent &&
-             s.desired().desired_count() == hs->sent_ids().size();
+             s.desired().desired_count() == hs->sent_ids().size() && s.desired().received_epoch() == store_.epoch();
     });
   }
 

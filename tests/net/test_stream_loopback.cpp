@@ -3,6 +3,7 @@
 // and passes every invariant (ClientState::check: slot bijection, desired-state
 // consistency, epoch barrier); at the end each client's published set equals its
 // desired set equals what the host sent, by checksum of ids and records.
+#include <algorithm>
 #include <cstdio>
 
 #include "stream_harness.h"
@@ -33,6 +34,32 @@ TEST(StreamLoopback, TwoClientsWithDifferentBudgetsConvergeExactly) {
   std::printf("loopback stream: %llu messages, %llu bytes sent by the host; frames small %llu large %llu\n",
               static_cast<unsigned long long>(hc.messages_sent), static_cast<unsigned long long>(hc.bytes_sent),
               static_cast<unsigned long long>(small->frames), static_cast<unsigned long long>(large->frames));
+}
+
+TEST(StreamLoopback, WithLodTheHierarchyIsUpdatedInTheBackgroundAndClientsConvergeExactly) {
+  // SessionHost's LoD: every epoch's hierarchy update runs on a worker thread while the pump
+  // goes on; the sessions wait for it and then send the epoch (its received epoch is the
+  // scene's last). Budgets below the scene: coarse records must arrive, within M.
+  test::StreamHarness::Options o;
+  o.lod = true;
+  test::StreamHarness h(o);
+  ASSERT_TRUE(h.ready());
+  auto small = h.connect("small", 2500, h.port(), 0);
+  auto large = h.connect("large", 6000, h.port(), 5);
+  ASSERT_TRUE(small && large);
+  const bool ok = h.run_until_converged({small.get(), large.get()}, std::chrono::seconds(25));
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
+  EXPECT_TRUE(ok) << h.describe(*small) << "\n" << h.describe(*large);
+  for (test::StreamClient* c : {small.get(), large.get()}) {
+    EXPECT_LE(c->max_published, c->capacity) << c->name;
+    EXPECT_EQ(c->sink->rejected(), 0u) << c->name;
+    const HostSession* hs = h.host().session(c->sink->client_id());
+    ASSERT_NE(hs, nullptr);
+    EXPECT_GT(std::count_if(hs->sent_ids().begin(), hs->sent_ids().end(), is_lod_interior_id), 0) << c->name;
+  }
+  EXPECT_FALSE(h.host().lod_busy());
+  EXPECT_EQ(h.host().stats().lod_failures, 0u) << h.host().stats().last_error;
+  EXPECT_EQ(h.host().stats().tick_errors, 0u) << h.host().stats().last_error;
 }
 
 // Malformed and out-of-place messages injected into a live, streaming connection:

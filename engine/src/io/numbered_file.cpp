@@ -14,7 +14,7 @@ Expected<std::filesystem::path> create_numbered_file(const std::filesystem::path
   std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec)) return Error{dir.string() + ": not a folder (for " + std::string(stem) + " files)"};
   for (int n = 1; n <= kMaxNumberedFiles; ++n) {
-    char number[8];
+    char number[12];  // any int: GCC checks the bound at -O1 and above
     std::snprintf(number, sizeof number, "%04d", n);
     const std::filesystem::path path = dir / (std::string(stem) + "-" + number + std::string(ext));
     // "x": fails with EEXIST when the name exists, so nothing is overwritten, also in a race.

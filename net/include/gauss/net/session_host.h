@@ -80,9 +80,10 @@ class SessionHost {
   HostSession* session(std::uint32_t client);
   std::vector<std::uint32_t> clients() const;
   const SessionHostStats& stats() const noexcept { return stats_; }
-  // Whether a background hierarchy update is still outstanding (lod_in_background): the host
-  // loop holds its next epoch back until it clears, so the sessions serve every epoch they
-  // wait for instead of waiting on the next one's update.
+  // Whether a background hierarchy update is still outstanding (lod_in_background) while a
+  // session may be waiting for it: the host loop holds its next epoch back until it clears,
+  // so the sessions serve every epoch they wait for instead of waiting on the next one's
+  // update. With no session it is false: the scene goes at its own pace meanwhile.
   bool lod_busy() const;
 
  private:
