@@ -471,3 +471,33 @@ TEST(HostSessionLod, ABackgroundUpdateThatFailsIsSaidOnceAndLeavesAreSelected) {
   EXPECT_LE(p.host.sent_ids().size(), 250u);
   EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum(w.store));
 }
+
+TEST(HostSessionLod, ABackgroundHierarchyThatCannotBeMadeLeavesNoSessionWaiting) {
+  // A LodConfig the hierarchy refuses: there is nothing for a worker to run. The reason is said
+  // once, the epoch counts as done (hierarchy() null) and a following session selects leaves
+  // instead of waiting for an update that never comes.
+  World w;
+  const CodecParams params = lod_params(w);
+  LodConfig bad;
+  bad.max_leaves_per_node = 1;
+  auto background = std::make_shared<LodEpochHierarchy>(params.sh_degree, bad);
+  HostSessionConfig follows = lod_config(true);
+  follows.shared_lod = background;
+  follows.lod_in_background = true;
+  Pair p = connect(w, params, follows, 250);
+  auto first = background->update_in_background(w.store, nullptr);
+  ASSERT_FALSE(first.ok());
+  EXPECT_NE(first.message().find("max_leaves_per_node"), std::string::npos) << first.message();
+  EXPECT_FALSE(background->busy());
+  EXPECT_EQ(background->progress(w.store), LodEpochHierarchy::Progress::Ready);
+  EXPECT_EQ(background->hierarchy(), nullptr);
+  const Step s = step(p, w, params, 0.0);
+  EXPECT_FALSE(s.payloads.empty()) << "the session selects leaves";
+  EXPECT_EQ(interior_count(p.host.sent_ids()), 0u);
+  EXPECT_EQ(p.host.sent_ids().size(), 250u);
+  ASSERT_TRUE(w.store.begin_next_epoch().ok());
+  ASSERT_TRUE(w.store.commit_epoch().ok());
+  auto again = background->update_in_background(w.store, nullptr);
+  ASSERT_TRUE(again.ok()) << "said once: " << again.message();
+  EXPECT_EQ(*again, LodEpochHierarchy::Progress::Ready);
+}

@@ -51,7 +51,13 @@ Expected<LodEpochHierarchy::Progress> LodEpochHierarchy::update_in_background(co
   // A failure taken up is said first; the next call starts the scene's epoch's update.
   if (!finished) return finished.error();
   if (epoch_ && *epoch_ == scene.epoch()) return Progress::Ready;
-  if (Status st = prepare(scene, eligible, job_); !st) return st.error();
+  if (Status st = prepare(scene, eligible, job_); !st) {
+    // Nothing can run (a LodConfig the hierarchy refuses): the readers must not wait for it,
+    // they select leaves for this epoch.
+    epoch_ = scene.epoch();
+    if (Status said = drop(scene.epoch(), st.message()); !said) return said.error();
+    return Progress::Ready;
+  }
   job_posted_ = true;
   job_done_ = false;
   if (!worker_.joinable()) worker_ = std::thread([this] { worker_loop(); });
