@@ -20,7 +20,7 @@
 #include "gauss/engine/tsdf.h"
 #include "gauss/render/splat_renderer.h"
 #include "gauss/render/vk_context.h"
-#include "gauss_cli.h"
+#include "status_line.h"
 #include "options.h"
 
 namespace {

@@ -20,7 +20,7 @@
 #include "eval_session.h"
 #include "gauss/engine/rgbd_scene.h"
 #include "gauss/render/vk_context.h"
-#include "gauss_cli.h"
+#include "status_line.h"
 #include "measure.h"
 #include "measurements.h"
 #include "options.h"

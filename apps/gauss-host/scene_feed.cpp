@@ -8,7 +8,7 @@
 #include "gauss/engine/ply_mesh.h"
 #include "gauss/engine/rgbd_scene.h"
 #include "gauss/engine/rgbd_source.h"
-#include "gauss_cli.h"
+#include "status_line.h"
 
 namespace gauss::host_app {
 

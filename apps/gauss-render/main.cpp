@@ -27,7 +27,7 @@
 #include "gauss/render/splat_renderer.h"
 #include "gauss/render/vk_context.h"
 #include "gauss/render/vk_image.h"
-#include "gauss_cli.h"
+#include "status_line.h"
 #include "options.h"
 
 namespace {

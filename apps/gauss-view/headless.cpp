@@ -17,7 +17,7 @@
 #include "gauss/engine/image_io.h"
 #include "gauss/render/splat_math.h"
 #include "default_view.h"
-#include "gauss_cli.h"
+#include "status_line.h"
 #include "percentile.h"
 #include "headless_report.h"
 
