@@ -33,7 +33,7 @@ Status LodEpochHierarchy::update(const SceneStore& scene, const EligibleSet* eli
   // Once per epoch: a failed update is not retried (and reported again) every tick, and the
   // sessions sharing this one find it done.
   if (epoch_ && *epoch_ == scene.epoch()) return settled;
-  if (Status st = prepare(scene, eligible, job_); !st) return st;
+  if (Status st = prepare(scene, eligible, job_, /*copy_span=*/false); !st) return st;
   run(job_);
   const Status now = finish(job_);
   return settled ? now : settled;
@@ -51,7 +51,7 @@ Expected<LodEpochHierarchy::Progress> LodEpochHierarchy::update_in_background(co
   // A failure taken up is said first; the next call starts the scene's epoch's update.
   if (!finished) return finished.error();
   if (epoch_ && *epoch_ == scene.epoch()) return Progress::Ready;
-  if (Status st = prepare(scene, eligible, job_); !st) {
+  if (Status st = prepare(scene, eligible, job_, /*copy_span=*/true); !st) {
     // Nothing can run (a LodConfig the hierarchy refuses): the readers must not wait for it,
     // they select leaves for this epoch.
     epoch_ = scene.epoch();
@@ -107,7 +107,8 @@ void LodEpochHierarchy::worker_loop() {
   }
 }
 
-Status LodEpochHierarchy::prepare(const SceneStore& scene, const EligibleSet* eligible, Job& job) {
+Status LodEpochHierarchy::prepare(const SceneStore& scene, const EligibleSet* eligible, Job& job,
+                                  bool copy_span) {
   job.epoch = scene.epoch();
   job.result.reset();
   job.upserts.clear();
@@ -144,6 +145,7 @@ Status LodEpochHierarchy::prepare(const SceneStore& scene, const EligibleSet* el
       std::sort(job.removed.begin(), job.removed.end());
       job.removed.erase(std::unique(job.removed.begin(), job.removed.end()), job.removed.end());
       job.from_change_log = true;
+      job.span = {};
       job.gaussians = {};  // a full job's copy is not kept for a scene that has a change log
       return Ok{};
     }
@@ -152,7 +154,12 @@ Status LodEpochHierarchy::prepare(const SceneStore& scene, const EligibleSet* el
   const auto gaussians = scene.gaussians();
   // The whole span, not the eligible ones alone: the hierarchy remembers where each leaf was
   // in it (leaf_source), which the cut hands on as the leaf's place in the scene.
-  job.gaussians.assign(gaussians.begin(), gaussians.end());
+  if (copy_span) {
+    job.gaussians.assign(gaussians.begin(), gaussians.end());
+    job.span = job.gaussians;
+  } else {
+    job.span = gaussians;
+  }
   if (eligible) {
     job.subset.assign(eligible->indices.begin(), eligible->indices.end());
   } else {
@@ -171,7 +178,7 @@ Status LodEpochHierarchy::prepare(const SceneStore& scene, const EligibleSet* el
 void LodEpochHierarchy::run(Job& job) {
   // Removed ids that were never leaves (carriers, unusable ones) are fine: lenient.
   job.result = job.from_change_log ? hierarchy_->apply(job.upserts, job.removed, /*lenient_removes=*/true)
-                                   : hierarchy_->update(job.gaussians, job.subset);
+                                   : hierarchy_->update(job.span, job.subset);
 }
 
 Status LodEpochHierarchy::finish(Job& job) {

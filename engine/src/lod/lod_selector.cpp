@@ -64,7 +64,6 @@ const LodCut& LodSelector::last_cut() const {
 }
 
 const Gaussian* LodSelector::find_interior(GaussianId id) const {
-  source_->wait_idle();  // a background update writes the hierarchy: let it finish
   const LodHierarchy* hierarchy = source_->hierarchy();
   if (!hierarchy || !cut_used_) return nullptr;
   // The cut's interior nodes, in ascending id order after its leaves.

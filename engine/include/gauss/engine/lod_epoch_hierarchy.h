@@ -80,7 +80,7 @@ class LodEpochHierarchy {
   // for this to clear before committing the next (gauss-host does).
   bool busy() const;
   // Blocks until no background update runs (the next update call takes its result up). For a
-  // reader outside the ticks that must read the hierarchy now (a closing session's records).
+  // reader outside the ticks that must read the hierarchy now (SessionHost closing a session).
   void wait_idle() const;
 
   // The hierarchy, or null when none is held (never built, or dropped). Read between updates.
@@ -109,13 +109,16 @@ class LodEpochHierarchy {
     bool from_change_log{false};
     std::vector<Gaussian> upserts;     // change log: inserted or modified appearance Gaussians
     std::vector<GaussianId> removed;   // change log: removed, or turned carrier
-    std::vector<Gaussian> gaussians;   // otherwise: the scene's whole span (places matter)
+    std::span<const Gaussian> span;    // otherwise: the scene's whole span (places matter),
+    std::vector<Gaussian> gaussians;   //   copied here for the worker (the span then views it),
     std::vector<std::uint32_t> subset; //   and the indices of the eligible ones in it
     std::optional<Expected<LodUpdateReport>> result;
   };
   // Fills `job` for the scene's epoch: from the change log when it reaches back to epoch_ and
-  // there is no eligibility filter, else the whole span. Creates the hierarchy when none is held.
-  Status prepare(const SceneStore& scene, const EligibleSet* eligible, Job& job);
+  // there is no eligibility filter, else the whole span (a copy when `copy_span`: the worker's
+  // job outlives the scene's epoch; the caller's thread reads the scene itself). Creates the
+  // hierarchy when none is held.
+  Status prepare(const SceneStore& scene, const EligibleSet* eligible, Job& job, bool copy_span);
   // Runs a prepared job on the hierarchy (the caller's thread or the worker).
   void run(Job& job);
   // Takes a finished job's result up: the epoch, the log, or a drop. Under mutex_.
