@@ -131,9 +131,6 @@ void SessionHost::pump(const SceneStore& scene, double now) {
 
 void SessionHost::close(std::map<std::uint32_t, HostSession>::iterator it) {
   const std::uint32_t client = it->first;
-  // The hook reads what the session sent, interior records included: not while the worker
-  // writes them (once here, not per record).
-  if (config_.session.lod_in_background) config_.session.shared_lod->wait_idle();
   if (config_.on_session_closed) config_.on_session_closed(client, client_names_[client], it->second);
   client_names_.erase(client);
   sessions_.erase(it);

@@ -64,6 +64,9 @@ const LodCut& LodSelector::last_cut() const {
 }
 
 const Gaussian* LodSelector::find_interior(GaussianId id) const {
+  // Called outside the ticks too (a session's sent records, by whoever holds it): a background
+  // update writes the hierarchy, so let it finish.
+  source_->wait_idle();
   const LodHierarchy* hierarchy = source_->hierarchy();
   if (!hierarchy || !cut_used_) return nullptr;
   // The cut's interior nodes, in ascending id order after its leaves.

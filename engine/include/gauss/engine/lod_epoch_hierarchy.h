@@ -80,7 +80,7 @@ class LodEpochHierarchy {
   // for this to clear before committing the next (gauss-host does).
   bool busy() const;
   // Blocks until no background update runs (the next update call takes its result up). For a
-  // reader outside the ticks that must read the hierarchy now (SessionHost closing a session).
+  // reader outside the ticks that must read the hierarchy now (a session's sent records).
   void wait_idle() const;
 
   // The hierarchy, or null when none is held (never built, or dropped). Read between updates.

@@ -82,8 +82,7 @@ class LodSelector {
   std::span<const GaussianId> modified() const { return modified_; }
   void clear_modified() { modified_.clear(); }
   // The current record of interior node `id`, or null when the hierarchy has no such node.
-  // Not while a background update runs (its owner waits for it first: SessionHost does, before
-  // a closing session's records are read).
+  // Waits for a background update still running (readers outside the ticks call it too).
   const Gaussian* find_interior(GaussianId id) const;
   // The hierarchy, when one is held.
   const LodHierarchy* hierarchy() const { return source_->hierarchy(); }
