@@ -40,7 +40,7 @@ class StreamHarness {
     double epoch_period_s{0.15};
     std::string access_token;
     bool encrypt_stream{false};  // seal the stream (needs access_token)
-    // LoD on, its hierarchy updated in the background (SessionHost's default); epochs wait
+    // LoD on, its hierarchy updated in the background (lod_in_background); epochs wait
     // for it as gauss-host's loop does (SessionHost::lod_busy).
     bool lod{false};
   };
@@ -60,7 +60,10 @@ class StreamHarness {
     params.box.max = scene_->room_max() + glm::vec3(0.5f);
     if (opt_.lod) params = fit_lod_codec_params(params);
     net::SessionHostConfig hc;
-    if (opt_.lod) hc.session.lod = LodConfig{};
+    if (opt_.lod) {
+      hc.session.lod = LodConfig{};
+      hc.lod_in_background = true;
+    }
     hc.net.bind.port = 0;
     hc.net.access_token = opt_.access_token;
     hc.net.encrypt_stream = opt_.encrypt_stream;
