@@ -123,7 +123,7 @@ bool EvalSession::in_sync() {
   // edited between ticks (gauss-eval does so only in the live-latency run, never during a
   // settle), so the checksum is recomputed only after one.
   if (sent_checksum_at_ != messages_down_) {
-    sent_checksum_ = host_.sent_checksum(*scene_);
+    sent_checksum_ = host_.sent_checksum();
     sent_checksum_at_ = messages_down_;
   }
   return client_->with_state([&](const ClientState& s) {
@@ -196,12 +196,9 @@ Status EvalSession::load_sent_set(render::SplatRenderer& renderer) {
     if (!std::binary_search(sent.begin(), sent.end(), id))
       return Error{"load_sent_set: the client holds Gaussian " + std::to_string(to_underlying(id)) +
                    ", which the host did not send"};
-    const Gaussian* g = host_.sent_record(id, *scene_);
-    if (!g)
-      return Error{"load_sent_set: Gaussian " + std::to_string(to_underlying(id)) + " is no longer in the scene"};
-    Gaussian q = quantize_roundtrip(*g, params_);
-    q.id = id;  // a LoD record carries no id of its own
-    return q;
+    std::optional<Gaussian> g = host_.sent_record(id);
+    if (!g) return Error{"load_sent_set: the host has no record of Gaussian " + std::to_string(to_underlying(id))};
+    return *g;
   };
   if (auto st = write_at_slots(renderer, held, record_of); !st) return st;
   renderer.clear_mesh();

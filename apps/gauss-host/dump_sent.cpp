@@ -52,11 +52,7 @@ Expected<DumpReport> dump_sent(const fs::path& dir, const std::string& stem, con
   cloud.sh_degree = params.sh_degree;
   cloud.gaussians.reserve(session.sent_ids().size());
   for (GaussianId id : session.sent_ids())
-    if (const Gaussian* g = session.sent_record(id, scene)) {
-      Gaussian q = quantize_roundtrip(*g, params);
-      q.id = id;  // a LoD record carries no id of its own
-      cloud.gaussians.push_back(q);
-    }
+    if (std::optional<Gaussian> g = session.sent_record(id)) cloud.gaussians.push_back(*g);
   PlyGaussianWriteOptions options;
   options.write_object_id = true;
   options.write_gaussian_id = true;

@@ -3,14 +3,13 @@
 // a test can render "the host's own render of the set it sent" and compare it byte for
 // byte with the client's image.
 //   DIR/<name>.ply       the session's sent set (HostSession::sent_ids()), each Gaussian as
-//                        the client decodes it (quantize_roundtrip with the session's codec
-//                        parameters, as sent_checksum() hashes it), as a standard 3DGS PLY
-//                        with gaussian_id, object_id and support; SH degree = the codec's.
+//                        it was sent and the client decodes it (HostSession::sent_record,
+//                        which sent_checksum() hashes), as a standard 3DGS PLY with
+//                        gaussian_id, object_id and support; SH degree = the codec's.
 //                        Reading it back gives records whose record_hash() sum equals the
 //                        client's published_checksum() once it has converged.
 //   DIR/<name>.mesh.ply  the scene's surface at that time, all chunks in chunk-id order
 //                        concatenated; only when the scene has a surface.
-// Ids of the sent set that the scene no longer holds are skipped, as in sent_checksum().
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>

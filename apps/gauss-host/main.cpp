@@ -119,7 +119,7 @@ int main(int argc, char** argv) {
   // in the --sessions record.
   auto report_left = [&](std::uint32_t client, const std::string& name, const gauss::HostSession& session) {
     if (!session.accepted()) return;
-    const std::uint64_t checksum = session.sent_checksum(store);
+    const std::uint64_t checksum = session.sent_checksum();
     std::printf("gauss-host: client %u '%s' left: sent %zu Gaussians, checksum %llu\n", client,
                 gauss::escape_for_log(name).c_str(), session.sent_ids().size(),
                 static_cast<unsigned long long>(checksum));

@@ -127,7 +127,7 @@ void ClientRuntimeInProcess::converge_and_compare(std::uint32_t pack_slots, std:
 
   // The published set is what the host sent.
   const std::uint64_t published = (*rt)->with_state([](const ClientState& s) { return s.published_checksum(); });
-  EXPECT_EQ(published, host.sent_checksum(scene_));
+  EXPECT_EQ(published, host.sent_checksum());
   EXPECT_GT((*rt)->publication().stats().write_calls, 0u);
 
   // The frame equals a blocking renderer's image of the same slots and surface.
@@ -214,7 +214,7 @@ TEST_F(ClientRuntimeInProcess, LockStepPublicationIsOneFrameLateAndDeterministic
     }
     EXPECT_TRUE((*rt)->wait_frames().ok());
     r.published = (*rt)->with_state([](const ClientState& s) { return s.published_checksum(); });
-    r.sent = host.sent_checksum(scene_);
+    r.sent = host.sent_checksum();
     return r;
   };
   const Run a = run();

@@ -49,7 +49,7 @@ TEST(ClientState, FollowsARestartedHostWhoseEpochsStartOver) {
   {
     HostSession host(1, /*session_id=*/9, a.params);
     connect_and_settle(host, *client, a, 0.0);
-    EXPECT_EQ(client->desired().desired_checksum(), host.sent_checksum(a.store));
+    EXPECT_EQ(client->desired().desired_checksum(), host.sent_checksum());
   }
   const auto epoch_a = client->desired().published_epoch();
   ASSERT_TRUE(epoch_a.has_value());
@@ -64,7 +64,7 @@ TEST(ClientState, FollowsARestartedHostWhoseEpochsStartOver) {
   connect_and_settle(host, *client, b, 1.0);
 
   EXPECT_EQ(client->stats().resyncs, 2u);
-  EXPECT_EQ(client->desired().desired_checksum(), host.sent_checksum(b.store)) << "the new host's set, exactly";
+  EXPECT_EQ(client->desired().desired_checksum(), host.sent_checksum()) << "the new host's set, exactly";
   EXPECT_EQ(client->published_checksum(), client->desired().desired_checksum()) << "no stale slots";
   ASSERT_TRUE(client->desired().published_epoch().has_value());
   EXPECT_EQ(to_underlying(*client->desired().published_epoch()), to_underlying(b.store.epoch()));

@@ -172,5 +172,71 @@ TEST(DifferProperty, PairsLeaversAndEnterersIntoReplaces) {
   EXPECT_EQ(differ.sent_count(), 10u);
 }
 
+TEST(DifferProperty, KeepsEachSentRecordAsSentThroughLaterEpochsAndFailedDiffs) {
+  SceneStore store;
+  test::fill_test_scene(store, 200, 61);
+  const CodecParams params = fit_codec_params(store.gaussians(), store.sh_degree());
+  Differ differ(params);
+  auto make = [&](std::uint32_t from, std::uint32_t to) {
+    Selection s;
+    s.scene_size = store.gaussians().size();
+    s.epoch = store.epoch();
+    for (std::uint32_t i = from; i < to; ++i) {
+      s.indices.push_back(i);
+      s.ids.push_back(store.gaussians()[i].id);
+    }
+    return s;
+  };
+  ClientSet client;
+  auto first = differ.diff(make(0, 100), store);
+  ASSERT_TRUE(first.ok());
+  apply_batch(client, *decode_edit_batch(encode_edit_batch(*first, params), params));
+  auto held_as_sent = [&] {
+    ASSERT_EQ(differ.sent_count(), client.size());
+    std::size_t visited = 0;
+    differ.for_each_sent([&](const Gaussian& g) {
+      ++visited;
+      ASSERT_EQ(client.count(to_underlying(g.id)), 1u);
+      EXPECT_TRUE(same_record(g, client[to_underlying(g.id)])) << "id " << to_underlying(g.id);
+      EXPECT_EQ(g.id, client[to_underlying(g.id)].id);
+    });
+    EXPECT_EQ(visited, client.size());
+  };
+  held_as_sent();
+  // The scene moves on (sent records recoloured) with no diff since: the record stays what
+  // was sent.
+  const Gaussian a = store.gaussians()[30];
+  ASSERT_TRUE(store.begin_next_epoch().ok());
+  Gaussian a2 = a;
+  a2.sh_dc += glm::vec3(0.5f);
+  ASSERT_TRUE(store.modify(a2).ok());
+  ASSERT_TRUE(store.commit_epoch().ok());
+  ASSERT_NE(quantized_hash(store.gaussians()[30], params), quantized_hash(a, params));
+  held_as_sent();
+  EXPECT_TRUE(same_record(*differ.sent_record(a.id), quantize_roundtrip(a, params)));
+  EXPECT_FALSE(differ.sent_record(store.gaussians()[150].id).has_value()) << "never sent";
+  // A diff that fails after taking slots for the update and for some enterers (the last
+  // enterer does not match the scene) changes nothing: the record, the update still to send.
+  Selection wrong = make(10, 160);
+  wrong.ids.back() = GaussianId{to_underlying(wrong.ids.back()) + 100000};
+  EXPECT_FALSE(differ.diff(wrong, store).ok());
+  held_as_sent();
+  auto next = differ.diff(make(10, 160), store);
+  ASSERT_TRUE(next.ok());
+  EXPECT_EQ(differ.last_stats().updates, 1u);
+  apply_batch(client, *decode_edit_batch(encode_edit_batch(*next, params), params));
+  held_as_sent();
+  // Slots freed by leavers and updates are reused, records stay exact through many diffs.
+  for (std::uint32_t k = 0; k < 20; ++k) {
+    auto b = differ.diff(make(5 * k, 5 * k + 60 + k % 7), store);
+    ASSERT_TRUE(b.ok());
+    apply_batch(client, *decode_edit_batch(encode_edit_batch(*b, params), params));
+  }
+  held_as_sent();
+  differ.reset();
+  EXPECT_EQ(differ.sent_count(), 0u);
+  EXPECT_FALSE(differ.sent_record(a.id).has_value());
+}
+
 }  // namespace
 }  // namespace gauss

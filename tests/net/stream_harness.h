@@ -150,7 +150,7 @@ class StreamHarness {
     if (hs == nullptr || !scene_->finished()) return false;
     const auto ack = hs->last_ack();
     if (!ack || ack->last_batch_id != hs->last_batch_id()) return false;
-    const std::uint64_t sent = hs->sent_checksum(store_);
+    const std::uint64_t sent = hs->sent_checksum();
     return c.sink->with_state([&](ClientState& s) {
       return s.welcomed() && s.desired().pending_count() == 0 && s.last_batch_id() == hs->last_batch_id() &&
              s.desired().desired_checksum() == sent && s.published_checksum() == sent &&

@@ -289,10 +289,13 @@ void quantize_record(const Gaussian& g, const CodecParams& params, std::uint8_t*
   codec_detail::write_record(g, params, out, stats);
 }
 
-std::uint64_t quantized_hash(const Gaussian& g, const CodecParams& params) {
-  std::uint8_t buf[record_bytes(kMaxShDegree)];
-  codec_detail::write_record(g, params, buf, nullptr);
+std::uint64_t write_sent_record(const Gaussian& g, const CodecParams& params, std::uint8_t* out) {
+  codec_detail::write_record(g, params, out, nullptr);
   const std::size_t n = record_bytes(std::clamp(params.sh_degree, 0, kMaxShDegree));
+  const auto obj = static_cast<std::uint32_t>(to_underlying(g.object));
+  const std::uint8_t code = codec_detail::support_code(g.support, nullptr);
+  std::memcpy(out + n, &obj, 4);
+  out[n + 4] = code;
   // FNV-1a over the record eight bytes a step (the tail zero-padded), then the object id
   // and support code: any byte that reaches the client changes the hash. Each step, h -> (h
   // xor w) * odd, is a bijection of h, so two records that differ in one word never collide,
@@ -305,17 +308,33 @@ std::uint64_t quantized_hash(const Gaussian& g, const CodecParams& params) {
   std::size_t i = 0;
   for (; i + 8 <= n; i += 8) {
     std::uint64_t w;
-    std::memcpy(&w, buf + i, 8);
+    std::memcpy(&w, out + i, 8);
     mix(w);
   }
   if (i < n) {
     std::uint64_t w = 0;
-    std::memcpy(&w, buf + i, n - i);
+    std::memcpy(&w, out + i, n - i);
     mix(w);
   }
-  const auto obj = static_cast<std::uint32_t>(to_underlying(g.object));
-  mix(std::uint64_t{obj} << 8 | codec_detail::support_code(g.support, nullptr));
+  mix(std::uint64_t{obj} << 8 | code);
   return h;
+}
+
+Gaussian read_sent_record(const std::uint8_t* in, GaussianId id, const CodecParams& params) {
+  const std::size_t n = record_bytes(std::clamp(params.sh_degree, 0, kMaxShDegree));
+  Gaussian out;
+  codec_detail::read_record(in, params, out);
+  std::uint32_t obj;
+  std::memcpy(&obj, in + n, 4);
+  out.id = id;
+  out.object = ObjectId{static_cast<std::int32_t>(obj)};
+  out.support = codec_detail::dequantize_support(in[n + 4]);
+  return out;
+}
+
+std::uint64_t quantized_hash(const Gaussian& g, const CodecParams& params) {
+  std::uint8_t buf[sent_record_bytes(kMaxShDegree)];
+  return write_sent_record(g, params, buf);
 }
 
 Gaussian quantize_roundtrip(const Gaussian& g, const CodecParams& params) {

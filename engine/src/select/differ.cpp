@@ -4,6 +4,7 @@
 #include "gauss/engine/differ.h"
 
 #include <algorithm>
+#include <cstring>
 #include <optional>
 #include <string>
 
@@ -15,12 +16,40 @@ struct Differ::Impl {
   struct Sent {
     GaussianId id;
     std::uint64_t hash;  // quantized_hash of the record the client holds
+    std::uint32_t slot;  // that record, as sent, in `records`
   };
   std::vector<Sent> sent;  // sorted by id
+  // What the client holds, as sent (write_sent_record), one slot per sent entry: the record
+  // of what was sent stays true however the scene or a LoD hierarchy moves on after it.
+  std::size_t stride{0};
+  std::vector<std::uint8_t> records;
+  std::vector<std::uint32_t> free_slots;
+  std::uint32_t take_slot() {
+    if (!free_slots.empty()) {
+      const std::uint32_t slot = free_slots.back();
+      free_slots.pop_back();
+      return slot;
+    }
+    const auto slot = static_cast<std::uint32_t>(records.size() / stride);
+    records.resize(records.size() + stride);
+    return slot;
+  }
+  // A diff that fails leaves the sent state as it was: the slots it took go back.
+  Error fail(Error e) {
+    free_slots.insert(free_slots.end(), taken_slots.begin(), taken_slots.end());
+    taken_slots.clear();
+    return e;
+  }
+  std::uint8_t* at(std::uint32_t slot) { return records.data() + std::size_t{slot} * stride; }
+  const std::uint8_t* at(std::uint32_t slot) const { return records.data() + std::size_t{slot} * stride; }
   std::vector<Sent> next;  // the next sent state, swapped in after a diff
   std::optional<Epoch> last_epoch;
   // Scratch kept between calls.
   std::vector<GaussianId> leavers;
+  // Slots this diff frees (leavers', updated records' old ones) and takes: freed only once
+  // the diff succeeds, given back when it fails.
+  std::vector<std::uint32_t> retired_slots;
+  std::vector<std::uint32_t> taken_slots;
   std::vector<std::uint32_t> enterers;  // positions in the desired selection
   std::vector<std::uint32_t> updated;   // positions in the desired selection
   std::vector<std::uint32_t> enterer_slots;  // their entries in `next`
@@ -28,7 +57,10 @@ struct Differ::Impl {
   std::vector<GaussianId> modified_scratch;
 };
 
-Differ::Differ(CodecParams params) : impl_(std::make_unique<Impl>()) { impl_->params = params; }
+Differ::Differ(CodecParams params) : impl_(std::make_unique<Impl>()) {
+  impl_->params = params;
+  impl_->stride = sent_record_bytes(std::clamp(params.sh_degree, 0, kMaxShDegree));
+}
 Differ::Differ(Differ&&) noexcept = default;
 Differ& Differ::operator=(Differ&&) noexcept = default;
 Differ::~Differ() = default;
@@ -50,8 +82,21 @@ std::vector<GaussianId> Differ::sent_ids() const {
   return out;
 }
 
+std::optional<Gaussian> Differ::sent_record(GaussianId id) const {
+  const auto& v = impl_->sent;
+  auto it = std::lower_bound(v.begin(), v.end(), id, [](const Impl::Sent& s, GaussianId x) { return s.id < x; });
+  if (it == v.end() || it->id != id) return std::nullopt;
+  return read_sent_record(impl_->at(it->slot), id, impl_->params);
+}
+
+void Differ::for_each_sent(const std::function<void(const Gaussian&)>& visit) const {
+  for (const Impl::Sent& s : impl_->sent) visit(read_sent_record(impl_->at(s.slot), s.id, impl_->params));
+}
+
 void Differ::reset() {
   impl_->sent.clear();
+  impl_->records.clear();
+  impl_->free_slots.clear();
   impl_->last_epoch.reset();
 }
 
@@ -136,6 +181,8 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
 
   s.stats = DiffStats{};
   s.leavers.clear();
+  s.retired_slots.clear();
+  s.taken_slots.clear();
   s.enterers.clear();
   s.enterer_slots.clear();
   s.updated.clear();
@@ -167,6 +214,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
     const bool has_a = a < sent_n;
     const bool has_b = b < m;
     if (has_a && (!has_b || sent[a].id < ids[at(b)])) {
+      s.retired_slots.push_back(sent[a].slot);
       s.leavers.push_back(sent[a++].id);
       continue;
     }
@@ -176,7 +224,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
       // Checked against the scene where its record is copied (below), prefetched.
       s.enterers.push_back(k);
       s.enterer_slots.push_back(static_cast<std::uint32_t>(t));
-      next[t++] = Impl::Sent{id, 0};  // hash filled below
+      next[t++] = Impl::Sent{id, 0, 0};  // hash and slot filled below
       continue;
     }
     // Staying: re-quantise only when it may have changed.
@@ -187,11 +235,17 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
       check = mi < mod.size() && mod[mi] == id;
     }
     if (check) {
-      if (auto err = mismatch(k)) return *err;
+      if (auto err = mismatch(k)) return s.fail(*err);
       ++s.stats.rehashed;
       const Gaussian& value = record(desired.indices[k]);
-      const std::uint64_t h = quantized_hash(value, s.params);
+      std::uint8_t fresh[sent_record_bytes(kMaxShDegree)];
+      const std::uint64_t h = write_sent_record(value, s.params, fresh);
       if (h != e.hash) {
+        // A new slot, so the sent state stays whole should this diff fail further on.
+        s.retired_slots.push_back(e.slot);
+        e.slot = s.take_slot();
+        s.taken_slots.push_back(e.slot);
+        std::memcpy(s.at(e.slot), fresh, s.stride);
         e.hash = h;
         s.updated.push_back(k);
       }
@@ -225,18 +279,22 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
     const bool replace = j < replaces;
     const Edit& e = emit(replace ? EditKind::Replace : EditKind::Insert, desired.ids[k],
                          replace ? s.leavers[j] : GaussianId{0}, record(desired.indices[k]));
-    s.next[s.enterer_slots[j]].hash = quantized_hash(e.value, s.params);
+    Impl::Sent& entry = s.next[s.enterer_slots[j]];
+    entry.slot = s.take_slot();
+    s.taken_slots.push_back(entry.slot);
+    entry.hash = write_sent_record(e.value, s.params, s.at(entry.slot));
     return std::nullopt;
   };
   // Batch order: removes, replaces, updates, inserts. Leavers and enterers are both in
   // ascending id order: a replace pairs them in that order.
   for (std::size_t j = replaces; j < s.leavers.size(); ++j) batch.edits.push_back(Edit{EditKind::Remove, s.leavers[j]});
   for (std::size_t j = 0; j < replaces; ++j)
-    if (auto err = enter(j)) return *err;
+    if (auto err = enter(j)) return s.fail(*err);
   for (std::uint32_t k : s.updated) emit(EditKind::Update, desired.ids[k], GaussianId{0}, record(desired.indices[k]));
   for (std::size_t j = replaces; j < s.enterers.size(); ++j)
-    if (auto err = enter(j)) return *err;
+    if (auto err = enter(j)) return s.fail(*err);
   s.sent.swap(s.next);
+  s.free_slots.insert(s.free_slots.end(), s.retired_slots.begin(), s.retired_slots.end());
   s.stats.replaces = replaces;
   s.stats.removes = s.leavers.size() - replaces;
   s.stats.inserts = s.enterers.size() - replaces;

@@ -140,7 +140,7 @@ struct Simulation::Impl {
       if (!out) return Error{cname(c) + ": " + out.message()};
       for (const auto& m : *out) {
         if (const auto* b = std::get_if<msg::EditBatchMsg>(&m); b && cfg.check_coalescing)
-          cl.expected[b->batch_id] = cl.session->sent_checksum(store);
+          cl.expected[b->batch_id] = cl.session->sent_checksum();
         if (Status s = send(c, m, true); !s) return s;
       }
     }
@@ -258,7 +258,7 @@ struct Simulation::Impl {
                    std::to_string(cl.session->sent_ids().size())};
     const std::uint64_t d = cl.state->desired().desired_checksum();
     if (cl.state->published_checksum() != d) return Error{cname(c) + ": published set differs from desired set"};
-    if (cl.session->sent_checksum(store) != d) return Error{cname(c) + ": desired set differs from the host's intended set"};
+    if (cl.session->sent_checksum() != d) return Error{cname(c) + ": desired set differs from the host's intended set"};
     return Ok{};
   }
 };

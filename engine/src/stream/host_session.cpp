@@ -386,18 +386,9 @@ std::vector<wire::Message> HostSession::surface_patches(const SceneStore& scene,
   return out;
 }
 
-const Gaussian* HostSession::sent_record(GaussianId id, const SceneStore& scene) const {
-  // A scene Gaussian may carry the top bit too (the hierarchy refuses it, and leaf selection
-  // sends it): the cut's records first, then the scene.
-  if (is_lod_interior_id(id) && lod_)
-    if (const Gaussian* g = lod_->find_interior(id)) return g;
-  return scene.find(id);
-}
-
-std::uint64_t HostSession::sent_checksum(const SceneStore& scene) const {
+std::uint64_t HostSession::sent_checksum() const {
   std::uint64_t sum = 0;
-  for (GaussianId id : sent_ids_)
-    if (const Gaussian* g = sent_record(id, scene)) sum += record_hash(id, quantize_roundtrip(*g, params_));
+  differ_.for_each_sent([&sum](const Gaussian& g) { sum += record_hash(g.id, g); });
   return sum;
 }
 

@@ -173,6 +173,16 @@ void quantize_record(const Gaussian& g, const CodecParams& params, std::uint8_t*
 // 64-bit hash of the quantised record, object id and quantised support.
 std::uint64_t quantized_hash(const Gaussian& g, const CodecParams& params);
 
+// A record as it was sent, kept compactly (the differ's memory of what a client holds): the
+// quantised record bytes, then the object id (4 bytes) and the support code (1 byte).
+constexpr std::size_t sent_record_bytes(int sh_degree) { return record_bytes(sh_degree) + 5; }
+// Writes g's sent record (sent_record_bytes(params.sh_degree) bytes) to out and returns
+// quantized_hash(g, params).
+std::uint64_t write_sent_record(const Gaussian& g, const CodecParams& params, std::uint8_t* out);
+// The Gaussian a client decodes from it, id `id`: equal to quantize_roundtrip of the record
+// written.
+Gaussian read_sent_record(const std::uint8_t* in, GaussianId id, const CodecParams& params);
+
 // What the client sees for g: quantised and dequantised (id, object kept; carrier false).
 Gaussian quantize_roundtrip(const Gaussian& g, const CodecParams& params);
 

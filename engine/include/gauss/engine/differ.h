@@ -9,6 +9,9 @@
 // differ's sent state is the desired set with the records just sent, so applying the
 // batch to the previous client set reproduces the desired set exactly.
 //
+// The sent state keeps each sent record as the client decodes it (its quantised bytes, ~20-65
+// B), so what a client holds can be told exactly after the scene has changed again.
+//
 // Cost: O(|sent| + |desired|) per call: one sequential merge of the sent ids (kept sorted)
 // with the desired ids (sorted, as Selection guarantees), no hashing, no per-id lookups.
 // Update detection quantises a staying Gaussian only when the scene says it may have
@@ -16,6 +19,7 @@
 // reach back that far); for plain spans the caller passes the modified ids or asks for all.
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -66,6 +70,11 @@ class Differ {
   std::size_t sent_count() const;
   bool is_sent(GaussianId id) const;
   std::vector<GaussianId> sent_ids() const;  // sorted
+  // What the client holds for a sent id, exactly as it was sent (quantised and decoded, as
+  // the client decodes it), however the scene has moved on since; nullopt when not sent.
+  std::optional<Gaussian> sent_record(GaussianId id) const;
+  // Each sent record so, in id order.
+  void for_each_sent(const std::function<void(const Gaussian&)>& visit) const;
   // Forgets the sent state (e.g. the client reconnected with an empty set).
   void reset();
 

@@ -138,12 +138,13 @@ class HostSession {
   // Stage events (available, sent; query resolved, target, desired residency).
   EventLog& events() noexcept { return events_; }
   // The desired set as last sent (sorted ids) and its checksum over the records the
-  // client decodes (quantize_roundtrip), to compare with the client's state.
+  // client decodes, to compare with the client's state. Both are what was sent, however the
+  // scene or the LoD hierarchy has moved on since.
   const std::vector<GaussianId>& sent_ids() const noexcept { return sent_ids_; }
-  std::uint64_t sent_checksum(const SceneStore& scene) const;
-  // The value behind a sent id: the scene's Gaussian, or a LoD cut's interior record (null
-  // when neither holds it any more).
-  const Gaussian* sent_record(GaussianId id, const SceneStore& scene) const;
+  std::uint64_t sent_checksum() const;
+  // The record a sent id's client holds, as it decodes it (quantised; a scene Gaussian or a
+  // LoD cut's interior record); nullopt when the id was not sent.
+  std::optional<Gaussian> sent_record(GaussianId id) const { return differ_.sent_record(id); }
   std::optional<msg::Ack> last_ack() const noexcept { return last_ack_; }
   std::uint64_t last_batch_id() const noexcept { return next_batch_id_ - 1; }
 

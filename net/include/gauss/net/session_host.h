@@ -34,14 +34,13 @@ struct SessionHostConfig {
   // With LoD (session.lod): the hierarchy is updated on a worker thread, started by pump()
   // when the scene has a new epoch (and taken up by a later pump), instead of inside the
   // first session's tick, where a 1M scene's first build held every client ~1 s and each 1 %
-  // epoch 50-120 ms. Meanwhile the pump goes on (messages, acks, connections, sessions
+  // epoch 170-240 ms. Meanwhile the pump goes on (messages, acks, connections, sessions
   // without LoD) and the LoD sessions send nothing; they select once it stands for the epoch.
-  // The loop should not commit another epoch while lod_busy(). Off (the default): the first
-  // tick updates it. Not the default yet: a closing session's record of what it sent
-  // (sent_checksum, --dump-sent, --sessions) reads interior records from the hierarchy, which
-  // an update started in the meantime may already have changed, so the host would report
-  // records it never sent (the soak caught one such run in 37).
-  bool lod_in_background{false};
+  // The loop should not commit another epoch while lod_busy(). Off: the first tick updates it.
+  // A session's record of what it sent (sent_checksum, --dump-sent, --sessions) is its
+  // differ's own copy, so an update that rewrites the hierarchy after a session's last batch
+  // does not change what the session reports.
+  bool lod_in_background{true};
   // Called with each session right before it is erased: on its client's disconnect
   // (inside pump()) and for every session still open in close_all(). `client_name` is
   // the name from the client's Hello. Runs on the thread calling pump()/close_all();
