@@ -158,3 +158,39 @@ TEST(SimSway, RealMotionStillReselects) {
   Status s = sim->run_until_converged(sim->now() + 5.0);
   EXPECT_TRUE(s.ok()) << s.message();
 }
+
+// A head that steps (below the jump threshold) and then holds still: with pose_still_s the
+// host re-selects at the new pose once it has been still that long, and then sends nothing
+// more. Without it the sway centre creeps on towards the pose for seconds and re-selects
+// again each time it crosses epsilon: a batch seconds after the head stopped, which a
+// client that has waited a quiet second and a half and leaves would never see (the soak
+// caught such a run: the host's record of what it sent then differs from the client's set).
+TEST(SimSway, AHeadHeldStillIsFollowedOnceAndThenLeftAlone) {
+  auto late_batches = [](double still_s, std::uint64_t& early) {
+    SimConfig cfg = room(PublishMode::Immediate, HostSessionConfig{}.pose_smoothing_s);
+    cfg.host.pose_still_s = still_s;
+    auto sim = Simulation::create(cfg);
+    EXPECT_TRUE(sim.ok()) << sim.message();
+    const Aabb b = sim->scene().bounds();
+    const glm::vec3 p0(0.5f * (b.min.x + b.max.x), 1.6f, 0.5f * (b.min.z + b.max.z));
+    sim->set_pose(0, p0, yaw(0.0));
+    EXPECT_TRUE(sim->run_until(1.0).ok());
+    sim->stop_scene();
+    EXPECT_TRUE(sim->run_until_converged(20.0).ok());
+    EXPECT_TRUE(sim->run_until(sim->now() + 2.0).ok());
+    // 11 cm: below the jump threshold (15), so only the centre follows (time constant 1 s);
+    // it crosses epsilon (5 cm) after 0.6 s and again, 10 cm out, after 2.4 s.
+    const std::uint64_t before = sim->session(0)->last_batch_id();
+    const double t0 = sim->now();
+    sim->set_pose(0, p0 + glm::vec3(0.0f, 0.0f, 0.11f), yaw(0.0));
+    EXPECT_TRUE(sim->run_until(t0 + 1.5).ok());
+    early = sim->session(0)->last_batch_id() - before;
+    const std::uint64_t settled = sim->session(0)->last_batch_id();
+    EXPECT_TRUE(sim->run_until(t0 + 8.0).ok());
+    return sim->session(0)->last_batch_id() - settled;
+  };
+  std::uint64_t early_still = 0, early_creep = 0;
+  EXPECT_EQ(late_batches(HostSessionConfig{}.pose_still_s, early_still), 0u) << "a batch after the head stood still";
+  EXPECT_GT(early_still, 0u) << "the step was not followed";
+  EXPECT_GT(late_batches(0.0, early_creep), 0u) << "the creep this guards against did not show";
+}

@@ -200,7 +200,17 @@ std::pair<double, double> pose_distance(const msg::HeadPose& a, const msg::HeadP
 }  // namespace
 
 void HostSession::follow_pose(const msg::HeadPose& pose, double now) {
-  if (!centre_ || !(config_.pose_smoothing_s > 0.0)) {
+  // Stillness is measured from where it began, so a slow drift in small steps is motion.
+  if (still_pose_) {
+    const auto [m, rad] = pose_distance(pose, *still_pose_);
+    if (m > kStillPoseM || rad > kStillPoseRad) still_pose_.reset();
+  }
+  if (!still_pose_) {
+    still_pose_ = pose;
+    still_since_ = now;
+  }
+  const bool still = config_.pose_still_s > 0.0 && now - still_since_ >= config_.pose_still_s;
+  if (!centre_ || !(config_.pose_smoothing_s > 0.0) || still) {
     centre_ = pose;
     centre_time_ = now;
     return;

@@ -34,6 +34,12 @@
 
 namespace gauss {
 
+// A reported head pose within this of where its stillness began counts as held still
+// (HostSessionConfig::pose_still_s): a tracked headset at rest or a desktop view not being
+// moved stays well inside; a standing user's sway (centimetres, degrees) does not.
+inline constexpr double kStillPoseM = 0.002;
+inline constexpr double kStillPoseRad = 0.002;
+
 struct HostSessionConfig {
   std::string access_token;          // required token; empty = none required
   std::uint32_t max_capacity{kMaxSlotCapacity};  // grant at most this many slots
@@ -62,6 +68,12 @@ struct HostSessionConfig {
   //     than the jump threshold.
   // A sway whose low-passed amplitude stays below epsilon and whose raw amplitude stays
   // below the jump threshold never re-selects: no churn, no flicker.
+  // A head held still for `pose_still_s` (its reported pose within kStillPoseM / kStillPoseRad
+  // of where the stillness began) is no sway: the centre goes to it at once. Otherwise the
+  // low-pass would creep on for seconds after a stop and re-select late, once per epsilon
+  // crossed (a 10 cm step re-selected 0.65 s and again 3 s after it), and a client deciding
+  // it has settled could leave with a batch in flight. 0: never.
+  double pose_still_s{0.5};
   double pose_epsilon_m{0.05};
   double pose_epsilon_rad{0.05};
   double pose_smoothing_s{1.0};
@@ -189,6 +201,8 @@ class HostSession {
   std::optional<msg::HeadPose> pose_;           // latest reported (raw) pose
   std::optional<msg::HeadPose> centre_;         // low-passed pose: the sway centre
   double centre_time_{0.0};                     // host time of the last low-pass step
+  std::optional<msg::HeadPose> still_pose_;     // where the head's current stillness began
+  double still_since_{0.0};                     // and when
   std::optional<msg::HeadPose> selected_pose_;  // pose the last selection was made at
   std::optional<SemanticQuery> query_;
   double rho_{0.0};
