@@ -1,6 +1,8 @@
 // Differ: sent set -> desired set as Remove / Insert / Update / Replace edits (differ.h).
-// The sent state is a vector sorted by id with each record's hash; a diff is one merge of
-// it with the (sorted) desired ids, which also writes the next sent state.
+// The sent state is a vector sorted by id with each record's slot (its sent bytes, kept
+// apart so the merge moves 16 bytes an entry); a diff is one merge of it with the (sorted)
+// desired ids, which also writes the next sent state. A re-checked record is compared byte
+// for byte with what was sent: no hash, so no collision can hide an update.
 #include "gauss/engine/differ.h"
 
 #include <algorithm>
@@ -15,8 +17,7 @@ struct Differ::Impl {
   DiffStats stats;
   struct Sent {
     GaussianId id;
-    std::uint64_t hash;  // quantized_hash of the record the client holds
-    std::uint32_t slot;  // that record, as sent, in `records`
+    std::uint32_t slot;  // the record the client holds, as sent, in `records`
   };
   std::vector<Sent> sent;  // sorted by id
   // What the client holds, as sent (write_sent_record), one slot per sent entry: the record
@@ -224,7 +225,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
       // Checked against the scene where its record is copied (below), prefetched.
       s.enterers.push_back(k);
       s.enterer_slots.push_back(static_cast<std::uint32_t>(t));
-      next[t++] = Impl::Sent{id, 0, 0};  // hash and slot filled below
+      next[t++] = Impl::Sent{id, 0};  // slot filled below
       continue;
     }
     // Staying: re-quantise only when it may have changed.
@@ -239,14 +240,13 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
       ++s.stats.rehashed;
       const Gaussian& value = record(desired.indices[k]);
       std::uint8_t fresh[sent_record_bytes(kMaxShDegree)];
-      const std::uint64_t h = write_sent_record(value, s.params, fresh);
-      if (h != e.hash) {
+      write_sent_record(value, s.params, fresh);
+      if (std::memcmp(fresh, s.at(e.slot), s.stride) != 0) {
         // A new slot, so the sent state stays whole should this diff fail further on.
         s.retired_slots.push_back(e.slot);
         e.slot = s.take_slot();
         s.taken_slots.push_back(e.slot);
         std::memcpy(s.at(e.slot), fresh, s.stride);
-        e.hash = h;
         s.updated.push_back(k);
       }
     }
@@ -260,8 +260,8 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
   // edit (an Edit{...} temporary, or a default-constructed edit assigned to, would write it
   // twice). The scene is large and the copied Gaussians are scattered through it, so the
   // copy is cache misses more than work: the Gaussians a few edits ahead are prefetched, an
-  // enterer is checked against the scene there (its record is read anyway), and its hash is
-  // taken from its fresh copy rather than from the scene again.
+  // enterer is checked against the scene there (its record is read anyway), and its sent bytes
+  // are taken from its fresh copy rather than from the scene again.
   batch.edits.reserve(s.leavers.size() + s.enterers.size() - replaces + s.updated.size());
   auto prefetch = [&](std::uint32_t k) {
     const auto* p = reinterpret_cast<const char*>(&record(desired.indices[k]));
@@ -282,7 +282,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
     Impl::Sent& entry = s.next[s.enterer_slots[j]];
     entry.slot = s.take_slot();
     s.taken_slots.push_back(entry.slot);
-    entry.hash = write_sent_record(e.value, s.params, s.at(entry.slot));
+    write_sent_record(e.value, s.params, s.at(entry.slot));
     return std::nullopt;
   };
   // Batch order: removes, replaces, updates, inserts. Leavers and enterers are both in

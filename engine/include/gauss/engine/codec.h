@@ -176,9 +176,9 @@ std::uint64_t quantized_hash(const Gaussian& g, const CodecParams& params);
 // A record as it was sent, kept compactly (the differ's memory of what a client holds): the
 // quantised record bytes, then the object id (4 bytes) and the support code (1 byte).
 constexpr std::size_t sent_record_bytes(int sh_degree) { return record_bytes(sh_degree) + 5; }
-// Writes g's sent record (sent_record_bytes(params.sh_degree) bytes) to out and returns
-// quantized_hash(g, params).
-std::uint64_t write_sent_record(const Gaussian& g, const CodecParams& params, std::uint8_t* out);
+// Writes g's sent record (sent_record_bytes(params.sh_degree) bytes, every one of them) to
+// out. Two Gaussians reach the client alike exactly when their sent records are equal.
+void write_sent_record(const Gaussian& g, const CodecParams& params, std::uint8_t* out);
 // The Gaussian a client decodes from it, id `id`: equal to quantize_roundtrip of the record
 // written.
 Gaussian read_sent_record(const std::uint8_t* in, GaussianId id, const CodecParams& params);
