@@ -79,6 +79,7 @@ struct Options {
   bool clients{true};
   bool lod{true};
   std::vector<unsigned> client_counts{1, 2, 4, 8};
+  float min_opacity{0.0f};  // part 5b's eligibility filter (0: none)
   fs::path json_out;
 };
 
@@ -671,6 +672,7 @@ json bench_clients_lod(SceneStore& store, const SyntheticScene& scene, const Opt
   net::WorkerPool pool(0);
   std::printf("\n5b. several clients with LoD, one shared hierarchy (M = %zu each, %u threads; wall ms)\n", o.budget,
               pool.threads());
+  if (o.min_opacity > 0.0f) std::printf("   sessions filter eligibility: min opacity %g\n", double(o.min_opacity));
   std::printf("   %8s %12s %12s %14s %14s %16s %16s\n", "clients", "pose p50", "pose p90", "1 % epoch p50",
               "1 % epoch max", "bg: serving p50", "bg: served p50");
   const CodecParams params = fit_lod_codec_params(fit_codec_params(store.gaussians(), store.sh_degree()));
@@ -700,6 +702,10 @@ json bench_clients_lod(SceneStore& store, const SyntheticScene& scene, const Opt
       cfg.shared_lod = std::make_shared<LodEpochHierarchy>(store.sh_degree(), *cfg.lod);
       cfg.lod_in_background = background;
       cfg.shared_selector_terms = std::make_shared<SelectorTerms>();
+      if (o.min_opacity > 0.0f) {
+        cfg.eligibility = EligibilityConfig{};
+        cfg.eligibility->min_opacity = o.min_opacity;
+      }
       LodEpochHierarchy& hierarchy = *cfg.shared_lod;
       double now = 0.0;
       std::vector<BenchClient> clients = connect_clients(k, params, cfg, store, path, o.budget, "bench-lod-");
@@ -716,7 +722,7 @@ json bench_clients_lod(SceneStore& store, const SyntheticScene& scene, const Opt
       };
       // The host loop's part: start the update, or take a finished one up.
       auto advance = [&] {
-        auto p = hierarchy.update_in_background(store, nullptr);
+        auto p = hierarchy.update_in_background(store, cfg.eligibility ? &*cfg.eligibility : nullptr);
         return p && *p == LodEpochHierarchy::Progress::Ready;
       };
       auto settle = [&] {
@@ -824,6 +830,9 @@ BenchRun bench_host_setup(CLI::App& cmd) {
       ->delimiter(',')
       ->check(gauss::apps::in_range(1u, 64u))
       ->type_name("K,...");
+  cmd.add_option("--min-opacity", o->min_opacity, "part 5b: the sessions' eligibility filter (0: none)")
+      ->check(gauss::apps::in_range(0.0f, 1.0f))
+      ->type_name("P");
   cmd.add_option("--json", o->json_out, "write the results as JSON")->type_name("FILE");
   return [o] { return bench_host_main(*o); };
 }

@@ -542,3 +542,84 @@ TEST(HostSessionLod, ABackgroundHierarchyThatCannotBeMadeLeavesNoSessionWaiting)
   ASSERT_TRUE(again.ok()) << "said once: " << again.message();
   EXPECT_EQ(*again, LodEpochHierarchy::Progress::Ready);
 }
+
+namespace {
+
+// The two trees from their roots: the same nodes (ids, kinds, children) and the same records.
+void expect_same_tree(const LodHierarchy& a, std::uint32_t na, const LodHierarchy& b, std::uint32_t nb) {
+  const LodNode& x = a.node(na);
+  const LodNode& y = b.node(nb);
+  ASSERT_EQ(x.id, y.id);
+  ASSERT_EQ(x.leaf, y.leaf);
+  ASSERT_EQ(x.child_count, y.child_count) << "node " << to_underlying(x.id);
+  ASSERT_TRUE(same_value(a.gaussian(x), b.gaussian(y))) << "node " << to_underlying(x.id);
+  const auto ka = a.children(x);
+  const auto kb = b.children(y);
+  for (std::size_t i = 0; i < ka.size(); ++i) expect_same_tree(a, ka[i], b, kb[i]);
+}
+
+// An epoch that moves Gaussians across the opacity threshold both ways.
+void flip_opacities(World& w, float threshold, int e) {
+  ASSERT_TRUE(w.store.begin_next_epoch().ok());
+  const float logit = std::log(threshold / (1.0f - threshold));
+  std::vector<Gaussian> changed;
+  std::size_t k = 0;
+  for (const Gaussian& g : w.store.gaussians()) {
+    if (g.carrier || !w.store.contains(g.id) || (k++ + std::size_t(e)) % 37 != 0) continue;
+    Gaussian c = g;
+    c.opacity_logit = g.opacity_logit < logit ? logit + 0.5f : logit - 0.5f;
+    changed.push_back(c);
+  }
+  for (const Gaussian& c : changed) ASSERT_TRUE(w.store.modify(c).ok());
+  ASSERT_TRUE(w.store.commit_epoch().ok());
+}
+
+}  // namespace
+
+TEST(HostSessionLod, ABackgroundUpdateAppliesAnEligibilityRuleToTheChangesAloneAsAFullComparisonWould) {
+  // SessionHost hands the rule, not a verdict over the whole scene: the hierarchy applies it to
+  // the changed Gaussians (the rule looks at each alone here). Compared, epoch by epoch, with a
+  // hierarchy given filter_eligible's whole verdict without its rule (so it compares every
+  // Gaussian): the same tree, node for node and record for record.
+  World w;
+  const CodecParams params = lod_params(w);
+  EligibilityConfig rule;
+  rule.min_opacity = 0.3f;
+  auto background = std::make_shared<LodEpochHierarchy>(params.sh_degree, LodConfig{});
+  auto compared = std::make_shared<LodEpochHierarchy>(params.sh_degree, LodConfig{});
+  auto check_epoch = [&] {
+    for (int k = 0;; ++k) {
+      ASSERT_LT(k, 4) << "the background update never became ready";
+      auto p = background->update_in_background(w.store, &rule);
+      ASSERT_TRUE(p.ok()) << p.message();
+      if (*p == LodEpochHierarchy::Progress::Ready) break;
+      background->wait_idle();
+    }
+    auto verdict = filter_eligible(w.store, rule);
+    ASSERT_TRUE(verdict.ok());
+    ASSERT_GT(verdict->counts.removed_opacity, 0u) << "the rule must leave Gaussians out";
+    verdict->rule.reset();  // unknown: every Gaussian is compared
+    ASSERT_TRUE(compared->update(w.store, &*verdict).ok());
+    const LodHierarchy* a = background->hierarchy();
+    const LodHierarchy* b = compared->hierarchy();
+    ASSERT_NE(a, nullptr);
+    ASSERT_NE(b, nullptr);
+    EXPECT_EQ(a->leaf_count(), verdict->indices.size());
+    ASSERT_EQ(a->leaf_count(), b->leaf_count());
+    expect_same_tree(*a, a->root(), *b, b->root());
+  };
+  check_epoch();
+  std::vector<ObjectId> objects;
+  for (const auto& o : w.store.objects()) objects.push_back(o.id);
+  ASSERT_FALSE(objects.empty());
+  for (int e = 0; e < 6; ++e) {
+    if (e % 2 == 0)
+      churn_epoch(w, objects[std::size_t(e) % objects.size()], e);
+    else
+      flip_opacities(w, rule.min_opacity, e);
+    check_epoch();
+    if (HasFatalFailure()) return;
+  }
+  EXPECT_EQ(background->change_log_updates(), 6u) << "every epoch after the first through the change log";
+  EXPECT_EQ(compared->change_log_updates(), 0u);
+}

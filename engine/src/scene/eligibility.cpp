@@ -125,26 +125,48 @@ Status validate(const EligibilityConfig& c) {
   return Ok{};
 }
 
+// Compare in the logit domain: sigmoid(x) < p  <=>  x < logit(p) (monotone).
+EligibilityOwnRules::EligibilityOwnRules(const EligibilityConfig& config)
+    : min_logit_(config.min_opacity <= 0.0f   ? -INFINITY
+                 : config.min_opacity >= 1.0f ? INFINITY
+                                              : std::log(double(config.min_opacity) / (1.0 - double(config.min_opacity)))),
+      log_max_(std::log(config.max_scale)),
+      log_min_(config.min_scale > 0.0f ? std::log(config.min_scale) : -INFINITY),
+      min_support_(config.min_support) {}
+
+int EligibilityOwnRules::first_failed(const Gaussian& g) const {
+  const float ls = std::max(g.log_scale.x, std::max(g.log_scale.y, g.log_scale.z));
+  const bool finite = std::isfinite(g.position.x) && std::isfinite(g.position.y) && std::isfinite(g.position.z) &&
+                      std::isfinite(ls) && std::isfinite(g.opacity_logit);
+  if (!finite) return 1;
+  if (double(g.opacity_logit) < min_logit_) return 2;
+  if (ls > log_max_) return 3;
+  if (ls < log_min_) return 4;
+  if (g.support < min_support_) return 5;
+  return 0;
+}
+
+bool surface_rule_may_apply(const SceneStore& store, const EligibilityConfig& config) {
+  return config.max_surface_distance > 0.0f && !store.surface_chunks().empty();
+}
+
 Expected<EligibleSet> filter_eligible(const SceneStore& store, const EligibilityConfig& config) {
   if (auto s = validate(config); !s) return s.error();
   if (store.in_epoch()) return Error{"filter_eligible: the store has an open epoch; filter committed state"};
   EligibleSet out;
   out.epoch = store.epoch();
+  out.rule = config;
   EligibilityCounts& n = out.counts;
 
   std::unique_ptr<SurfaceDistanceIndex> surface;
-  if (config.max_surface_distance > 0.0f && !store.surface_chunks().empty()) {
+  if (surface_rule_may_apply(store, config)) {
     std::vector<const TriangleMesh*> meshes;
     for (const SurfaceChunk& c : store.surface_chunks()) meshes.push_back(&c.mesh);
     surface = std::make_unique<SurfaceDistanceIndex>(meshes, config.max_surface_distance);
     if (surface->empty()) surface.reset();
   }
   n.surface_rule_applied = surface != nullptr;
-  // Compare in the logit domain: sigmoid(x) < p  <=>  x < logit(p) (monotone).
-  const double p = config.min_opacity;
-  const double min_logit = p <= 0.0 ? -INFINITY : p >= 1.0 ? INFINITY : std::log(p / (1.0 - p));
-  const float log_max = std::log(config.max_scale);
-  const float log_min = config.min_scale > 0.0f ? std::log(config.min_scale) : -INFINITY;
+  const EligibilityOwnRules own(config);
 
   const auto gs = store.gaussians();
   out.indices.reserve(gs.size());
@@ -155,20 +177,15 @@ Expected<EligibleSet> filter_eligible(const SceneStore& store, const Eligibility
       continue;
     }
     ++n.considered;
-    const float ls = std::max(g.log_scale.x, std::max(g.log_scale.y, g.log_scale.z));
-    const bool finite = std::isfinite(g.position.x) && std::isfinite(g.position.y) && std::isfinite(g.position.z) &&
-                        std::isfinite(ls) && std::isfinite(g.opacity_logit);
-    if (!finite) {
-      ++n.removed_non_finite;
-    } else if (double(g.opacity_logit) < min_logit) {
-      ++n.removed_opacity;
-    } else if (ls > log_max) {
-      ++n.removed_scale_large;
-    } else if (ls < log_min) {
-      ++n.removed_scale_small;
-    } else if (g.support < config.min_support) {
-      ++n.removed_support;
-    } else if (surface && !surface->within(g.position, config.max_surface_distance)) {
+    switch (own.first_failed(g)) {
+      case 1: ++n.removed_non_finite; continue;
+      case 2: ++n.removed_opacity; continue;
+      case 3: ++n.removed_scale_large; continue;
+      case 4: ++n.removed_scale_small; continue;
+      case 5: ++n.removed_support; continue;
+      default: break;
+    }
+    if (surface && !surface->within(g.position, config.max_surface_distance)) {
       ++n.removed_surface;
     } else {
       out.indices.push_back(static_cast<std::uint32_t>(i));

@@ -15,6 +15,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -32,6 +33,7 @@ struct EligibilityConfig {
   float min_scale{0.0f};             // metres, >= 0 (0 = off)
   std::uint32_t min_support{0};      // observations (0 = off)
   float max_surface_distance{0.0f};  // metres, >= 0 (0 = off)
+  bool operator==(const EligibilityConfig&) const = default;
 };
 
 struct EligibilityCounts {
@@ -51,7 +53,30 @@ struct EligibleSet {
   Epoch epoch{0};                      // the store epoch this was computed at
   std::vector<std::uint32_t> indices;  // into store.gaussians() at that epoch, ascending
   EligibilityCounts counts;
+  // The rule it was filtered by (filter_eligible sets it; unknown for a set made otherwise).
+  // With it, and the surface rule not applied, a Gaussian's verdict depends on it alone, so a
+  // reader may follow the scene's change log instead of comparing every Gaussian.
+  std::optional<EligibilityConfig> rule;
 };
+
+// Rules 1-5, those that look at a Gaussian alone, as filter_eligible applies them.
+class EligibilityOwnRules {
+ public:
+  explicit EligibilityOwnRules(const EligibilityConfig& config);
+  // 0 when an appearance Gaussian passes them all, else the number of the first it fails.
+  int first_failed(const Gaussian& g) const;
+  bool passes(const Gaussian& g) const { return first_failed(g) == 0; }
+
+ private:
+  double min_logit_;
+  float log_max_;
+  float log_min_;
+  std::uint32_t min_support_;
+};
+
+// Whether filtering `store` with `config` may apply the surface rule (6): its distance is set
+// and the store holds a surface chunk. When not, eligibility is EligibilityOwnRules alone.
+bool surface_rule_may_apply(const SceneStore& store, const EligibilityConfig& config);
 
 // Nearest-distance queries against triangle meshes (the surface chunks), through a uniform
 // grid of triangle references. Answers "is p within d of the surface" exactly.

@@ -6,8 +6,9 @@
 // SH degree share one of these instead (SessionHost does); a LodSelector made alone owns one.
 //
 // update() brings it to the scene's epoch, once per epoch whichever session asks first:
-// through the scene's change log when there is no eligibility filter (work in the changes),
-// else by comparing every eligible Gaussian (work in N). It is thread-safe: sessions ticking
+// through the scene's change log when each Gaussian's eligibility depends on it alone (no
+// filter, or one whose surface rule does not apply) and the rule is the last update's (work
+// in the changes), else by comparing every eligible Gaussian (work in N). It is thread-safe: sessions ticking
 // in parallel call it at the top of their tick, the first does the work while the others wait,
 // and the hierarchy is only read after that, until the scene's next epoch (which the host
 // commits between ticks).
@@ -23,8 +24,8 @@
 // that is 50-120 ms per 1 % epoch and about a second for the first build, during which a host's
 // serving thread answered nobody. update_in_background() hands it to a worker thread instead:
 // the caller copies what the update reads out of the scene (the changed Gaussians on the
-// change-log path, the whole span on the others), so the scene may change while the worker
-// runs, and gets Working back until the hierarchy stands for the scene's epoch. Its readers
+// change-log path, the whole span on the others, which the worker then filters itself unless
+// the surface rule applies), so the scene may change while the worker runs, and gets Working back until the hierarchy stands for the scene's epoch. Its readers
 // ask progress() and read nothing of the hierarchy while it says Working; the next
 // update_in_background() takes the finished work up and, when the scene moved on meanwhile,
 // starts the next.
@@ -70,8 +71,12 @@ class LodEpochHierarchy {
   // Ready: the hierarchy stands for the scene's epoch (or was dropped for it: hierarchy() null)
   // and may be read until the scene's next epoch. Working: an update runs (started now or
   // before); read nothing of the hierarchy. A failure is reported as update() reports it,
-  // once per reason; the next call then starts the update for the scene's epoch.
-  Expected<Progress> update_in_background(const SceneStore& scene, const EligibleSet* eligible);
+  // once per reason; the next call then starts the update for the scene's epoch. `rule`: the
+  // eligibility filter (null: every non-carrier), which this applies itself, and only where
+  // it must (the changed Gaussians, when the change log serves).
+  Expected<Progress> update_in_background(const SceneStore& scene, const EligibilityConfig* rule);
+  // Updates so far that followed the scene's change log (the others compared every Gaussian).
+  std::uint64_t change_log_updates() const;
   // What update_in_background() would say of the scene now, without starting or taking up
   // anything: for the readers (the sessions' ticks, in parallel).
   Progress progress(const SceneStore& scene) const;
@@ -104,21 +109,31 @@ class LodEpochHierarchy {
 
  private:
   // One update's inputs, copied out of the scene so that it may change meanwhile, and its result.
+  // What chooses the leaves: no filter, a rule, and/or the eligible set already computed.
+  struct Filter {
+    bool filtered{false};
+    std::optional<EligibilityConfig> own_rule;  // when filtered and each verdict is a Gaussian's own
+    const EligibleSet* set{nullptr};            // the verdict, when the caller has it
+  };
   struct Job {
     Epoch epoch{0};
     bool from_change_log{false};
+    Filter filter;                     // set is null on the worker's job (the caller's set may go)
     std::vector<Gaussian> upserts;     // change log: inserted or modified appearance Gaussians
     std::vector<GaussianId> removed;   // change log: removed, or turned carrier
     std::span<const Gaussian> span;    // otherwise: the scene's whole span (places matter),
     std::vector<Gaussian> gaussians;   //   copied here for the worker (the span then views it),
     std::vector<std::uint32_t> subset; //   and the indices of the eligible ones in it
+    bool subset_on_worker{false};      //   (computed by run() from filter.own_rule)
     std::optional<Expected<LodUpdateReport>> result;
   };
   // Fills `job` for the scene's epoch: from the change log when it reaches back to epoch_ and
-  // there is no eligibility filter, else the whole span (a copy when `copy_span`: the worker's
-  // job outlives the scene's epoch; the caller's thread reads the scene itself). Creates the
-  // hierarchy when none is held.
-  Status prepare(const SceneStore& scene, const EligibleSet* eligible, Job& job, bool copy_span);
+  // the filter is the last update's own rule (or none), else the whole span (a copy when
+  // `copy_span`: the worker's job outlives the scene's epoch; the caller's thread reads the
+  // scene itself). Creates the hierarchy when none is held.
+  Status prepare(const SceneStore& scene, const Filter& filter, Job& job, bool copy_span);
+  // The indices of the non-carriers that pass the filter's own rule (every one without it).
+  static std::vector<std::uint32_t> own_subset(std::span<const Gaussian> gaussians, const Filter& filter);
   // Runs a prepared job on the hierarchy (the caller's thread or the worker).
   void run(Job& job);
   // Takes a finished job's result up: the epoch, the log, or a drop. Under mutex_.
@@ -136,6 +151,11 @@ class LodEpochHierarchy {
   std::optional<LodHierarchy> hierarchy_;
   std::optional<Epoch> epoch_;
   std::string last_failure_;  // why the last update failed (empty after a success)
+  // The rule the leaves were chosen by, when each verdict was a Gaussian's own (own_rule_
+  // empty: no filter); the change log can only carry the hierarchy forward under the same.
+  bool own_rule_known_{false};
+  std::optional<EligibilityConfig> own_rule_;
+  std::uint64_t change_log_updates_{0};
   std::uint64_t lineage_{0};
   std::uint64_t updates_{0};
   std::deque<std::vector<GaussianId>> log_;  // the last kLogLength updates' ids, oldest first

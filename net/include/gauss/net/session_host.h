@@ -105,7 +105,6 @@ class SessionHost {
   std::map<std::uint32_t, std::string> client_names_;  // from each session's Hello
   SessionHostStats stats_;
   WorkerPool pool_;
-  std::optional<EligibleSet> lod_eligible_;  // the eligibility filter's verdict the hierarchy was given
 };
 
 }  // namespace gauss::net
