@@ -705,6 +705,7 @@ json bench_clients_lod(SceneStore& store, const SyntheticScene& scene, const Opt
       if (o.min_opacity > 0.0f) {
         cfg.eligibility = EligibilityConfig{};
         cfg.eligibility->min_opacity = o.min_opacity;
+        cfg.shared_eligible = std::make_shared<SharedEligibleSet>(*cfg.eligibility);  // as SessionHost does
       }
       LodEpochHierarchy& hierarchy = *cfg.shared_lod;
       double now = 0.0;

@@ -28,6 +28,9 @@ SessionHost::SessionHost(SessionHostConfig config, CodecParams params, std::uniq
   if (config_.session.lod && !config_.session.shared_lod)
     config_.session.shared_lod = std::make_shared<LodEpochHierarchy>(params_.sh_degree, *config_.session.lod);
   config_.session.lod_in_background = config_.lod_in_background && config_.session.lod;
+  // So does the eligibility filter's verdict.
+  if (config_.session.eligibility && !config_.session.shared_eligible)
+    config_.session.shared_eligible = std::make_shared<SharedEligibleSet>(*config_.session.eligibility);
   // The selectors' per-Gaussian terms depend on the scene alone: computed once per epoch.
   if (!config_.session.shared_selector_terms) config_.session.shared_selector_terms = std::make_shared<SelectorTerms>();
 }

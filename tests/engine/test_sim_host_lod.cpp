@@ -623,3 +623,44 @@ TEST(HostSessionLod, ABackgroundUpdateAppliesAnEligibilityRuleToTheChangesAloneA
   EXPECT_EQ(background->change_log_updates(), 6u) << "every epoch after the first through the change log";
   EXPECT_EQ(compared->change_log_updates(), 0u);
 }
+
+TEST(HostSessionLod, SessionsSharingAnEligibleSetFilterOncePerEpochAndSendWhatTheirOwnFilterGives) {
+  World w;
+  const CodecParams params = lod_params(w);
+  EligibilityConfig rule;
+  rule.min_opacity = 0.3f;
+  EligibilityConfig stricter = rule;
+  stricter.max_scale = 0.05f;
+  auto shared = std::make_shared<SharedEligibleSet>(rule);
+  auto config = [&](const EligibilityConfig& r, bool share) {
+    HostSessionConfig c = lod_config(true);
+    c.eligibility = r;
+    if (share) c.shared_eligible = shared;
+    return c;
+  };
+  Pair a = connect(w, params, config(rule, true), 250);
+  Pair b = connect(w, params, config(rule, true), 250);
+  Pair own = connect(w, params, config(rule, false), 250);
+  Pair unfiltered = connect(w, params, lod_config(true), 250);
+  // Another rule with the same shared set: that set is not this session's verdict.
+  Pair other = connect(w, params, config(stricter, true), 250);
+  Pair other_own = connect(w, params, config(stricter, false), 250);
+  std::vector<ObjectId> objects;
+  for (const auto& o : w.store.objects()) objects.push_back(o.id);
+  for (int e = 0; e < 4; ++e) {
+    if (e > 0) churn_epoch(w, objects[std::size_t(e) % objects.size()], e);
+    const double t = double(e);
+    const Step sa = step(a, w, params, t);
+    EXPECT_EQ(sa.payloads, step(b, w, params, t).payloads) << "epoch step " << e;
+    EXPECT_EQ(sa.payloads, step(own, w, params, t).payloads) << "epoch step " << e;
+    const Step so = step(other, w, params, t);
+    EXPECT_EQ(so.payloads, step(other_own, w, params, t).payloads) << "epoch step " << e;
+    const Step su = step(unfiltered, w, params, t);
+    if (e == 0) {
+      EXPECT_NE(sa.payloads, su.payloads) << "the rule must change what is sent, or this shows nothing";
+      EXPECT_NE(sa.payloads, so.payloads) << "the two rules must differ in what they send";
+    }
+    EXPECT_FALSE(sa.payloads.empty());
+    EXPECT_EQ(shared->filters(), std::uint64_t(e + 1)) << "one filter per epoch for both sessions";
+  }
+}

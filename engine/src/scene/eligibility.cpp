@@ -195,4 +195,19 @@ Expected<EligibleSet> filter_eligible(const SceneStore& store, const Eligibility
   return out;
 }
 
+Expected<std::shared_ptr<const EligibleSet>> SharedEligibleSet::at(const SceneStore& scene) {
+  std::lock_guard lock(mutex_);
+  if (set_ && set_->epoch == scene.epoch() && !scene.in_epoch()) return set_;
+  auto e = filter_eligible(scene, rule_);
+  if (!e) return e.error();
+  set_ = std::make_shared<const EligibleSet>(std::move(*e));
+  ++filters_;
+  return set_;
+}
+
+std::uint64_t SharedEligibleSet::filters() const {
+  std::lock_guard lock(mutex_);
+  return filters_;
+}
+
 }  // namespace gauss

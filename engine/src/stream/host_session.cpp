@@ -279,9 +279,15 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
   }
   const msg::HeadPose pose = centre_ ? *centre_ : pose_.value_or(msg::HeadPose{});
   if (config_.eligibility && (!eligible_ || eligible_->epoch != scene.epoch())) {
-    auto e = filter_eligible(scene, *config_.eligibility);
-    if (!e) return Error{"host session " + std::to_string(client_id_) + ": eligibility: " + e.message()};
-    eligible_ = std::move(*e);
+    if (config_.shared_eligible && config_.shared_eligible->rule() == *config_.eligibility) {
+      auto e = config_.shared_eligible->at(scene);
+      if (!e) return Error{"host session " + std::to_string(client_id_) + ": eligibility: " + e.message()};
+      eligible_ = std::move(*e);
+    } else {
+      auto e = filter_eligible(scene, *config_.eligibility);
+      if (!e) return Error{"host session " + std::to_string(client_id_) + ": eligibility: " + e.message()};
+      eligible_ = std::make_shared<const EligibleSet>(std::move(*e));
+    }
   }
   if (lod_ && !lod_follows) {
     if (Status st = lod_->update(scene, eligible_ ? &*eligible_ : nullptr); !st) {

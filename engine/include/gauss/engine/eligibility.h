@@ -15,6 +15,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <span>
 #include <vector>
@@ -102,5 +103,24 @@ Status validate(const EligibilityConfig& config);
 
 // Filters the store's committed Gaussians. Fails on a bad config or an open epoch.
 Expected<EligibleSet> filter_eligible(const SceneStore& store, const EligibilityConfig& config);
+
+// One eligible set per scene epoch for every reader with the same rule (a host's sessions):
+// the first to ask in an epoch filters while the others wait, and all hold the same set,
+// instead of each session filtering the whole scene (25-38 ms at 1M) and keeping a copy.
+// Thread-safe.
+class SharedEligibleSet {
+ public:
+  explicit SharedEligibleSet(EligibilityConfig rule) : rule_(rule) {}
+  const EligibilityConfig& rule() const { return rule_; }
+  // The scene's set at its epoch; a failure (open epoch, bad rule) is not kept.
+  Expected<std::shared_ptr<const EligibleSet>> at(const SceneStore& scene);
+  std::uint64_t filters() const;  // sets computed so far
+
+ private:
+  const EligibilityConfig rule_;
+  mutable std::mutex mutex_;
+  std::shared_ptr<const EligibleSet> set_;
+  std::uint64_t filters_{0};
+};
 
 }  // namespace gauss

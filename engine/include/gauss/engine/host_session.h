@@ -85,6 +85,9 @@ struct HostSessionConfig {
   // Which Gaussians may be selected at all (opacity, scale, support, surface distance);
   // empty = every Gaussian. Filtered once per scene epoch.
   std::optional<EligibilityConfig> eligibility;
+  // With eligibility: the verdict shared with the other sessions (SessionHost shares one; its
+  // rule must be `eligibility`). Null: the session filters for itself.
+  std::shared_ptr<SharedEligibleSet> shared_eligible;
   // Level of detail (lod_selector.h): when set, what the budget leaves of the background is a
   // cut through a merge hierarchy of the eligible Gaussians instead of its best leaves, so
   // the client shows coarse context where leaf selection leaves holes. The reservation's
@@ -187,7 +190,7 @@ class HostSession {
   CodecParams params_;
   HostSessionConfig config_;
   Selector selector_;
-  std::optional<EligibleSet> eligible_;  // config_.eligibility's verdict at eligible_->epoch
+  std::shared_ptr<const EligibleSet> eligible_;  // config_.eligibility's verdict at eligible_->epoch
   Differ differ_;
   std::optional<LodSelector> lod_;
   std::vector<std::string> notices_;
