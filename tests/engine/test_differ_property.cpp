@@ -42,6 +42,18 @@ void apply_batch(ClientSet& client, const EditBatch& batch) {
   }
 }
 
+// The scene's Gaussians [from, to) as a selection.
+Selection scene_range(const SceneStore& store, std::uint32_t from, std::uint32_t to) {
+  Selection s;
+  s.scene_size = store.gaussians().size();
+  s.epoch = store.epoch();
+  for (std::uint32_t i = from; i < to; ++i) {
+    s.indices.push_back(i);
+    s.ids.push_back(store.gaussians()[i].id);
+  }
+  return s;
+}
+
 bool same_record(const Gaussian& a, const Gaussian& b) {
   return a.position == b.position && a.rotation == b.rotation && a.log_scale == b.log_scale &&
          a.opacity_logit == b.opacity_logit && a.sh_dc == b.sh_dc && a.sh_rest == b.sh_rest && a.object == b.object &&
@@ -141,16 +153,7 @@ TEST(DifferProperty, PairsLeaversAndEnterersIntoReplaces) {
   SceneStore store;
   test::fill_test_scene(store, 100, 51);
   Differ differ(fit_codec_params(store.gaussians(), 0));
-  auto make = [&](std::uint32_t from, std::uint32_t to) {
-    Selection s;
-    s.scene_size = store.gaussians().size();
-    s.epoch = store.epoch();
-    for (std::uint32_t i = from; i < to; ++i) {
-      s.indices.push_back(i);
-      s.ids.push_back(store.gaussians()[i].id);
-    }
-    return s;
-  };
+  auto make = [&](std::uint32_t from, std::uint32_t to) { return scene_range(store, from, to); };
   ASSERT_TRUE(differ.diff(make(0, 50), store).ok());
   auto b = differ.diff(make(10, 70), store);  // 10 leave, 20 enter
   ASSERT_TRUE(b.ok());
@@ -177,16 +180,7 @@ TEST(DifferProperty, KeepsEachSentRecordAsSentThroughLaterEpochsAndFailedDiffs) 
   test::fill_test_scene(store, 200, 61);
   const CodecParams params = fit_codec_params(store.gaussians(), store.sh_degree());
   Differ differ(params);
-  auto make = [&](std::uint32_t from, std::uint32_t to) {
-    Selection s;
-    s.scene_size = store.gaussians().size();
-    s.epoch = store.epoch();
-    for (std::uint32_t i = from; i < to; ++i) {
-      s.indices.push_back(i);
-      s.ids.push_back(store.gaussians()[i].id);
-    }
-    return s;
-  };
+  auto make = [&](std::uint32_t from, std::uint32_t to) { return scene_range(store, from, to); };
   ClientSet client;
   auto first = differ.diff(make(0, 100), store);
   ASSERT_TRUE(first.ok());

@@ -340,6 +340,14 @@ void churn_epoch(World& w, ObjectId o, int e) {
   ASSERT_TRUE(w.store.commit_epoch().ok());
 }
 
+// A session that only reads a hierarchy its host updates in the background.
+HostSessionConfig following(std::shared_ptr<LodEpochHierarchy> hierarchy) {
+  HostSessionConfig c = lod_config(true);
+  c.shared_lod = std::move(hierarchy);
+  c.lod_in_background = true;
+  return c;
+}
+
 // Drives a background hierarchy to the scene's epoch as a host loop does: start, wait, take up.
 void settle_background(LodEpochHierarchy& h, const SceneStore& scene) {
   for (int k = 0; k < 4; ++k) {
@@ -364,9 +372,7 @@ TEST(HostSessionLod, SessionsFollowingABackgroundHierarchyStreamWhatASynchronous
   const std::uint32_t m = 250;
   auto background = std::make_shared<LodEpochHierarchy>(params.sh_degree, LodConfig{});
   auto inline_h = std::make_shared<LodEpochHierarchy>(params.sh_degree, LodConfig{});
-  HostSessionConfig follows = lod_config(true);
-  follows.shared_lod = background;
-  follows.lod_in_background = true;
+  const HostSessionConfig follows = following(background);
   HostSessionConfig updates_itself = lod_config(true);
   updates_itself.shared_lod = inline_h;
   Pair a = connect(w, params, follows, m);
@@ -432,9 +438,7 @@ TEST(HostSessionLod, ASessionsRecordIsWhatItSentHoweverTheSceneAndHierarchyMoveO
   World w;
   const CodecParams params = lod_params(w);
   auto background = std::make_shared<LodEpochHierarchy>(params.sh_degree, LodConfig{});
-  HostSessionConfig follows = lod_config(true);
-  follows.shared_lod = background;
-  follows.lod_in_background = true;
+  const HostSessionConfig follows = following(background);
   Pair p = connect(w, params, follows, 250);
   settle_background(*background, w.store);
   step(p, w, params, 0.0);
@@ -473,9 +477,7 @@ TEST(HostSessionLod, ABackgroundUpdateThatFailsIsSaidOnceAndLeavesAreSelected) {
   World w;
   const CodecParams params = lod_params(w);
   auto background = std::make_shared<LodEpochHierarchy>(params.sh_degree, LodConfig{});
-  HostSessionConfig follows = lod_config(true);
-  follows.shared_lod = background;
-  follows.lod_in_background = true;
+  const HostSessionConfig follows = following(background);
   ASSERT_TRUE(w.store.begin_next_epoch().ok());
   Gaussian odd = w.store.gaussians()[0];
   odd.id = GaussianId{kLodInteriorIdBit | 5};
@@ -522,9 +524,7 @@ TEST(HostSessionLod, ABackgroundHierarchyThatCannotBeMadeLeavesNoSessionWaiting)
   LodConfig bad;
   bad.max_leaves_per_node = 1;
   auto background = std::make_shared<LodEpochHierarchy>(params.sh_degree, bad);
-  HostSessionConfig follows = lod_config(true);
-  follows.shared_lod = background;
-  follows.lod_in_background = true;
+  const HostSessionConfig follows = following(background);
   Pair p = connect(w, params, follows, 250);
   auto first = background->update_in_background(w.store, nullptr);
   ASSERT_FALSE(first.ok());
