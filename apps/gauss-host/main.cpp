@@ -5,7 +5,7 @@
 //              [--max-budget N] [--rho R] [--min-opacity A] [--max-scale S] [--min-support N]
 //              [--gaussians N] [--epochs N] [--seed N] [--max-clients N] [--duration S]
 //              [--surface-voxel M] [--events FILE] [--sessions FILE] [--dump-sent DIR]
-//              [--max-clients-per-address N] [--handshake-timeout S] [--quiet]
+//              [--max-clients-per-address N] [--session-open-rate HZ] [--handshake-timeout S] [--quiet]
 //              (options.cpp; --help lists them)
 //
 // Binds 127.0.0.1 by default: other machines reach the host only with an explicit
@@ -99,6 +99,7 @@ int main(int argc, char** argv) {
   hc.net.encrypt_stream = o.encrypt;
   hc.net.max_clients = o.max_clients;
   hc.net.admission.max_clients_per_address = o.max_clients_per_address;
+  hc.net.admission.session_open_rate_hz = o.session_open_rate_hz;
   hc.net.handshake_timeout = std::chrono::milliseconds(static_cast<long long>(o.handshake_timeout_s * 1000.0));
   hc.net.admission.pending_timeout = hc.net.handshake_timeout;
   if (o.max_budget > 0) hc.session.max_capacity = o.max_budget;

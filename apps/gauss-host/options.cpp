@@ -100,6 +100,10 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
   app.add_option("--max-clients-per-address", o.max_clients_per_address,
                  "clients served at once from one IP address (clients on this machine share 127.0.0.1)")
       ->check(apps::at_least<std::size_t>(1));
+  app.add_option("--session-open-rate", o.session_open_rate_hz,
+                 "sessions one IP address may open per second, after a burst of 8 (each costs the host a scene "
+                 "description, the surface and a resync; many clients restarting on this machine raise it)")
+      ->check(apps::in_range(0.01, 1000.0));
   app.add_option("--handshake-timeout", o.handshake_timeout_s,
                  "seconds a connection may take to complete ENet's handshake, and again to send its Hello (and "
                  "proof); slower ones are dropped")

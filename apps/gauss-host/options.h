@@ -34,6 +34,7 @@ struct Options {
   std::uint64_t seed{1};
   std::size_t max_clients{8};
   std::size_t max_clients_per_address{4};  // a headset is one address; loopback runs raise it
+  double session_open_rate_hz{1.0};        // sessions opened per second per address (burst 8)
   double handshake_timeout_s{3.0};  // connect request, Hello and proof each within this
   double duration_s{0.0};      // 0: until SIGINT/SIGTERM
   double surface_voxel{0.04};  // TSDF voxel (m) for the surface fused from each epoch's frames; 0 = none
