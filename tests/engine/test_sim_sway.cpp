@@ -55,6 +55,19 @@ std::vector<std::uint64_t> published_ids(const Simulation& sim) {
   return ids;
 }
 
+// Stands the client at the room's centre at eye height, facing +z, stops the scene once it has
+// grown a second, converges, and idles `idle_s` more; returns the position.
+glm::vec3 converge_at_centre(Simulation& sim, double idle_s) {
+  const Aabb b = sim.scene().bounds();
+  const glm::vec3 p0(0.5f * (b.min.x + b.max.x), 1.6f, 0.5f * (b.min.z + b.max.z));
+  sim.set_pose(0, p0, yaw(0.0));
+  EXPECT_TRUE(sim.run_until(1.0).ok());
+  sim.stop_scene();
+  EXPECT_TRUE(sim.run_until_converged(20.0).ok());
+  EXPECT_TRUE(sim.run_until(sim.now() + idle_s).ok());
+  return p0;
+}
+
 struct SwayResult {
   std::uint64_t changes{0};  // published-set membership changes
   std::uint64_t undone{0};   // changes - |start XOR end|: ids that flickered
@@ -132,13 +145,7 @@ TEST(SimSway, SwayFilterKeepsThePublishedSetStill) {
 TEST(SimSway, RealMotionStillReselects) {
   auto sim = Simulation::create(room(PublishMode::Immediate, HostSessionConfig{}.pose_smoothing_s));
   ASSERT_TRUE(sim.ok()) << sim.message();
-  const Aabb b = sim->scene().bounds();
-  const glm::vec3 p0(0.5f * (b.min.x + b.max.x), 1.6f, 0.5f * (b.min.z + b.max.z));
-  sim->set_pose(0, p0, yaw(0.0));
-  ASSERT_TRUE(sim->run_until(1.0).ok());
-  sim->stop_scene();
-  ASSERT_TRUE(sim->run_until_converged(20.0).ok());
-  ASSERT_TRUE(sim->run_until(sim->now() + 0.5).ok());
+  const glm::vec3 p0 = converge_at_centre(*sim, 0.5);
 
   // A 30 cm step: the next pose sample (<= 0.1 s) and host tick (0.02 s) re-select.
   std::uint64_t batches = sim->session(0)->last_batch_id();
@@ -171,13 +178,7 @@ TEST(SimSway, AHeadHeldStillIsFollowedOnceAndThenLeftAlone) {
     cfg.host.pose_still_s = still_s;
     auto sim = Simulation::create(cfg);
     EXPECT_TRUE(sim.ok()) << sim.message();
-    const Aabb b = sim->scene().bounds();
-    const glm::vec3 p0(0.5f * (b.min.x + b.max.x), 1.6f, 0.5f * (b.min.z + b.max.z));
-    sim->set_pose(0, p0, yaw(0.0));
-    EXPECT_TRUE(sim->run_until(1.0).ok());
-    sim->stop_scene();
-    EXPECT_TRUE(sim->run_until_converged(20.0).ok());
-    EXPECT_TRUE(sim->run_until(sim->now() + 2.0).ok());
+    const glm::vec3 p0 = converge_at_centre(*sim, 2.0);
     // 11 cm: below the jump threshold (15), so only the centre follows (time constant 1 s);
     // it crosses epsilon (5 cm) after 0.6 s and again, 10 cm out, after 2.4 s.
     const std::uint64_t before = sim->session(0)->last_batch_id();

@@ -309,36 +309,6 @@ Gaussian read_sent_record(const std::uint8_t* in, GaussianId id, const CodecPara
   return out;
 }
 
-std::uint64_t quantized_hash(const Gaussian& g, const CodecParams& params) {
-  std::uint8_t buf[sent_record_bytes(kMaxShDegree)];
-  write_sent_record(g, params, buf);
-  const std::size_t n = record_bytes(std::clamp(params.sh_degree, 0, kMaxShDegree));
-  // FNV-1a over the record eight bytes a step (the tail zero-padded), then the object id
-  // and support code: any byte that reaches the client changes the hash. Each step, h -> (h
-  // xor w) * odd, is a bijection of h, so two records that differ in one word never collide,
-  // and a step per word instead of per byte is 3-8x fewer multiplies (SH1 to SH3).
-  std::uint64_t h = 0xcbf29ce484222325ull;
-  auto mix = [&h](std::uint64_t w) {
-    h ^= w;
-    h *= 0x100000001b3ull;
-  };
-  std::size_t i = 0;
-  for (; i + 8 <= n; i += 8) {
-    std::uint64_t w;
-    std::memcpy(&w, buf + i, 8);
-    mix(w);
-  }
-  if (i < n) {
-    std::uint64_t w = 0;
-    std::memcpy(&w, buf + i, n - i);
-    mix(w);
-  }
-  std::uint32_t obj;
-  std::memcpy(&obj, buf + n, 4);
-  mix(std::uint64_t{obj} << 8 | buf[n + 4]);
-  return h;
-}
-
 Gaussian quantize_roundtrip(const Gaussian& g, const CodecParams& params) {
   std::uint8_t buf[record_bytes(kMaxShDegree)];
   codec_detail::write_record(g, params, buf, nullptr);

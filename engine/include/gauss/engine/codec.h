@@ -168,10 +168,8 @@ CodecParams fit_live_codec_params(std::span<const Gaussian> first_epoch, int sh_
 Status validate_codec_params(const CodecParams& params);
 
 // The record bytes a Gaussian quantises to (record_bytes(params.sh_degree) bytes,
-// written to out). The differ hashes these to detect a changed record.
+// written to out).
 void quantize_record(const Gaussian& g, const CodecParams& params, std::uint8_t* out, CodecStats* stats = nullptr);
-// 64-bit hash of the quantised record, object id and quantised support.
-std::uint64_t quantized_hash(const Gaussian& g, const CodecParams& params);
 
 // A record as it was sent, kept compactly (the differ's memory of what a client holds): the
 // quantised record bytes, then the object id (4 bytes) and the support code (1 byte).

@@ -71,8 +71,8 @@ struct HostSessionConfig {
   // A head held still for `pose_still_s` (its reported pose within kStillPoseM / kStillPoseRad
   // of where the stillness began) is no sway: the centre goes to it at once. Otherwise the
   // low-pass would creep on for seconds after a stop and re-select late, once per epsilon
-  // crossed (a 10 cm step re-selected 0.65 s and again 3 s after it), and a client deciding
-  // it has settled could leave with a batch in flight. 0: never.
+  // crossed (at a time constant of 1 s an 11 cm step crosses 5 cm after 0.6 s and 10 cm after
+  // 2.4 s), and a client deciding it has settled could leave with a batch in flight. 0: never.
   double pose_still_s{0.5};
   double pose_epsilon_m{0.05};
   double pose_epsilon_rad{0.05};

@@ -8,10 +8,10 @@
 // update() brings it to the scene's epoch, once per epoch whichever session asks first:
 // through the scene's change log when each Gaussian's eligibility depends on it alone (no
 // filter, or one whose surface rule does not apply) and the rule is the last update's (work
-// in the changes), else by comparing every eligible Gaussian (work in N). It is thread-safe: sessions ticking
-// in parallel call it at the top of their tick, the first does the work while the others wait,
-// and the hierarchy is only read after that, until the scene's next epoch (which the host
-// commits between ticks).
+// in the changes), else by comparing every eligible Gaussian (work in N). It is thread-safe:
+// sessions ticking in parallel call it at the top of their tick, the first does the work while
+// the others wait, and the hierarchy is only read after that, until the scene's next epoch
+// (which the host commits between ticks).
 //
 // What changed is kept as a short log of update reports (interior ids added, removed or
 // modified), so each reader learns what it must re-quantise since it last looked
@@ -25,7 +25,8 @@
 // serving thread answered nobody. update_in_background() hands it to a worker thread instead:
 // the caller copies what the update reads out of the scene (the changed Gaussians on the
 // change-log path, the whole span on the others, which the worker then filters itself unless
-// the surface rule applies), so the scene may change while the worker runs, and gets Working back until the hierarchy stands for the scene's epoch. Its readers
+// the surface rule applies), so the scene may change while the worker runs, and gets Working
+// back until the hierarchy stands for the scene's epoch. Its readers
 // ask progress() and read nothing of the hierarchy while it says Working; the next
 // update_in_background() takes the finished work up and, when the scene moved on meanwhile,
 // starts the next.
@@ -85,7 +86,7 @@ class LodEpochHierarchy {
   // for this to clear before committing the next (gauss-host does).
   bool busy() const;
   // Blocks until no background update runs (the next update call takes its result up). For a
-  // reader outside the ticks that must read the hierarchy now (a session's sent records).
+  // reader outside the ticks that must read the hierarchy now (a test, LodSelector::find_interior).
   void wait_idle() const;
 
   // The hierarchy, or null when none is held (never built, or dropped). Read between updates.

@@ -82,7 +82,7 @@ class LodSelector {
   std::span<const GaussianId> modified() const { return modified_; }
   void clear_modified() { modified_.clear(); }
   // The current record of interior node `id`, or null when the hierarchy has no such node.
-  // Waits for a background update still running (readers outside the ticks call it too).
+  // Waits for a background update still running.
   const Gaussian* find_interior(GaussianId id) const;
   // The hierarchy, when one is held.
   const LodHierarchy* hierarchy() const { return source_->hierarchy(); }
