@@ -188,6 +188,7 @@ void DesiredState::refresh_pending(std::uint32_t index, Epoch old_epoch, bool wa
     e.pending_pos = static_cast<std::uint32_t>(pending_.size());
     pending_.push_back(index);
   }
+  if (now_pending) ++changes_;
   if (!now_pending || arrivals_.overflowed) return;
   // Bounded: a consumer that stops taking arrivals costs a few entries per slot at most.
   if (arrivals_.size() >= 2 * static_cast<std::size_t>(capacity_) + 1024) {
@@ -211,6 +212,7 @@ PendingArrival DesiredState::arrival_of(std::uint32_t index) const {
   a.index = index;
   a.support = a.kind == PendingKind::Remove ? 0u : e.value.support;
   a.slot = a.kind == PendingKind::Insert ? kNoSlot : e.slot;
+  a.stamp = changes_;
   return a;
 }
 

@@ -99,7 +99,8 @@ Publisher::Candidate Publisher::candidate_of(const PendingArrival& a) {
   if (!std::isfinite(c.base)) c.base = 0.0f;
   if (++next_seq_ == 0) next_seq_ = 1;  // 0 marks "none"; a wrap needs 2^32 rankings in between
   c.seq = next_seq_;
-  seq_[a.index] = c.seq;  // publish() sized seq_ for every entry index
+  seq_[a.index] = c.seq;  // publish() sized seq_ and seen_ for every entry index
+  seen_[a.index] = a.stamp;
   return c;
 }
 
@@ -116,8 +117,11 @@ bool Publisher::still_pending(const DesiredState& desired, std::uint32_t index, 
   return e.id == id && e.pending_kind() != PendingKind::None;
 }
 
-void Publisher::forget(std::uint32_t index, SlotIndex slot) {
-  if (index < seq_.size()) seq_[index] = 0;
+void Publisher::forget(std::uint32_t index, SlotIndex slot, std::uint64_t changes) {
+  if (index < seq_.size()) {
+    seq_[index] = 0;
+    seen_[index] = changes;
+  }
   if (slot != kNoSlot) removes_.clear(to_underlying(slot));
 }
 
@@ -151,7 +155,7 @@ Status Publisher::publish_entry(DesiredState& desired, SlotTable& slots, std::ui
       if (!s) return s;
       ++rep.removed;
       count_range(slots, slot, rep);
-      forget(index, slot);
+      forget(index, slot, desired.change_count());
       break;
     }
     case PendingKind::Update: {
@@ -160,7 +164,7 @@ Status Publisher::publish_entry(DesiredState& desired, SlotTable& slots, std::ui
       if (!s) return s;
       ++rep.updated;
       count_range(slots, slot, rep);
-      forget(index, slot);
+      forget(index, slot, desired.change_count());
       break;
     }
     case PendingKind::Insert: {
@@ -168,7 +172,7 @@ Status Publisher::publish_entry(DesiredState& desired, SlotTable& slots, std::ui
       if (!s) return s.error();
       ++rep.inserted;
       count_range(slots, *s, rep);
-      forget(index, *s);
+      forget(index, *s, desired.change_count());
       desired.mark_published(index, *s);
       return Ok{};
     }
@@ -233,6 +237,7 @@ void Publisher::rank_arrivals(const DesiredState& desired, std::uint32_t budget,
     for (std::uint32_t n = 0; n < budget; ++n, ++pos, ++rep.ranked) {
       const PendingArrival* a = front_arrival(chunks, pos);
       if (!a) break;
+      if (stale(*a)) continue;
       const Candidate c = candidate_of(*a);
       aged.push_back({c.since, c.index, c.seq});
       push_candidate(c);
@@ -398,7 +403,10 @@ Expected<PublishReport> Publisher::publish(DesiredState& desired, SlotTable& slo
   rep.allowance = allowance;
   if (removes_.capacity() != slots.capacity()) removes_.reset(slots.capacity());
   if (chosen_stamp_.size() < desired.entry_slots()) chosen_stamp_.resize(desired.entry_slots(), 0);
-  if (seq_.size() < desired.entry_slots()) seq_.resize(desired.entry_slots(), 0);
+  if (seq_.size() < desired.entry_slots()) {
+    seq_.resize(desired.entry_slots(), 0);
+    seen_.resize(desired.entry_slots(), 0);
+  }
 
   take_arrivals(desired);
   const std::uint32_t rank_budget = static_cast<std::uint32_t>(std::max<std::uint64_t>(
@@ -479,8 +487,8 @@ Status Publisher::publish_pair(DesiredState& desired, SlotTable& slots, std::uin
   const DesiredEntry& e = desired.entry(entering);
   auto s = slots.replace(desired.entry(leaving).id, e.id, e.value);
   if (!s) return s.error();
-  forget(leaving, *s);
-  forget(entering, *s);
+  forget(leaving, *s, desired.change_count());
+  forget(entering, *s, desired.change_count());
   desired.mark_published(leaving);
   desired.mark_published(entering, *s);
   ++rep.replaced;

@@ -99,6 +99,11 @@ struct PendingArrival {
   SlotIndex slot{kNoSlot};   // the slot a remove or update rewrites (kNoSlot for an insert)
   PendingKind kind{PendingKind::None};
   bool changed{false};       // it was pending already: its pending edit changed
+  // DesiredState::change_count() just after this change (arrival_of: as of the call). An
+  // entry's arrivals reach a consumer out of order (two lists, a rescan of the entries
+  // after an overflow) and its index is reused once it is released: a consumer that
+  // already ranked or published the entry as of a later count skips the arrival as stale.
+  std::uint64_t stamp{0};
 };
 
 struct PendingArrivals {
@@ -164,6 +169,9 @@ class DesiredState {
   // The entry as an arrival (kind None when nothing is pending): what a consumer that
   // lost the lists (an overflow) ranks pending entries by.
   PendingArrival arrival_of(std::uint32_t index) const;
+  // Pending changes so far (every one, listed or lost to an overflow): the stamps arrivals
+  // carry, so that a consumer can tell an arrival older than what it last saw of an entry.
+  std::uint64_t change_count() const noexcept { return changes_; }
 
   // Highest epoch whose batch has arrived (nullopt before the first).
   std::optional<Epoch> received_epoch() const noexcept { return received_; }
@@ -202,6 +210,7 @@ class DesiredState {
   std::vector<std::uint32_t> free_entries_;
   std::vector<std::uint32_t> pending_;
   PendingArrivals arrivals_;  // became pending since take_pending_arrivals()
+  std::uint64_t changes_{0};  // see change_count()
   bool arrivals_taken_{false};
   // Pending entries per epoch, ascending by epoch: the oldest pending epoch bounds the
   // barrier. Few distinct epochs are pending at once and nearly every edit counts into

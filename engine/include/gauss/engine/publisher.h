@@ -168,8 +168,13 @@ class Publisher {
   void push_candidate(Candidate c);
   bool live(std::uint32_t index, std::uint32_t seq) const { return index < seq_.size() && seq_[index] == seq; }
   static bool still_pending(const DesiredState& desired, std::uint32_t index, GaussianId id);
-  // The entry left its pending period (published): its candidates die, its slot's remove listing goes.
-  void forget(std::uint32_t index, SlotIndex slot);
+  // The entry left its pending period (published as of `changes`, the DesiredState's
+  // change_count()): its candidates die, its slot's remove listing goes, and its arrivals
+  // from before are stale.
+  void forget(std::uint32_t index, SlotIndex slot, std::uint64_t changes);
+  // An arrival older than what was last ranked or published of its entry: ranking it
+  // would revive a state the entry left (and kill the live candidate of its real one).
+  bool stale(const PendingArrival& a) const { return a.stamp <= seen_[a.index]; }
 
   void take_arrivals(DesiredState& desired);
   bool has_unranked() const;
@@ -200,8 +205,8 @@ class Publisher {
   double range_fraction_{1.0};  // new ranges per slot write in the last busy frame
   double budget_{0.0};          // allowance units apply_chosen may use this frame (0 = no limit)
   std::uint32_t escaped_ranges_{0};  // ranges opened by this frame's age escape
-  bool blocked_{false};
-  bool started_{false};         // the first frame ranked what was pending before         // an insert found no room while removes were still unranked
+  bool blocked_{false};         // an insert found no room while removes were still unranked
+  bool started_{false};         // the first frame ranked what was pending before
   ViewState view_;              // this frame's view
   double now_{0.0};             // this frame's time
   float priority_scale_{1.0f};  // buckets per unit of priority
@@ -217,6 +222,7 @@ class Publisher {
   detail::RemoveSlots removes_;
   std::vector<std::uint32_t> seq_;  // per entry index: its live sequence number (0: none)
   std::uint32_t next_seq_{0};
+  std::vector<std::uint64_t> seen_;  // per entry index: change count it was last ranked or published at
   // Rescoring cursor: queue, bucket, item.
   int rescore_queue_{0}, rescore_bucket_{-1};
   std::size_t rescore_item_{0};
