@@ -1,11 +1,12 @@
 // Publisher under random host traffic: whatever the host sends within the budget (removes
 // before inserts, as its differ orders them), in whatever bursts, between frames of any
-// cost, progressive publication never fails, never exceeds the slot table, and ends with
-// the published set equal to the desired one. (A far teleport at M = 200k once stopped a
-// client with "slot table full and no pending remove to make room". A stall that piles
-// up batches found more: arrivals ranked after a newer view of their entry (a rescan
-// after the lists overflowed, or a publication) revived states the entries had left, and
-// an insert so shadowed was never published: the client never settled.)
+// cost, with the mode switched now and then, publication never fails, never exceeds the
+// slot table, and ends with the published set equal to the desired one. (A far teleport
+// at M = 200k once stopped a client with "slot table full and no pending remove to make
+// room". A stall that piles up batches found more: arrivals ranked after a newer view of
+// their entry (a rescan after the lists overflowed, or a publication) revived states the
+// entries had left, and an insert so shadowed was never published: the client never
+// settled.)
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -135,6 +136,8 @@ void run_seed(std::uint32_t seed) {
     }
     if (std::uniform_int_distribution<int>(0, 3)(rng) == 0)
       view.eye += glm::vec3(unit(rng), 0, unit(rng)) * 0.1f;
+    if (std::uniform_int_distribution<int>(0, 29)(rng) == 0)  // the viewer's panel switches modes
+      p.set_mode(p.config().mode == PublishMode::Immediate ? PublishMode::Progressive : PublishMode::Immediate);
     auto r = p.publish(desired, slots, view, now);
     ASSERT_TRUE(r.ok()) << "seed " << seed << " frame " << frame << ": " << r.message();
     ASSERT_LE(slots.size(), w.capacity);
