@@ -36,7 +36,8 @@ Range seeds_from_env() {
 
 TEST(SimFaults, EverySeedKeepsInvariantsAndConvergesExactly) {
   const Range r = seeds_from_env();
-  std::uint64_t failures = 0, crashes = 0, disconnects = 0, floods = 0, rejected = 0, frames = 0;
+  std::uint64_t failures = 0, crashes = 0, disconnects = 0, floods = 0, rejected = 0, frames = 0, stalls = 0,
+                overflows = 0;
   for (std::uint64_t seed = r.first; seed < r.first + r.count; ++seed) {
     auto rep = run_fault_seed(seed);
     if (!rep) {
@@ -48,21 +49,27 @@ TEST(SimFaults, EverySeedKeepsInvariantsAndConvergesExactly) {
     crashes += rep->crashes;
     disconnects += rep->disconnects;
     floods += rep->query_floods;
+    stalls += rep->stalls;
+    overflows += rep->arrival_overflows;
     rejected += rep->rejected_queries;
     frames += rep->frames;
     if (r.count == 1) std::printf("%s\n", rep->describe().c_str());
   }
-  std::printf("seeds %llu..%llu: %llu frames checked, %llu crashes, %llu disconnects, %llu query floods (%llu queries rate-limited)\n",
+  std::printf("seeds %llu..%llu: %llu frames checked, %llu crashes, %llu disconnects, %llu query floods (%llu queries "
+              "rate-limited), %llu stalls (%llu arrival overflows)\n",
               static_cast<unsigned long long>(r.first), static_cast<unsigned long long>(r.first + r.count - 1),
               static_cast<unsigned long long>(frames), static_cast<unsigned long long>(crashes),
               static_cast<unsigned long long>(disconnects), static_cast<unsigned long long>(floods),
-              static_cast<unsigned long long>(rejected));
+              static_cast<unsigned long long>(rejected), static_cast<unsigned long long>(stalls),
+              static_cast<unsigned long long>(overflows));
   if (r.count >= 100) {
     // The schedule really exercised the faults it claims to.
     EXPECT_GT(crashes, 0u);
     EXPECT_GT(disconnects, 0u);
     EXPECT_GT(floods, 0u);
     EXPECT_GT(rejected, 0u);
+    EXPECT_GT(stalls, 0u);
+    EXPECT_GT(overflows, 0u);  // a stall that made the publisher rescan
   }
 }
 

@@ -28,7 +28,8 @@ glm::vec4 yaw_quat(double yaw) {
 std::string FaultSeedReport::describe() const {
   return "seed " + std::to_string(seed) + ": " + std::to_string(clients) + " clients, " + std::to_string(faults) +
          " faults (" + std::to_string(crashes) + " crashes, " + std::to_string(disconnects) + " disconnects, " +
-         std::to_string(query_floods) + " query floods), " + std::to_string(frames) + " frames, converged at t=" +
+         std::to_string(query_floods) + " query floods, " + std::to_string(stalls) + " stalls, " +
+         std::to_string(arrival_overflows) + " arrival overflows), " + std::to_string(frames) + " frames, converged at t=" +
          std::to_string(converged_at_s);
 }
 
@@ -68,7 +69,12 @@ Expected<FaultSeedReport> run_fault_seed(std::uint64_t seed) {
     s.client.publisher.allowance_max = s.client.publisher.allowance_initial + rng.below(200);
     s.client.publisher.age_escape_s = rng.uniform(0.05, 1.0);
     s.client.publisher.escape_quota = rng.below(20);
+    if (rng.chance(0.5)) {  // ranking that lags behind the arrivals
+      s.client.publisher.rescore_per_frame = 1 + rng.below(64);
+      s.client.publisher.rank_allowances = rng.below(4);
+    }
     s.client.range_merge_gap = rng.below(4);
+    s.client.arrival_slack = rng.chance(0.5) ? rng.below(64) : DesiredState::kArrivalSlack;
     const double hz[] = {60.0, 72.0, 90.0, 120.0};
     s.display_hz = hz[rng.below(4)];
     s.down = random_link();
@@ -86,7 +92,7 @@ Expected<FaultSeedReport> run_fault_seed(std::uint64_t seed) {
     if (!rng.chance(0.25)) continue;
     const std::uint32_t c = rng.below(n_clients);
     ++rep.faults;
-    switch (rng.below(8)) {
+    switch (rng.below(9)) {
       case 0: {  // latency spike
         LinkConditions d = cfg.clients[c].down;
         d.latency_s *= rng.uniform(5.0, 20.0);
@@ -119,6 +125,12 @@ Expected<FaultSeedReport> run_fault_seed(std::uint64_t seed) {
       case 5:
         if (Status s = sim->epoch_burst(2 + static_cast<int>(rng.below(3))); !s) return s.error();
         break;
+      case 7: {  // display stall, with the host busy meanwhile
+        sim->stall(c, rng.uniform(0.1, 1.0));
+        if (Status s = sim->epoch_burst(1 + static_cast<int>(rng.below(4))); !s) return s.error();
+        ++rep.stalls;
+        break;
+      }
       case 6: {  // query flood: valid, unknown and clearing queries back to back
         ++rep.query_floods;
         const auto& objs = sim->scene().objects();
@@ -170,6 +182,7 @@ Expected<FaultSeedReport> run_fault_seed(std::uint64_t seed) {
   for (std::uint32_t k = 0; k < n_clients; ++k) {
     rep.frames += sim->frames(k);
     if (const HostSession* hs = sim->session(k)) rep.rejected_queries += hs->stats().rejected_queries;
+    if (const ClientState* cs = sim->client(k)) rep.arrival_overflows += cs->desired().stats().arrival_overflows;
   }
   return rep;
 }

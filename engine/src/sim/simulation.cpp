@@ -36,6 +36,7 @@ struct Simulation::Impl {
     std::uint64_t gen{0};
     bool connected{false};
     std::uint64_t frame{0};
+    double stalled_until{0.0};  // no frame before this time (Simulation::stall)
     glm::vec3 position{0.0f, 1.6f, 0.0f};
     glm::vec4 rotation{1.0f, 0.0f, 0.0f, 0.0f};
     std::map<std::uint64_t, std::uint64_t> expected;  // batch id -> host's intended desired checksum
@@ -183,7 +184,7 @@ struct Simulation::Impl {
   Status frame(std::uint32_t c) {
     Client& cl = clients[c];
     push(t + 1.0 / cl.spec.display_hz, Kind::Frame, c);
-    if (!cl.state) return Ok{};
+    if (!cl.state || t < cl.stalled_until) return Ok{};
     const glm::quat q(cl.rotation[0], cl.rotation[1], cl.rotation[2], cl.rotation[3]);
     ViewState view{cl.position, glm::normalize(q * glm::vec3(0.0f, 0.0f, 1.0f))};
     auto r = cl.state->frame(view, t, cl.frame);
@@ -356,6 +357,11 @@ void Simulation::disconnect(std::uint32_t c, double reconnect_after_s) {
   impl_->drop(c);
   if (cl.state) cl.state->on_disconnect();
   impl_->push(impl_->t + reconnect_after_s, Kind::Connect, c);
+}
+
+void Simulation::stall(std::uint32_t c, double seconds) {
+  auto& cl = impl_->clients.at(c);
+  cl.stalled_until = std::max(cl.stalled_until, impl_->t + seconds);
 }
 
 void Simulation::set_links(std::uint32_t c, const LinkConditions& down, const LinkConditions& up) {

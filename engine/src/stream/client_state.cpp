@@ -16,7 +16,7 @@ ClientState::ClientState(std::uint32_t client_index, ClientConfig config, SlotTa
     : client_index_(client_index),
       config_(std::move(config)),
       mutex_(std::make_unique<std::mutex>()),
-      desired_(config_.capacity),
+      desired_(config_.capacity, config_.arrival_slack),
       slots_(std::move(slots)),
       publisher_([this] {
         // The publisher's range estimate uses the same gap the uploads are merged with.

@@ -124,7 +124,8 @@ float change_magnitude(const Gaussian& from, const Gaussian& to) {
   return std::isfinite(m) ? std::min(1.0f, m) : 1.0f;
 }
 
-DesiredState::DesiredState(std::uint32_t capacity) : capacity_(capacity) {
+DesiredState::DesiredState(std::uint32_t capacity, std::uint32_t arrival_slack)
+    : capacity_(capacity), arrival_slack_(arrival_slack) {
   index_.reserve(capacity);
   entries_.resize(capacity);
   free_entries_.resize(capacity);
@@ -191,9 +192,10 @@ void DesiredState::refresh_pending(std::uint32_t index, Epoch old_epoch, bool wa
   if (now_pending) ++changes_;
   if (!now_pending || arrivals_.overflowed) return;
   // Bounded: a consumer that stops taking arrivals costs a few entries per slot at most.
-  if (arrivals_.size() >= 2 * static_cast<std::size_t>(capacity_) + 1024) {
+  if (arrivals_.size() >= 2 * static_cast<std::size_t>(capacity_) + arrival_slack_) {
     arrivals_.clear();
     arrivals_.overflowed = true;
+    ++stats_.arrival_overflows;
     return;
   }
   PendingArrival a = arrival_of(index);

@@ -43,6 +43,10 @@ struct ClientConfig {
   // Dirty ranges separated by at most this many clean slots are uploaded as one
   // (re-sending a few clean records beats another copy command).
   std::uint32_t range_merge_gap{0};
+  // Arrivals the desired state lists beyond 2M between frames before it drops the lists
+  // and the publisher rescans (DesiredState::kArrivalSlack; the fault simulation lowers it
+  // so that stalls reach the rescan).
+  std::uint32_t arrival_slack{DesiredState::kArrivalSlack};
 };
 
 struct ClientStatsCounters {

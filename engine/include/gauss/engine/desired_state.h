@@ -47,6 +47,7 @@ struct DesiredStats {
   std::uint64_t rejected_bad_value{0};   // non-finite field
   std::uint64_t rejected_capacity{0};    // insert beyond the budget M
   std::uint64_t rejected_batches{0};     // whole batches refused (epoch going backwards)
+  std::uint64_t arrival_overflows{0};    // arrival lists dropped unread (the consumer rescans)
   std::uint64_t rejected_edits() const {
     return rejected_unknown_id + rejected_duplicate + rejected_bad_value + rejected_capacity;
   }
@@ -128,7 +129,9 @@ class DesiredState {
   // Allocates (and touches) the id index and the entries for M ids up front, as the
   // SlotTable does for its records: a batch then costs no allocation, no rehash and no
   // first-touch page faults (which were most of the cost of a large insert batch).
-  explicit DesiredState(std::uint32_t capacity);
+  // The arrival lists hold up to 2 x capacity + `arrival_slack` entries between takes.
+  explicit DesiredState(std::uint32_t capacity, std::uint32_t arrival_slack = kArrivalSlack);
+  static constexpr std::uint32_t kArrivalSlack = 1024;
 
   // Applies one received batch at time `now` (seconds, for the age of pending edits).
   // Error (state untouched) only when the whole batch is refused.
@@ -205,6 +208,7 @@ class DesiredState {
   void count_epoch(Epoch e, int delta);
 
   std::uint32_t capacity_;
+  std::uint32_t arrival_slack_;
   detail::IdIndex index_;  // id -> entry
   std::vector<DesiredEntry, detail::TableAllocator<DesiredEntry>> entries_;
   std::vector<std::uint32_t> free_entries_;

@@ -92,6 +92,9 @@ class Simulation {
   std::uint32_t query(std::uint32_t client, msg::Query q);  // returns the query id
   void crash(std::uint32_t client, double restart_after_s);        // state lost, fresh client later
   void disconnect(std::uint32_t client, double reconnect_after_s); // connection lost, state kept
+  // The client's display hitches: no frame, so nothing published, for `seconds` while
+  // batches keep arriving (enough of them overflow the arrival lists).
+  void stall(std::uint32_t client, double seconds);
   void set_links(std::uint32_t client, const LinkConditions& down, const LinkConditions& up);
   Status epoch_burst(int n);  // the host produces n epochs at once (as far as the scene has them)
   void stop_scene();          // no further epochs
