@@ -404,6 +404,65 @@ TEST(LodHierarchy, RandomEpochsMatchAFullBuild) {
   }
 }
 
+// An epoch that changes values only (colour, opacity, scale, rotation; no leaf moves, enters
+// or leaves) keeps every tree's shape: the nodes above the changed leaves are merged again
+// bottom-up, without the descent from the root, and must come out as the full build has
+// them, with the same report. The children runs stay where they were (the descent would
+// have written every remerged node's run anew), which shows the bottom-up path ran.
+TEST(LodHierarchy, AValueOnlyEpochRemergesTheAncestorsInPlace) {
+  auto scene = random_scene(6000, 6, 31);
+  Rng rng{5};
+  for (Gaussian& g : scene) g.sh_rest[1] = glm::vec3(rng.uniform(-0.2f, 0.2f));
+  auto h = LodHierarchy::build(scene, 1);
+  ASSERT_TRUE(h.ok());
+  std::uint64_t next_id = 200000;
+  for (int epoch = 0; epoch < 8; ++epoch) {
+    const bool values_only = epoch % 2 == 1;  // after each epoch that reshapes the trees
+    std::vector<Gaussian> next;
+    std::size_t edited = 0;
+    for (Gaussian g : scene) {
+      const std::uint64_t roll = rng.next() % 100;
+      if (values_only) {
+        if (roll < 2) g.sh_dc.y -= 0.05f;
+        else if (roll < 3) g.opacity_logit += 0.3f;
+        else if (roll < 4) g.log_scale.z += 0.2f;
+        else if (roll < 5) g.rotation = glm::normalize(g.rotation + glm::vec4(0.0f, 0.1f, 0.0f, 0.0f));
+        else if (roll < 6) g.sh_rest[0] += glm::vec3(0.1f);
+        edited += roll < 6;
+      } else {
+        if (roll < 3) continue;
+        if (roll < 6) g.position += glm::vec3(rng.uniform(-0.3f, 0.3f));
+      }
+      next.push_back(g);
+    }
+    if (!values_only)
+      for (int i = 0; i < 100; ++i) next.push_back(random_gaussian(rng, next_id++, 6));
+    std::vector<std::uint32_t> first_child;
+    for (const LodNode& n : h->nodes()) first_child.push_back(n.first_child);
+    const auto before = interior_records(*h);
+    const auto r = h->update(next);
+    ASSERT_TRUE(r.ok()) << r.message();
+    expect_report_matches(before, interior_records(*h), *r);
+    scene = next;
+    check_invariants(*h, scene);
+    auto fresh = rebuild_like(*h, scene);
+    ASSERT_TRUE(fresh.ok());
+    expect_same_tree(*h, *fresh);
+    if (!values_only) continue;
+    EXPECT_GT(edited, 0u);
+    EXPECT_EQ(r->leaves_modified, edited);
+    EXPECT_TRUE(r->added.empty());
+    EXPECT_TRUE(r->removed.empty());
+    EXPECT_FALSE(r->modified.empty());
+    ASSERT_EQ(h->nodes().size(), first_child.size());
+    for (std::size_t i = 0; i < first_child.size(); ++i) {
+      if (h->nodes()[i].live && !h->nodes()[i].leaf) {
+        EXPECT_EQ(h->nodes()[i].first_child, first_child[i]) << "node " << i;
+      }
+    }
+  }
+}
+
 // A remerge whose geometry moments come out bit for bit as before keeps the node's geometry
 // and recomputes its appearance (a recolouring skips the eigen decomposition). Leaves that
 // share their centre and shape keep mean, spread and shape whatever their opacities: an

@@ -316,6 +316,7 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
   std::vector<Entry> fresh;                                    // entries entering the order
   std::vector<std::uint32_t> leaving;                          // nodes whose entry leaves it
   std::vector<std::uint32_t> dead_leaves;                      // nodes freed at the end
+  std::vector<std::uint32_t> in_place;                         // leaves changed within their cell
   auto remove_leaf = [&](std::uint32_t node) {
     const LeafFields& f = leaf_fields_[nodes_[node].data];
     dirty.emplace_back(tree_of(f.object), morton(f.position));
@@ -368,11 +369,18 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
       dirty.emplace_back(tree, code);
       leaving.push_back(node);
       fresh.push_back(Entry{tree, node, code, to_underlying(g.id)});
+    } else {
+      in_place.push_back(node);
     }
     store_leaf(node, g);
     ++report.leaves_modified;
   }
   if (dirty.empty()) return report;
+  if (leaving.empty() && fresh.empty()) {  // values only (a recolouring, say): no leaf changed cell
+    remerge_ancestors(in_place, report);
+    sort_report(report);
+    return report;
+  }
 
   // --- 3. The sorted leaf order: drop leaving entries, merge fresh ones in. ----------------
   if (!leaving.empty() || !fresh.empty()) {

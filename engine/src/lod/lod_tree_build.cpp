@@ -232,6 +232,18 @@ std::uint32_t LodHierarchy::make_interior(TreeBuild& b, int level, std::uint64_t
     b.report->added.push_back(nodes_[node].id);
   }
 
+  merge_kids(b, node, reuse != kNoLodNode, old_record, kids);
+  LodNode& n = nodes_[node];
+  n.first_child = std::uint32_t(children_.size());
+  n.child_count = std::uint32_t(kids.size());
+  children_.insert(children_.end(), kids.begin(), kids.end());
+  for (std::uint32_t kid : kids) nodes_[kid].parent = node;
+  return node;
+}
+
+void LodHierarchy::merge_kids(TreeBuild& b, std::uint32_t node, bool kept, const Gaussian& old_record,
+                              std::span<const std::uint32_t> kids) {
+  const std::uint32_t slot = nodes_[node].data;
   // Moments of the children, then of the node. The children's nodes and leaf fields are
   // loaded first, back to back: an update's leaves lie at random in the pools, and read one
   // by one between merges each would be a miss of its own (see warm_leaves).
@@ -255,14 +267,14 @@ std::uint32_t LodHierarchy::make_interior(TreeBuild& b, int level, std::uint64_t
                   std::span<glm::dvec3>(moments_rest_).subspan(std::size_t(slot) * rc, rc));
   const auto rest = std::span<const glm::dvec3>(moments_rest_).subspan(std::size_t(slot) * rc, rc);
   Gaussian rec;
-  if (reuse != kNoLodNode && same_geometry(before, moments_[slot])) {
+  if (kept && same_geometry(before, moments_[slot])) {
     rec = old_record;  // a recolouring: the eigen decomposition would give what it gave
     moments_appearance(moments_[slot], rest, rest_count_, rec);
   } else {
     rec = moments_to_gaussian(moments_[slot], rest, rest_count_, config_.merge.spread);
   }
   rec.id = nodes_[node].id;
-  if (reuse != kNoLodNode && !(same_value(old_record, rec))) b.report->modified.push_back(rec.id);
+  if (kept && !(same_value(old_record, rec))) b.report->modified.push_back(rec.id);
   records_[slot] = rec;
   ++b.report->nodes_merged;
 
@@ -275,17 +287,40 @@ std::uint32_t LodHierarchy::make_interior(TreeBuild& b, int level, std::uint64_t
   }
 
   LodNode& n = nodes_[node];
-  n.first_child = std::uint32_t(children_.size());
-  n.child_count = std::uint32_t(kids.size());
   n.leaf_count = leaves;
   n.centre = centre;
   n.radius = radius;
   n.height = std::uint16_t(height + 1);
   n.live = true;
   n.leaf = false;
-  children_.insert(children_.end(), kids.begin(), kids.end());
-  for (std::uint32_t kid : kids) nodes_[kid].parent = node;
-  return node;
+}
+
+void LodHierarchy::remerge_ancestors(std::span<const std::uint32_t> changed, LodUpdateReport& report) {
+  // Every interior node above a changed leaf, once, children before parents (a node is
+  // higher than each of its children).
+  if (++stamp_ == 0) {
+    std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);
+    stamp_ = 1;
+  }
+  std::vector<std::uint64_t> above;  // height << 32 | node: sorted without reading the nodes again
+  for (std::uint32_t leaf : changed)
+    for (std::uint32_t n = nodes_[leaf].parent; n != kNoLodNode && touch_stamp_[n] != stamp_; n = nodes_[n].parent) {
+      touch_stamp_[n] = stamp_;
+      above.push_back(std::uint64_t{nodes_[n].height} << 32 | n);
+    }
+  std::sort(above.begin(), above.end());
+  std::vector<LodMoments> scratch_moments;
+  std::vector<glm::dvec3> scratch_rest;
+  TreeBuild b;
+  b.report = &report;
+  b.moments = &scratch_moments;
+  b.rest = &scratch_rest;
+  for (const std::uint64_t key : above) {
+    const auto node = std::uint32_t(key);
+    const LodNode& n = nodes_[node];
+    const Gaussian old_record = records_[n.data];
+    merge_kids(b, node, true, old_record, std::span<const std::uint32_t>(children_).subspan(n.first_child, n.child_count));
+  }
 }
 
 void LodHierarchy::retire_node(TreeBuild& b, std::uint32_t node) {

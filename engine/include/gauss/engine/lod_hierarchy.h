@@ -231,6 +231,16 @@ class LodHierarchy {
                            std::uint32_t candidate);
   std::uint32_t make_interior(TreeBuild& b, int level, std::uint64_t prefix, std::uint32_t reuse,
                               std::span<const std::uint32_t> kids);
+  // The node's moments, record, sphere, leaf count and height from `kids` (its children,
+  // in order). `kept`: the node stood before this update with `old_record` (the report
+  // lists it as modified if its record's bits change; a recolouring keeps its geometry).
+  void merge_kids(TreeBuild& b, std::uint32_t node, bool kept, const Gaussian& old_record,
+                  std::span<const std::uint32_t> kids);
+  // An update that moved no leaf to another cell, added none and removed none leaves every
+  // tree's shape as it was: only the nodes above the `changed` leaves are merged again,
+  // bottom-up, each from its children as they stand (what the recursion from the root would
+  // do to them, without the descent).
+  void remerge_ancestors(std::span<const std::uint32_t> changed, LodUpdateReport& report);
   void retire_subtree(TreeBuild& b, std::uint32_t node);
   void retire_node(TreeBuild& b, std::uint32_t node);
   void node_moments(std::uint32_t node, LodMoments& m, std::span<glm::dvec3> rest) const;
