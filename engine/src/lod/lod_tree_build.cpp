@@ -302,12 +302,22 @@ void LodHierarchy::remerge_ancestors(std::span<const std::uint32_t> changed, Lod
     std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);
     stamp_ = 1;
   }
+  // Up a level at a time over all the changed leaves at once: each step's parent loads are
+  // independent of each other and overlap (a walk up one leaf's path at a time waits for
+  // each node before it can ask for the next).
   std::vector<std::uint64_t> above;  // height << 32 | node: sorted without reading the nodes again
-  for (std::uint32_t leaf : changed)
-    for (std::uint32_t n = nodes_[leaf].parent; n != kNoLodNode && touch_stamp_[n] != stamp_; n = nodes_[n].parent) {
-      touch_stamp_[n] = stamp_;
-      above.push_back(std::uint64_t{nodes_[n].height} << 32 | n);
+  std::vector<std::uint32_t> level(changed.begin(), changed.end()), next;
+  while (!level.empty()) {
+    next.clear();
+    for (std::uint32_t n : level) {
+      const std::uint32_t p = nodes_[n].parent;
+      if (p == kNoLodNode || touch_stamp_[p] == stamp_) continue;
+      touch_stamp_[p] = stamp_;
+      next.push_back(p);
     }
+    for (std::uint32_t p : next) above.push_back(std::uint64_t{nodes_[p].height} << 32 | p);
+    level.swap(next);
+  }
   std::sort(above.begin(), above.end());
   std::vector<LodMoments> scratch_moments;
   std::vector<glm::dvec3> scratch_rest;
@@ -315,11 +325,19 @@ void LodHierarchy::remerge_ancestors(std::span<const std::uint32_t> changed, Lod
   b.report = &report;
   b.moments = &scratch_moments;
   b.rest = &scratch_rest;
-  for (const std::uint64_t key : above) {
-    const auto node = std::uint32_t(key);
+  // In batches: the children of a batch's nodes are loaded together first (warm_kids), so
+  // their misses overlap across nodes, not only within one node's few children.
+  constexpr std::size_t kBatch = 16;
+  for (std::size_t k = 0; k < above.size(); ++k) {
+    if (k % kBatch == 0)
+      for (std::size_t j = k; j < std::min(above.size(), k + kBatch); ++j) {
+        const LodNode& w = nodes_[std::uint32_t(above[j])];
+        warm_kids(std::span<const std::uint32_t>(children_).subspan(w.first_child, w.child_count));
+      }
+    const auto node = std::uint32_t(above[k]);
     const LodNode& n = nodes_[node];
-    const Gaussian old_record = records_[n.data];
-    merge_kids(b, node, true, old_record, std::span<const std::uint32_t>(children_).subspan(n.first_child, n.child_count));
+    // The node's record is read in place: merge_kids writes it only once done with it.
+    merge_kids(b, node, true, records_[n.data], std::span<const std::uint32_t>(children_).subspan(n.first_child, n.child_count));
   }
 }
 

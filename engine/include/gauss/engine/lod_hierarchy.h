@@ -234,6 +234,7 @@ class LodHierarchy {
   // The node's moments, record, sphere, leaf count and height from `kids` (its children,
   // in order). `kept`: the node stood before this update with `old_record` (the report
   // lists it as modified if its record's bits change; a recolouring keeps its geometry).
+  // `old_record` may be the node's own record: it is read before the record is written.
   void merge_kids(TreeBuild& b, std::uint32_t node, bool kept, const Gaussian& old_record,
                   std::span<const std::uint32_t> kids);
   // An update that moved no leaf to another cell, added none and removed none leaves every
