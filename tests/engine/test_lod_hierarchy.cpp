@@ -369,11 +369,31 @@ TEST(LodHierarchy, AddingAndRemovingAGaussianTouchesOnePath) {
               r->removed.size(), r->modified.size());
 }
 
+// random_scene's with SH degree 1 content drawn from `rng`.
+std::vector<Gaussian> random_scene_sh1(std::size_t n, std::uint64_t seed, Rng& rng) {
+  auto scene = random_scene(n, 6, seed);
+  for (Gaussian& g : scene) g.sh_rest[1] = glm::vec3(rng.uniform(-0.2f, 0.2f));
+  return scene;
+}
+
+// Updates h to `next`, then checks the report against the records, the invariants, and the
+// tree against a full build of `next`.
+void update_and_check(LodHierarchy& h, std::span<const Gaussian> next, LodUpdateReport& out) {
+  const auto before = interior_records(h);
+  const auto r = h.update(next);
+  ASSERT_TRUE(r.ok()) << r.message();
+  expect_report_matches(before, interior_records(h), *r);
+  check_invariants(h, next);
+  auto fresh = rebuild_like(h, next);
+  ASSERT_TRUE(fresh.ok());
+  expect_same_tree(h, *fresh);
+  out = *r;
+}
+
 TEST(LodHierarchy, RandomEpochsMatchAFullBuild) {
   // Inserts, removals, value edits, moves across cells and objects, under SH degree 1.
-  auto scene = random_scene(5000, 6, 21);
   Rng rng{77};
-  for (Gaussian& g : scene) g.sh_rest[1] = glm::vec3(rng.uniform(-0.2f, 0.2f));
+  auto scene = random_scene_sh1(5000, 21, rng);
   auto h = LodHierarchy::build(scene, 1);
   ASSERT_TRUE(h.ok());
   std::uint64_t next_id = 100000;
@@ -391,15 +411,9 @@ TEST(LodHierarchy, RandomEpochsMatchAFullBuild) {
     for (std::size_t i = 0; i < inserts; ++i) next.push_back(random_gaussian(rng, next_id++, 6));
     if (epoch == 5) next.resize(3);  // nearly everything goes
     if (epoch == 6) next.clear();    // everything goes
-    const auto before = interior_records(*h);
-    const auto r = h->update(next);
-    ASSERT_TRUE(r.ok()) << r.message();
-    expect_report_matches(before, interior_records(*h), *r);
+    LodUpdateReport r;
+    ASSERT_NO_FATAL_FAILURE(update_and_check(*h, next, r));
     scene = next;
-    check_invariants(*h, scene);
-    auto fresh = rebuild_like(*h, scene);
-    ASSERT_TRUE(fresh.ok());
-    expect_same_tree(*h, *fresh);
     if (epoch == 6) scene = random_scene(4000, 6, 1000 + std::uint64_t(epoch));
   }
 }
@@ -410,9 +424,8 @@ TEST(LodHierarchy, RandomEpochsMatchAFullBuild) {
 // them, with the same report. The children runs stay where they were (the descent would
 // have written every remerged node's run anew), which shows the bottom-up path ran.
 TEST(LodHierarchy, AValueOnlyEpochRemergesTheAncestorsInPlace) {
-  auto scene = random_scene(6000, 6, 31);
   Rng rng{5};
-  for (Gaussian& g : scene) g.sh_rest[1] = glm::vec3(rng.uniform(-0.2f, 0.2f));
+  auto scene = random_scene_sh1(6000, 31, rng);
   auto h = LodHierarchy::build(scene, 1);
   ASSERT_TRUE(h.ok());
   std::uint64_t next_id = 200000;
@@ -439,21 +452,15 @@ TEST(LodHierarchy, AValueOnlyEpochRemergesTheAncestorsInPlace) {
       for (int i = 0; i < 100; ++i) next.push_back(random_gaussian(rng, next_id++, 6));
     std::vector<std::uint32_t> first_child;
     for (const LodNode& n : h->nodes()) first_child.push_back(n.first_child);
-    const auto before = interior_records(*h);
-    const auto r = h->update(next);
-    ASSERT_TRUE(r.ok()) << r.message();
-    expect_report_matches(before, interior_records(*h), *r);
+    LodUpdateReport r;
+    ASSERT_NO_FATAL_FAILURE(update_and_check(*h, next, r));
     scene = next;
-    check_invariants(*h, scene);
-    auto fresh = rebuild_like(*h, scene);
-    ASSERT_TRUE(fresh.ok());
-    expect_same_tree(*h, *fresh);
     if (!values_only) continue;
     EXPECT_GT(edited, 0u);
-    EXPECT_EQ(r->leaves_modified, edited);
-    EXPECT_TRUE(r->added.empty());
-    EXPECT_TRUE(r->removed.empty());
-    EXPECT_FALSE(r->modified.empty());
+    EXPECT_EQ(r.leaves_modified, edited);
+    EXPECT_TRUE(r.added.empty());
+    EXPECT_TRUE(r.removed.empty());
+    EXPECT_FALSE(r.modified.empty());
     ASSERT_EQ(h->nodes().size(), first_child.size());
     for (std::size_t i = 0; i < first_child.size(); ++i) {
       if (h->nodes()[i].live && !h->nodes()[i].leaf) {
