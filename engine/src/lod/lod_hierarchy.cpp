@@ -186,11 +186,7 @@ Expected<LodUpdateReport> LodHierarchy::update_from(const Gaussian* base, std::s
     return build_from_empty(all, base);
   }
   // Leaves not met below are the removed ones; a leaf met twice is a duplicate id.
-  if (++stamp_ == 0) {
-    std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);
-    stamp_ = 1;
-  }
-  const std::uint32_t seen = stamp_;
+  const std::uint32_t seen = next_stamp();
   std::vector<const Gaussian*> upserts;
   std::vector<std::uint32_t> upsert_places;  // k of each upsert
   std::size_t met = 0;                       // leaves met (each once, or the update fails)
@@ -257,11 +253,7 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
                                                       std::span<const GaussianId> removed, bool lenient) {
   next_generation();
   // --- 1. Validate, changing nothing that cannot be rolled back. ---------------------------
-  if (++stamp_ == 0) {
-    std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);
-    stamp_ = 1;
-  }
-  const std::uint32_t stamp = stamp_;
+  const std::uint32_t stamp = next_stamp();
   std::vector<std::uint64_t> pending;  // new ids marked in leaf_index_, erased on failure
   auto fail = [&](std::string message) -> Expected<LodUpdateReport> {
     for (std::uint64_t id : pending) leaf_index_.erase(id);
@@ -383,21 +375,16 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
   }
 
   // --- 3. The sorted leaf order: drop leaving entries, merge fresh ones in. ----------------
-  if (!leaving.empty() || !fresh.empty()) {
-    ++stamp_;  // a new mark for "leaves the order" (the validation marks are done with)
-    if (stamp_ == 0) {
-      std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);
-      stamp_ = 1;
-    }
-    for (std::uint32_t n : leaving) touch_stamp_[n] = stamp_;
-    if (!leaving.empty())
-      std::erase_if(order_, [&](const Entry& e) { return touch_stamp_[e.node] == stamp_; });
-    auto less = [](const Entry& a, const Entry& b) { return entry_less(a.tree, a.code, a.id, b.tree, b.code, b.id); };
-    std::sort(fresh.begin(), fresh.end(), less);
-    order_scratch_.resize(order_.size() + fresh.size());
-    std::merge(order_.begin(), order_.end(), fresh.begin(), fresh.end(), order_scratch_.begin(), less);
-    order_.swap(order_scratch_);
-  }
+  // (Some leaf enters, leaves or changes cell: the value-only case returned above.)
+  const std::uint32_t leaves_order = next_stamp();  // the validation marks are done with
+  for (std::uint32_t n : leaving) touch_stamp_[n] = leaves_order;
+  if (!leaving.empty())
+    std::erase_if(order_, [&](const Entry& e) { return touch_stamp_[e.node] == leaves_order; });
+  auto less = [](const Entry& a, const Entry& b) { return entry_less(a.tree, a.code, a.id, b.tree, b.code, b.id); };
+  std::sort(fresh.begin(), fresh.end(), less);
+  order_scratch_.resize(order_.size() + fresh.size());
+  std::merge(order_.begin(), order_.end(), fresh.begin(), fresh.end(), order_scratch_.begin(), less);
+  order_.swap(order_scratch_);
 
   // --- 4-5. Group trees with changes, the objects tree and the root. --------------------
   std::sort(dirty.begin(), dirty.end());
@@ -510,6 +497,14 @@ void LodHierarchy::fix_cube(const glm::dvec3& lo, const glm::dvec3& hi) {
   cube_min_ = 0.5 * (lo + hi) - half;
   cell_inv_ = double(1u << kGroupLevels) / (2.0 * half);
   cube_set_ = true;
+}
+
+std::uint32_t LodHierarchy::next_stamp() {
+  if (++stamp_ == 0) {  // wrapped: old marks could collide
+    std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);
+    stamp_ = 1;
+  }
+  return stamp_;
 }
 
 void LodHierarchy::next_generation() {

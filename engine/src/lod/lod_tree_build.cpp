@@ -298,10 +298,7 @@ void LodHierarchy::merge_kids(TreeBuild& b, std::uint32_t node, bool kept, const
 void LodHierarchy::remerge_ancestors(std::span<const std::uint32_t> changed, LodUpdateReport& report) {
   // Every interior node above a changed leaf, once, children before parents (a node is
   // higher than each of its children).
-  if (++stamp_ == 0) {
-    std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);
-    stamp_ = 1;
-  }
+  const std::uint32_t stamp = next_stamp();
   // Up a level at a time over all the changed leaves at once: each step's parent loads are
   // independent of each other and overlap (a walk up one leaf's path at a time waits for
   // each node before it can ask for the next).
@@ -311,8 +308,8 @@ void LodHierarchy::remerge_ancestors(std::span<const std::uint32_t> changed, Lod
     next.clear();
     for (std::uint32_t n : level) {
       const std::uint32_t p = nodes_[n].parent;
-      if (p == kNoLodNode || touch_stamp_[p] == stamp_) continue;
-      touch_stamp_[p] = stamp_;
+      if (p == kNoLodNode || touch_stamp_[p] == stamp) continue;
+      touch_stamp_[p] = stamp;
       next.push_back(p);
     }
     for (std::uint32_t p : next) above.push_back(std::uint64_t{nodes_[p].height} << 32 | p);

@@ -29,8 +29,8 @@ std::string FaultSeedReport::describe() const {
   return "seed " + std::to_string(seed) + ": " + std::to_string(clients) + " clients, " + std::to_string(faults) +
          " faults (" + std::to_string(crashes) + " crashes, " + std::to_string(disconnects) + " disconnects, " +
          std::to_string(query_floods) + " query floods, " + std::to_string(stalls) + " stalls, " +
-         std::to_string(arrival_overflows) + " arrival overflows), " + std::to_string(frames) + " frames, converged at t=" +
-         std::to_string(converged_at_s);
+         std::to_string(arrival_overflows) + " arrival overflows), " + std::to_string(frames) +
+         " frames, converged at t=" + std::to_string(converged_at_s);
 }
 
 Expected<FaultSeedReport> run_fault_seed(std::uint64_t seed) {
@@ -125,12 +125,6 @@ Expected<FaultSeedReport> run_fault_seed(std::uint64_t seed) {
       case 5:
         if (Status s = sim->epoch_burst(2 + static_cast<int>(rng.below(3))); !s) return s.error();
         break;
-      case 7: {  // display stall, with the host busy meanwhile
-        sim->stall(c, rng.uniform(0.1, 1.0));
-        if (Status s = sim->epoch_burst(1 + static_cast<int>(rng.below(4))); !s) return s.error();
-        ++rep.stalls;
-        break;
-      }
       case 6: {  // query flood: valid, unknown and clearing queries back to back
         ++rep.query_floods;
         const auto& objs = sim->scene().objects();
@@ -156,6 +150,12 @@ Expected<FaultSeedReport> run_fault_seed(std::uint64_t seed) {
           }
           sim->query(c, q);
         }
+        break;
+      }
+      case 7: {  // display stall, with the host busy meanwhile
+        sim->stall(c, rng.uniform(0.1, 1.0));
+        if (Status s = sim->epoch_burst(1 + static_cast<int>(rng.below(4))); !s) return s.error();
+        ++rep.stalls;
         break;
       }
       default: {  // far pose jump anywhere in the room, any heading

@@ -117,10 +117,10 @@ bool Publisher::still_pending(const DesiredState& desired, std::uint32_t index, 
   return e.id == id && e.pending_kind() != PendingKind::None;
 }
 
-void Publisher::forget(std::uint32_t index, SlotIndex slot, std::uint64_t changes) {
+void Publisher::forget(const DesiredState& desired, std::uint32_t index, SlotIndex slot) {
   if (index < seq_.size()) {
     seq_[index] = 0;
-    seen_[index] = changes;
+    seen_[index] = desired.change_count();
   }
   if (slot != kNoSlot) removes_.clear(to_underlying(slot));
 }
@@ -155,7 +155,7 @@ Status Publisher::publish_entry(DesiredState& desired, SlotTable& slots, std::ui
       if (!s) return s;
       ++rep.removed;
       count_range(slots, slot, rep);
-      forget(index, slot, desired.change_count());
+      forget(desired, index, slot);
       break;
     }
     case PendingKind::Update: {
@@ -164,7 +164,7 @@ Status Publisher::publish_entry(DesiredState& desired, SlotTable& slots, std::ui
       if (!s) return s;
       ++rep.updated;
       count_range(slots, slot, rep);
-      forget(index, slot, desired.change_count());
+      forget(desired, index, slot);
       break;
     }
     case PendingKind::Insert: {
@@ -172,7 +172,7 @@ Status Publisher::publish_entry(DesiredState& desired, SlotTable& slots, std::ui
       if (!s) return s.error();
       ++rep.inserted;
       count_range(slots, *s, rep);
-      forget(index, *s, desired.change_count());
+      forget(desired, index, *s);
       desired.mark_published(index, *s);
       return Ok{};
     }
@@ -487,8 +487,8 @@ Status Publisher::publish_pair(DesiredState& desired, SlotTable& slots, std::uin
   const DesiredEntry& e = desired.entry(entering);
   auto s = slots.replace(desired.entry(leaving).id, e.id, e.value);
   if (!s) return s.error();
-  forget(leaving, *s, desired.change_count());
-  forget(entering, *s, desired.change_count());
+  forget(desired, leaving, *s);
+  forget(desired, entering, *s);
   desired.mark_published(leaving);
   desired.mark_published(entering, *s);
   ++rep.replaced;

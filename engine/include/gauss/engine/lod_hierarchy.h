@@ -220,6 +220,8 @@ class LodHierarchy {
   bool same_leaf_value(std::uint32_t node, const Gaussian& g) const;
   void compact_children();
   void next_generation();
+  // A fresh touch_stamp_ mark (every entry's marks cleared when the counter wraps).
+  std::uint32_t next_stamp();
   // Fixes the cube around [lo, hi] (the first non-empty epoch's usable positions) unless it is
   // fixed already or the box is empty.
   void fix_cube(const glm::dvec3& lo, const glm::dvec3& hi);

@@ -168,10 +168,9 @@ class Publisher {
   void push_candidate(Candidate c);
   bool live(std::uint32_t index, std::uint32_t seq) const { return index < seq_.size() && seq_[index] == seq; }
   static bool still_pending(const DesiredState& desired, std::uint32_t index, GaussianId id);
-  // The entry left its pending period (published as of `changes`, the DesiredState's
-  // change_count()): its candidates die, its slot's remove listing goes, and its arrivals
-  // from before are stale.
-  void forget(std::uint32_t index, SlotIndex slot, std::uint64_t changes);
+  // The entry left its pending period (published): its candidates die, its slot's remove
+  // listing goes, and its arrivals from before now (desired.change_count()) are stale.
+  void forget(const DesiredState& desired, std::uint32_t index, SlotIndex slot);
   // An arrival older than what was last ranked or published of its entry: ranking it
   // would revive a state the entry left (and kill the live candidate of its real one).
   bool stale(const PendingArrival& a) const { return a.stamp <= seen_[a.index]; }

@@ -3,8 +3,8 @@
 // fixes a small world (clients, budgets, publication modes, display rates, links) and
 // a schedule of faults: latency spikes, bandwidth drops, loss bursts, client crashes
 // and restarts, disconnects and reconnects, host epoch bursts, query floods, display
-// stalls and far pose jumps. The simulation checks its invariants at every frame and after every
-// batch; at the end, with the faults over, every client must converge exactly
+// stalls and far pose jumps. The simulation checks its invariants at every frame and
+// after every batch; at the end, with the faults over, every client must converge exactly
 // (published = desired = the host's intended set). A failing seed reproduces exactly
 // from its number: run_fault_seed(seed) again (tests/engine/test_sim_faults.cpp reads
 // GAUSS_SIM_SEED; scripts/sim-nightly runs many).
