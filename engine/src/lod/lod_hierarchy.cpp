@@ -3,8 +3,9 @@
 #include "gauss/engine/lod_hierarchy.h"
 
 #include <algorithm>
-#include <bit>
 #include <atomic>
+#include <bit>
+#include <cassert>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
@@ -306,13 +307,15 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
 
   std::vector<std::pair<std::uint32_t, std::uint64_t>> dirty;  // (tree, code)
   std::vector<Entry> fresh;                                    // entries entering the order
-  std::vector<std::uint32_t> leaving;                          // nodes whose entry leaves it
+  std::vector<Entry> leaving;                                  // entries leaving it (as they stand)
   std::vector<std::uint32_t> dead_leaves;                      // nodes freed at the end
   std::vector<std::uint32_t> in_place;                         // leaves changed within their cell
   auto remove_leaf = [&](std::uint32_t node) {
     const LeafFields& f = leaf_fields_[nodes_[node].data];
-    dirty.emplace_back(tree_of(f.object), morton(f.position));
-    leaving.push_back(node);
+    const std::uint32_t tree = tree_of(f.object);
+    const std::uint64_t code = morton(f.position);
+    dirty.emplace_back(tree, code);
+    leaving.push_back(Entry{tree, node, code, to_underlying(nodes_[node].id)});
     dead_leaves.push_back(node);
     leaf_index_.erase(to_underlying(nodes_[node].id));
     ++report.leaves_removed;
@@ -359,7 +362,7 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
     dirty.emplace_back(old_tree, old_code);
     if (old_tree != tree || old_code != code) {
       dirty.emplace_back(tree, code);
-      leaving.push_back(node);
+      leaving.push_back(Entry{old_tree, node, old_code, to_underlying(g.id)});
       fresh.push_back(Entry{tree, node, code, to_underlying(g.id)});
     } else {
       in_place.push_back(node);
@@ -375,15 +378,35 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
   }
 
   // --- 3. The sorted leaf order: drop leaving entries, merge fresh ones in. ----------------
-  // (Some leaf enters, leaves or changes cell: the value-only case returned above.)
-  const std::uint32_t leaves_order = next_stamp();  // the validation marks are done with
-  for (std::uint32_t n : leaving) touch_stamp_[n] = leaves_order;
-  if (!leaving.empty())
-    std::erase_if(order_, [&](const Entry& e) { return touch_stamp_[e.node] == leaves_order; });
+  // (Some leaf enters, leaves or changes cell: the value-only case returned above.) One pass:
+  // the runs between changes are copied whole, each run's end found by galloping from its
+  // start, so the order is read and written once and no entry's node is looked at.
   auto less = [](const Entry& a, const Entry& b) { return entry_less(a.tree, a.code, a.id, b.tree, b.code, b.id); };
+  std::sort(leaving.begin(), leaving.end(), less);
   std::sort(fresh.begin(), fresh.end(), less);
-  order_scratch_.resize(order_.size() + fresh.size());
-  std::merge(order_.begin(), order_.end(), fresh.begin(), fresh.end(), order_scratch_.begin(), less);
+  order_scratch_.resize(order_.size() - leaving.size() + fresh.size());
+  {
+    const Entry* in = order_.data();
+    const Entry* const end = in + order_.size();
+    Entry* out = order_scratch_.data();
+    std::size_t g = 0, f = 0;
+    while (g < leaving.size() || f < fresh.size()) {
+      const bool drop = f == fresh.size() || (g < leaving.size() && less(leaving[g], fresh[f]));
+      const Entry& key = drop ? leaving[g] : fresh[f];
+      const Entry* stop = lod_detail::gallop_partition_point(in, end, [&](const Entry& e) { return less(e, key); });
+      out = std::copy(in, stop, out);
+      in = stop;
+      if (drop) {
+        assert(in != end && in->node == key.node);  // a leaf's entry is its stored cell
+        ++in;
+        ++g;
+      } else {
+        *out++ = key;
+        ++f;
+      }
+    }
+    std::copy(in, end, out);
+  }
   order_.swap(order_scratch_);
 
   // --- 4-5. Group trees with changes, the objects tree and the root. --------------------

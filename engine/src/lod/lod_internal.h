@@ -1,5 +1,6 @@
 #pragma once
 // Constants and bit tricks shared by the LoD hierarchy's translation units.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 
@@ -39,6 +40,22 @@ constexpr std::uint64_t spread3(std::uint64_t v) {
 
 constexpr std::uint64_t morton3(std::uint64_t x, std::uint64_t y, std::uint64_t z) {
   return spread3(x) | (spread3(y) << 1) | (spread3(z) << 2);
+}
+
+// The first element of [first, last) for which `pred` is false, `pred` being true on a prefix:
+// std::partition_point, found by galloping from `first`. A binary search over the whole range
+// starts with probes far away (a cache miss each, in an order of a million entries); the
+// answers sought here lie near the start, and galloping costs what that distance costs.
+template <class It, class Pred>
+It gallop_partition_point(It first, It last, Pred pred) {
+  if (first == last || !pred(*first)) return first;
+  It lo = first;  // pred(*lo)
+  std::ptrdiff_t step = 1;
+  while (step < last - lo && pred(lo[step])) {
+    lo += step;
+    step *= 2;
+  }
+  return std::partition_point(lo + 1, lo + std::min(step, last - lo), pred);
 }
 
 static_assert(morton3(1, 0, 0) == 1 && morton3(0, 1, 0) == 2 && morton3(0, 0, 1) == 4);

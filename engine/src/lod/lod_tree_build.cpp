@@ -77,29 +77,17 @@ std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> item
   const int shift = 3 * (b.levels - level - 1);
   std::array<std::span<const Entry>, 8> parts;
   {
-    // Each octant's end by galloping from its start: a binary search over everything left
-    // would begin with probes far away in the order (a cache miss each, most of an
-    // incremental update's descent); octants are small, so their ends are found near by.
+    // Each octant's end by galloping from its start (octants are small, and a binary search
+    // over everything left would begin with probes far away: most of an incremental update's
+    // descent was those misses).
     std::size_t begin = 0;
     for (std::uint64_t d = 0; d < 8; ++d) {
       const std::uint64_t limit = ((prefix << 3) | d) + 1;
-      auto below = [&](std::size_t i) { return (items[i].code >> shift) < limit; };
       std::size_t end = n;  // the last octant takes the rest: every item lies in the cell
-      if (d < 7) {
-        if (begin == n || !below(begin)) {
-          end = begin;
-        } else {
-          std::size_t lo = begin, step = 1;  // items[lo] is below the limit
-          while (lo + step < n && below(lo + step)) {
-            lo += step;
-            step *= 2;
-          }
-          const auto first = items.begin() + std::ptrdiff_t(lo + 1);
-          const auto last = items.begin() + std::ptrdiff_t(std::min(n, lo + step));
-          end = std::size_t(std::partition_point(first, last, [&](const Entry& e) { return (e.code >> shift) < limit; }) -
-                            items.begin());
-        }
-      }
+      if (d < 7)
+        end = std::size_t(lod_detail::gallop_partition_point(items.begin() + std::ptrdiff_t(begin), items.end(),
+                                                             [&](const Entry& e) { return (e.code >> shift) < limit; }) -
+                          items.begin());
       parts[d] = items.subspan(begin, end - begin);
       begin = end;
     }
