@@ -53,7 +53,7 @@ using gauss::apps::percentile;
 using namespace gauss::bench;
 using nlohmann::json;
 
-struct Options {
+struct ClientBenchOptions {
   std::size_t gaussians{600000};
   std::uint32_t budget{200000};
   std::string size{"320x240"};
@@ -302,7 +302,7 @@ std::vector<double> idle_frames(client::ClientRuntime& rt, const Camera& cam, st
   return ms;
 }
 
-json bench_teleport(vk::Context& ctx, const Options& o, LoopbackHost& host, PublishMode mode, std::uint32_t w,
+json bench_teleport(vk::Context& ctx, const ClientBenchOptions& o, LoopbackHost& host, PublishMode mode, std::uint32_t w,
                     std::uint32_t h) {
   const char* name = mode == PublishMode::Immediate ? "immediate" : "progressive";
   auto rt = connected_client(ctx, host, o.budget, std::string("bench-") + name, mode, o.frames_in_flight, w, h,
@@ -431,7 +431,7 @@ std::array<double, 3> fit3(const std::vector<std::array<double, 3>>& rows, const
   return {a[0][3] / a[0][0], a[1][3] / a[1][1], a[2][3] / a[2][2]};
 }
 
-json bench_calibration(vk::Context& ctx, const Options& o, LoopbackHost& host, std::uint32_t w, std::uint32_t h) {
+json bench_calibration(vk::Context& ctx, const ClientBenchOptions& o, LoopbackHost& host, std::uint32_t w, std::uint32_t h) {
   // A converged client at A, then blocking frames (one in flight) with K slots rewritten
   // (their own records: the image stays) in R runs. A whole lavapipe frame varies by tens
   // of ms from run to run, far more than uploads cost, so the upload is measured on its
@@ -550,7 +550,7 @@ json bench_throughput(vk::Context& ctx) {
   return out;
 }
 
-int bench_client_main(const Options& o) {
+int bench_client_main(const ClientBenchOptions& o) {
   const auto wh = apps::parse_size(o.size);
   const std::uint32_t w = wh->first, h = wh->second;
   std::optional<CpuSplit> split;
@@ -634,7 +634,7 @@ int bench_client_main(const Options& o) {
 }
 
 BenchRun bench_client_setup(CLI::App& cmd) {
-  auto o = std::make_shared<Options>();
+  auto o = std::make_shared<ClientBenchOptions>();
   cmd.add_option("--gaussians", o->gaussians, "Gaussians in the synthetic room the host serves")
       ->check(apps::at_least<std::size_t>(1000));
   cmd.add_option("--budget", o->budget, "M: the client's slots")->check(apps::in_range<std::uint32_t>(1, 400000));

@@ -60,13 +60,14 @@ using namespace gauss;
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-double percentile(std::vector<double> v, double q) {
+// The nearest-rank percentile (apps/common/percentile.h interpolates; these tables never did).
+double nearest_rank(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
   return v[static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5)];
 }
 
-struct Options {
+struct HostBenchOptions {
   std::size_t gaussians{1'000'000};
   std::size_t budget{200'000};
   int updates{41};
@@ -118,12 +119,12 @@ ClientPose small_motion(ClientPose p) {
 
 // One row of a median / p90 / max table.
 void print_median_p90_max(const char* label, const std::vector<double>& v) {
-  std::printf("  %-34s %10.2f %10.2f %10.2f\n", label, percentile(v, 0.5), percentile(v, 0.9), percentile(v, 1.0));
+  std::printf("  %-34s %10.2f %10.2f %10.2f\n", label, nearest_rank(v, 0.5), nearest_rank(v, 0.9), nearest_rank(v, 1.0));
 }
 
 // ---- 1 + 2: selection + diff timing, edits per small motion ------------------------------
 
-json bench_select(const SceneStore& store, const SyntheticScene& scene, const Options& o) {
+json bench_select(const SceneStore& store, const SyntheticScene& scene, const HostBenchOptions& o) {
   const CodecParams params = fit_codec_params(store.gaussians(), store.sh_degree());
   SelectionRequest req;
   req.budget = o.budget;
@@ -201,30 +202,30 @@ json bench_select(const SceneStore& store, const SyntheticScene& scene, const Op
               first_bpg, record_bytes(0));
   std::printf("\n== edits per small head motion (5 cm, 2 deg), fraction of M (target < 1 %%) ==\n");
   std::printf("  one step from a settled set:  median %.3f %%  max %.3f %%  (%zu poses)\n",
-              100.0 * percentile(one_step, 0.5), 100.0 * percentile(one_step, 1.0), one_step.size());
+              100.0 * nearest_rank(one_step, 0.5), 100.0 * nearest_rank(one_step, 1.0), one_step.size());
   std::printf("  continuous walk (%d steps):    median %.3f %%  max %.3f %%\n", o.updates,
-              100.0 * percentile(edit_frac, 0.5), 100.0 * percentile(edit_frac, 1.0));
+              100.0 * nearest_rank(edit_frac, 0.5), 100.0 * nearest_rank(edit_frac, 1.0));
   return json{{"eligible", eligible},
               {"budget", o.budget},
               {"updates", o.updates},
-              {"select_ms", {{"median", percentile(select_ms, 0.5)}, {"p90", percentile(select_ms, 0.9)}}},
-              {"diff_ms", {{"median", percentile(diff_ms, 0.5)}, {"p90", percentile(diff_ms, 0.9)}}},
+              {"select_ms", {{"median", nearest_rank(select_ms, 0.5)}, {"p90", nearest_rank(select_ms, 0.9)}}},
+              {"diff_ms", {{"median", nearest_rank(diff_ms, 0.5)}, {"p90", nearest_rank(diff_ms, 0.9)}}},
               {"select_diff_ms",
-               {{"median", percentile(total_ms, 0.5)}, {"p90", percentile(total_ms, 0.9)}, {"max", percentile(total_ms, 1.0)}}},
-              {"select_diff_wall_ms", {{"median", percentile(wall_ms, 0.5)}, {"p90", percentile(wall_ms, 0.9)}}},
+               {{"median", nearest_rank(total_ms, 0.5)}, {"p90", nearest_rank(total_ms, 0.9)}, {"max", nearest_rank(total_ms, 1.0)}}},
+              {"select_diff_wall_ms", {{"median", nearest_rank(wall_ms, 0.5)}, {"p90", nearest_rank(wall_ms, 0.9)}}},
               {"timing", "thread CPU time unless named wall"},
               {"cold_select_ms", cold_select_ms},
               {"first_diff_ms", first_diff_ms},
               {"walk_digest", digest},
               {"first_batch_sh0_raw_bytes_per_gaussian", first_bpg},
-              {"edit_fraction_one_step", {{"median", percentile(one_step, 0.5)}, {"max", percentile(one_step, 1.0)}}},
-              {"edit_fraction_walk", {{"median", percentile(edit_frac, 0.5)}, {"max", percentile(edit_frac, 1.0)}}},
+              {"edit_fraction_one_step", {{"median", nearest_rank(one_step, 0.5)}, {"max", nearest_rank(one_step, 1.0)}}},
+              {"edit_fraction_walk", {{"median", nearest_rank(edit_frac, 0.5)}, {"max", nearest_rank(edit_frac, 1.0)}}},
         {"walk_digest", digest}};
 }
 
 // ---- 2b: the same walk with LoD: hierarchy build, select + cut + diff ----------------------
 
-json bench_lod(const SceneStore& store, const SyntheticScene& scene, const Options& o) {
+json bench_lod(const SceneStore& store, const SyntheticScene& scene, const HostBenchOptions& o) {
   const CodecParams params = fit_lod_codec_params(fit_codec_params(store.gaussians(), store.sh_degree()));
   LodSelector lod(store.sh_degree());
   double c0 = thread_cpu_ms();
@@ -314,17 +315,17 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const Optio
     print_median_p90_max("select (reservation + cut) ms", select_ms);
     print_median_p90_max("diff ms", diff_ms);
     print_median_p90_max("select + cut + diff ms (<= 10)", total_ms);
-    std::printf("  edits per step (walk): median %.3f %%  max %.3f %% of M\n", 100.0 * percentile(edit_frac, 0.5),
-                100.0 * percentile(edit_frac, 1.0));
+    std::printf("  edits per step (walk): median %.3f %%  max %.3f %% of M\n", 100.0 * nearest_rank(edit_frac, 0.5),
+                100.0 * nearest_rank(edit_frac, 1.0));
     std::printf("  walk digest (selected ids + edits + values): %016llx\n", static_cast<unsigned long long>(digest));
     out[query ? "query" : "no_query"] = json{
         {"cut_nodes", cut.nodes.size()},
         {"cut_interior", cut.interior},
-        {"select_ms", {{"median", percentile(select_ms, 0.5)}, {"p90", percentile(select_ms, 0.9)}}},
-        {"diff_ms", {{"median", percentile(diff_ms, 0.5)}, {"p90", percentile(diff_ms, 0.9)}}},
+        {"select_ms", {{"median", nearest_rank(select_ms, 0.5)}, {"p90", nearest_rank(select_ms, 0.9)}}},
+        {"diff_ms", {{"median", nearest_rank(diff_ms, 0.5)}, {"p90", nearest_rank(diff_ms, 0.9)}}},
         {"select_cut_diff_ms",
-         {{"median", percentile(total_ms, 0.5)}, {"p90", percentile(total_ms, 0.9)}, {"max", percentile(total_ms, 1.0)}}},
-        {"edit_fraction_walk", {{"median", percentile(edit_frac, 0.5)}, {"max", percentile(edit_frac, 1.0)}}}};
+         {{"median", nearest_rank(total_ms, 0.5)}, {"p90", nearest_rank(total_ms, 0.9)}, {"max", nearest_rank(total_ms, 1.0)}}},
+        {"edit_fraction_walk", {{"median", nearest_rank(edit_frac, 0.5)}, {"max", nearest_rank(edit_frac, 1.0)}}}};
   }
   return out;
 }
@@ -360,7 +361,7 @@ Camera camera_for(std::span<const Gaussian> g, std::uint32_t w, std::uint32_t h)
   return cam;
 }
 
-json bench_codec_case(const CodecCase& cc, const Options& o) {
+json bench_codec_case(const CodecCase& cc, const HostBenchOptions& o) {
   const CodecParams params = fit_codec_params(cc.gaussians, cc.sh_degree);
   EditBatch batch;
   batch.epoch = Epoch{1};
@@ -433,7 +434,7 @@ json bench_codec_case(const CodecCase& cc, const Options& o) {
   return out;
 }
 
-json bench_codec(const SceneStore& big, const Options& o) {
+json bench_codec(const SceneStore& big, const HostBenchOptions& o) {
   std::printf("\n== wire bytes per Gaussian (SH0 target <= 16 B before zstd) and quantisation PSNR (target >= 45 dB) ==\n");
   std::vector<CodecCase> cases;
   {  // the synthetic room, smaller so the double-precision reference stays affordable
@@ -607,7 +608,7 @@ std::vector<BenchClient> connect_clients(unsigned k, const CodecParams& params, 
   return clients;
 }
 
-json bench_clients(const SceneStore& store, const SyntheticScene& scene, const Options& o) {
+json bench_clients(const SceneStore& store, const SyntheticScene& scene, const HostBenchOptions& o) {
   net::WorkerPool pool(0);
   std::printf("\n5. several clients, one host (M = %zu each, %u threads tick the sessions; wall and process CPU)\n",
               o.budget, pool.threads());
@@ -648,7 +649,7 @@ json bench_clients(const SceneStore& store, const SyntheticScene& scene, const O
         std::fprintf(stderr, "bench clients: %s\n", c.error.message().c_str());
         return json{{"error", c.error.message()}};
       }
-    const double p50 = percentile(wall_ms, 0.5), p90 = percentile(wall_ms, 0.9);
+    const double p50 = nearest_rank(wall_ms, 0.5), p90 = nearest_rank(wall_ms, 0.9);
     const double per_client = cpu_ms / static_cast<double>(wall_ms.size()) / k;
     if (k == o.client_counts.front()) base_ms = p50;
     std::printf("   %8u %14.1f %14.1f %16.1f %10.2f\n", k, p50, p90, per_client, p50 / std::max(base_ms, 1e-9));
@@ -668,7 +669,7 @@ json bench_clients(const SceneStore& store, const SyntheticScene& scene, const O
 // updated in the background (SessionHost's way: the serving thread copies the changes out and
 // the sessions wait; "served" is the time until they have sent the epoch). Leaves the store
 // at a later epoch.
-json bench_clients_lod(SceneStore& store, const SyntheticScene& scene, const Options& o) {
+json bench_clients_lod(SceneStore& store, const SyntheticScene& scene, const HostBenchOptions& o) {
   net::WorkerPool pool(0);
   std::printf("\n5b. several clients with LoD, one shared hierarchy (M = %zu each, %u threads; wall ms)\n", o.budget,
               pool.threads());
@@ -763,15 +764,15 @@ json bench_clients_lod(SceneStore& store, const SyntheticScene& scene, const Opt
           return json{{"error", c.error.message()}};
         }
     }
-    auto p50 = [](const std::vector<double>& v) { return v.empty() ? 0.0 : percentile(v, 0.5); };
+    auto p50 = [](const std::vector<double>& v) { return v.empty() ? 0.0 : nearest_rank(v, 0.5); };
     const double emax = epoch_ms.empty() ? 0.0 : *std::max_element(epoch_ms.begin(), epoch_ms.end());
-    std::printf("   %8u %12.1f %12.1f %14.1f %14.1f %16.1f %16.1f\n", k, p50(pose_ms), percentile(pose_ms, 0.9),
+    std::printf("   %8u %12.1f %12.1f %14.1f %14.1f %16.1f %16.1f\n", k, p50(pose_ms), nearest_rank(pose_ms, 0.9),
                 p50(epoch_ms), emax, p50(serving_ms), p50(served_ms));
     std::printf("   %8s first build in the background: serving thread %.1f ms (the scene copied out), ready after %.1f ms\n",
                 "", first_build_serving_ms, first_build_ready_ms);
     rows.push_back(json{{"clients", k},
                         {"pose_update_wall_ms_p50", p50(pose_ms)},
-                        {"pose_update_wall_ms_p90", percentile(pose_ms, 0.9)},
+                        {"pose_update_wall_ms_p90", nearest_rank(pose_ms, 0.9)},
                         {"epoch_1pct_wall_ms_p50", p50(epoch_ms)},
                         {"epoch_1pct_wall_ms_max", emax},
                         {"epoch_1pct_background_serving_thread_ms_p50", p50(serving_ms)},
@@ -783,7 +784,7 @@ json bench_clients_lod(SceneStore& store, const SyntheticScene& scene, const Opt
   return json{{"threads", pool.threads()}, {"budget", o.budget}, {"rows", rows}};
 }
 
-int bench_host_main(const Options& o) {
+int bench_host_main(const HostBenchOptions& o) {
   SceneStore store;
   double build_ms = 0.0;
   auto scene = build_synthetic(o.gaussians, store, build_ms);
@@ -808,7 +809,7 @@ int bench_host_main(const Options& o) {
 }
 
 BenchRun bench_host_setup(CLI::App& cmd) {
-  auto o = std::make_shared<Options>();
+  auto o = std::make_shared<HostBenchOptions>();
   cmd.add_option("--gaussians", o->gaussians, "eligible Gaussians of the synthetic room")
       ->check(gauss::apps::at_least<std::size_t>(1))
       ->type_name("N");

@@ -30,14 +30,14 @@ using namespace gauss::bench;
 
 using namespace gauss;
 
-struct Options {
+struct IdentityBenchOptions {
   std::size_t n{1'000'000};  // Gaussians in the previous epoch
   int runs{3};               // timed runs per scenario
   int variant{0};            // synthetic room variant
   std::string json_out;
 };
 
-int bench_identity_main(const Options& o) {
+int bench_identity_main(const IdentityBenchOptions& o) {
   const std::size_t n = o.n;
   const int runs = o.runs, variant = o.variant;
   const std::string& json_out = o.json_out;
@@ -138,7 +138,7 @@ int bench_identity_main(const Options& o) {
 }
 
 BenchRun bench_identity_setup(CLI::App& cmd) {
-  auto o = std::make_shared<Options>();
+  auto o = std::make_shared<IdentityBenchOptions>();
   cmd.add_option("--n", o->n, "Gaussians in the previous epoch")->check(gauss::apps::at_least<std::size_t>(1))->type_name("N");
   cmd.add_option("--runs", o->runs, "timed runs per scenario")->check(gauss::apps::at_least(1))->type_name("R");
   cmd.add_option("--variant", o->variant, "synthetic room variant")->check(gauss::apps::in_range(0, 3))->type_name("V");

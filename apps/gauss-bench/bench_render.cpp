@@ -154,7 +154,7 @@ fs::path default_bench_dir() {
   return fs::path(__FILE__).parent_path() / ".." / ".." / ".." / "shared" / "bench";
 }
 
-struct Options {
+struct RenderBenchOptions {
   std::vector<Config> configs;
   fs::path json_out;
   fs::path bench_dir{default_bench_dir()};
@@ -173,7 +173,7 @@ struct Options {
 
 // Rows of the reference comparison: the whole image when the reference is affordable
 // (about 100k Gaussians at 640x360), else a centred band of whole tile rows.
-std::pair<std::uint32_t, std::uint32_t> reference_rows(const Options& o, const Config& c) {
+std::pair<std::uint32_t, std::uint32_t> reference_rows(const RenderBenchOptions& o, const Config& c) {
   std::uint32_t rows = o.ref_rows;
   if (rows == 0) {
     const double work = double(c.n) * c.width * c.height * (c.stereo ? 2 : 1);
@@ -193,7 +193,7 @@ constexpr const char* kDefaultSizes =
     "1M@1280x720";
 
 // Adds the options to `cmd`; the sizes are parsed into o.configs once the command line is.
-void add_options(CLI::App& cmd, Options& o, std::vector<std::string>& sizes) {
+void add_options(CLI::App& cmd, RenderBenchOptions& o, std::vector<std::string>& sizes) {
   cmd.add_option("--sizes", sizes, "comma-separated sizes: N@WxH or N@WxH:stereo (N with k/M suffixes)")
       ->delimiter(',')
       ->check(CLI::Validator(
@@ -284,7 +284,7 @@ double median_of(const std::vector<FrameTimes>& v, F f) {
 }
 
 // The renderer of one row: the box scene is SH degree 3, a capture its own degree.
-render::SplatRendererCreateInfo renderer_info(const Options& o, const Config& c) {
+render::SplatRendererCreateInfo renderer_info(const RenderBenchOptions& o, const Config& c) {
   return {.capacity = static_cast<std::uint32_t>(std::clamp<long>(c.n, 1, 0xFFFFFFFFl)),
           .sh_degree = c.sh_degree,
           .max_width = c.width,
@@ -294,7 +294,7 @@ render::SplatRendererCreateInfo renderer_info(const Options& o, const Config& c)
 
 // Measures one row and prints it. `base` is the row's baseline ms (the stored lavapipe table,
 // or this round's peer run; 0 = none), shown with the ratio wall_med / base.
-int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<const Gaussian> scene, double base,
+int run_config(vk::Context& ctx, const RenderBenchOptions& o, const Config& c, std::span<const Gaussian> scene, double base,
                bool reference, nlohmann::json& out) {
   out = {{"size", c.label}, {"n", c.n}, {"width", c.width}, {"height", c.height}, {"stereo", c.stereo}};
   if (auto plan = render::plan_splat_memory(ctx, renderer_info(o, c)); !plan) {
@@ -445,7 +445,7 @@ int run_config(vk::Context& ctx, const Options& o, const Config& c, std::span<co
 // a row whose base_ms is that round's peer run. An error means the peer gave no time: that
 // ends the run, since a table with holes would read as a comparison. Else the value is our
 // rows' exit code. Stereo sizes have no peer (it renders one view): ours runs once.
-Expected<int> run_config_with_peer(vk::Context& ctx, const Options& o, const Config& c, std::span<const Gaussian> scene,
+Expected<int> run_config_with_peer(vk::Context& ctx, const RenderBenchOptions& o, const Config& c, std::span<const Gaussian> scene,
                                    const fs::path& work_dir, nlohmann::json& results, PeerRow& summary) {
   summary.size = c.label;
   int rc = 0;
@@ -496,7 +496,7 @@ Expected<int> run_config_with_peer(vk::Context& ctx, const Options& o, const Con
 
 }  // namespace
 
-int bench_render_main(const Options& o) {
+int bench_render_main(const RenderBenchOptions& o) {
   if (!o.verify_box_file.empty() && !verify_box(o.verify_box_file)) return 1;
   if (!o.peer.empty()) {
     if (auto st = check_peer_binary(o.peer); !st) {
@@ -621,7 +621,7 @@ namespace {
 
 BenchRun bench_render_setup(CLI::App& cmd) {
   struct State {
-    Options o;
+    RenderBenchOptions o;
     std::vector<std::string> sizes;
   };
   auto st = std::make_shared<State>();

@@ -54,7 +54,7 @@ using namespace gauss;
 using namespace gauss::sim;
 using nlohmann::json;
 
-struct Options {
+struct StreamBenchOptions {
   std::uint32_t budget{200000};
   std::size_t scene_gaussians{600000};
   std::size_t coalesce_ids{1000000};
@@ -87,7 +87,7 @@ Gaussian record(std::uint64_t i, float v) {
 
 // ---- 1. coalescing ------------------------------------------------------------------
 
-json bench_coalescing(const Options& o) {
+json bench_coalescing(const StreamBenchOptions& o) {
   const std::size_t n = o.coalesce_ids;
   std::mt19937_64 rng(1);
   EditBatch inserts{Epoch{1}, {}};
@@ -159,7 +159,7 @@ json bench_coalescing(const Options& o) {
 
 glm::vec4 yaw(double a) { return glm::vec4(static_cast<float>(std::cos(a * 0.5)), 0.0f, static_cast<float>(std::sin(a * 0.5)), 0.0f); }
 
-SimConfig base_config(const Options& o, PublishMode mode, bool evolving) {
+SimConfig base_config(const StreamBenchOptions& o, PublishMode mode, bool evolving) {
   SimConfig cfg;
   cfg.seed = 7;
   cfg.scene.seed = 7;
@@ -198,7 +198,7 @@ struct FrameLog {
   std::vector<FrameSample> frames;
 };
 
-json bench_teleport(const Options& o, PublishMode mode) {
+json bench_teleport(const StreamBenchOptions& o, PublishMode mode) {
   const std::string label = std::string(mode == PublishMode::Immediate ? "immediate" : "progressive") +
                             (o.cost_label == "model" ? "" : "/" + o.cost_label);
   const char* name = label.c_str();
@@ -316,7 +316,7 @@ json bench_teleport(const Options& o, PublishMode mode) {
 
 // ---- 4. steady state ---------------------------------------------------------------
 
-json bench_steady(const Options& o) {
+json bench_steady(const StreamBenchOptions& o) {
   auto sim = Simulation::create(base_config(o, PublishMode::Progressive, true));
   if (!sim) return json{{"error", sim.message()}};
   const Aabb b = sim->scene().bounds();
@@ -404,7 +404,7 @@ json bench_sealed(std::uint64_t teleport_bytes) {
   return out;
 }
 
-int bench_stream(const Options& o) {
+int bench_stream(const StreamBenchOptions& o) {
   json out;
   out["coalescing"] = bench_coalescing(o);
   if (o.teleport) {
@@ -415,7 +415,7 @@ int bench_stream(const Options& o) {
                 "max wr/fr", "max fr ms", "teleport MB", "churn/s", "flicker/s", "wall s");
     out["teleport"] = json::array({bench_teleport(o, PublishMode::Immediate), bench_teleport(o, PublishMode::Progressive)});
     if (o.calibrated) {
-      Options c = o;
+      StreamBenchOptions c = o;
       c.cost = *o.calibrated;
       c.cost_label = "cal";
       std::printf("   with the calibrated frame cost (/cal): %.2f ms + %.4f us/write + %.2f us/range\n",
@@ -449,7 +449,7 @@ int bench_stream(const Options& o) {
 BenchRun bench_stream_setup(CLI::App& cmd) {
   using gauss::apps::at_least;
   using gauss::apps::in_range;
-  auto o = std::make_shared<Options>();
+  auto o = std::make_shared<StreamBenchOptions>();
   cmd.add_option("--budget", o->budget, "M: the client's budget")->check(in_range(1u, kMaxSlotCapacity))->type_name("M");
   cmd.add_option("--scene", o->scene_gaussians, "Gaussians of the synthetic room")
       ->check(at_least<std::size_t>(1))

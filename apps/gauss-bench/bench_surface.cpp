@@ -40,7 +40,7 @@ double mesh_area(const TriangleMesh& m) {
   return a;
 }
 
-struct Row {
+struct SurfaceRow {
   std::string scene;
   float voxel{0};
   std::size_t frames{0};
@@ -53,12 +53,12 @@ struct Row {
   double accuracy{0};
 };
 
-Row run(const std::string& name, float voxel, const std::vector<RgbdFrame>& frames, const SyntheticScene* truth) {
+SurfaceRow run(const std::string& name, float voxel, const std::vector<RgbdFrame>& frames, const SyntheticScene* truth) {
   TsdfConfig cfg;
   cfg.voxel_size = voxel;
   cfg.max_blocks = 2'000'000;
   auto vol = TsdfVolume::create(cfg);
-  Row row;
+  SurfaceRow row;
   row.scene = name;
   row.voxel = voxel;
   row.frames = frames.size();
@@ -103,7 +103,7 @@ Row run(const std::string& name, float voxel, const std::vector<RgbdFrame>& fram
 }
 
 int bench_surface(const std::string& json_path) {
-  std::vector<Row> rows;
+  std::vector<SurfaceRow> rows;
 
   SyntheticSceneConfig sc;
   sc.target_gaussians = 10000;
@@ -139,7 +139,7 @@ int bench_surface(const std::string& json_path) {
   std::printf("\n%-26s %6s %6s %12s %12s %14s %8s %12s %10s  %s\n", "scene", "voxel", "frames", "integ ms med",
               "integ ms max", "extract ms/chk", "chunks", "KiB per m2", "area m2", "accuracy");
   nlohmann::json out = nlohmann::json::array();
-  for (const Row& r : rows) {
+  for (const SurfaceRow& r : rows) {
     std::printf("%-26s %5.0fcm %6zu %12.1f %12.1f %14.3f %8zu %12.1f %10.2f  %.3f %s\n", r.scene.c_str(),
                 double(r.voxel) * 100.0, r.frames, r.integrate_ms_median, r.integrate_ms_max, r.extract_ms_per_chunk,
                 r.chunk_edits, r.bytes_per_m2 / 1024.0, r.area_m2, r.accuracy, r.accuracy_name.c_str());

@@ -33,7 +33,7 @@ namespace {
 using namespace gauss::bench;
 namespace vk = gauss::vk;
 
-struct Options {
+struct UploadBenchOptions {
   std::string device;
   int frames{20};
   std::vector<std::uint32_t> regions{1, 4, 8, 16, 32, 64, 128, 512, 2048, 8192};
@@ -43,14 +43,14 @@ struct Options {
 constexpr VkDeviceSize kRecord = 64;          // one slot's core record
 constexpr VkDeviceSize kTarget = 64ull << 20;  // a 1M-slot core buffer
 
-struct Row {
+struct UploadRow {
   double gpu_ms{0}, record_ms{0};
   std::uint64_t copy_regions{0}, scatter_regions{0}, wrong_bytes{0};
 };
 
 // `frames` frames of R writes at distinct random record positions of `dst` (never
 // adjacent: one region each), GPU time of the upload pass per frame, then the check.
-gauss::Expected<Row> time_uploads(vk::Context& ctx, std::uint32_t scatter_min, std::uint32_t r, int frames,
+gauss::Expected<UploadRow> time_uploads(vk::Context& ctx, std::uint32_t scatter_min, std::uint32_t r, int frames,
                                   std::uint64_t seed) {
   auto ring = vk::FrameRing::create(ctx, 1);
   if (!ring) return ring.error();
@@ -98,7 +98,7 @@ gauss::Expected<Row> time_uploads(vk::Context& ctx, std::uint32_t scatter_min, s
   }
   std::vector<std::uint8_t> back(kTarget);
   if (auto st = dst->download(back.data(), kTarget); !st) return st.error();
-  Row row;
+  UploadRow row;
   for (VkDeviceSize i = 0; i < kTarget; ++i) row.wrong_bytes += back[i] != model[i] ? 1 : 0;
   row.gpu_ms = median(gpu);
   row.record_ms = median(rec);
@@ -107,7 +107,7 @@ gauss::Expected<Row> time_uploads(vk::Context& ctx, std::uint32_t scatter_min, s
   return row;
 }
 
-int run_upload(const Options& o) {
+int run_upload(const UploadBenchOptions& o) {
   auto ctx = vk::Context::create({.app_name = "bench-upload", .device_override = o.device});
   if (!ctx) {
     std::fprintf(stderr, "gauss-bench upload: %s\n", ctx.message().c_str());
@@ -158,7 +158,7 @@ int run_upload(const Options& o) {
 }
 
 BenchRun bench_upload_setup(CLI::App& cmd) {
-  auto o = std::make_shared<Options>();
+  auto o = std::make_shared<UploadBenchOptions>();
   cmd.add_option("--device", o->device, "Vulkan device index or name substring (else $GAUSS_DEVICE, else the best)")
       ->type_name("NAME");
   cmd.add_option("--frames", o->frames, "timed frames per row")->check(gauss::apps::at_least(1))->type_name("N");

@@ -33,13 +33,13 @@ namespace {
 using namespace gauss::bench;
 
 
-struct Options {
+struct VkBenchOptions {
   std::string device;  // Vulkan device index or name substring
   int repeat{5};       // timed repetitions after the cold first one
   std::string json_path;
 };
 
-int run_vk(const Options& o) {
+int run_vk(const VkBenchOptions& o) {
   const std::string& device = o.device;
   const int repeat = o.repeat;
   const std::string& json_path = o.json_path;
@@ -278,7 +278,7 @@ int run_vk(const Options& o) {
 }
 
 BenchRun bench_vk_setup(CLI::App& cmd) {
-  auto o = std::make_shared<Options>();
+  auto o = std::make_shared<VkBenchOptions>();
   cmd.add_option("--device", o->device, "Vulkan device index or name substring (else $GAUSS_DEVICE, else the best)")
       ->type_name("NAME");
   cmd.add_option("--repeat", o->repeat, "timed repetitions of each measurement")

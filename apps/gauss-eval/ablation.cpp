@@ -2,7 +2,7 @@
 // with the client's frame time beside it.
 //
 // For each size in --ablation-sizes (default: --size) and each M in --ablation (with --lod
-// both, twice: with the LoD cut and without): a fresh connection at M; at each fidelity camera the client settles, then renders kIdleFrames
+// both, twice: with the LoD cut and without): a fresh connection at M; at each fidelity camera the client settles, then renders kAblationIdleFrames
 // more frames at the view (their GPU pass times are the frame time at that M: the cost of
 // drawing the resident set, without publication). PC-HS / GT-HS per camera as in the
 // fidelity chain; the means over the cameras are the ablation point.
@@ -15,7 +15,7 @@ namespace gauss::eval_app {
 
 namespace {
 
-constexpr int kIdleFrames = 8;
+constexpr int kAblationIdleFrames = 8;
 
 // The mean of `key` over the cameras' scores at `field`; null when a camera has none (no
 // pixel, or identical images: a mean with +inf says nothing).
@@ -70,7 +70,7 @@ Expected<Json> measure_ablation(Room& room, std::vector<double>& frame_ms_p50, s
         if (!cap) return cap.error();
         EvalSession& session = *stream->session;
         const std::uint64_t first_idle = session.client().frames_rendered();
-        for (int i = 0; i < kIdleFrames; ++i)
+        for (int i = 0; i < kAblationIdleFrames; ++i)
           if (auto f = session.step(cam); !f) return f.error();
         if (auto st = session.client().wait_frames(); !st) return st.error();
         for (const client::GpuFrameStats& g : session.client().take_gpu_stats())

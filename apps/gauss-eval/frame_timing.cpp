@@ -5,10 +5,10 @@
 // frame is the threaded client's (the step overlaps the frame's rendering), and the
 // deterministic part stays deterministic.
 //
-// On a fresh connection: settle at A (fidelity camera 0) and render kIdleFrames more
+// On a fresh connection: settle at A (fidelity camera 0) and render kTimingIdleFrames more
 // frames there (idle before); teleport to B (temporal.cpp's target) and keep every frame
 // until the client has converged (streaming: the frames while the edits of a far
-// teleport are published); then kIdleFrames at B (idle after, the same resident count as
+// teleport are published); then kTimingIdleFrames at B (idle after, the same resident count as
 // the streaming frames end with); then "sustained": kSustainedFrames more display frames at
 // B back to back, without the simulated host's ticks between them, of which the last half
 // count. In the paced phases the GPU idles while this process simulates the host, and a GPU
@@ -28,7 +28,7 @@ namespace gauss::eval_app {
 
 namespace {
 
-constexpr int kIdleFrames = 24;
+constexpr int kTimingIdleFrames = 24;
 constexpr int kSustainedFrames = 240;
 
 struct Phase {
@@ -65,7 +65,7 @@ Expected<Json> measure_stereo_timing(Room& room, Json& timing) {
   if (!first) return first.error();
   Phase phases[4] = {Phase("idle_before"), Phase("streaming"), Phase("idle_after"), Phase("sustained", /*is_paced=*/false)};
   auto idle = [&](Phase& p, std::span<const Camera> views) -> Status {
-    for (int k = 0; k < kIdleFrames; ++k) {
+    for (int k = 0; k < kTimingIdleFrames; ++k) {
       auto f = session.step_views(views);
       if (!f) return f.error();
       if (k == 0) p.first = f->frame_index;
@@ -146,7 +146,7 @@ Expected<Json> measure_stereo_timing(Room& room, Json& timing) {
               {"b", camera_json(b)},
               {"resident_at_a", resident_a},
               {"resident_at_b", resident_b},
-              {"idle_frames", kIdleFrames},
+              {"idle_frames", kTimingIdleFrames},
               {"settle_a", settle_json(*first)},
               {"teleport", settle_json(*away)},
               {"stream", stream_json(session)}};

@@ -14,6 +14,8 @@
 #include <sstream>
 #include <thread>
 
+#include "seconds_since.h"
+
 namespace gauss::eval_app {
 
 namespace fs = std::filesystem;
@@ -21,10 +23,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr auto kPoll = std::chrono::milliseconds(50);
-
-double since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 // fork + exec rather than posix_spawn: the child must ask for PR_SET_PDEATHSIG between
 // the two, so a gauss-eval killed outright (SIGKILL, a crash) still takes its host along.
@@ -75,7 +73,7 @@ Expected<std::unique_ptr<HostProcess>> HostProcess::start(const fs::path& exe, c
       return host;
     }
     if (!host->running()) return host->failure("gauss-host exited before it reported its port");
-    if (since(t0) > timeout_s)
+    if (apps::seconds_since(t0) > timeout_s)
       return host->failure("gauss-host did not report its port within " + std::to_string(int(timeout_s)) + " s");
     std::this_thread::sleep_for(kPoll);
   }
@@ -122,7 +120,7 @@ Expected<std::uint64_t> HostProcess::wait_final_epoch(double timeout_s) {
     const std::string text = log_text();
     if (std::regex_search(text, m, final_line)) return std::stoull(m[1].str());
     if (!running()) return failure("gauss-host exited before its scene was complete");
-    if (since(t0) > timeout_s)
+    if (apps::seconds_since(t0) > timeout_s)
       return failure("gauss-host's scene was not complete (no \"(final)\" status line) within " +
                      std::to_string(int(timeout_s)) + " s");
     std::this_thread::sleep_for(kPoll);
@@ -147,7 +145,7 @@ Expected<fs::path> HostProcess::wait_dump(const std::string& stem, double timeou
       if (line.find(whose) != std::string::npos) return Error{"gauss-host could not write its dump: " + line};
     }
     if (!running()) return failure("gauss-host exited before it wrote the dump of " + stem);
-    if (since(t0) > timeout_s)
+    if (apps::seconds_since(t0) > timeout_s)
       return failure("gauss-host wrote no dump of " + stem + " within " + std::to_string(int(timeout_s)) +
                      " s of the client leaving");
     std::this_thread::sleep_for(kPoll);
@@ -159,14 +157,14 @@ Expected<int> HostProcess::stop(double grace_s) {
   if (running()) {
     ::kill(pid_, SIGTERM);
     const auto t0 = std::chrono::steady_clock::now();
-    while (running() && since(t0) < grace_s) std::this_thread::sleep_for(kPoll);
+    while (running() && apps::seconds_since(t0) < grace_s) std::this_thread::sleep_for(kPoll);
     if (running()) {
       ::kill(pid_, SIGKILL);
       int status = 0;
       // SIGKILL cannot be ignored; the bound is only against a kernel that never delivers.
       const auto t1 = std::chrono::steady_clock::now();
       while (::waitpid(pid_, &status, WNOHANG) != pid_) {
-        if (since(t1) > 5.0) return Error{"gauss-host (pid " + std::to_string(pid_) + ") survived SIGKILL"};
+        if (apps::seconds_since(t1) > 5.0) return Error{"gauss-host (pid " + std::to_string(pid_) + ") survived SIGKILL"};
         std::this_thread::sleep_for(kPoll);
       }
       exited_ = true;

@@ -34,6 +34,7 @@
 #include "host_process.h"
 #include "measurements.h"
 #include "realtime_client.h"
+#include "seconds_since.h"
 
 namespace gauss::eval_app {
 
@@ -50,10 +51,6 @@ constexpr double kHostSceneTimeout_s = 300.0;
 // A dump after the client left: the host sees the ENet disconnect within milliseconds and
 // writes at most M Gaussians.
 constexpr double kDumpTimeout_s = 30.0;
-
-double since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 const char* mode_name(PublishMode m) { return m == PublishMode::Progressive ? "progressive" : "immediate"; }
 
@@ -334,7 +331,7 @@ Expected<Json> realtime_fidelity(Room& room, HostProcess& host) {
     j["hs_vs_sent"] = sent_json(*c, cam);
     cameras.push_back(std::move(j));
   }
-  room.timing.phases["realtime_fidelity_s"] = since(t0);
+  room.timing.phases["realtime_fidelity_s"] = apps::seconds_since(t0);
   return Json{{"budget", o.budget},
               {"mode", mode_name(mode)},
               {"cameras", std::move(cameras)},
@@ -378,7 +375,7 @@ Expected<Json> realtime_teleport(Room& room, HostProcess& host) {
                        {"resident", c->capture.resident},
                        {"hs_vs_sent", sent_json(*c, a)}});
   }
-  room.timing.phases["realtime_teleport_s"] = since(t0);
+  room.timing.phases["realtime_teleport_s"] = apps::seconds_since(t0);
   return out;
 }
 
@@ -475,7 +472,7 @@ Expected<Json> realtime_semantic(Room& room, HostProcess& host) {
     if (!row) return Error{room.scene.name + " realtime query " + q.name + ": " + row.message()};
     rows.push_back(std::move(*row));
   }
-  room.timing.phases["realtime_semantic_s"] = since(t0);
+  room.timing.phases["realtime_semantic_s"] = apps::seconds_since(t0);
   return rows;
 }
 

@@ -7,14 +7,13 @@
 
 #include "eval_scene.h"
 #include "gauss/eval/image_metrics.h"
+#include "seconds_since.h"
 
 namespace gauss::eval_app {
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 }  // namespace
 
@@ -50,7 +49,7 @@ Expected<client::DisplayFrameStats> RealtimeClient::paced_frame(std::span<const 
 Status RealtimeClient::wait_for_query(const Camera& view, double timeout_s) {
   const auto t0 = Clock::now();
   auto next = t0;
-  while (since(t0) <= timeout_s) {
+  while (apps::seconds_since(t0) <= timeout_s) {
     if (runtime_->with_state([](const ClientState& s) { return !s.query_targets().empty(); })) return Ok{};
     if (runtime_->connection().status == net::ClientStatus::Refused)
       return Error{"gauss-host refused the client: " + runtime_->connection().counters.last_rejection};
@@ -66,10 +65,10 @@ Expected<RealtimeSettle> RealtimeClient::settle(const Camera& view, double timeo
   auto next = t0;
   std::uint64_t last_messages = ~std::uint64_t{0};
   double quiet_since = -1.0;
-  while (since(t0) <= timeout_s) {
+  while (apps::seconds_since(t0) <= timeout_s) {
     auto f = paced_frame(std::span<const Camera>(&view, 1), next);
     if (!f) return f.error();
-    const double t = since(t0);
+    const double t = apps::seconds_since(t0);
     ++r.frames;
     r.slot_writes += f->publish.slot_writes();
     r.frame_cpu_ms.push_back(f->cpu_ms);
@@ -93,7 +92,7 @@ Expected<RealtimeSettle> RealtimeClient::settle(const Camera& view, double timeo
       break;
     }
   }
-  r.wall_s = since(t0);
+  r.wall_s = apps::seconds_since(t0);
   return r;
 }
 
@@ -103,8 +102,8 @@ Expected<RealtimeFlicker> RealtimeClient::flicker(const Camera& a, double window
   const auto t0 = Clock::now();
   auto next = t0;
   eval::FrameChange change;
-  while (since(t0) < window_s) {
-    const Camera views[2] = {swayed(a, since(t0)), a};
+  while (apps::seconds_since(t0) < window_s) {
+    const Camera views[2] = {swayed(a, apps::seconds_since(t0)), a};
     auto f = paced_frame(views, next);
     if (!f) return f.error();
     ++r.frames;
@@ -115,7 +114,7 @@ Expected<RealtimeFlicker> RealtimeClient::flicker(const Camera& a, double window
     if (!img) return Error{"the realtime client's readback: " + img.message()};
     if (auto st = change.add({img->width, img->height, img->pixels}); !st) return st.error();
   }
-  r.window_s = since(t0);
+  r.window_s = apps::seconds_since(t0);
   r.mean_abs_change = change.mean();
   r.max_abs_change = change.max();
   r.host_messages = runtime_->connection().counters.messages_received - messages_before;

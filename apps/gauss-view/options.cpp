@@ -4,11 +4,10 @@
 #include <cctype>
 #include <cmath>
 
-#include <GLFW/glfw3.h>
-
 #include "endpoint_option.h"
 #include "gauss/engine/scene_up.h"
 #include "gauss_cli.h"
+#include "glfw.h"
 
 namespace gauss::view {
 

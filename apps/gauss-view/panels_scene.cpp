@@ -11,7 +11,7 @@ namespace gauss::view {
 namespace {
 
 const ImVec4 kError{1.0f, 0.45f, 0.40f, 1.0f};
-const ImVec4 kWarn{1.0f, 0.6f, 0.3f, 1.0f};
+const ImVec4 kSceneWarn{1.0f, 0.6f, 0.3f, 1.0f};
 
 void box_rows(const glm::dvec3& lo, const glm::dvec3& hi) {
   for (int a = 0; a < 3; ++a) ImGui::Text("  %c %9.3f .. %9.3f", "xyz"[a], lo[a], hi[a]);
@@ -70,11 +70,11 @@ void Panels::draw_scene() {
   ImGui::Text("format     %s, %s", std::string(to_string(s->format)).c_str(),
               s->file_bytes > 0 ? bytes_text(static_cast<double>(s->file_bytes)).c_str() : "a folder");
   ImGui::Text("Gaussians  %zu, SH degree %d", s->gaussians, s->sh_degree);
-  if (s->skipped > 0) ImGui::TextColored(kWarn, "  %llu non-finite, not drawn", static_cast<unsigned long long>(s->skipped));
+  if (s->skipped > 0) ImGui::TextColored(kSceneWarn, "  %llu non-finite, not drawn", static_cast<unsigned long long>(s->skipped));
   ImGui::Text("framed box (2-98 %%%s):", s->robust.opacity_weighted ? ", by opacity" : "");
   box_rows(s->robust.lo, s->robust.hi);
   if (s->full.finite == 0) {
-    ImGui::TextColored(kWarn, "full box: no finite centre");
+    ImGui::TextColored(kSceneWarn, "full box: no finite centre");
   } else {
     ImGui::Text("full box (%zu finite centres):", s->full.finite);
     box_rows(s->full.lo, s->full.hi);

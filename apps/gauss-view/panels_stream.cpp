@@ -11,7 +11,7 @@ namespace gauss::view {
 namespace {
 
 const ImVec4 kGood{0.45f, 0.85f, 0.45f, 1.0f};
-const ImVec4 kWarn{0.95f, 0.80f, 0.30f, 1.0f};
+const ImVec4 kStreamWarn{0.95f, 0.80f, 0.30f, 1.0f};
 const ImVec4 kBad{1.0f, 0.35f, 0.30f, 1.0f};
 const ImVec4 kDim{0.6f, 0.6f, 0.6f, 1.0f};
 constexpr const char* kNoStream = "local scene (no stream)";
@@ -62,11 +62,11 @@ void Panels::draw_connection(double now_s) {
       if (c.counters.disconnects > 0) {
         // The host went away: the last published state keeps rendering meanwhile.
         ImGui::TextColored(kBad, "DISCONNECTED");
-        ImGui::PushStyleColor(ImGuiCol_Text, kWarn);
+        ImGui::PushStyleColor(ImGuiCol_Text, kStreamWarn);
         ImGui::TextWrapped("reconnecting; showing the last published state");
         ImGui::PopStyleColor();
       } else {
-        ImGui::TextColored(kWarn, "connecting...");
+        ImGui::TextColored(kStreamWarn, "connecting...");
       }
       break;
     case net::ClientStatus::Refused:

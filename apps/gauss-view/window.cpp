@@ -8,9 +8,8 @@
 #include <utility>
 #include <vector>
 
-#include <GLFW/glfw3.h>
-
 #include "gauss/render/vk_check.h"
+#include "glfw.h"
 #include "imgui_layer.h"
 
 namespace gauss::view {

@@ -23,7 +23,7 @@ namespace gauss::net {
 using Clock = std::chrono::steady_clock;
 
 namespace {
-struct Outgoing {
+struct ClientOutgoing {
   std::uint8_t channel{0};
   bool reliable{true};
   detail::Frame frame;
@@ -32,14 +32,14 @@ struct Outgoing {
 // Encodes a client->host message for the outbox. Fails for a host->client type or a
 // Hello (only the service sends one, once per connection) and for a message the
 // schema refuses.
-Expected<Outgoing> outgoing(const wire::Message& m) {
+Expected<ClientOutgoing> outgoing(const wire::Message& m) {
   const msg::MessageType type = wire::type_of(m);
   if (msg::direction_of(type) != msg::Direction::ClientToHost || type == msg::MessageType::Hello)
     return Error{std::string("NetClient::send: ") + msg::to_string(type) + " is not a client message to send"};
   auto bytes = wire::encode(m);
   if (!bytes) return bytes.error();
   // A lost pose is replaced by the next one within ~100 ms; everything else must arrive.
-  return Outgoing{msg::channel_of(type), type != msg::MessageType::HeadPose,
+  return ClientOutgoing{msg::channel_of(type), type != msg::MessageType::HeadPose,
                   std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes).value())};
 }
 }  // namespace
@@ -58,7 +58,7 @@ struct NetClient::Impl {
   mutable std::mutex mu;  // status, outbox, counters
   mutable std::condition_variable cv;
   ClientStatus status{ClientStatus::Connecting};
-  std::vector<Outgoing> outbox;
+  std::vector<ClientOutgoing> outbox;
   ClientCounters counters;
   // Network thread only: the last Welcome's host session and when the last welcomed
   // connection was lost (for the reconnect log line).
@@ -115,7 +115,7 @@ struct NetClient::Impl {
       std::lock_guard lock(mu);
       outbox.push_back(std::move(o).value());
     }
-    std::vector<Outgoing> out;
+    std::vector<ClientOutgoing> out;
     {
       std::lock_guard lock(mu);
       out.swap(outbox);
@@ -465,7 +465,7 @@ Status NetClient::send_raw(std::vector<std::uint8_t> bytes, std::uint8_t channel
   if (channel >= msg::kChannelCount) return Error{"NetClient::send_raw: channel " + std::to_string(channel) + " does not exist"};
   if (bytes.empty()) return Error{"NetClient::send_raw: empty packet"};
   std::lock_guard lock(impl_->mu);
-  impl_->outbox.push_back(Outgoing{channel, true, std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes))});
+  impl_->outbox.push_back(ClientOutgoing{channel, true, std::make_shared<const std::vector<std::uint8_t>>(std::move(bytes))});
   return Ok{};
 }
 

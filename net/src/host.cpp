@@ -24,7 +24,7 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-struct Outgoing {
+struct HostOutgoing {
   std::uint32_t client{0};
   msg::MessageType type{msg::MessageType::Welcome};
   detail::Frame frame;     // null: a disconnect request
@@ -81,7 +81,7 @@ struct NetHost::Impl {
 
   mutable std::mutex mu;  // outbox, events, counters, pending, client_count
   std::condition_variable cv;
-  std::vector<Outgoing> outbox;
+  std::vector<HostOutgoing> outbox;
   std::deque<HostEvent> events;
   HostCounters counters;
   std::unordered_map<std::uint32_t, detail::ByteCounter> pending;  // welcomed clients
@@ -411,7 +411,7 @@ struct NetHost::Impl {
   }
 
   void flush() {
-    std::vector<Outgoing> out;
+    std::vector<HostOutgoing> out;
     {
       std::lock_guard lock(mu);
       out.swap(outbox);
@@ -705,13 +705,13 @@ Status NetHost::send_encoded(std::uint32_t client, msg::MessageType type,
   // receiver's window accepts that.
   if (sealer) frame = std::make_shared<const std::vector<std::uint8_t>>(sealer->seal(*frame));
   std::lock_guard lock(impl_->mu);
-  impl_->outbox.push_back(Outgoing{client, type, std::move(frame)});
+  impl_->outbox.push_back(HostOutgoing{client, type, std::move(frame)});
   return Ok{};
 }
 
 void NetHost::disconnect(std::uint32_t client) {
   std::lock_guard lock(impl_->mu);
-  impl_->outbox.push_back(Outgoing{client, msg::MessageType::Refuse, nullptr});
+  impl_->outbox.push_back(HostOutgoing{client, msg::MessageType::Refuse, nullptr});
 }
 
 std::size_t NetHost::pending_bytes(std::uint32_t client) const {

@@ -29,6 +29,7 @@
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/scene_framing.h"
 #include "gauss/engine/scene_up.h"
+#include "test_data.h"
 #include "text_file.h"
 
 namespace {
@@ -39,13 +40,6 @@ using gauss::test::read_text;
 using nlohmann::json;
 
 constexpr std::uint32_t kW = 160, kH = 120;
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / name;
-  fs::remove_all(out);
-  fs::create_directories(out);
-  return out;
-}
 
 struct ViewRun {
   int rc{-1};
@@ -107,7 +101,7 @@ Rows colour_rows(const gauss::ImageRGBA8& img) {
 }
 
 TEST(ViewDefaultCamera, YDownSceneOpensUprightAsTheLibraryFramesIt) {
-  const fs::path out = fresh_dir("e2e_view_default_camera_upright");
+  const fs::path out = gauss::test::fresh_output_dir("e2e_view_default_camera_upright");
   const gauss::GaussianCloud cloud = y_down_column();
   ASSERT_TRUE(gauss::write_gaussian_ply(out / "column.ply", cloud).ok());
   const std::string size = std::to_string(kW) + "x" + std::to_string(kH);
@@ -158,7 +152,7 @@ TEST(ViewDefaultCamera, YDownSceneOpensUprightAsTheLibraryFramesIt) {
 
 // --view picks the preset the scene opens with: the library's side and top framings.
 TEST(ViewDefaultCamera, ViewOptionOpensThePreset) {
-  const fs::path out = fresh_dir("e2e_view_default_camera_preset");
+  const fs::path out = gauss::test::fresh_output_dir("e2e_view_default_camera_preset");
   const gauss::GaussianCloud cloud = y_down_column();
   ASSERT_TRUE(gauss::write_gaussian_ply(out / "column.ply", cloud).ok());
   gauss::FramingLens lens;
@@ -184,7 +178,7 @@ TEST(ViewDefaultCamera, ViewOptionOpensThePreset) {
 }
 
 TEST(ViewDefaultCamera, DegenerateScenesGetAFiniteCamera) {
-  const fs::path out = fresh_dir("e2e_view_default_camera_degenerate");
+  const fs::path out = gauss::test::fresh_output_dir("e2e_view_default_camera_degenerate");
   gauss::GaussianCloud one;
   one.gaussians.push_back(blob({3.0f, -2.0f, 7.0f}, {1.0f, 0.5f, 0.2f}));
   gauss::GaussianCloud transparent = y_down_column();
@@ -222,7 +216,7 @@ TEST(ViewDefaultCamera, DegenerateScenesGetAFiniteCamera) {
 }
 
 TEST(ViewDefaultCamera, BadCommandLinesSayWhy) {
-  const fs::path out = fresh_dir("e2e_view_default_camera_cli");
+  const fs::path out = gauss::test::fresh_output_dir("e2e_view_default_camera_cli");
   gauss::GaussianCloud one;
   one.gaussians.push_back(blob({0.0f, 0.0f, 0.0f}, {1.0f, 1.0f, 1.0f}));
   ASSERT_TRUE(gauss::write_gaussian_ply(out / "one.ply", one).ok());

@@ -24,6 +24,7 @@
 #include "child_process.h"
 #include "e2e_support.h"
 #include "gauss/engine/image_io.h"
+#include "test_data.h"
 
 namespace {
 
@@ -50,13 +51,6 @@ std::size_t count_of(const std::string& text, const std::string& what) {
   std::size_t n = 0;
   for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + what.size())) ++n;
   return n;
-}
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / name;
-  fs::remove_all(out);
-  fs::create_directories(out);
-  return out;
 }
 
 // The complete lines of frames.jsonl so far (the file may be mid-write).
@@ -115,7 +109,7 @@ std::optional<int> finish(gauss::test::ChildProcess& view, std::chrono::millisec
 
 
 TEST(ViewHostFaults, HostComingUpLateIsReachedAndTheClientConverges) {
-  const fs::path out = fresh_dir("e2e_view_host_faults_late");
+  const fs::path out = gauss::test::fresh_output_dir("e2e_view_host_faults_late");
   std::ofstream(out / "path.json") << kPath;
   const std::uint16_t port = gauss::test::free_udp_port();
   ASSERT_NE(port, 0);
@@ -168,7 +162,7 @@ TEST(ViewHostFaults, HostComingUpLateIsReachedAndTheClientConverges) {
 }
 
 TEST(ViewHostFaults, HostKilledAndRestartedIsResynchronisedExactly) {
-  const fs::path out = fresh_dir("e2e_view_host_faults_restart");
+  const fs::path out = gauss::test::fresh_output_dir("e2e_view_host_faults_restart");
   std::ofstream(out / "path.json") << kPath;
 
   gauss::test::ChildProcess host_a;
@@ -269,7 +263,7 @@ std::pair<std::optional<int>, std::string> run_view(const fs::path& out, const s
 // right one goes first: a wrong proof makes the address wait a second, and a refusal for
 // that is not retried.)
 TEST(ViewHostFaults, TheHostsPairingCodeLetsAViewerIn) {
-  const fs::path out = fresh_dir("e2e_view_host_faults_pairing");
+  const fs::path out = gauss::test::fresh_output_dir("e2e_view_host_faults_pairing");
   std::ofstream(out / "path.json") << kPath;
   gauss::test::ChildProcess host;
   const std::string endpoint = start_host_anywhere(host, out, {}, "auto");
@@ -303,7 +297,7 @@ TEST(ViewHostFaults, TheHostsPairingCodeLetsAViewerIn) {
 }
 
 TEST(ViewHostFaults, BadInputsAreNamedWithTheDocumentedExitStatus) {
-  const fs::path out = fresh_dir("e2e_view_host_faults_inputs");
+  const fs::path out = gauss::test::fresh_output_dir("e2e_view_host_faults_inputs");
   std::ofstream(out / "path.json") << kPath;
   // Line 3: the second comma.
   std::ofstream(out / "syntax.json") << "{\n  \"fps\": 10,\n  \"t\": 1,,\n  \"keyframes\": []\n}\n";

@@ -13,11 +13,10 @@
 #include <zstd.h>
 
 #include "gauss/engine/codec.h"
+#include "opacity.h"
 
 namespace gauss {
 namespace {
-
-double sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
 
 Gaussian random_gaussian(std::mt19937_64& rng, const CodecParams& p, std::uint64_t id) {
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
@@ -62,7 +61,7 @@ void expect_within_bounds(const Gaussian& in, const Gaussian& out, const CodecPa
     const double dc = (p.dc_max - p.dc_min) / ((1 << kDcBits) - 1);
     EXPECT_LE(std::fabs(out.sh_dc[a] - in.sh_dc[a]), 0.5 * dc + slack);
   }
-  EXPECT_LE(std::fabs(sigmoid(out.opacity_logit) - sigmoid(in.opacity_logit)), 0.5 / ((1 << kOpacityBits) - 1) + 1e-6);
+  EXPECT_LE(std::fabs(test::sigmoid(out.opacity_logit) - test::sigmoid(in.opacity_logit)), 0.5 / ((1 << kOpacityBits) - 1) + 1e-6);
   double same = 0.0;
   double flip = 0.0;
   for (int i = 0; i < 4; ++i) {
@@ -362,9 +361,9 @@ TEST(CodecRoundtrip, NonFiniteValuesAreReplacedAndCounted) {
   g = Gaussian{};
   g.opacity_logit = std::numeric_limits<float>::infinity();
   EXPECT_TRUE(std::isfinite(quantize_roundtrip(g, p).opacity_logit));
-  EXPECT_NEAR(sigmoid(quantize_roundtrip(g, p).opacity_logit), 1.0 - quarter, 1e-6);
+  EXPECT_NEAR(test::sigmoid(quantize_roundtrip(g, p).opacity_logit), 1.0 - quarter, 1e-6);
   g.opacity_logit = -std::numeric_limits<float>::infinity();
-  EXPECT_NEAR(sigmoid(quantize_roundtrip(g, p).opacity_logit), quarter, 1e-6);
+  EXPECT_NEAR(test::sigmoid(quantize_roundtrip(g, p).opacity_logit), quarter, 1e-6);
 }
 
 TEST(CodecRoundtrip, FitParamsCoverTheScene) {

@@ -11,6 +11,7 @@
 
 #include "gauss/engine/ply_gaussian.h"
 #include "test_data.h"
+#include "text_file.h"
 
 namespace gauss {
 namespace {
@@ -24,8 +25,6 @@ struct Stopwatch {
             1000.0 * double(std::clock() - cpu) / CLOCKS_PER_SEC};
   }
 };
-
-std::vector<std::uint8_t> bytes_of(const std::string& s) { return {s.begin(), s.end()}; }
 
 template <class T>
 void append(std::vector<std::uint8_t>& out, T v) {
@@ -185,7 +184,7 @@ TEST(PlyGaussian, RestIsChannelMajorInTheFile) {
   for (const char* n : {"opacity", "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"})
     ply += std::string("property float ") + n + "\n";
   ply += "end_header\n1 2 3 0.1 0.2 0.3 0 1 2 3 4 5 6 7 8 0.5 -1 -2 -3 1 0 0 0\n";
-  auto s = parse_gaussian_ply(bytes_of(ply), "rest.ply");
+  auto s = parse_gaussian_ply(test::bytes_of(ply), "rest.ply");
   ASSERT_TRUE(s.ok()) << s.message();
   ASSERT_EQ(s->cloud.sh_degree, 1);
   const Gaussian& g = s->cloud.gaussians[0];
@@ -217,7 +216,7 @@ TEST(PlyGaussian, QuaternionsNormalisedZeroBecomesIdentityUnitKeptExactly) {
                     "0 0 0 0 0 0 0 0 0 0 2 0 0 0\n"          // length 2 -> (1,0,0,0), renormalised
                     "0 0 0 0 0 0 0 0 0 0 0 0 0 0\n"          // zero -> identity, counted
                     "0 0 0 0 0 0 0 0 0 0 0.5 0.5 0.5 0.5\n"; // already unit: kept
-  auto s = parse_gaussian_ply(bytes_of(ply), "q.ply");
+  auto s = parse_gaussian_ply(test::bytes_of(ply), "q.ply");
   ASSERT_TRUE(s.ok()) << s.message();
   EXPECT_EQ(s->report.renormalized_quaternions, 1u);
   EXPECT_EQ(s->report.zero_quaternions, 1u);
@@ -260,7 +259,7 @@ TEST(PlyGaussian, AcceptsOtherNumericTypesAndSkipsUnknownPropertiesAndElements) 
                   "property float rot_0\nproperty float rot_1\nproperty float rot_2\nproperty float rot_3\n"
                   "property float object_id\nproperty ushort support\nproperty double gaussian_id\n"
                   "element trailer 1\nproperty uint64 big\nend_header\n";
-  std::vector<std::uint8_t> b = bytes_of(h);
+  std::vector<std::uint8_t> b = test::bytes_of(h);
   // extra: item 0 has 2 ints, item 1 has 0.
   b.push_back(2);
   append<std::int32_t>(b, 7);
@@ -323,7 +322,7 @@ TEST(PlyGaussian, CrlfHeaderAndAsciiBlankLinesAccepted) {
   std::string crlf;
   for (char c : ply) crlf += c == '\n' ? std::string("\r\n") : std::string(1, c);
   crlf += "\r\n1 2 3 0 0 0 0 0 0 0 1 0 0 0\r\n\r\n";
-  auto s = parse_gaussian_ply(bytes_of(crlf), "crlf.ply");
+  auto s = parse_gaussian_ply(test::bytes_of(crlf), "crlf.ply");
   ASSERT_TRUE(s.ok()) << s.message();
   EXPECT_EQ(s->cloud.gaussians[0].position, glm::vec3(1, 2, 3));
 }

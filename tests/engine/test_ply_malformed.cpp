@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "gauss/engine/ply_gaussian.h"
+#include "text_file.h"
 
 namespace gauss {
 namespace {
@@ -29,12 +30,10 @@ std::string header(const std::string& format, std::size_t n, const std::string& 
   return "ply\nformat " + format + " 1.0\nelement vertex " + std::to_string(n) + "\n" + body + "end_header\n";
 }
 
-std::vector<std::uint8_t> bytes_of(const std::string& s) { return {s.begin(), s.end()}; }
-
 // Binary LE vertices of the 14 required floats; `poke(v, k)` may replace value k of vertex v.
 std::vector<std::uint8_t> binary_file(std::size_t n, const std::string& extra_header = "",
                                       float (*poke)(std::size_t, int) = nullptr, std::size_t extra_bytes = 0) {
-  std::vector<std::uint8_t> b = bytes_of(header("binary_little_endian", n, props(required()) + extra_header));
+  std::vector<std::uint8_t> b = test::bytes_of(header("binary_little_endian", n, props(required()) + extra_header));
   for (std::size_t v = 0; v < n; ++v)
     for (int k = 0; k < 14; ++k) {
       float f = k == 10 ? 1.0f : 0.25f * float(k);
@@ -60,39 +59,39 @@ struct Case {
 std::vector<Case> cases() {
   std::vector<Case> c;
   c.push_back({"empty", {}, {"bad.ply: ", "empty file"}});
-  c.push_back({"not_ply", bytes_of("PLY\nformat ascii 1.0\n"), {"not a PLY file", "'PLY'"}});
-  c.push_back({"truncated_header", bytes_of("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"),
+  c.push_back({"not_ply", test::bytes_of("PLY\nformat ascii 1.0\n"), {"not a PLY file", "'PLY'"}});
+  c.push_back({"truncated_header", test::bytes_of("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"),
                {"truncated header", "end_header"}});
-  c.push_back({"header_cut_mid_line", bytes_of("ply\nformat ascii 1.0\nelement vert"),
+  c.push_back({"header_cut_mid_line", test::bytes_of("ply\nformat ascii 1.0\nelement vert"),
                {"the file ends inside header line 3"}});
-  c.push_back({"unknown_format", bytes_of("ply\nformat binary_middle_endian 1.0\nend_header\n"),
+  c.push_back({"unknown_format", test::bytes_of("ply\nformat binary_middle_endian 1.0\nend_header\n"),
                {"header line 2", "unsupported format 'binary_middle_endian'"}});
-  c.push_back({"bad_version", bytes_of("ply\nformat ascii 2.0\nend_header\n"), {"format version '2.0'"}});
-  c.push_back({"unknown_type", bytes_of(header("ascii", 1, "property float16 x\n")),
+  c.push_back({"bad_version", test::bytes_of("ply\nformat ascii 2.0\nend_header\n"), {"format version '2.0'"}});
+  c.push_back({"unknown_type", test::bytes_of(header("ascii", 1, "property float16 x\n")),
                {"header line 4", "unknown type 'float16' for property 'x'"}});
-  c.push_back({"property_before_element", bytes_of("ply\nformat ascii 1.0\nproperty float x\nend_header\n"),
+  c.push_back({"property_before_element", test::bytes_of("ply\nformat ascii 1.0\nproperty float x\nend_header\n"),
                {"header line 3", "'property' before any 'element'"}});
-  c.push_back({"element_before_format", bytes_of("ply\nelement vertex 1\nformat ascii 1.0\nend_header\n"),
+  c.push_back({"element_before_format", test::bytes_of("ply\nelement vertex 1\nformat ascii 1.0\nend_header\n"),
                {"'element' before the 'format' line"}});
   c.push_back({"duplicate_property",
-               bytes_of(header("ascii", 1, props(required()) + "property float opacity\n") + ascii_line()),
+               test::bytes_of(header("ascii", 1, props(required()) + "property float opacity\n") + ascii_line()),
                {"duplicate property 'opacity' in element 'vertex'"}});
   {
     auto names = required();
     names.erase(names.begin() + 6);  // opacity
-    c.push_back({"missing_opacity", bytes_of(header("ascii", 0, props(names))),
+    c.push_back({"missing_opacity", test::bytes_of(header("ascii", 0, props(names))),
                  {"missing required vertex property 'opacity'"}});
   }
   {
     std::vector<std::string> rest;
     for (int k = 0; k < 10; ++k) rest.push_back("f_rest_" + std::to_string(k));
-    c.push_back({"rest_count_10", bytes_of(header("ascii", 0, props(required()) + props(rest))),
+    c.push_back({"rest_count_10", test::bytes_of(header("ascii", 0, props(required()) + props(rest))),
                  {"found 10 f_rest properties", "0, 9, 24 or 45"}});
     rest.erase(rest.begin() + 3);  // 9 props but f_rest_3 missing, f_rest_9 present
-    c.push_back({"rest_gap", bytes_of(header("ascii", 0, props(required()) + props(rest))),
+    c.push_back({"rest_gap", test::bytes_of(header("ascii", 0, props(required()) + props(rest))),
                  {"missing vertex property 'f_rest_3'"}});
   }
-  c.push_back({"rest_beyond_degree3", bytes_of(header("ascii", 0, props(required()) + props({"f_rest_45"}))),
+  c.push_back({"rest_beyond_degree3", test::bytes_of(header("ascii", 0, props(required()) + props({"f_rest_45"}))),
                {"'f_rest_45'", "beyond SH degree 3"}});
   {
     // Count says 3 but the data holds 2.5 vertices: caught before decoding, naming the offset.
@@ -105,83 +104,83 @@ std::vector<Case> cases() {
   {
     std::string h = header("binary_little_endian", 0, props(required()));
     h.replace(h.find("vertex 0"), 8, "vertex 1000000000000");
-    c.back() = {"count_1e12", bytes_of(h), {"count 1000000000000 exceeds the limit"}};
+    c.back() = {"count_1e12", test::bytes_of(h), {"count 1000000000000 exceeds the limit"}};
     std::string h2 = header("binary_little_endian", 0, props(required()));
     h2.replace(h2.find("vertex 0"), 8, "vertex 4000000000");
-    c.push_back({"count_4e9", bytes_of(h2), {"declares 4000000000 items of at least 56 bytes", "only 0 bytes"}});
+    c.push_back({"count_4e9", test::bytes_of(h2), {"declares 4000000000 items of at least 56 bytes", "only 0 bytes"}});
   }
-  c.push_back({"count_not_integer", bytes_of("ply\nformat ascii 1.0\nelement vertex 12abc\nend_header\n"),
+  c.push_back({"count_not_integer", test::bytes_of("ply\nformat ascii 1.0\nelement vertex 12abc\nend_header\n"),
                {"count '12abc' is not a non-negative integer"}});
   c.push_back({"nan_opacity", binary_file(5, "", [](std::size_t v, int k) {
                  return v == 3 && k == 6 ? std::numeric_limits<float>::quiet_NaN() : (k == 10 ? 1.0f : 0.0f);
                }),
                {"vertex 3, property 'opacity'", "byte offset " + std::to_string(header("binary_little_endian", 5, props(required())).size() + 3 * 56 + 6 * 4), "NaN"}});
-  c.push_back({"inf_ascii", bytes_of(header("ascii", 2, props(required())) + ascii_line() + ascii_line("inf 0 0 0 0 0 0 0 0 0 1 0 0 0")),
+  c.push_back({"inf_ascii", test::bytes_of(header("ascii", 2, props(required())) + ascii_line() + ascii_line("inf 0 0 0 0 0 0 0 0 0 1 0 0 0")),
                {"vertex 1, property 'x' (line 20)", "+Inf"}});
-  c.push_back({"ascii_not_a_number", bytes_of(header("ascii", 1, props(required())) + ascii_line("0 0 0 0 0 0 zero 0 0 0 1 0 0 0")),
+  c.push_back({"ascii_not_a_number", test::bytes_of(header("ascii", 1, props(required())) + ascii_line("0 0 0 0 0 0 zero 0 0 0 1 0 0 0")),
                {"vertex 0, property 'opacity' (line 19)", "'zero' is not a valid float"}});
-  c.push_back({"ascii_too_few", bytes_of(header("ascii", 1, props(required())) + ascii_line("0.5 0.5 0.5 0.5 0.5 0.5 0.5 0.5 0.5 0.5 1 0 0")),
+  c.push_back({"ascii_too_few", test::bytes_of(header("ascii", 1, props(required())) + ascii_line("0.5 0.5 0.5 0.5 0.5 0.5 0.5 0.5 0.5 0.5 1 0 0")),
                {"vertex 0, property 'rot_3'", "too few values"}});
-  c.push_back({"ascii_too_many", bytes_of(header("ascii", 1, props(required())) + ascii_line("0 0 0 0 0 0 0 0 0 0 1 0 0 0 7")),
+  c.push_back({"ascii_too_many", test::bytes_of(header("ascii", 1, props(required())) + ascii_line("0 0 0 0 0 0 0 0 0 0 1 0 0 0 7")),
                {"vertex 0", "unexpected extra value '7'"}});
   // Wide values, so the data is long enough for 3 vertices by size and fails on line count.
   const std::string wide = ascii_line("0.25 0.25 0.25 0.25 0.25 0.25 0.25 0.25 0.25 0.25 1 0 0 0");
-  c.push_back({"ascii_truncated", bytes_of(header("ascii", 3, props(required())) + wide + wide),
+  c.push_back({"ascii_truncated", test::bytes_of(header("ascii", 3, props(required())) + wide + wide),
                {"vertex 2", "file ends at line 21"}});
-  c.push_back({"ascii_trailing", bytes_of(header("ascii", 1, props(required())) + ascii_line() + ascii_line()),
+  c.push_back({"ascii_trailing", test::bytes_of(header("ascii", 1, props(required())) + ascii_line() + ascii_line()),
                {"unexpected data after the last element at line 20"}});
-  c.push_back({"header_line_too_long", bytes_of("ply\nformat ascii 1.0\ncomment " + std::string(5000, 'a') + "\nend_header\n"),
+  c.push_back({"header_line_too_long", test::bytes_of("ply\nformat ascii 1.0\ncomment " + std::string(5000, 'a') + "\nend_header\n"),
                {"header line 3", "longer than 4096 bytes"}});
   {
     std::string huge_line;
     for (int k = 0; k < 600000; ++k) huge_line += "0 ";
-    c.push_back({"ascii_line_too_long", bytes_of(header("ascii", 1, props(required())) + huge_line + "\n"),
+    c.push_back({"ascii_line_too_long", test::bytes_of(header("ascii", 1, props(required())) + huge_line + "\n"),
                  {"vertex 0 (line 19)", "line 19 is longer than 1048576 bytes"}});
   }
   c.push_back({"object_id_out_of_range",
-               bytes_of(header("ascii", 1, props(required()) + "property int object_id\n") + ascii_line("0 0 0 0 0 0 0 0 0 0 1 0 0 0 -5")),
+               test::bytes_of(header("ascii", 1, props(required()) + "property int object_id\n") + ascii_line("0 0 0 0 0 0 0 0 0 0 1 0 0 0 -5")),
                {"vertex 0, property 'object_id'", "object id -5 is out of range"}});
   c.push_back({"object_id_fraction",
-               bytes_of(header("ascii", 1, props(required()) + "property float object_id\n") + ascii_line("0 0 0 0 0 0 0 0 0 0 1 0 0 0 3.5")),
+               test::bytes_of(header("ascii", 1, props(required()) + "property float object_id\n") + ascii_line("0 0 0 0 0 0 0 0 0 0 1 0 0 0 3.5")),
                {"property 'object_id'", "3.5", "not an integer"}});
   c.push_back({"support_negative",
-               bytes_of(header("ascii", 1, props(required()) + "property int support\n") + ascii_line("0 0 0 0 0 0 0 0 0 0 1 0 0 0 -2")),
+               test::bytes_of(header("ascii", 1, props(required()) + "property int support\n") + ascii_line("0 0 0 0 0 0 0 0 0 0 1 0 0 0 -2")),
                {"property 'support'", "negative value -2"}});
   c.push_back({"duplicate_gaussian_id",
-               bytes_of(header("ascii", 3, props(required()) + "property uint gaussian_id\n") +
+               test::bytes_of(header("ascii", 3, props(required()) + "property uint gaussian_id\n") +
                         ascii_line("0 0 0 0 0 0 0 0 0 0 1 0 0 0 7") + ascii_line("0 0 0 0 0 0 0 0 0 0 1 0 0 0 8") +
                         ascii_line("0 0 0 0 0 0 0 0 0 0 1 0 0 0 7")),
                {"gaussian_id 7 appears at vertex 0 and vertex 2"}});
   c.push_back({"double_out_of_float_range",
-               bytes_of(header("ascii", 1, props({"x"}, "double") + props({"y", "z", "f_dc_0", "f_dc_1", "f_dc_2", "opacity",
+               test::bytes_of(header("ascii", 1, props({"x"}, "double") + props({"y", "z", "f_dc_0", "f_dc_1", "f_dc_2", "opacity",
                                                                              "scale_0", "scale_1", "scale_2", "rot_0",
                                                                              "rot_1", "rot_2", "rot_3"})) +
                         ascii_line("1e300 0 0 0 0 0 0 0 0 0 1 0 0 0")),
                {"vertex 0, property 'x'", "outside the float range"}});
   c.push_back({"uchar_out_of_range",
-               bytes_of(header("ascii", 1, props(required()) + "property uchar red\n") + ascii_line("0 0 0 0 0 0 0 0 0 0 1 0 0 0 300")),
+               test::bytes_of(header("ascii", 1, props(required()) + "property uchar red\n") + ascii_line("0 0 0 0 0 0 0 0 0 0 1 0 0 0 300")),
                {"property 'red'", "'300' is out of range for type uchar"}});
   c.push_back({"element_without_properties",
-               bytes_of("ply\nformat ascii 1.0\nelement junk 5\n" + header("ascii", 0, props(required())).substr(21)),
+               test::bytes_of("ply\nformat ascii 1.0\nelement junk 5\n" + header("ascii", 0, props(required())).substr(21)),
                {"element 'junk'", "declares 5 items but no properties"}});
-  c.push_back({"list_position", bytes_of(header("ascii", 0, "property list uchar float x\n" + props({"y", "z"}))),
+  c.push_back({"list_position", test::bytes_of(header("ascii", 0, "property list uchar float x\n" + props({"y", "z"}))),
                {"vertex property 'x'", "is a list"}});
-  c.push_back({"float_list_count", bytes_of(header("ascii", 0, "property list float int idx\n")),
+  c.push_back({"float_list_count", test::bytes_of(header("ascii", 0, "property list float int idx\n")),
                {"list count type 'float' is not an integer type"}});
-  c.push_back({"no_vertex_element", bytes_of("ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n"),
+  c.push_back({"no_vertex_element", test::bytes_of("ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n"),
                {"no 'vertex' element"}});
   {
     // A skipped element whose list runs past the end of the data.
     std::string h = "ply\nformat binary_little_endian 1.0\nelement extra 1\nproperty list uchar int stuff\n" +
                     header("binary_little_endian", 0, props(required())).substr(36);
-    auto b = bytes_of(h);
+    auto b = test::bytes_of(h);
     b.push_back(200);  // 200 ints announced, 4 bytes present
     b.insert(b.end(), 4, std::uint8_t{1});
     c.push_back({"skipped_list_truncated", b, {"element 'extra' item 0, property 'stuff'", "file ends at byte offset"}});
   }
-  c.push_back({"binary_garbage_name", bytes_of("ply\nformat ascii 1.0\nelement ver\x01tex 1\nend_header\n"),
+  c.push_back({"binary_garbage_name", test::bytes_of("ply\nformat ascii 1.0\nelement ver\x01tex 1\nend_header\n"),
                {"non-printable", "\\x01"}});
-  c.push_back({"no_newline_after_end_header", bytes_of("ply\nformat ascii 1.0\nend_header"),
+  c.push_back({"no_newline_after_end_header", test::bytes_of("ply\nformat ascii 1.0\nend_header"),
                {"truncated header: the file ends inside header line 3"}});
   return c;
 }
@@ -207,7 +206,7 @@ TEST(PlyMalformedCount, HugeCountFailsFast) {
   // A 4e9-vertex header over a few bytes must fail before allocating anything.
   std::string h = header("binary_little_endian", 0, props(required()));
   h.replace(h.find("vertex 0"), 8, "vertex 4000000000");
-  const auto b = bytes_of(h + std::string(100, '\0'));
+  const auto b = test::bytes_of(h + std::string(100, '\0'));
   const auto t0 = std::chrono::steady_clock::now();
   auto r = parse_gaussian_ply(b, "huge.ply");
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

@@ -8,11 +8,10 @@
 
 #include "gauss/engine/ply_mesh.h"
 #include "test_data.h"
+#include "text_file.h"
 
 namespace gauss {
 namespace {
-
-std::vector<std::uint8_t> bytes_of(const std::string& s) { return {s.begin(), s.end()}; }
 
 template <class T>
 void append(std::vector<std::uint8_t>& out, T v) {
@@ -66,7 +65,7 @@ TEST(PlyMesh, QuadsAndPolygonsAreFannedWithUintAndUshortIndices) {
     std::string h = std::string("ply\nformat binary_little_endian 1.0\nelement vertex 5\nproperty float x\n") +
                     "property float y\nproperty float z\nproperty float nx\nelement face 2\nproperty " + form.list +
                     " vertex_indices\nproperty uchar flags\nend_header\n";
-    std::vector<std::uint8_t> b = bytes_of(h);
+    std::vector<std::uint8_t> b = test::bytes_of(h);
     for (int i = 0; i < 5; ++i)
       for (int k = 0; k < 4; ++k) append<float>(b, float(i + k));
     auto put_le = [&](std::uint32_t v, int n) {
@@ -98,7 +97,7 @@ TEST(PlyMesh, AsciiWithOtherElementsAndVertexIndexName) {
       "element edge 1\nproperty int vertex1\nproperty int vertex2\n"
       "element face 1\nproperty list uchar int vertex_index\nend_header\n"
       "0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n0 1 0 0 0 255 255\n0 1\n3 0 1 2\n";
-  auto s = parse_mesh_ply(bytes_of(ply), "ascii_mesh.ply");
+  auto s = parse_mesh_ply(test::bytes_of(ply), "ascii_mesh.ply");
   ASSERT_TRUE(s.ok()) << s.message();
   EXPECT_EQ(s->mesh.indices, (std::vector<std::uint32_t>{0, 1, 2}));
   EXPECT_EQ(s->mesh.colors[1], glm::u8vec3(0, 255, 0));
@@ -106,7 +105,7 @@ TEST(PlyMesh, AsciiWithOtherElementsAndVertexIndexName) {
 }
 
 TEST(PlyMesh, PointOnlyFileHasNoTriangles) {
-  auto s = parse_mesh_ply(bytes_of("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+  auto s = parse_mesh_ply(test::bytes_of("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
                                    "property float z\nend_header\n1 2 3\n"),
                           "points.ply");
   ASSERT_TRUE(s.ok()) << s.message();
@@ -139,7 +138,7 @@ TEST(PlyMesh, MalformedInputsNameWhatAndWhere) {
       {"trailing data", vhead + fhead + verts + "3 0 1 2\n3 0 1 2\n", "unexpected data after the last element at line 14"},
   };
   for (const auto& c : cases) {
-    auto r = parse_mesh_ply(bytes_of(c.text), "bad_mesh.ply");
+    auto r = parse_mesh_ply(test::bytes_of(c.text), "bad_mesh.ply");
     ASSERT_FALSE(r.ok()) << c.label << " accepted";
     EXPECT_NE(r.message().find("bad_mesh.ply: "), std::string::npos) << r.message();
     EXPECT_NE(r.message().find(c.fragment), std::string::npos) << c.label << ": want '" << c.fragment << "' in: " << r.message();

@@ -23,13 +23,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = test::output_dir() / "scene_load" / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
 // `n` Gaussians on a line along x from 0 to n - 1 (y = 2, z = -3), opaque.
 GaussianCloud line(std::size_t n) {
   GaussianCloud cloud;
@@ -44,7 +37,7 @@ GaussianCloud line(std::size_t n) {
 }
 
 TEST(SceneLoad, LoadsAPlyWithItsBoundsAndUp) {
-  const fs::path ply = fresh_dir("load") / "line.ply";
+  const fs::path ply = test::fresh_output_dir("scene_load/load") / "line.ply";
   ASSERT_TRUE(write_gaussian_ply(ply, line(101)).ok());
   SceneLoadProgress progress;
   auto loaded = load_scene_file(ply, std::nullopt, &progress);
@@ -71,7 +64,7 @@ TEST(SceneLoad, LoadsAPlyWithItsBoundsAndUp) {
 
 TEST(SceneLoad, JobReadsALargeFileInPiecesOffTheCallersThread) {
   // More than one kReadChunkBytes piece (4 MiB): the counter advances per piece.
-  const fs::path ply = fresh_dir("job") / "large.ply";
+  const fs::path ply = test::fresh_output_dir("scene_load/job") / "large.ply";
   ASSERT_TRUE(write_gaussian_ply(ply, line(120000)).ok());
   ASSERT_GT(fs::file_size(ply), std::uintmax_t{4} << 20);
   SceneLoadJob job(ply, std::nullopt);
@@ -91,7 +84,7 @@ TEST(SceneLoad, JobReadsALargeFileInPiecesOffTheCallersThread) {
 }
 
 TEST(SceneLoad, ReadersErrorsNameTheFile) {
-  const fs::path dir = fresh_dir("errors");
+  const fs::path dir = test::fresh_output_dir("scene_load/errors");
   const fs::path garbage = dir / "garbage.ply";
   {
     std::ofstream out(garbage, std::ios::binary);
@@ -130,7 +123,7 @@ TEST(SceneLoad, FullBoundsSkipNonFiniteCentres) {
 }
 
 TEST(NumberedFile, NeverOverwritesAndCountsUp) {
-  const fs::path dir = fresh_dir("numbered");
+  const fs::path dir = test::fresh_output_dir("scene_load/numbered");
   {
     std::ofstream keep(dir / "shot-0002.png");
     keep << "keep";

@@ -21,13 +21,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path p = test::output_dir() / "source_snapshots" / name;
-  fs::remove_all(p);
-  fs::create_directories(p);
-  return p;
-}
-
 // n Gaussians on a grid; `shift` moves them all (a different snapshot of "the same" scene).
 GaussianCloud grid_cloud(std::size_t n, float shift = 0.0f) {
   GaussianCloud c;
@@ -71,7 +64,7 @@ void replay_all(SceneSource& src, SceneStore& store, std::vector<std::size_t>& s
 }
 
 TEST(SourceSnapshots, TrainerLayoutReplaysByIterationNumberWithIdentityTracking) {
-  const fs::path root = fresh_dir("trainer");
+  const fs::path root = test::fresh_output_dir("source_snapshots/trainer");
   // Iterations in an order where name sorting would be wrong: 500 < 7000 < 30000.
   GaussianCloud a = grid_cloud(300);
   GaussianCloud b = a;  // + 20 new, then permuted (densification reorders)
@@ -112,7 +105,7 @@ TEST(SourceSnapshots, TrainerLayoutReplaysByIterationNumberWithIdentityTracking)
 }
 
 TEST(SourceSnapshots, BadSnapshotsAreLoggedAndSkippedKeepingTheLastGoodEpoch) {
-  const fs::path root = fresh_dir("flat");
+  const fs::path root = test::fresh_output_dir("source_snapshots/flat");
   write(root / "snap_1.ply", grid_cloud(100));
   write(root / "snap_2.ply", grid_cloud(110));
   write_text(root / "snap_3.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 5\nend_header\nxx");
@@ -159,7 +152,7 @@ TEST(SourceSnapshots, BadSnapshotsAreLoggedAndSkippedKeepingTheLastGoodEpoch) {
 }
 
 TEST(SourceSnapshots, CorruptLastSnapshotKeepsTheStoreUntouched) {
-  const fs::path root = fresh_dir("keep");
+  const fs::path root = test::fresh_output_dir("source_snapshots/keep");
   write(root / "0001.ply", grid_cloud(100));
   SnapshotOptions settled;
   settled.settle_s = 0.0;
@@ -185,7 +178,7 @@ TEST(SourceSnapshots, CorruptLastSnapshotKeepsTheStoreUntouched) {
 // to load but was written within settle_s is waited for (the store keeps its epoch, one
 // message), and read once complete; one still bad after settling is skipped.
 TEST(SourceSnapshots, HalfWrittenSnapshotIsRetriedNotSkipped) {
-  const fs::path root = fresh_dir("half");
+  const fs::path root = test::fresh_output_dir("source_snapshots/half");
   write(root / "snap_1.ply", grid_cloud(100));
   Collect log;
   SnapshotOptions o;
@@ -225,7 +218,7 @@ TEST(SourceSnapshots, HalfWrittenSnapshotIsRetriedNotSkipped) {
 }
 
 TEST(SourceSnapshots, MissingIterationFileIsSkipped) {
-  const fs::path root = fresh_dir("missing");
+  const fs::path root = test::fresh_output_dir("source_snapshots/missing");
   write(root / "point_cloud/iteration_100/point_cloud.ply", grid_cloud(50));
   fs::create_directories(root / "point_cloud/iteration_200");  // no point_cloud.ply
   write(root / "point_cloud/iteration_300/point_cloud.ply", grid_cloud(60));
@@ -242,7 +235,7 @@ TEST(SourceSnapshots, MissingIterationFileIsSkipped) {
 }
 
 TEST(SourceSnapshots, GivenIdsObjectsJsonLabelsAndMesh) {
-  const fs::path root = fresh_dir("ids");
+  const fs::path root = test::fresh_output_dir("source_snapshots/ids");
   GaussianCloud a = grid_cloud(10);
   for (std::size_t i = 0; i < 10; ++i) {
     a.gaussians[i].id = GaussianId{100 + i};
@@ -298,7 +291,7 @@ TEST(SourceSnapshots, GivenIdsObjectsJsonLabelsAndMesh) {
 }
 
 TEST(SourceSnapshots, LabelsLengthMismatchIsAClearError) {
-  const fs::path root = fresh_dir("labels");
+  const fs::path root = test::fresh_output_dir("source_snapshots/labels");
   write(root / "scene.ply", grid_cloud(10));
   write_text(root / "labels.txt", "1\n2\n3\n");
   SnapshotOptions o;
@@ -325,16 +318,16 @@ TEST(SourceSnapshots, LabelsLengthMismatchIsAClearError) {
 TEST(SourceSnapshots, OpenErrors) {
   EXPECT_FALSE(open_snapshot_folder(test::output_dir() / "no_such_folder").ok());
   EXPECT_FALSE(open_scene_file(test::output_dir() / "no_such.ply").ok());
-  const fs::path root = fresh_dir("badjson");
+  const fs::path root = test::fresh_output_dir("source_snapshots/badjson");
   write_text(root / "objects.json", "{\"objects\": [");
   auto r = open_snapshot_folder(root);
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.message().find("objects.json"), std::string::npos) << r.message();
   SnapshotOptions o;
   o.rate_hz = 0.0;
-  EXPECT_FALSE(open_snapshot_folder(fresh_dir("rate"), o).ok());
+  EXPECT_FALSE(open_snapshot_folder(test::fresh_output_dir("source_snapshots/rate"), o).ok());
   // An empty folder is fine: nothing yet.
-  auto empty = open_snapshot_folder(fresh_dir("empty"));
+  auto empty = open_snapshot_folder(test::fresh_output_dir("source_snapshots/empty"));
   ASSERT_TRUE(empty.ok());
   SceneStore store;
   auto n = (*empty)->next_epoch(store);

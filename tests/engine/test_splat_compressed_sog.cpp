@@ -21,6 +21,7 @@
 
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/splat_file.h"
+#include "opacity.h"
 #include "test_data.h"
 
 namespace gauss {
@@ -30,12 +31,10 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using Bytes = std::vector<std::uint8_t>;
 
-constexpr double kShC0 = 0.28209479177387814;
 const double kSqrt2 = std::sqrt(2.0);
 // Float rounding of the decoded values (lerps of floats, stored as float).
 constexpr double kEps = 2e-6;
 
-double sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
 double log_transform(double x) { return std::copysign(std::log1p(std::abs(x)), x); }
 
 // Largest |a - b| over the components, with b's sign flipped when that is closer (q ~ -q).
@@ -171,7 +170,7 @@ RawCompressedPly encode_compressed(const GaussianCloud& c) {
       std::uint32_t col = 0;
       for (int a = 0; a < 3; ++a)
         col |= pack_unorm(normalize01(field(g, 6 + a), b[12 + std::size_t(a)], b[15 + std::size_t(a)]), 8) << (24 - 8 * a);
-      w[3] = col | pack_unorm(sigmoid(g.opacity_logit), 8);
+      w[3] = col | pack_unorm(test::sigmoid(g.opacity_logit), 8);
       raw.words.push_back(w);
       const int coefs = sh_rest_count(c.sh_degree);
       for (int ch = 0; ch < 3; ++ch)
@@ -251,7 +250,7 @@ FieldErrors check_compressed(const GaussianCloud& decoded, const GaussianCloud& 
       const double rerr = quat_distance(d.rotation, s.rotation);
       e.rotation = std::max(e.rotation, rerr);
       e.note(rerr, 3 * kSqrt2 / 2046 + 1e-4, "rotation", i);
-      const double aerr = std::abs(sigmoid(d.opacity_logit) - sigmoid(s.opacity_logit));
+      const double aerr = std::abs(test::sigmoid(d.opacity_logit) - test::sigmoid(s.opacity_logit));
       e.alpha = std::max(e.alpha, aerr);
       e.note(aerr, 0.5 / 255 + kEps, "opacity (alpha)", i);
       for (int k = 0; k < coefs; ++k)
@@ -296,7 +295,7 @@ std::vector<std::size_t> match_as_set(const GaussianCloud& decoded, const Gaussi
       if (d2 < best_d2) best_d2 = d2, nearest_j = j;
       if (d2 > radius * radius) continue;
       double cost = d2 / (radius * radius) + std::pow(quat_distance(a.rotation, b.rotation) / 0.01, 2) +
-                    std::pow((sigmoid(a.opacity_logit) - sigmoid(b.opacity_logit)) / 0.004, 2);
+                    std::pow((test::sigmoid(a.opacity_logit) - test::sigmoid(b.opacity_logit)) / 0.004, 2);
       for (int k = 0; k < 3; ++k) {
         cost += std::pow((a.log_scale[k] - b.log_scale[k]) / 0.01, 2);
         if (!alpha_byte_zero(a)) cost += std::pow((a.sh_dc[k] - b.sh_dc[k]) / 0.02, 2);
@@ -563,7 +562,7 @@ SogFiles encode_sog(const GaussianCloud& c) {
       sh0[4 * i + std::size_t(a)] = nearest(ccb, g.sh_dc[a]);
     }
     lo[4 * i + 3] = hi[4 * i + 3] = scales[4 * i + 3] = 255;
-    sh0[4 * i + 3] = std::uint8_t(std::min(255.0, sigmoid(g.opacity_logit) * 255));
+    sh0[4 * i + 3] = std::uint8_t(std::min(255.0, test::sigmoid(g.opacity_logit) * 255));
     int largest = 0;
     for (int k = 1; k < 4; ++k)
       if (std::abs(g.rotation[k]) > std::abs(g.rotation[largest])) largest = k;
@@ -605,13 +604,6 @@ SogFiles encode_sog(const GaussianCloud& c) {
   return s;
 }
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = test::output_dir() / ("sog_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
 void write_file(const fs::path& p, const Bytes& b) {
   std::ofstream out(p, std::ios::binary);
   out.write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size()));
@@ -623,7 +615,7 @@ Bytes read_all(const fs::path& p) {
 }
 
 fs::path write_folder(const SogFiles& s, const std::string& name) {
-  const fs::path dir = fresh_dir(name);
+  const fs::path dir = test::fresh_output_dir("sog_" + name);
   const std::string meta = s.meta.dump();
   write_file(dir / "meta.json", Bytes(meta.begin(), meta.end()));
   for (const auto& [file, bytes] : s.files) write_file(dir / file, bytes);
@@ -632,7 +624,7 @@ fs::path write_folder(const SogFiles& s, const std::string& name) {
 
 // A zip of the files (meta.json first, as splat-transform writes it).
 Bytes zip_of(const SogFiles& s, const std::string& name) {
-  const fs::path path = fresh_dir(name) / "scene.sog";
+  const fs::path path = test::fresh_output_dir("sog_" + name) / "scene.sog";
   int err = 0;
   zip_t* z = zip_open(path.string().c_str(), ZIP_CREATE | ZIP_TRUNCATE, &err);
   EXPECT_NE(z, nullptr);
@@ -666,7 +658,7 @@ void check_sog(const GaussianCloud& d, const GaussianCloud& src, const SogFiles&
         EXPECT_NEAR(a.sh_rest[std::size_t(c)][k], b.sh_rest[std::size_t(c)][k], step("shN") / 2 + kEps) << i;
     }
     EXPECT_LE(quat_distance(a.rotation, b.rotation), 3 * kSqrt2 / 255 + 1e-3) << i;
-    EXPECT_NEAR(sigmoid(a.opacity_logit), sigmoid(b.opacity_logit), 1.0 / 255 + kEps) << i;
+    EXPECT_NEAR(test::sigmoid(a.opacity_logit), test::sigmoid(b.opacity_logit), 1.0 / 255 + kEps) << i;
     EXPECT_EQ(a.id, GaussianId{i});
     EXPECT_EQ(a.object, kNoObject);
   }
@@ -855,7 +847,7 @@ TEST(Sog, ZipContainerErrors) {
   EXPECT_TRUE(mentions(damaged.message(), "z.sog: ")) << damaged.message();
   // A zip without meta.json lists what it has.
   SogFiles no_meta = good;
-  const fs::path path = fresh_dir("no_meta") / "x.zip";
+  const fs::path path = test::fresh_output_dir("sog_no_meta") / "x.zip";
   int err = 0;
   zip_t* z = zip_open(path.string().c_str(), ZIP_CREATE | ZIP_TRUNCATE, &err);
   ASSERT_NE(z, nullptr);
@@ -894,7 +886,7 @@ TEST(RealScenes, GuitarCompressedMatchesTheConvertedPly) {
       max_diff[4] = std::max(max_diff[4], double(std::abs(a.sh_dc[k] - b.sh_dc[k])));
     }
     max_diff[2] = std::max(max_diff[2], quat_distance(a.rotation, b.rotation));
-    max_diff[3] = std::max(max_diff[3], std::abs(sigmoid(a.opacity_logit) - sigmoid(b.opacity_logit)));
+    max_diff[3] = std::max(max_diff[3], std::abs(test::sigmoid(a.opacity_logit) - test::sigmoid(b.opacity_logit)));
     max_diff[5] = std::max(max_diff[5], double(std::abs(a.opacity_logit - b.opacity_logit)));
     clamped += std::abs(a.opacity_logit - float(std::log(509.0))) < 1e-5f ? 1 : 0;
   }
@@ -971,7 +963,7 @@ TEST(RealScenes, FruitDropsSogMatchesTheSourceAsASet) {
     const double rerr = quat_distance(a.rotation, b.rotation);
     e.rotation = std::max(e.rotation, rerr);
     e.note(rerr, 3 * kSqrt2 / 255 + 1e-3, "rotation", i);
-    const double aerr = std::abs(sigmoid(a.opacity_logit) - sigmoid(b.opacity_logit));
+    const double aerr = std::abs(test::sigmoid(a.opacity_logit) - test::sigmoid(b.opacity_logit));
     e.alpha = std::max(e.alpha, aerr);
     e.note(aerr, 1.0 / 255 + kEps, "opacity (alpha)", i);
   }

@@ -16,6 +16,7 @@
 
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/splat_file.h"
+#include "opacity.h"
 #include "test_data.h"
 
 namespace gauss {
@@ -23,7 +24,6 @@ namespace {
 
 using Bytes = std::vector<std::uint8_t>;
 
-constexpr double kShC0 = 0.28209479177387814;
 constexpr double kLn509 = 6.2324480165505225;  // logit(1 - 0.5/255): where 8-bit alphas 0 and 255 land
 
 void put_u32(Bytes& out, std::uint32_t v) {
@@ -44,7 +44,6 @@ Bytes operator+(Bytes a, const Bytes& b) {
   return a;
 }
 
-double sigmoid(double x) { return 1.0 / (1.0 + std::exp(-x)); }
 double logit(double a) { return std::log(a / (1.0 - a)); }
 
 bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
@@ -701,7 +700,7 @@ FieldError compare(const GaussianCloud& got, const GaussianCloud& ply, const Bou
       else
         e.sh_dc = std::max(e.sh_dc, double(std::abs(a.sh_dc[k] - p.sh_dc[k])));
     }
-    e.opacity = std::max(e.opacity, std::abs(sigmoid(a.opacity_logit) - sigmoid(p.opacity_logit)));
+    e.opacity = std::max(e.opacity, std::abs(test::sigmoid(a.opacity_logit) - test::sigmoid(p.opacity_logit)));
     for (int k = 0; k < sh_rest_count(rest); ++k)
       for (int c = 0; c < 3; ++c) {
         const double v = p.sh_rest[std::size_t(k)][c];

@@ -21,6 +21,7 @@
 #include "gauss/net/host.h"
 #include "gauss/net/udp_relay.h"
 #include "hostile_peers.h"
+#include "null_sink.h"
 #include "raw_peer.h"
 
 namespace gauss {
@@ -28,14 +29,6 @@ namespace {
 
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
-
-class NullSink final : public net::ClientSink {
- public:
-  void on_welcome(const msg::Welcome&) override {}
-  void on_message(wire::Message&&) override {}
-  void on_refused(const msg::Refuse&) override {}
-  void on_disconnected(const std::string&) override {}
-};
 
 // The host's log lines, kept for the test to read.
 struct LogCapture {
@@ -78,7 +71,7 @@ double seconds_to_connect(net::NetHost& host, const std::string& name, std::chro
   c.name = name;
   c.access_token = token;
   c.log = [](const std::string&) {};
-  NullSink sink;
+  test::NullSink sink;
   const auto t0 = Clock::now();
   auto client = net::NetClient::start(c, sink);
   if (!client) return -1.0;

@@ -33,7 +33,7 @@ using namespace std::chrono_literals;
 namespace cp = net::cpace;
 using Bytes = std::vector<std::uint8_t>;
 
-cp::Bytes text(std::string_view s) { return {reinterpret_cast<const std::uint8_t*>(s.data()), s.size()}; }
+cp::Bytes text_bytes(std::string_view s) { return {reinterpret_cast<const std::uint8_t*>(s.data()), s.size()}; }
 
 Bytes hello_frame(const std::string& name = "headset") {
   msg::Hello h;
@@ -203,7 +203,7 @@ TEST(PakeHandshake, TheTranscriptGivesNoOfflineTestOfAGuess) {
   };
   const cp::Point y_a = point_of(msg_a), y_b = point_of(msg_b);
   for (const std::string& guess : {token, std::string("open-sesamf")}) {
-    const cp::Point g = cp::calculate_generator(text(guess), hello, c.nonce);
+    const cp::Point g = cp::calculate_generator(text_bytes(guess), hello, c.nonce);
     std::vector<std::pair<std::string, msg::AuthTag>> attempts;
     // Version 2's proof from the token and the public bytes.
     attempts.push_back({"version 2's proof", test::old_auth_proof(guess, c.nonce, hello)});

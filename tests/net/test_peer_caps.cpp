@@ -22,20 +22,13 @@
 #include "gauss/engine/wire.h"
 #include "gauss/net/client.h"
 #include "gauss/net/host.h"
+#include "null_sink.h"
 #include "raw_peer.h"
 
 namespace gauss {
 namespace {
 
 using namespace std::chrono_literals;
-
-class NullSink final : public net::ClientSink {
- public:
-  void on_welcome(const msg::Welcome&) override {}
-  void on_message(wire::Message&&) override {}
-  void on_refused(const msg::Refuse&) override {}
-  void on_disconnected(const std::string&) override {}
-};
 
 net::NetHostConfig quiet_host() {
   net::NetHostConfig c;
@@ -82,7 +75,7 @@ TEST(PeerCaps, AMessageFloodIsCutOffWhileOtherClientsGetThrough) {
   auto host = net::NetHost::start(cfg);
   ASSERT_TRUE(host.ok()) << host.message();
   Policy policy(**host);
-  NullSink flood_sink, calm_sink;
+  test::NullSink flood_sink, calm_sink;
   auto flood = net::NetClient::start(client_to((*host)->port(), "flood"), flood_sink);
   auto calm = net::NetClient::start(client_to((*host)->port(), "calm"), calm_sink);
   ASSERT_TRUE(flood.ok() && calm.ok());
@@ -180,7 +173,7 @@ TEST(PeerCaps, HalfOpenConnectionsAreBoundedAndExpire) {
   EXPECT_EQ(hc.accepted, 0u);
   // Once the half-open connections expired, a real client gets in.
   Policy policy(**host);
-  NullSink sink;
+  test::NullSink sink;
   auto client = net::NetClient::start(client_to((*host)->port(), "real"), sink);
   ASSERT_TRUE(client.ok());
   ASSERT_TRUE(wait_until([&] {
@@ -218,7 +211,7 @@ TEST(PeerCaps, AnOversizedPacketIsNeverDeliveredAndTheHostKeepsServing) {
   EXPECT_LT(hc.bytes_received, std::uint64_t{1} << 20);
   EXPECT_EQ(policy.messages["big"], 0u);
   // The host still serves: another client connects and its message arrives.
-  NullSink sink;
+  test::NullSink sink;
   auto client = net::NetClient::start(client_to((*host)->port(), "next"), sink);
   ASSERT_TRUE(client.ok());
   ASSERT_TRUE(wait_until([&] {

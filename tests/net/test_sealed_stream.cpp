@@ -18,13 +18,12 @@
 #include "gauss/net/stream_cipher.h"
 #include "old_token_keys.h"
 #include "raw_peer.h"
+#include "text_file.h"
 
 namespace gauss {
 namespace {
 
 using namespace std::chrono_literals;
-
-std::vector<std::uint8_t> bytes_of(const std::string& s) { return {s.begin(), s.end()}; }
 
 // A key as a handshake would give it (the cipher does not care where it came from;
 // test_pake_handshake.cpp checks the keys themselves).
@@ -39,7 +38,7 @@ TEST(StreamCipher, RoundTripsAndTheWireCarriesNoPlaintext) {
   const auto key = key_of(1);
   net::StreamCipher seal(key, net::StreamDirection::HostToClient);
   net::StreamCipher open(key, net::StreamDirection::HostToClient);
-  const auto frame = bytes_of("the chair is in the corner");
+  const auto frame = test::bytes_of("the chair is in the corner");
   const auto packet = seal.seal(frame);
   EXPECT_EQ(packet.size(), frame.size() + net::kSealedHeaderBytes + net::kSealedTagBytes);
   EXPECT_TRUE(net::looks_sealed(packet));
@@ -56,7 +55,7 @@ TEST(StreamCipher, RoundTripsAndTheWireCarriesNoPlaintext) {
 TEST(StreamCipher, APacketOpensOnlyUnderItsKeyAndDirection) {
   const auto key = key_of(1);
   net::StreamCipher seal(key, net::StreamDirection::HostToClient);
-  const auto packet = seal.seal(bytes_of("frame"));
+  const auto packet = seal.seal(test::bytes_of("frame"));
   auto other_key = key;
   other_key[31] ^= 1;
   net::StreamCipher wrong_key(other_key, net::StreamDirection::HostToClient);
@@ -72,7 +71,7 @@ TEST(StreamCipher, ReplaysAndAlterationsAreRefusedReorderingIsNot) {
   net::StreamCipher seal(key, net::StreamDirection::ClientToHost);
   net::StreamCipher open(key, net::StreamDirection::ClientToHost);
   std::vector<std::vector<std::uint8_t>> packets;
-  for (int i = 0; i < 6; ++i) packets.push_back(seal.seal(bytes_of("frame " + std::to_string(i))));
+  for (int i = 0; i < 6; ++i) packets.push_back(seal.seal(test::bytes_of("frame " + std::to_string(i))));
   // Out of order within the window: accepted, each once.
   for (int i : {1, 0, 3, 2}) EXPECT_TRUE(open.open(packets[static_cast<std::size_t>(i)]).ok()) << i;
   EXPECT_FALSE(open.open(packets[0]).ok()) << "replayed";
@@ -89,7 +88,7 @@ TEST(StreamCipher, ReplaysAndAlterationsAreRefusedReorderingIsNot) {
   EXPECT_FALSE(open.open(std::span(packets[5]).first(net::kSealedHeaderBytes + 3)).ok());
   EXPECT_FALSE(open.open(wire::encode(msg::Ack{}).value()).ok());
   // Older than the window: refused even though never seen.
-  for (std::size_t i = 0; i < net::kReplayWindow + 1; ++i) ASSERT_TRUE(open.open(seal.seal(bytes_of("x"))).ok());
+  for (std::size_t i = 0; i < net::kReplayWindow + 1; ++i) ASSERT_TRUE(open.open(seal.seal(test::bytes_of("x"))).ok());
   EXPECT_FALSE(open.open(packets[5]).ok()) << "more than the window behind the newest";
 }
 

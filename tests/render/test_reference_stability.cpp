@@ -29,8 +29,8 @@ Gaussian make(glm::vec3 pos, glm::vec3 log_scale, glm::vec3 dc, float logit = 0.
   return g;
 }
 
-float dc_for(double colour) { return float((colour - 0.5) / kShC0); }
-const glm::vec3 kWhite{dc_for(1.0)};
+float dc_of_colour(double colour) { return float((colour - 0.5) / kShC0); }
+const glm::vec3 kWhite{dc_of_colour(1.0)};
 
 // Renders twice, checks both runs are bit-identical and every value finite.
 ReferenceImage render_checked(const std::vector<Gaussian>& g, int degree = 0, const Camera& cam = cam64(),
@@ -143,7 +143,7 @@ TEST(ReferenceStability, FiveHundredCoplanarGaussiansBlendInSlotOrder) {
   std::vector<Gaussian> g;
   for (int k = 0; k < 500; ++k) {
     const double c = double((k * 37) % 500) / 499.0;
-    g.push_back(make({0.0f, 0.0f, 5.0f}, glm::vec3(-3.0f), {dc_for(c), dc_for(1.0 - c), dc_for(0.5)}, -4.0f));
+    g.push_back(make({0.0f, 0.0f, 5.0f}, glm::vec3(-3.0f), {dc_of_colour(c), dc_of_colour(1.0 - c), dc_of_colour(0.5)}, -4.0f));
   }
   const auto im = render_checked(g);
   double C = 0.0, T = 1.0;
@@ -179,7 +179,7 @@ TEST(ReferenceStability, DepthsFromAMillimetreToAHundredKilometres) {
   // Slot 0 nearest: 1e-3 m (culled), then log-spaced to 1e5 m; colours alternate.
   for (int k = 0; k <= 80; ++k) {
     const float z = std::pow(10.0f, -3.0f + 0.1f * float(k));
-    g.push_back(make({0.0f, 0.0f, z}, glm::vec3(std::log(0.02f * z)), k % 2 ? kWhite : glm::vec3(dc_for(0.0)), 4.0f));
+    g.push_back(make({0.0f, 0.0f, z}, glm::vec3(std::log(0.02f * z)), k % 2 ? kWhite : glm::vec3(dc_of_colour(0.0)), 4.0f));
   }
   const auto im = render_checked(g);
   EXPECT_EQ(im.stats.culled_near, 24u);  // k = 0..23: 1e-3 .. 10^-0.7 = 0.1995 <= 0.2
@@ -197,7 +197,7 @@ TEST(ReferenceStability, EqualFloatDepthKeysTieBySlotEvenIfDoublesDiffer) {
   cam.world_to_camera[2][0] = -sn;
   cam.world_to_camera[0][2] = sn;
   cam.world_to_camera[2][2] = cs;
-  const glm::vec3 black{dc_for(0.0)};
+  const glm::vec3 black{dc_of_colour(0.0)};
   const Gaussian farther = make({0.5f, 0.0f, 1e5f}, glm::vec3(std::log(0.05f)), kWhite, 20.0f);
   const Gaussian nearer = make({0.0f, 0.0f, 1e5f}, glm::vec3(std::log(0.05f)), black, 20.0f);
   const ProjectedSplat a = project_splat(farther, 0, 0, cam);

@@ -37,6 +37,14 @@ inline std::filesystem::path output_dir() {
   return p;
 }
 
+// output_dir() / rel, emptied: what a test writes there is its run's alone.
+inline std::filesystem::path fresh_output_dir(const std::string& rel) {
+  const std::filesystem::path p = output_dir() / rel;
+  std::filesystem::remove_all(p);
+  std::filesystem::create_directories(p);
+  return p;
+}
+
 }  // namespace gauss::test
 
 // Skips the current test when a shared-data file is missing, saying which and why.

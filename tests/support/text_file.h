@@ -1,9 +1,12 @@
 #pragma once
-// A whole text file as a string (empty when it cannot be read): logs and reports in tests.
+// Text in tests: a whole file as a string (empty when it cannot be read: logs and reports),
+// a string as the bytes a parser reads.
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace gauss::test {
 
@@ -13,5 +16,7 @@ inline std::string read_text(const std::filesystem::path& p) {
   ss << in.rdbuf();
   return ss.str();
 }
+
+inline std::vector<std::uint8_t> bytes_of(const std::string& s) { return {s.begin(), s.end()}; }
 
 }  // namespace gauss::test

@@ -21,7 +21,6 @@
 #include <filesystem>
 #include <string>
 
-#include <GLFW/glfw3.h>
 #include <imgui.h>
 
 #include "gauss/engine/image_io.h"
@@ -29,6 +28,7 @@
 #include "gauss/render/vk_context.h"
 #include "gauss/render/vk_image.h"
 #include "gauss/render/vk_swapchain.h"
+#include "glfw.h"
 #include "imgui_layer.h"
 #include "window.h"
 

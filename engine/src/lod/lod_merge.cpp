@@ -15,8 +15,6 @@
 namespace gauss {
 namespace {
 
-bool finite3(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
-
 // Rotation matrix of a quaternion (w, x, y, z) normalised in double; false when it has no
 // direction (zero or non-finite length).
 bool rotation_matrix(const glm::vec4& q, glm::dmat3& r) {

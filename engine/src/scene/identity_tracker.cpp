@@ -19,8 +19,6 @@ constexpr std::uint32_t kNone = 0xFFFFFFFFu;
 // regions; the best few always include the true match when there is one.
 constexpr std::size_t kCandidates = 4;
 
-bool finite3(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
-
 std::string non_finite(const Gaussian& g) {
   if (!finite3(g.position)) return "position";
   if (!finite3(g.log_scale)) return "log_scale";

@@ -12,8 +12,6 @@ namespace {
 
 std::string id_text(GaussianId id) { return std::to_string(to_underlying(id)); }
 
-bool finite3(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
-
 // Names the first non-finite or out-of-contract field, or returns an empty string.
 std::string invalid_field(const Gaussian& g, int sh_degree) {
   if (!finite3(g.position)) return "position is not finite";

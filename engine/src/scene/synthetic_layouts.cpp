@@ -14,7 +14,6 @@
 namespace gauss::scene {
 namespace {
 
-constexpr float kPi = std::numbers::pi_v<float>;
 
 // A furniture item's own frame: origin on the floor (or a support), turned by yaw about y.
 struct Frame {

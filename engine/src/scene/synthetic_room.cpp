@@ -12,7 +12,6 @@
 namespace gauss::scene {
 namespace {
 
-constexpr float kPi = std::numbers::pi_v<float>;
 
 // Rotation about +y by yaw (local -> world) and its inverse.
 glm::vec3 rot_y(const glm::vec3& v, float yaw) {

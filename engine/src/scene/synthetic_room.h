@@ -4,6 +4,7 @@
 // procedural colour (albedo pattern x baked, view-independent lighting), and surface
 // patches used to place Gaussians.
 #include <cstdint>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,8 @@
 #include "gauss/engine/mesh.h"
 
 namespace gauss::scene {
+
+inline constexpr float kPi = std::numbers::pi_v<float>;
 
 enum class Shape : std::uint8_t { Box, Cylinder, Sphere };
 

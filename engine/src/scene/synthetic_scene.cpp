@@ -15,11 +15,11 @@ namespace gauss {
 namespace {
 
 using scene::hash;
+using scene::kPi;
 using scene::mix64;
 using scene::signed_unit3;
 using scene::unit;
 
-constexpr float kPi = std::numbers::pi_v<float>;
 constexpr std::int16_t kNever = 32767;
 
 // Stream tags so that independent random quantities never share a key.

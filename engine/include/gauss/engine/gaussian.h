@@ -2,6 +2,7 @@
 // The core scene primitive, stored exactly as 3DGS trainers write it (log-scales,
 // opacity logit, SH coefficients), so reading and writing a PLY is lossless.
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -38,6 +39,8 @@ struct Gaussian {
 
 // Field-wise equality of everything but the id: "the same value" (a bit-identical modify is
 // no change). Not memcmp: Gaussian has padding.
+inline bool finite3(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
 inline bool same_value(const Gaussian& a, const Gaussian& b) {
   return a.position == b.position && a.log_scale == b.log_scale && a.rotation == b.rotation &&
          a.opacity_logit == b.opacity_logit && a.sh_dc == b.sh_dc && a.sh_rest == b.sh_rest &&
