@@ -23,14 +23,14 @@ using namespace gauss;
 
 namespace {
 
-struct World {
+struct PublisherWorld {
   std::uint32_t capacity;
   std::vector<glm::vec3> position;  // per id - 1: where each id of the universe lies
   std::unordered_set<std::uint64_t> desired;  // the host's view of the client's desired set
   std::uint32_t version{0};
 };
 
-Edit insert_of(const World& w, std::uint64_t id, std::uint32_t version) {
+Edit insert_of(const PublisherWorld& w, std::uint64_t id, std::uint32_t version) {
   Edit e{EditKind::Insert, GaussianId{id}, GaussianId{0}, {}};
   e.value.id = GaussianId{id};
   e.value.position = w.position[id - 1];
@@ -41,7 +41,7 @@ Edit insert_of(const World& w, std::uint64_t id, std::uint32_t version) {
 
 // One host batch: some desired ids leave, some updates, then newcomers up to the budget.
 // `teleport` swaps (nearly) the whole set.
-std::vector<Edit> host_batch(World& w, std::mt19937& rng, bool teleport) {
+std::vector<Edit> host_batch(PublisherWorld& w, std::mt19937& rng, bool teleport) {
   std::vector<std::uint64_t> in(w.desired.begin(), w.desired.end());
   std::sort(in.begin(), in.end());
   std::shuffle(in.begin(), in.end(), rng);
@@ -91,7 +91,7 @@ std::vector<Edit> host_batch(World& w, std::mt19937& rng, bool teleport) {
 
 void run_seed(std::uint32_t seed) {
   std::mt19937 rng(seed);
-  World w;
+  PublisherWorld w;
   w.capacity = std::uniform_int_distribution<std::uint32_t>(50, 600)(rng);
   const std::uint32_t universe = w.capacity * std::uniform_int_distribution<std::uint32_t>(2, 4)(rng);
   std::uniform_real_distribution<float> coord(-10.0f, 10.0f);

@@ -245,11 +245,11 @@ TEST(Framing, PresetViewsSeeTheWholeBoxFromTheirSide) {
 
 TEST(Framing, DegenerateScenesGetFiniteCameras) {
   const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
-  struct Case {
+  struct Degenerate {
     const char* name;
     std::vector<Gaussian> gs;
   };
-  std::vector<Case> cases;
+  std::vector<Degenerate> cases;
   cases.push_back({"empty", {}});
   cases.push_back({"no finite centre", {at({nan, nan, nan}), at({inf, 0, 0})}});
   cases.push_back({"one Gaussian", {at({3, -2, 7})}});
@@ -262,7 +262,7 @@ TEST(Framing, DegenerateScenesGetFiniteCameras) {
   cases.push_back({"NaN opacity", nan_opacity});
   cases.push_back({"far from the origin", {at({1e30f, 1e30f, -1e30f}), at({1e30f, 2e30f, -1e30f})}});
   cases.push_back({"a flat wall", {at({0, 0, 5}), at({1, 0, 5}), at({0, 1, 5}), at({1, 1, 5})}});
-  for (const Case& k : cases) {
+  for (const Degenerate& k : cases) {
     for (const glm::dvec3& up : {kColmapUp, glm::dvec3(0.0), glm::dvec3(nan)}) {
       SCOPED_TRACE(k.name);
       const RobustBounds b = robust_bounds(k.gs);
