@@ -378,36 +378,8 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
   }
 
   // --- 3. The sorted leaf order: drop leaving entries, merge fresh ones in. ----------------
-  // (Some leaf enters, leaves or changes cell: the value-only case returned above.) One pass:
-  // the runs between changes are copied whole, each run's end found by galloping from its
-  // start, so the order is read and written once and no entry's node is looked at.
-  auto less = [](const Entry& a, const Entry& b) { return entry_less(a.tree, a.code, a.id, b.tree, b.code, b.id); };
-  std::sort(leaving.begin(), leaving.end(), less);
-  std::sort(fresh.begin(), fresh.end(), less);
-  order_scratch_.resize(order_.size() - leaving.size() + fresh.size());
-  {
-    const Entry* in = order_.data();
-    const Entry* const end = in + order_.size();
-    Entry* out = order_scratch_.data();
-    std::size_t g = 0, f = 0;
-    while (g < leaving.size() || f < fresh.size()) {
-      const bool drop = f == fresh.size() || (g < leaving.size() && less(leaving[g], fresh[f]));
-      const Entry& key = drop ? leaving[g] : fresh[f];
-      const Entry* stop = lod_detail::gallop_partition_point(in, end, [&](const Entry& e) { return less(e, key); });
-      out = std::copy(in, stop, out);
-      in = stop;
-      if (drop) {
-        assert(in != end && in->node == key.node);  // a leaf's entry is its stored cell
-        ++in;
-        ++g;
-      } else {
-        *out++ = key;
-        ++f;
-      }
-    }
-    std::copy(in, end, out);
-  }
-  order_.swap(order_scratch_);
+  // (Some leaf enters, leaves or changes cell: the value-only case returned above.)
+  update_order(leaving, fresh);
 
   // --- 4-5. Group trees with changes, the objects tree and the root. --------------------
   std::sort(dirty.begin(), dirty.end());
@@ -428,6 +400,36 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
   if (children_garbage_ > 4096 && children_garbage_ * 2 > children_.size()) compact_children();
   sort_report(report);
   return report;
+}
+
+void LodHierarchy::update_order(std::vector<Entry>& leaving, std::vector<Entry>& fresh) {
+  // One pass: the runs between changes are copied whole, each run's end found by galloping
+  // from its start, so the order is read and written once and no entry's node is looked at.
+  auto less = [](const Entry& a, const Entry& b) { return entry_less(a.tree, a.code, a.id, b.tree, b.code, b.id); };
+  std::sort(leaving.begin(), leaving.end(), less);
+  std::sort(fresh.begin(), fresh.end(), less);
+  order_scratch_.resize(order_.size() - leaving.size() + fresh.size());
+  const Entry* in = order_.data();
+  const Entry* const end = in + order_.size();
+  Entry* out = order_scratch_.data();
+  std::size_t g = 0, f = 0;
+  while (g < leaving.size() || f < fresh.size()) {
+    const bool drop = f == fresh.size() || (g < leaving.size() && less(leaving[g], fresh[f]));
+    const Entry& key = drop ? leaving[g] : fresh[f];
+    const Entry* stop = lod_detail::gallop_partition_point(in, end, [&](const Entry& e) { return less(e, key); });
+    out = std::copy(in, stop, out);
+    in = stop;
+    if (drop) {
+      assert(in != end && in->node == key.node);  // a leaf's entry is its stored cell
+      ++in;
+      ++g;
+    } else {
+      *out++ = key;
+      ++f;
+    }
+  }
+  std::copy(in, end, out);
+  order_.swap(order_scratch_);
 }
 
 void LodHierarchy::sort_report(LodUpdateReport& report) const {

@@ -212,6 +212,9 @@ class LodHierarchy {
   // the full build (no old tree; every leaf of the order is visited).
   void update_trees(std::span<const std::pair<std::uint32_t, std::uint64_t>> dirty, LodUpdateReport& report,
                     std::vector<std::uint32_t>& retired, bool all_new);
+  // Step 3 of an update: `leaving` (entries as they stand) out of order_, `fresh` in, order_
+  // sorted by (tree, code, id) after as before. Sorts both lists.
+  void update_order(std::vector<Entry>& leaving, std::vector<Entry>& fresh);
   void sort_report(LodUpdateReport& report) const;
   std::uint64_t morton(const glm::vec3& p) const;
   std::uint32_t tree_of(ObjectId o) const;
