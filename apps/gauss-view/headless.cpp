@@ -41,6 +41,8 @@ client::CameraIntrinsics default_intrinsics(const ViewOptions& o) {
 // Frames a scene's default camera is rendered for without --path: the frames in flight
 // cycle once and the last is read back after the others.
 constexpr std::uint32_t kDefaultCameraFrames = 3;
+// A frame's period while the stream settles with nothing to show (about a 90 Hz display).
+constexpr std::chrono::milliseconds kSettleFramePeriod{11};
 
 // The default camera held still: keyframes at t = 0 and t = kDefaultCameraFrames - 1 at
 // 1 fps, so frame k is at t = k exactly and the path has kDefaultCameraFrames frames.
@@ -347,6 +349,11 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
         break;
       }
       if (std::chrono::duration<double>(std::chrono::steady_clock::now() - *settle_start).count() > settle_limit) break;
+      // Waiting out the quiet time with the camera still and nothing in flight: the next
+      // frame would equal this one, so pace it like a display instead of spinning (a
+      // 64x48 client redrew one image about 250 times per quiet time, a core's worth
+      // per client in the soak). New edits wait at most this long to be published.
+      if (fs->pending == 0 && fs->publish.edits() == 0) std::this_thread::sleep_for(kSettleFramePeriod);
     }
   }
   status.done({});
