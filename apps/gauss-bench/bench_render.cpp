@@ -551,7 +551,7 @@ int bench_render_main(const RenderBenchOptions& o) {
               "sum both eyes; image crc32 = last frame's pixels (left/right); ratio = wall_med / base_ms (base_ms: %s); "
               "times taken on a shared machine (under load)\n\n",
               (*ctx)->device_name().c_str(), max_n, gen_ms, o.frames, base_label.c_str());
-  std::printf("pass shapes: %s\n\n", shapes->reason.c_str());
+  std::printf("pass shapes: %s; %s\n\n", shapes->reason.c_str(), shapes->views_reason.c_str());
   std::printf("%-22s %8s %8s %8s %8s %5s %8s %8s %8s %8s %9s %10s %7s %5s %17s | %s\n", "size", "wall_med", "wall_min",
               "record", "cpu_med", "load", "gpu_tot", "preproc", "sorts", "blend", "visible", "pairs", "base_ms", "ratio",
               "image crc32", "vs CPU reference (PSNR, max err)");
@@ -608,6 +608,8 @@ int bench_render_main(const RenderBenchOptions& o) {
                           {"device", (*ctx)->device_name()},
                           {"pass_shapes", render::pass_shapes_name(shapes->shapes)},
                           {"pass_shapes_reason", shapes->reason},
+                          {"views_together", shapes->views_together},
+                          {"views_reason", shapes->views_reason},
                           {"frames", o.frames},
                           {"note", "wall and gpu ms are medians over the measured frames on a shared, loaded machine"},
                           {"results", results}};

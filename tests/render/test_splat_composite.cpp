@@ -124,6 +124,77 @@ TEST_F(SplatComposite, StereoEqualsTwoMonoRendersAndTheReference) {
   EXPECT_TRUE(close_to_reference(ref_r->rgba8, *rr, "splat_stereo_right"));
   EXPECT_GOLDEN(context(), *l, "splat_stereo_left", ref_l->rgba8);
   EXPECT_GOLDEN(context(), *rr, "splat_stereo_right", ref_r->rgba8);
+  EXPECT_EQ((*st)[0].views_together, r->pass_profile().views_together) << r->pass_profile().views_reason;
+}
+
+// Two views recorded together (each step for both eyes between the same two barriers,
+// each eye with its own scratch) give the same images, counts and overflow as the eyes
+// one after the other: with a mesh, highlight and edit tints, a pair budget both eyes
+// overflow, replayed passes, and a mono frame between stereo frames.
+TEST_F(SplatComposite, StereoViewsTogetherEqualTheEyesOneAfterTheOther) {
+  const auto scene = procedural_scene(2000, 1, 17);
+  const Camera centre = forward_camera(160, 120);
+  const Camera left = render::stereo_eye_camera(centre, 0.064, render::Eye::Left);
+  const Camera right = render::stereo_eye_camera(centre, 0.064, render::Eye::Right);
+  auto make_with = [&](std::optional<bool> together, std::uint32_t max_pairs) {
+    auto r = render::SplatRenderer::create(context(), {.capacity = 2000, .sh_degree = 1, .max_width = 160,
+                                                       .max_height = 120, .max_pairs = max_pairs,
+                                                       .views_together = together});
+    EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.message());
+    if (!r.ok()) return std::unique_ptr<render::SplatRenderer>{};
+    const std::vector<ObjectId> lit = {ObjectId{2}};
+    EXPECT_TRUE((*r)->write_slots(0, scene).ok());
+    EXPECT_TRUE((*r)->set_mesh(test_mesh()).ok());
+    EXPECT_TRUE((*r)->set_highlight(lit).ok());
+    for (std::uint32_t s = 0; s < scene.size(); s += 5)
+      EXPECT_TRUE((*r)->set_edit_tint(SlotIndex{s}, {render::EditTintKind::Added, 0}).ok());
+    return std::move(*r);
+  };
+  // The pairs each eye needs, then a budget of about half of them.
+  auto probe = make_with(false, 0);
+  ASSERT_TRUE(probe);
+  auto needed = probe->render_stereo(left, right);
+  ASSERT_TRUE(needed.ok()) << needed.message();
+  const std::uint32_t budget = std::min((*needed)[0].pairs_needed, (*needed)[1].pairs_needed) / 2;
+  ASSERT_GT(budget, 1000u);
+
+  auto together = make_with(true, budget);
+  auto apart = make_with(false, budget);
+  ASSERT_TRUE(together && apart);
+  EXPECT_TRUE(together->pass_profile().views_together) << together->pass_profile().views_reason;
+  auto same_stereo = [&](const char* what, bool replayed) {
+    SCOPED_TRACE(what);
+    auto a = together->render_stereo(left, right);
+    auto b = apart->render_stereo(left, right);
+    ASSERT_TRUE(a.ok() && b.ok()) << (a.ok() ? b.message() : a.message());
+    for (int eye = 0; eye < 2; ++eye) {
+      SCOPED_TRACE(eye == 0 ? "left" : "right");
+      EXPECT_TRUE((*a)[eye].views_together);
+      EXPECT_FALSE((*b)[eye].views_together);
+      EXPECT_EQ((*a)[eye].passes_replayed, replayed);
+      EXPECT_EQ((*a)[eye].visible, (*b)[eye].visible);
+      EXPECT_EQ((*a)[eye].pairs, (*b)[eye].pairs);
+      EXPECT_EQ((*a)[eye].pairs_needed, (*b)[eye].pairs_needed);
+      EXPECT_TRUE((*a)[eye].pair_overflow);
+      EXPECT_EQ((*a)[eye].pair_overflow, (*b)[eye].pair_overflow);
+      auto ia = together->read_image(static_cast<std::uint32_t>(eye));
+      auto ib = apart->read_image(static_cast<std::uint32_t>(eye));
+      ASSERT_TRUE(ia.ok() && ib.ok());
+      EXPECT_TRUE(images_equal(*ib, *ia, eye == 0 ? "splat_stereo_together_left" : "splat_stereo_together_right"));
+    }
+    // The right eye's passes ran within the left eye's timestamps: its own spans are 0.
+    EXPECT_EQ((*a)[1].gpu.total_ms, 0.0);
+    EXPECT_EQ((*a)[1].gpu.blend_ms, 0.0);
+  };
+  same_stereo("first stereo frame", false);
+  same_stereo("second stereo frame (replayed passes)", true);
+  // A mono frame between stereo frames: recorded alone, then the pair recorded again.
+  auto ma = together->render(left);
+  auto mb = apart->render(left);
+  ASSERT_TRUE(ma.ok() && mb.ok());
+  EXPECT_FALSE(ma->views_together);
+  EXPECT_TRUE(images_equal(image(*apart), image(*together), "splat_stereo_together_mono"));
+  same_stereo("stereo after a mono frame", false);
 }
 
 TEST_F(SplatComposite, HighlightAndEditTintsMatchReference) {

@@ -57,77 +57,91 @@ Status SplatRenderer::Impl::prepare_view(FrameSlot& f, std::uint32_t v, const Ca
   return f.views[v].view_ubo.upload(&g, sizeof(g));
 }
 
-Status SplatRenderer::Impl::record_view(VkCommandBuffer c, FrameSlot& f, std::uint32_t v, const Camera& camera,
-                                        const SplatRenderOptions& options) {
-  FrameViewResources& view = f.views[v];
-  ViewTarget& vt = targets[v];
+Status SplatRenderer::Impl::record_views(VkCommandBuffer c, FrameSlot& f, std::span<const ViewWork> views,
+                                         const SplatRenderOptions& options) {
+  // The first view's timestamps bracket the passes (of both views, when together).
+  FrameViewResources& lead = f.views[views[0].v];
   const bool with_mesh = mesh.has_mesh();
-  view.timestamps.write(c, 0);
+  lead.timestamps.write(c, 0);
   // ---- Mesh pass (its push constants hold the camera: recorded every frame) ----
-  vk::Image& colour = vt.target.color();
-  vk::Image& depth = vt.target.depth();
-  if (with_mesh) mesh.record(c, vt.target, camera, options.clear_colour);
-  colour.transition(c, VK_IMAGE_LAYOUT_GENERAL);
-  depth.transition(c, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
-  vt.had_mesh = with_mesh;
+  for (const ViewWork& w : views) {
+    ViewTarget& vt = targets[w.v];
+    if (with_mesh) mesh.record(c, vt.target, *w.camera, options.clear_colour);
+    vt.target.color().transition(c, VK_IMAGE_LAYOUT_GENERAL);
+    vt.target.depth().transition(c, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
+    vt.had_mesh = with_mesh;
+  }
 
   // ---- The compute passes: replayed while nothing they record has changed ----
-  view.replayed = false;
+  lead.replayed = false;
   if (!reuse_passes) {
-    if (auto st = record_passes(c, f, v, camera, options); !st) return st;
+    if (auto st = record_passes(c, f, views, options); !st) return st;
   } else {
+    const Camera& camera = *views[0].camera;  // views together have one size
     const ViewPassesKey key{.width = camera.width,
                             .height = camera.height,
                             .high_water = slots.high_water(),
                             .mesh = with_mesh,
                             .tint = tint_active(),
                             .exact_culling = options.exact_culling,
-                            .targets_generation = targets_generation};
-    view.replayed = view.passes_key == key;
-    if (!view.replayed) {
+                            .targets_generation = targets_generation,
+                            .together = views.size() > 1};
+    lead.replayed = lead.passes_key == key;
+    if (!lead.replayed) {
       // This frame slot's last frame has finished (FrameRing::begin waited for it), so
       // its secondary is no longer pending.
-      view.passes_key.reset();
-      GAUSS_VK_TRY(vkResetCommandBuffer(view.passes, 0));
+      lead.passes_key.reset();
+      GAUSS_VK_TRY(vkResetCommandBuffer(lead.passes, 0));
       VkCommandBufferInheritanceInfo inherit{};
       inherit.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_INHERITANCE_INFO;
       VkCommandBufferBeginInfo bi{};
       bi.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
       bi.pInheritanceInfo = &inherit;
-      GAUSS_VK_TRY(vkBeginCommandBuffer(view.passes, &bi));
-      if (auto st = record_passes(view.passes, f, v, camera, options); !st) return st;
-      GAUSS_VK_TRY(vkEndCommandBuffer(view.passes));
-      view.passes_key = key;
+      GAUSS_VK_TRY(vkBeginCommandBuffer(lead.passes, &bi));
+      if (auto st = record_passes(lead.passes, f, views, options); !st) return st;
+      GAUSS_VK_TRY(vkEndCommandBuffer(lead.passes));
+      lead.passes_key = key;
     }
-    vkCmdExecuteCommands(c, 1, &view.passes);
+    vkCmdExecuteCommands(c, 1, &lead.passes);
   }
 
-  // ---- The packed pixels into the target's colour image ----
-  colour.transition(c, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
-  VkBufferImageCopy region{};
-  region.bufferRowLength = camera.width;
-  region.bufferImageHeight = camera.height;
-  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-  region.imageExtent = {camera.width, camera.height, 1};
-  vkCmdCopyBufferToImage(c, output.handle(), colour.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+  // ---- The packed pixels into the targets' colour images ----
+  for (const ViewWork& w : views) {
+    vk::Image& colour = targets[w.v].target.color();
+    colour.transition(c, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+    VkBufferImageCopy region{};
+    region.bufferRowLength = w.camera->width;
+    region.bufferImageHeight = w.camera->height;
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {w.camera->width, w.camera->height, 1};
+    vkCmdCopyBufferToImage(c, w.scratch->output.handle(), colour.handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1,
+                           &region);
+  }
   // The next view reuses the output buffer: its blend writes wait for this copy's reads.
   vk::memory_barrier(c, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_WRITE_BIT);
-  view.timestamps.write(c, 8);
+  lead.timestamps.write(c, 8);
+  // A view recorded with the lead: its passes' time is in the lead's (read_stats reports
+  // its spans as 0); its timestamps are written so that its query pool can be read.
+  for (const ViewWork& w : views.subspan(1)) {
+    f.views[w.v].replayed = lead.replayed;
+    for (std::uint32_t i = 0; i <= 8; ++i) f.views[w.v].timestamps.write(c, i);
+  }
   return Ok{};
 }
 
-Status SplatRenderer::Impl::record_passes(VkCommandBuffer c, FrameSlot& f, std::uint32_t v, const Camera& camera,
+Status SplatRenderer::Impl::record_passes(VkCommandBuffer c, FrameSlot& f, std::span<const ViewWork> views,
                                           const SplatRenderOptions& options) {
-  FrameViewResources& view = f.views[v];
-  ViewTarget& vt = targets[v];
+  // Every step below records its dispatch for each view, then one barrier: together, the
+  // views' dispatches of a step may overlap on the GPU (they touch disjoint scratch).
+  FrameViewResources& lead = f.views[views[0].v];
+  const Camera& camera = *views[0].camera;  // views together have one size
   const bool with_mesh = mesh.has_mesh();
   const bool tint = tint_active();
   const std::uint32_t tiles_x = render::tile_count(camera.width), tiles_y = render::tile_count(camera.height);
   const std::uint32_t tiles = tiles_x * tiles_y;
   const std::uint32_t hwm = slots.high_water();
-  const vk::Buffer& counters = view.counters;
-  auto ts = [&](std::uint32_t i) { view.timestamps.write(c, i); };
+  auto ts = [&](std::uint32_t i) { lead.timestamps.write(c, i); };
   auto push = [&](const vk::ComputePipeline& p, std::uint32_t item_count, std::uint32_t count_index,
                   std::uint32_t shift, std::uint32_t first_slot = 0) {
     const gpu::GpuSplatPush pc{item_count, count_index, shift, info.max_pairs, first_slot};
@@ -146,23 +160,34 @@ Status SplatRenderer::Impl::record_passes(VkCommandBuffer c, FrameSlot& f, std::
   const std::span<const ChunkRun> runs(run_array.data(), run_count);
   // Emit and blend read projected splats of any chunk: every chunk binding is given, the
   // ones past the last chunk repeat chunk 0 (never read, splat_projected.glsl).
-  auto projected_chunk = [&](std::uint32_t k) -> const vk::Buffer* {
-    return &projected[k < projected.size() ? k : 0];
+  auto projected_chunk = [](const ViewScratch& s, std::uint32_t k) -> const vk::Buffer* {
+    return &s.projected[k < s.projected.size() ? k : 0];
   };
-  auto indirect = [&](std::uint32_t word) { vkCmdDispatchIndirect(c, counters.handle(), VkDeviceSize{word} * 4); };
+  auto indirect = [&](const vk::Buffer& counters, std::uint32_t word) {
+    vkCmdDispatchIndirect(c, counters.handle(), VkDeviceSize{word} * 4);
+  };
+  // Records `step` for every view (an error stops at once).
+  auto each_view = [&](auto&& step) -> Status {
+    for (const ViewWork& w : views)
+      if (auto st = step(f.views[w.v], *w.scratch, targets[w.v]); !st) return st;
+    return Ok{};
+  };
 
-  // ---- Per-tile max mesh depth (after the mesh pass, record_view) ----
-  vk::Image& colour = vt.target.color();
-  vk::Image& depth = vt.target.depth();
+  // ---- Per-tile max mesh depth (after the mesh pass, record_views) ----
   if (with_mesh) {
     const auto& p = pipelines.tile_depth();
-    if (auto st = p.bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
-                             {gpu::SPLAT_BINDING_MESH_DEPTH, &depth},
-                             {gpu::SPLAT_BINDING_TILE_DEPTH, &tile_depth}});
-        !st)
-      return st;
-    push(p, 0, 0, 0);
-    vkCmdDispatch(c, tiles_x, tiles_y, 1);
+    if (auto done = each_view([&](FrameViewResources& view, ViewScratch& s, ViewTarget& vt) -> Status {
+          if (auto st = p.bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
+                                   {gpu::SPLAT_BINDING_MESH_DEPTH, &vt.target.depth()},
+                                   {gpu::SPLAT_BINDING_TILE_DEPTH, &s.tile_depth}});
+              !st)
+            return st;
+          push(p, 0, 0, 0);
+          vkCmdDispatch(c, tiles_x, tiles_y, 1);
+          return Ok{};
+        });
+        !done)
+      return done;
     vk::compute_to_compute_barrier(c);
   }
   ts(1);
@@ -175,64 +200,79 @@ Status SplatRenderer::Impl::record_passes(VkCommandBuffer c, FrameSlot& f, std::
                                    .exact_cull = options.exact_culling});
   if (!pre) return pre.error();
   // One dispatch per chunk (they write disjoint slots: no barrier between them).
-  for (const ChunkRun& r : runs) {
-    if (auto st = (*pre)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
-                                   {gpu::SPLAT_BINDING_CORE, &slots.core_buffer(r.chunk)},
-                                   {gpu::SPLAT_BINDING_SH, &slots.sh_buffer(r.chunk)},
-                                   {gpu::SPLAT_BINDING_SH_HIGH, &slots.sh_high_buffer(r.chunk)},
-                                   {gpu::SPLAT_BINDING_EDIT, &slots.edit_buffer()},
-                                   {gpu::SPLAT_BINDING_HIGHLIGHT, &highlight},
-                                   {gpu::SPLAT_BINDING_PROJECTED, &projected[r.chunk]},
-                                   {gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
-                                   {gpu::SPLAT_BINDING_TILE_DEPTH, &tile_depth}});
-        !st)
-      return st;
-    push(**pre, r.count, 0, 0, r.first);
-    vkCmdDispatch(c, groups(r.count, gpu::SPLAT_WORKGROUP), 1, 1);
-  }
+  if (auto done = each_view([&](FrameViewResources& view, ViewScratch& s, ViewTarget&) -> Status {
+        for (const ChunkRun& r : runs) {
+          if (auto st = (*pre)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
+                                         {gpu::SPLAT_BINDING_CORE, &slots.core_buffer(r.chunk)},
+                                         {gpu::SPLAT_BINDING_SH, &slots.sh_buffer(r.chunk)},
+                                         {gpu::SPLAT_BINDING_SH_HIGH, &slots.sh_high_buffer(r.chunk)},
+                                         {gpu::SPLAT_BINDING_EDIT, &slots.edit_buffer()},
+                                         {gpu::SPLAT_BINDING_HIGHLIGHT, &highlight},
+                                         {gpu::SPLAT_BINDING_PROJECTED, &s.projected[r.chunk]},
+                                         {gpu::SPLAT_BINDING_TILE_COUNT, &s.tile_count},
+                                         {gpu::SPLAT_BINDING_TILE_DEPTH, &s.tile_depth}});
+              !st)
+            return st;
+          push(**pre, r.count, 0, 0, r.first);
+          vkCmdDispatch(c, groups(r.count, gpu::SPLAT_WORKGROUP), 1, 1);
+        }
+        return Ok{};
+      });
+      !done)
+    return done;
   if (hwm > 0) vk::compute_to_compute_barrier(c);
   ts(2);
 
   // ---- Visible list in slot order ----
-  const std::initializer_list<vk::Resource> scan_res = {{gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
-                                                        {gpu::SPLAT_BINDING_VALS_IN, &vals[0]},
-                                                        {gpu::SPLAT_BINDING_OFFSETS, &offsets},
-                                                        {gpu::SPLAT_BINDING_HIST, &hist},
-                                                        {gpu::SPLAT_BINDING_COUNTERS, &counters}};
+  auto scan_res = [](FrameViewResources& view, ViewScratch& s) {
+    return std::array<vk::Resource, 5>{vk::Resource{gpu::SPLAT_BINDING_TILE_COUNT, &s.tile_count},
+                                       vk::Resource{gpu::SPLAT_BINDING_VALS_IN, &s.vals[0]},
+                                       vk::Resource{gpu::SPLAT_BINDING_OFFSETS, &s.offsets},
+                                       vk::Resource{gpu::SPLAT_BINDING_HIST, &s.hist},
+                                       vk::Resource{gpu::SPLAT_BINDING_COUNTERS, &view.counters}};
+  };
   // CPU shapes: one dispatch. GPU shapes: block sums, their scan (the spine, which also
   // writes the totals and arguments), then every block rescanned: no workgroup waits on
   // another (splat_scan_gpu.comp).
   const bool gpu_shapes = pipelines.shapes() == SplatPassShapes::Gpu;
-  auto scan_step = [&](const vk::ComputePipeline& p, std::uint32_t item_count, std::uint32_t groups_direct,
-                       std::optional<std::uint32_t> indirect_args) -> Status {
-    if (auto st = p.bind(c, scan_res); !st) return st;
-    push(p, item_count, 0, 0);
-    // Past SPLAT_DISPATCH_ROW groups the dispatch wraps into y, as the indirect ones do
-    // (the shader's linear_group_id; groups past the last block return at once).
-    if (indirect_args) indirect(*indirect_args);
-    else
-      vkCmdDispatch(c, std::min(groups_direct, gpu::SPLAT_DISPATCH_ROW), groups(groups_direct, gpu::SPLAT_DISPATCH_ROW),
-                    1);
+  auto scan_step = [&](const vk::ComputePipeline& p, std::uint32_t item_count, std::uint32_t groups_direct) -> Status {
+    if (auto done = each_view([&](FrameViewResources& view, ViewScratch& s, ViewTarget&) -> Status {
+          const auto res = scan_res(view, s);
+          if (auto st = p.bind(c, res); !st) return st;
+          push(p, item_count, 0, 0);
+          // Past SPLAT_DISPATCH_ROW groups the dispatch wraps into y, as the indirect ones
+          // do (the shader's linear_group_id; groups past the last block return at once).
+          vkCmdDispatch(c, std::min(groups_direct, gpu::SPLAT_DISPATCH_ROW),
+                        groups(groups_direct, gpu::SPLAT_DISPATCH_ROW), 1);
+          return Ok{};
+        });
+        !done)
+      return done;
     vk::compute_to_compute_barrier(c);
     return Ok{};
   };
   const std::uint32_t visible_blocks = groups(hwm, gpu::SORT_BLOCK_GPU);
   if (gpu_shapes && visible_blocks > 0)
-    if (auto st = scan_step(pipelines.scan_visible_reduce(), hwm, visible_blocks, std::nullopt); !st) return st;
-  if (auto st = scan_step(pipelines.scan_visible(), hwm, 1, std::nullopt); !st) return st;
+    if (auto st = scan_step(pipelines.scan_visible_reduce(), hwm, visible_blocks); !st) return st;
+  if (auto st = scan_step(pipelines.scan_visible(), hwm, 1); !st) return st;
   if (gpu_shapes && visible_blocks > 0)
-    if (auto st = scan_step(pipelines.scan_visible_down(), hwm, visible_blocks, std::nullopt); !st) return st;
-  for (const ChunkRun& r : runs) {
-    if (auto st = pipelines.compact().bind(c, {{gpu::SPLAT_BINDING_PROJECTED, &projected[r.chunk]},
-                                               {gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
-                                               {gpu::SPLAT_BINDING_OFFSETS, &offsets},
-                                               {gpu::SPLAT_BINDING_KEYS_OUT, &keys[0]},
-                                               {gpu::SPLAT_BINDING_VALS_OUT, &vals[0]}});
-        !st)
-      return st;
-    push(pipelines.compact(), r.count, 0, 0, r.first);
-    vkCmdDispatch(c, groups(r.count, gpu::SPLAT_WORKGROUP), 1, 1);
-  }
+    if (auto st = scan_step(pipelines.scan_visible_down(), hwm, visible_blocks); !st) return st;
+  if (auto done = each_view([&](FrameViewResources&, ViewScratch& s, ViewTarget&) -> Status {
+        for (const ChunkRun& r : runs) {
+          if (auto st = pipelines.compact().bind(c, {{gpu::SPLAT_BINDING_PROJECTED, &s.projected[r.chunk]},
+                                                     {gpu::SPLAT_BINDING_TILE_COUNT, &s.tile_count},
+                                                     {gpu::SPLAT_BINDING_OFFSETS, &s.offsets},
+                                                     {gpu::SPLAT_BINDING_KEYS_OUT, &s.keys[0]},
+                                                     {gpu::SPLAT_BINDING_VALS_OUT, &s.vals[0]}});
+              !st)
+            return st;
+          push(pipelines.compact(), r.count, 0, 0, r.first);
+          vkCmdDispatch(c, groups(r.count, gpu::SPLAT_WORKGROUP), 1, 1);
+        }
+        return Ok{};
+      });
+      !done)
+    return done;
   if (hwm > 0) vk::compute_to_compute_barrier(c);
   ts(3);
 
@@ -242,34 +282,53 @@ Status SplatRenderer::Impl::record_passes(VkCommandBuffer c, FrameSlot& f, std::
                         std::uint32_t blocks_args, std::uint32_t count_args, std::uint32_t hist_args,
                         bool fused_offsets) -> Status {
     const std::uint32_t dst = 1 - src;
-    if (auto st = pipelines.radix_count().bind(c, {{gpu::SPLAT_BINDING_KEYS_IN, &keys[src]},
-                                                   {gpu::SPLAT_BINDING_HIST, &hist},
-                                                   {gpu::SPLAT_BINDING_COUNTERS, &counters}});
-        !st)
-      return st;
-    push(pipelines.radix_count(), 0, count_index, shift);
-    indirect(count_args);
+    if (auto done = each_view([&](FrameViewResources& view, ViewScratch& s, ViewTarget&) -> Status {
+          if (auto st = pipelines.radix_count().bind(c, {{gpu::SPLAT_BINDING_KEYS_IN, &s.keys[src]},
+                                                         {gpu::SPLAT_BINDING_HIST, &s.hist},
+                                                         {gpu::SPLAT_BINDING_COUNTERS, &view.counters}});
+              !st)
+            return st;
+          push(pipelines.radix_count(), 0, count_index, shift);
+          indirect(view.counters, count_args);
+          return Ok{};
+        });
+        !done)
+      return done;
     vk::compute_to_compute_barrier(c);
-    // GPU shapes: one workgroup per digit row, which binds the histogram and counters only.
-    const std::initializer_list<vk::Resource> offsets_res = {{gpu::SPLAT_BINDING_HIST, &hist},
-                                                             {gpu::SPLAT_BINDING_COUNTERS, &counters}};
     if (!fused_offsets) {
-      if (auto st = pipelines.scan_hist().bind(c, gpu_shapes ? offsets_res : scan_res); !st) return st;
-      push(pipelines.scan_hist(), 0, count_index, shift);
-      indirect(hist_args);
+      if (auto done = each_view([&](FrameViewResources& view, ViewScratch& s, ViewTarget&) -> Status {
+            // GPU shapes: one workgroup per digit row, which binds the histogram and
+            // counters only.
+            const std::array<vk::Resource, 2> offsets_res = {vk::Resource{gpu::SPLAT_BINDING_HIST, &s.hist},
+                                                             vk::Resource{gpu::SPLAT_BINDING_COUNTERS, &view.counters}};
+            const auto all_res = scan_res(view, s);
+            const Status bound =
+                gpu_shapes ? pipelines.scan_hist().bind(c, offsets_res) : pipelines.scan_hist().bind(c, all_res);
+            if (!bound) return bound;
+            push(pipelines.scan_hist(), 0, count_index, shift);
+            indirect(view.counters, hist_args);
+            return Ok{};
+          });
+          !done)
+        return done;
       vk::compute_to_compute_barrier(c);
     }
     const vk::ComputePipeline& scatter = fused_offsets ? pipelines.radix_scatter_fused() : pipelines.radix_scatter();
-    if (auto st = scatter.bind(c, {{gpu::SPLAT_BINDING_KEYS_IN, &keys[src]},
-                                                     {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
-                                                     {gpu::SPLAT_BINDING_KEYS_OUT, &keys[dst]},
-                                                     {gpu::SPLAT_BINDING_VALS_OUT, &vals[dst]},
-                                                     {gpu::SPLAT_BINDING_HIST, &hist},
-                                                     {gpu::SPLAT_BINDING_COUNTERS, &counters}});
-        !st)
-      return st;
-    push(scatter, 0, count_index, shift);
-    indirect(blocks_args);
+    if (auto done = each_view([&](FrameViewResources& view, ViewScratch& s, ViewTarget&) -> Status {
+          if (auto st = scatter.bind(c, {{gpu::SPLAT_BINDING_KEYS_IN, &s.keys[src]},
+                                         {gpu::SPLAT_BINDING_VALS_IN, &s.vals[src]},
+                                         {gpu::SPLAT_BINDING_KEYS_OUT, &s.keys[dst]},
+                                         {gpu::SPLAT_BINDING_VALS_OUT, &s.vals[dst]},
+                                         {gpu::SPLAT_BINDING_HIST, &s.hist},
+                                         {gpu::SPLAT_BINDING_COUNTERS, &view.counters}});
+              !st)
+            return st;
+          push(scatter, 0, count_index, shift);
+          indirect(view.counters, blocks_args);
+          return Ok{};
+        });
+        !done)
+      return done;
     vk::compute_to_compute_barrier(c);
     return Ok{};
   };
@@ -292,16 +351,22 @@ Status SplatRenderer::Impl::record_passes(VkCommandBuffer c, FrameSlot& f, std::
   // ---- Pair offsets in depth order, then emit (tile, slot) into [1 - src] ----
   // GPU shapes: the visible radix-block arguments size the reduce and down steps (the scan
   // block is the radix block, SORT_BLOCK_GPU).
-  const std::initializer_list<vk::Resource> pair_scan_res = {{gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
-                                                             {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
-                                                             {gpu::SPLAT_BINDING_OFFSETS, &offsets},
-                                                             {gpu::SPLAT_BINDING_HIST, &hist},
-                                                             {gpu::SPLAT_BINDING_COUNTERS, &counters}};
   auto pair_scan_step = [&](const vk::ComputePipeline& p, bool by_blocks) -> Status {
-    if (auto st = p.bind(c, pair_scan_res); !st) return st;
-    push(p, 0, 0, 0);
-    if (by_blocks) indirect(gpu::SPLAT_ARGS_VISIBLE_BLOCKS);
-    else vkCmdDispatch(c, 1, 1, 1);
+    if (auto done = each_view([&](FrameViewResources& view, ViewScratch& s, ViewTarget&) -> Status {
+          if (auto st = p.bind(c, {{gpu::SPLAT_BINDING_TILE_COUNT, &s.tile_count},
+                                   {gpu::SPLAT_BINDING_VALS_IN, &s.vals[src]},
+                                   {gpu::SPLAT_BINDING_OFFSETS, &s.offsets},
+                                   {gpu::SPLAT_BINDING_HIST, &s.hist},
+                                   {gpu::SPLAT_BINDING_COUNTERS, &view.counters}});
+              !st)
+            return st;
+          push(p, 0, 0, 0);
+          if (by_blocks) indirect(view.counters, gpu::SPLAT_ARGS_VISIBLE_BLOCKS);
+          else vkCmdDispatch(c, 1, 1, 1);
+          return Ok{};
+        });
+        !done)
+      return done;
     vk::compute_to_compute_barrier(c);
     return Ok{};
   };
@@ -312,22 +377,27 @@ Status SplatRenderer::Impl::record_passes(VkCommandBuffer c, FrameSlot& f, std::
     if (auto st = pair_scan_step(pipelines.scan_pairs_down(), true); !st) return st;
   auto emit = pipelines.emit(with_mesh, options.exact_culling);
   if (!emit) return emit.error();
-  if (auto st = (*emit)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
-                                  {gpu::SPLAT_BINDING_PROJECTED, projected_chunk(0)},
-                                  {gpu::SPLAT_BINDING_PROJECTED_1, projected_chunk(1)},
-                                  {gpu::SPLAT_BINDING_PROJECTED_2, projected_chunk(2)},
-                                  {gpu::SPLAT_BINDING_PROJECTED_3, projected_chunk(3)},
-                                  {gpu::SPLAT_BINDING_TILE_COUNT, &tile_count},
-                                  {gpu::SPLAT_BINDING_OFFSETS, &offsets},
-                                  {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
-                                  {gpu::SPLAT_BINDING_KEYS_OUT, &keys[1 - src]},
-                                  {gpu::SPLAT_BINDING_VALS_OUT, &vals[1 - src]},
-                                  {gpu::SPLAT_BINDING_COUNTERS, &counters},
-                                  {gpu::SPLAT_BINDING_TILE_DEPTH, &tile_depth}});
-      !st)
-    return st;
-  push(**emit, 0, 0, 0);
-  indirect(gpu::SPLAT_ARGS_VISIBLE_ITEMS);
+  if (auto done = each_view([&](FrameViewResources& view, ViewScratch& s, ViewTarget&) -> Status {
+        if (auto st = (*emit)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
+                                        {gpu::SPLAT_BINDING_PROJECTED, projected_chunk(s, 0)},
+                                        {gpu::SPLAT_BINDING_PROJECTED_1, projected_chunk(s, 1)},
+                                        {gpu::SPLAT_BINDING_PROJECTED_2, projected_chunk(s, 2)},
+                                        {gpu::SPLAT_BINDING_PROJECTED_3, projected_chunk(s, 3)},
+                                        {gpu::SPLAT_BINDING_TILE_COUNT, &s.tile_count},
+                                        {gpu::SPLAT_BINDING_OFFSETS, &s.offsets},
+                                        {gpu::SPLAT_BINDING_VALS_IN, &s.vals[src]},
+                                        {gpu::SPLAT_BINDING_KEYS_OUT, &s.keys[1 - src]},
+                                        {gpu::SPLAT_BINDING_VALS_OUT, &s.vals[1 - src]},
+                                        {gpu::SPLAT_BINDING_COUNTERS, &view.counters},
+                                        {gpu::SPLAT_BINDING_TILE_DEPTH, &s.tile_depth}});
+            !st)
+          return st;
+        push(**emit, 0, 0, 0);
+        indirect(view.counters, gpu::SPLAT_ARGS_VISIBLE_ITEMS);
+        return Ok{};
+      });
+      !done)
+    return done;
   vk::compute_to_compute_barrier(c);
   src = 1 - src;
   ts(5);
@@ -344,35 +414,45 @@ Status SplatRenderer::Impl::record_passes(VkCommandBuffer c, FrameSlot& f, std::
   ts(6);
 
   // ---- Tile ranges ----
-  if (auto st = pipelines.ranges().bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
-                                            {gpu::SPLAT_BINDING_KEYS_IN, &keys[src]},
-                                            {gpu::SPLAT_BINDING_RANGES, &vt.ranges},
-                                            {gpu::SPLAT_BINDING_COUNTERS, &counters}});
-      !st)
-    return st;
-  push(pipelines.ranges(), 0, 0, 0);
-  indirect(gpu::SPLAT_ARGS_PAIR_ITEMS);
+  if (auto done = each_view([&](FrameViewResources& view, ViewScratch& s, ViewTarget& vt) -> Status {
+        if (auto st = pipelines.ranges().bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
+                                                  {gpu::SPLAT_BINDING_KEYS_IN, &s.keys[src]},
+                                                  {gpu::SPLAT_BINDING_RANGES, &vt.ranges},
+                                                  {gpu::SPLAT_BINDING_COUNTERS, &view.counters}});
+            !st)
+          return st;
+        push(pipelines.ranges(), 0, 0, 0);
+        indirect(view.counters, gpu::SPLAT_ARGS_PAIR_ITEMS);
+        return Ok{};
+      });
+      !done)
+    return done;
   vk::compute_to_compute_barrier(c);
   ts(7);
 
-  // ---- Blend, then the packed pixels into the target's colour image ----
+  // ---- Blend; record_views then copies the packed pixels into the targets' images ----
   auto blend = pipelines.blend(with_mesh);
   if (!blend) return blend.error();
-  if (auto st = (*blend)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
-                                   {gpu::SPLAT_BINDING_PROJECTED, projected_chunk(0)},
-                                   {gpu::SPLAT_BINDING_PROJECTED_1, projected_chunk(1)},
-                                   {gpu::SPLAT_BINDING_PROJECTED_2, projected_chunk(2)},
-                                   {gpu::SPLAT_BINDING_PROJECTED_3, projected_chunk(3)},
-                                   {gpu::SPLAT_BINDING_VALS_IN, &vals[src]},
-                                   {gpu::SPLAT_BINDING_RANGES, &vt.ranges},
-                                   {gpu::SPLAT_BINDING_OUTPUT, &output},
-                                   {gpu::SPLAT_BINDING_MESH_COLOUR, &colour},
-                                   {gpu::SPLAT_BINDING_MESH_DEPTH, &depth}});
-      !st)
-    return st;
-  push(**blend, 0, 0, 0);
-  vkCmdDispatch(c, tiles_x, tiles_y, 1);
-  // The copy into the view's image (record_view) reads what the blend wrote.
+  if (auto done = each_view([&](FrameViewResources& view, ViewScratch& s, ViewTarget& vt) -> Status {
+        if (auto st = (*blend)->bind(c, {{gpu::SPLAT_BINDING_VIEW, &view.view_ubo},
+                                         {gpu::SPLAT_BINDING_PROJECTED, projected_chunk(s, 0)},
+                                         {gpu::SPLAT_BINDING_PROJECTED_1, projected_chunk(s, 1)},
+                                         {gpu::SPLAT_BINDING_PROJECTED_2, projected_chunk(s, 2)},
+                                         {gpu::SPLAT_BINDING_PROJECTED_3, projected_chunk(s, 3)},
+                                         {gpu::SPLAT_BINDING_VALS_IN, &s.vals[src]},
+                                         {gpu::SPLAT_BINDING_RANGES, &vt.ranges},
+                                         {gpu::SPLAT_BINDING_OUTPUT, &s.output},
+                                         {gpu::SPLAT_BINDING_MESH_COLOUR, &vt.target.color()},
+                                         {gpu::SPLAT_BINDING_MESH_DEPTH, &vt.target.depth()}});
+            !st)
+          return st;
+        push(**blend, 0, 0, 0);
+        vkCmdDispatch(c, tiles_x, tiles_y, 1);
+        return Ok{};
+      });
+      !done)
+    return done;
+  // The copies into the views' images (record_views) read what the blend wrote.
   vk::memory_barrier(c, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
   return Ok{};
@@ -389,6 +469,7 @@ Expected<SplatFrameStats> SplatRenderer::Impl::read_stats(const FrameSlot& f, st
   s.pairs_needed = words[gpu::SPLAT_COUNTER_PAIRS_NEEDED];
   s.pair_overflow = s.pairs_needed > info.max_pairs;
   s.passes_replayed = view.replayed;
+  s.views_together = f.together;
   auto ticks = view.timestamps.read_ticks();
   if (!ticks) return ticks.error();
   const double ns = context->timestamp_period_ns();
@@ -406,6 +487,7 @@ Expected<SplatFrameStats> SplatRenderer::Impl::read_stats(const FrameSlot& f, st
   s.gpu.blend_ms = ms(7, 8);
   s.gpu.total_ms = ms(0, 8);
   if (v == 0) s.gpu.upload_ms = ms(kUploadBeginTimestamp, kUploadEndTimestamp);
+  if (f.together && v > 0) s.gpu = {};  // within view 0's spans (its own were written for availability only)
   return s;
 }
 

@@ -45,7 +45,30 @@ struct ViewPassesKey {
   std::uint32_t width{0}, height{0}, high_water{0};
   bool mesh{false}, tint{false}, exact_culling{false};
   std::uint64_t targets_generation{0};  // a replaced target image or ranges buffer
+  bool together{false};                 // both views' passes, step by step (record_views)
   bool operator==(const ViewPassesKey&) const = default;
+};
+
+// GPU-only scratch of a view's passes, from the projected splats to the packed pixels.
+// Views recorded one after the other share one set (barriers order them); views recorded
+// together need one each.
+struct ViewScratch {
+  std::vector<vk::Buffer> projected;  // GpuProjected per slot, one buffer per slot chunk
+  vk::Buffer tile_count;  // uint per slot
+  vk::Buffer offsets;     // uint per slot / per visible splat
+  std::array<vk::Buffer, 2> keys;  // ping-pong sort keys, max(capacity, max_pairs)
+  std::array<vk::Buffer, 2> vals;
+  vk::Buffer hist;        // bins * blocks + bins (radix_histogram_bytes); the GPU scans' block sums
+  vk::Buffer tile_depth;  // float per tile
+  vk::Buffer output;      // packed RGBA8 per pixel
+  bool valid() const { return !projected.empty(); }
+};
+
+// One view's part of a recording: which view, its camera and its scratch.
+struct ViewWork {
+  std::uint32_t v{0};
+  const Camera* camera{nullptr};
+  ViewScratch* scratch{nullptr};
 };
 
 // What the CPU writes before or reads after a frame: one set per frame in flight.
@@ -54,7 +77,8 @@ struct FrameViewResources {
   vk::Buffer counters;   // SPLAT_COUNTER_WORDS, host visible (stats after the frame), indirect args
   vk::TimestampQueries timestamps;
   // The view's compute passes as a secondary command buffer, replayed while passes_key
-  // holds (recording them cost an H100 frame 0.1 ms of CPU while the GPU waited).
+  // holds (recording them cost an H100 frame 0.1 ms of CPU while the GPU waited). Views
+  // recorded together use view 0's.
   VkCommandBuffer passes{VK_NULL_HANDLE};
   std::optional<ViewPassesKey> passes_key;  // what `passes` holds; nullopt: nothing valid
   bool replayed{false};                     // the last frame here replayed `passes`
@@ -64,6 +88,7 @@ struct FrameSlot {
   std::array<FrameViewResources, 2> views;
   std::uint64_t serial{0};  // frame recorded here last (0 = none)
   std::uint32_t view_count{0};
+  bool together{false};  // its two views were recorded together
   std::uint32_t high_water{0};
 };
 
@@ -78,17 +103,18 @@ struct SplatRenderer::Impl {
   MeshPass mesh;
   splat::SplatPipelines pipelines;
 
-  // Shared by the views of a frame (used one view after the other, with barriers).
   SplatMemoryPlan plan;
   SplatPassProfile profile;
-  std::vector<vk::Buffer> projected;  // GpuProjected per slot, one buffer per slot chunk
-  vk::Buffer tile_count;  // uint per slot
-  vk::Buffer offsets;     // uint per slot / per visible splat
-  std::array<vk::Buffer, 2> keys;  // ping-pong sort keys, max(capacity, max_pairs)
-  std::array<vk::Buffer, 2> vals;
-  vk::Buffer hist;        // bins * blocks + bins (radix_histogram_bytes); the GPU scans' block sums
-  vk::Buffer tile_depth;  // float per tile
-  vk::Buffer output;      // packed RGBA8 per pixel
+  // scratch[0]: every view recorded alone. scratch[1]: view 1 when the two views are
+  // recorded together, made at the first such frame (a renderer that never renders two
+  // views together never holds it).
+  std::array<ViewScratch, 2> scratch;
+  // profile.views_together says whether two views of one size are recorded together: the
+  // pass shapes' choice, while the heap holds the second scratch and making it has not
+  // failed (keep_views_apart turns it off and says why in profile.views_reason).
+  void keep_views_apart(const std::string& why);
+  // Whether scratch[1] is there for two views recorded together (made at the first call).
+  bool second_scratch_ready();
   vk::Buffer highlight;   // sorted object ids
   std::uint32_t highlight_count{0};
   std::uint32_t display_frame{0};
@@ -104,14 +130,18 @@ struct SplatRenderer::Impl {
   bool tint_active() const { return highlight_count > 0 || slots.tinted_count() > 0; }
   std::uint64_t targets_generation{0};  // bumped whenever a view's target is replaced
   bool reuse_passes{true};              // SplatRendererCreateInfo::reuse_recorded_passes
-  // Records view `v` into the frame's command buffer `c` with frame slot `f`'s constants
-  // and counters: the mesh pass and layouts, then the compute passes (record_passes:
-  // replayed from f's secondary command buffer when its key still holds), then the copy
-  // into the view's image. Errors only for resources that fail to bind.
-  Status record_view(VkCommandBuffer c, FrameSlot& f, std::uint32_t v, const Camera& camera,
-                     const SplatRenderOptions& options);
-  Status record_passes(VkCommandBuffer c, FrameSlot& f, std::uint32_t v, const Camera& camera,
+  // Records `views` (one, or two of one size together) into the frame's command buffer
+  // `c` with frame slot `f`'s constants and counters: each view's mesh pass and layouts,
+  // then the compute passes (record_passes: replayed from the first view's secondary
+  // command buffer when its key still holds), then the copies into the views' images.
+  // Together, every step of the passes is recorded for each view between the same two
+  // barriers. Errors only for resources that fail to bind.
+  Status record_views(VkCommandBuffer c, FrameSlot& f, std::span<const ViewWork> views,
+                      const SplatRenderOptions& options);
+  Status record_passes(VkCommandBuffer c, FrameSlot& f, std::span<const ViewWork> views,
                        const SplatRenderOptions& options);
+  // Makes `s` for the create info's capacity and sizes; `what` names its buffers.
+  Status make_scratch(ViewScratch& s, const char* what);
   Status prepare_view(FrameSlot& f, std::uint32_t v, const Camera& camera, const SplatRenderOptions& options);
   Expected<SplatFrameStats> read_stats(const FrameSlot& f, std::uint32_t v) const;
   Expected<std::uint64_t> render_frame(std::span<const Camera> cameras, const SplatRenderOptions& options,

@@ -114,6 +114,9 @@ Checked check(const vk::Context& context, const SplatRendererCreateInfo& info) {
                               2 * max_tiles * 8 + 2 * pixels * 8 +
                               std::uint64_t{info.frames_in_flight} * 2 * (sizeof(gpu::GpuView) + gpu::SPLAT_COUNTER_WORDS * 4);
   p.total_bytes = p.bytes_per_slot * cap + fixed;
+  // A view's scratch: projected splats, tile counts and offsets per slot, the sort buffers
+  // and histogram, tile depth and output pixels (SplatRenderer::Impl::make_scratch).
+  p.second_view_bytes = cap * (wide.projected + 8) + 4 * sort_bytes + hist + max_tiles * 4 + pixels * 4;
 
   if (chunks > kMaxSlotChunks) {
     out.problem = with_commas(cap) + " slots need " + std::to_string(chunks) + " storage bindings of " + with_commas(p.chunk_slots) +

@@ -126,6 +126,16 @@ Expected<SplatPassProfile> choose_pass_shapes(const vk::Context& context, SplatP
       digits = std::string(v) + "-bit digits (GAUSS_SORT_RADIX_BITS)";
     }
   }
+  profile.views_together = requested == SplatPassShapes::Gpu;
+  const char* views_why = profile.views_together ? "GPU shapes" : "CPU shapes";
+  if (const char* env = std::getenv("GAUSS_SPLAT_STEREO"); env && *env) {
+    const std::string_view v = env;
+    if (v != "together" && v != "apart") return Error{"GAUSS_SPLAT_STEREO=" + std::string(v) + ": expected together or apart"};
+    profile.views_together = v == "together";
+    views_why = "GAUSS_SPLAT_STEREO";
+  }
+  profile.views_reason =
+      std::string(profile.views_together ? "two views together" : "two views one after the other") + " (" + views_why + ")";
   profile.reason = std::string(pass_shapes_name(requested)) + " (" + describe(context, why) + "; " + digits + ")";
   return profile;
 }

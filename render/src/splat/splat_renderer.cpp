@@ -8,7 +8,9 @@
 // three runs: GPU time per stereo frame 817-1116 ms, of which both eyes' depth sorts
 // 41-62 ms (5.0-5.5 %) and both tile sorts 127-177 ms. A shared centre-eye sort would save
 // at most half the depth sorts (~2.5-2.8 %) while making each eye's order differ from its
-// own reference image, so each eye sorts itself.
+// own reference image, so each eye sorts itself. With the GPU shapes the two eyes' passes
+// are recorded together, step by step, each eye with its own scratch (splat_frame.h,
+// ViewScratch; docs/DESIGN.md "Stereo").
 #include "gauss/render/splat_renderer.h"
 
 #include <algorithm>
@@ -20,6 +22,7 @@
 #include "gauss/render/vk_context.h"
 #include "splat_frame.h"
 #include "splat_layout.h"
+#include "vk/memory.h"
 
 namespace gauss::render {
 
@@ -32,6 +35,49 @@ SplatRenderer::Impl::~Impl() {
   for (FrameSlot& f : frame_slots)
     for (FrameViewResources& view : f.views)
       if (view.passes != VK_NULL_HANDLE) vkFreeCommandBuffers(context->device(), context->command_pool(), 1, &view.passes);
+}
+
+Status SplatRenderer::Impl::make_scratch(ViewScratch& s, const char* what) {
+  const std::uint64_t sort_items = std::max<std::uint64_t>(info.capacity, info.max_pairs);
+  const std::uint64_t max_tiles = std::uint64_t{render::tile_count(info.max_width)} * render::tile_count(info.max_height);
+  ViewScratch made;
+  auto make = [&](vk::Buffer& out, std::uint64_t bytes, const char* name) -> Status {
+    const std::string full = std::string(name) + what;
+    auto b = vk::Buffer::create(*context, {.size = std::max<std::uint64_t>(bytes, 16),
+                                           .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                           .memory = vk::MemoryUsage::DeviceLocal,
+                                           .name = full.c_str()});
+    if (!b) return Error{"SplatRenderer: " + b.message()};
+    out = std::move(*b);
+    return Ok{};
+  };
+  for (std::uint32_t c = 0; c < plan.slot_chunks; ++c) {
+    const std::uint64_t first = std::uint64_t{c} * plan.chunk_slots;
+    const std::uint64_t n = std::min<std::uint64_t>(info.capacity - first, plan.chunk_slots);
+    if (auto st = make(made.projected.emplace_back(), n * sizeof(gpu::GpuProjected),
+                       plan.slot_chunks > 1 ? "splat projected chunk" : "splat projected");
+        !st)
+      return st;
+  }
+  const struct {
+    vk::Buffer* out;
+    std::uint64_t bytes;
+    const char* name;
+  } reqs[] = {
+      {&made.tile_count, std::uint64_t{info.capacity} * 4, "splat tile counts"},
+      {&made.offsets, std::uint64_t{info.capacity} * 4, "splat offsets"},
+      {&made.keys[0], sort_items * 4, "sort keys A"},
+      {&made.keys[1], sort_items * 4, "sort keys B"},
+      {&made.vals[0], sort_items * 4, "sort values A"},
+      {&made.vals[1], sort_items * 4, "sort values B"},
+      {&made.hist, radix_histogram_bytes(sort_items), "radix histogram"},
+      {&made.tile_depth, max_tiles * 4, "tile max mesh depth"},
+      {&made.output, std::uint64_t{info.max_width} * info.max_height * 4, "splat output pixels"},
+  };
+  for (const auto& r : reqs)
+    if (auto st = make(*r.out, r.bytes, r.name); !st) return st;
+  s = std::move(made);
+  return Ok{};
 }
 
 Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& context,
@@ -67,7 +113,16 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
   if (!pipes) return pipes.error();
   impl->pipelines = std::move(*pipes);
 
-  const std::uint64_t sort_items = std::max<std::uint64_t>(info.capacity, info.max_pairs);
+  impl->info = info;
+  if (auto st = impl->make_scratch(impl->scratch[0], ""); !st) return st.error();
+  if (info.views_together && *info.views_together != impl->profile.views_together) {
+    impl->profile.views_together = *info.views_together;
+    impl->profile.views_reason =
+        std::string(*info.views_together ? "two views together" : "two views one after the other") + " (asked for)";
+  }
+  if (impl->profile.views_together && plan->total_bytes + plan->second_view_bytes > plan->heap_bytes)
+    impl->keep_views_apart("the device-local heap of " + vk::format_bytes(plan->heap_bytes) + " cannot also hold " +
+                           vk::format_bytes(plan->second_view_bytes) + " of second-view scratch");
   const std::uint64_t max_tiles = std::uint64_t{render::tile_count(info.max_width)} * render::tile_count(info.max_height);
   auto make = [&](vk::Buffer& out, std::uint64_t bytes, const char* name, VkBufferUsageFlags usage,
                   vk::MemoryUsage memory) -> Status {
@@ -79,33 +134,8 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
   };
   constexpr auto SSBO = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
   constexpr auto Dev = vk::MemoryUsage::DeviceLocal;
-  struct Req {
-    vk::Buffer* out;
-    std::uint64_t bytes;
-    const char* name;
-  };
-  for (std::uint32_t c = 0; c < plan->slot_chunks; ++c) {
-    const std::uint64_t first = std::uint64_t{c} * plan->chunk_slots;
-    const std::uint64_t n = std::min<std::uint64_t>(info.capacity - first, plan->chunk_slots);
-    if (auto st = make(impl->projected.emplace_back(), n * sizeof(gpu::GpuProjected),
-                       plan->slot_chunks > 1 ? "splat projected chunk" : "splat projected", SSBO, Dev);
-        !st)
-      return st.error();
-  }
-  const Req reqs[] = {
-      {&impl->tile_count, std::uint64_t{info.capacity} * 4, "splat tile counts"},
-      {&impl->offsets, std::uint64_t{info.capacity} * 4, "splat offsets"},
-      {&impl->keys[0], sort_items * 4, "sort keys A"},
-      {&impl->keys[1], sort_items * 4, "sort keys B"},
-      {&impl->vals[0], sort_items * 4, "sort values A"},
-      {&impl->vals[1], sort_items * 4, "sort values B"},
-      {&impl->hist, radix_histogram_bytes(sort_items), "radix histogram"},
-      {&impl->tile_depth, max_tiles * 4, "tile max mesh depth"},
-      {&impl->output, std::uint64_t{info.max_width} * info.max_height * 4, "splat output pixels"},
-      {&impl->highlight, std::uint64_t{kMaxHighlightObjects} * 4, "highlight object ids"},
-  };
-  for (const Req& r : reqs)
-    if (auto st = make(*r.out, r.bytes, r.name, SSBO, Dev); !st) return st.error();
+  if (auto st = make(impl->highlight, std::uint64_t{kMaxHighlightObjects} * 4, "highlight object ids", SSBO, Dev); !st)
+    return st.error();
   for (std::uint32_t v = 0; v < 2; ++v)
     if (auto st = make(impl->targets[v].ranges, max_tiles * 8, "splat tile ranges", SSBO, Dev); !st) return st.error();
   impl->frame_slots.resize(info.frames_in_flight);
@@ -130,7 +160,6 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
   impl->reuse_passes = info.reuse_recorded_passes;
   if (const char* env = std::getenv("GAUSS_SPLAT_REUSE_PASSES"); env && std::string_view(env) == "0")
     impl->reuse_passes = false;
-  impl->info = info;
   return std::unique_ptr<SplatRenderer>(new SplatRenderer(std::move(impl)));
 }
 
@@ -233,6 +262,8 @@ Expected<std::uint64_t> SplatRenderer::Impl::render_frame(std::span<const Camera
     f.serial = 0;
   }
   const auto views = static_cast<std::uint32_t>(cameras.size());
+  const bool together = views == 2 && cameras[0].width == cameras[1].width && cameras[0].height == cameras[1].height &&
+                        second_scratch_ready();
   auto fail = [&](const Error& e) -> Error {
     ring->abandon();
     f.serial = 0;
@@ -261,8 +292,15 @@ Expected<std::uint64_t> SplatRenderer::Impl::render_frame(std::span<const Camera
     if (auto st = vk::record_fill(c, targets[v].ranges, 0, tiles * 8, 0u); !st) return fail(st.error());
   }
   vk::transfer_to_compute_barrier(c);
-  for (std::uint32_t v = 0; v < views; ++v)
-    if (auto st = record_view(c, f, v, cameras[v], options); !st) return fail(st.error());
+  if (together) {
+    const ViewWork both[2] = {{0, &cameras[0], &scratch[0]}, {1, &cameras[1], &scratch[1]}};
+    if (auto st = record_views(c, f, both, options); !st) return fail(st.error());
+  } else {
+    for (std::uint32_t v = 0; v < views; ++v) {
+      const ViewWork one{v, &cameras[v], &scratch[0]};
+      if (auto st = record_views(c, f, std::span(&one, 1), options); !st) return fail(st.error());
+    }
+  }
   if (hooks.record_after)
     if (auto st = hooks.record_after(c); !st) return fail(st.error());
   vk::memory_barrier(c, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
@@ -278,9 +316,25 @@ Expected<std::uint64_t> SplatRenderer::Impl::render_frame(std::span<const Camera
   uploads->submitted();
   f.serial = frame->serial;
   f.view_count = views;
+  f.together = together;
   f.high_water = slots.high_water();
   ++display_frame;
   return frame->serial;
+}
+
+void SplatRenderer::Impl::keep_views_apart(const std::string& why) {
+  profile.views_together = false;
+  profile.views_reason = "two views one after the other: " + why;
+}
+
+bool SplatRenderer::Impl::second_scratch_ready() {
+  if (!profile.views_together) return false;
+  if (scratch[1].valid()) return true;
+  if (auto st = make_scratch(scratch[1], " (view 1)"); !st) {
+    keep_views_apart(st.message());
+    return false;
+  }
+  return true;
 }
 
 Expected<std::array<SplatFrameStats, 2>> SplatRenderer::Impl::frame_stats(std::uint64_t serial) {

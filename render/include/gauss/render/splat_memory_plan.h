@@ -39,6 +39,9 @@ struct SplatMemoryPlan {
   std::uint64_t binding_range{0}; // bytes one binding may cover (device limit or the override)
   std::uint64_t bytes_per_slot{0};  // every buffer that grows with the capacity, per slot
   std::uint64_t total_bytes{0};     // every buffer and target the renderer makes
+  // The second view's scratch, made beside total_bytes at the first frame whose two views
+  // are recorded together (SplatPassProfile::views_together); never made otherwise.
+  std::uint64_t second_view_bytes{0};
   std::uint64_t heap_bytes{0};      // the device-local heap
   std::uint64_t max_allocation{0};  // maxMemoryAllocationSize
 };

@@ -26,6 +26,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -84,7 +85,15 @@ struct SplatPassProfile {
   std::uint32_t radix_bits{4};
   // Shared rows of the GPU radix scatter: SPLAT_WORKGROUP / the smallest subgroup.
   std::uint32_t sort_rows{64};
-  std::string reason;
+  // Two views of one size (stereo) recorded together: each step of the passes for both
+  // views between the same two barriers, each view with its own scratch (made at the first
+  // such frame; SplatMemoryPlan::second_view_bytes). A GPU then overlaps the two views'
+  // small dispatches (the scans' one-workgroup steps) and pays each barrier once per pair.
+  // GPU shapes only: lavapipe runs dispatches one after another, so it would pay the
+  // memory for nothing. GAUSS_SPLAT_STEREO=together|apart overrides it (benchmarks, tests).
+  bool views_together{false};
+  std::string reason;        // the shapes and digits, and why
+  std::string views_reason;  // how two views are recorded, and why
 };
 // Resolves `requested` (Auto: GAUSS_PASS_SHAPES, else the device type). Errors:
 // GAUSS_PASS_SHAPES set to anything but cpu or gpu; Gpu asked of a device whose subgroups
@@ -117,6 +126,10 @@ struct SplatRendererCreateInfo {
   // the camera travels in a uniform buffer). false, or GAUSS_SPLAT_REUSE_PASSES=0,
   // records them every frame (the same commands: tests and benchmarks compare the two).
   bool reuse_recorded_passes{true};
+  // Two views of one size recorded together (true) or one after the other (false);
+  // unset: the pass profile's choice (SplatPassProfile::views_together). The images are
+  // the same byte for byte either way.
+  std::optional<bool> views_together{};
 };
 
 // What a frame-paced caller adds to a frame of render_frame().
@@ -158,6 +171,10 @@ struct SplatFrameStats {
   std::uint32_t pairs_needed{0};     // pairs wanted (saturates at 2^32 - 1)
   bool pair_overflow{false};
   bool passes_replayed{false};       // the compute passes were replayed, not recorded anew
+  // This view's passes were recorded together with the other view's (SplatPassProfile::
+  // views_together): view 0's timings cover both views' passes and view 1's are zero, so
+  // sums over the views stay right.
+  bool views_together{false};
   SplatPassTimings gpu;
 };
 
