@@ -260,7 +260,9 @@ struct FrameTimes {
       blend{0};
   std::uint32_t visible{0}, pairs{0};
   bool overflow{false};
+  bool together{false};  // the views' passes were recorded together (view 0's times cover both)
   void add(const render::SplatFrameStats& s) {
+    together = together || s.views_together;
     total += s.gpu.total_ms;
     mesh += s.gpu.mesh_ms;
     preprocess += s.gpu.preprocess_ms;
@@ -368,6 +370,7 @@ int run_config(vk::Context& ctx, const RenderBenchOptions& o, const Config& c, s
   out["visible"] = last.visible;
   out["pairs"] = last.pairs;
   out["pair_overflow"] = last.overflow;
+  if (c.stereo) out["views_together"] = last.together;
 
   // CRC-32 of each view's last image: a renderer change that must leave the images
   // byte-identical is checked by comparing this column before and after.
