@@ -42,11 +42,10 @@ Status SplatRenderer::Impl::make_scratch(ViewScratch& s, const char* what) {
   const std::uint64_t max_tiles = std::uint64_t{render::tile_count(info.max_width)} * render::tile_count(info.max_height);
   ViewScratch made;
   auto make = [&](vk::Buffer& out, std::uint64_t bytes, const char* name) -> Status {
-    const std::string full = std::string(name) + what;
     auto b = vk::Buffer::create(*context, {.size = std::max<std::uint64_t>(bytes, 16),
                                            .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                            .memory = vk::MemoryUsage::DeviceLocal,
-                                           .name = full.c_str()});
+                                           .name = std::string(name) + what});
     if (!b) return Error{"SplatRenderer: " + b.message()};
     out = std::move(*b);
     return Ok{};
