@@ -179,6 +179,52 @@ void write_objects_json(const gauss::SceneStore& store, const fs::path& objects)
   std::ofstream(objects) << nlohmann::json{{"objects", table}}.dump();
 }
 
+// Whether every number in `j` is finite and not negative (the timing figures: times, counts).
+bool all_finite_and_non_negative(const nlohmann::json& j, std::string& where) {
+  if (j.is_number()) return std::isfinite(j.get<double>()) && j.get<double>() >= 0.0;
+  if (j.is_object() || j.is_array()) {
+    for (auto it = j.begin(); it != j.end(); ++it)
+      if (!all_finite_and_non_negative(*it, where)) {
+        where = (j.is_object() ? it.key() : std::string("[]")) + (where.empty() ? "" : "." + where);
+        return false;
+      }
+  }
+  return true;
+}
+
+// The wall-clock half of the report, which the other runs leave out (--no-timing): the
+// stereo frame timing's four phases (paced idle, streaming, idle again, then sustained
+// frames back to back) each measured, and every figure a finite, non-negative number. Only
+// that the figures are there and sane is checked, never what they are (timing decides no test).
+TEST(GaussEval, WithTimingTheStereoPhasesAreEachMeasured) {
+  const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "eval_app_gauss_eval_timing";
+  ASSERT_NO_FATAL_FAILURE(run_eval(out, {GAUSS_EVAL_EXE, "--scenes", "0", "--gaussians", "12000", "--budget", "3000",
+                                         "--size", "128x96", "--cameras", "1", "--quiet", "0.25", "--lod", "on",
+                                         "--no-semantic", "--no-temporal", "--no-latency", "--stereo-budget", "3000",
+                                         "--name", "ctest-timing", "--out", out.string()}));
+  const nlohmann::json r = nlohmann::json::parse(read_text(out / "report.json"));
+  EXPECT_EQ(r["validation_errors"].get<std::uint64_t>(), 0u);
+  ASSERT_TRUE(r.contains("timing")) << "without --no-timing the report has its timing section";
+  std::string where;
+  EXPECT_TRUE(all_finite_and_non_negative(r["timing"], where)) << "timing." << where;
+  const nlohmann::json& stereo = r["timing"]["scenes"][0]["stereo_timing"];
+  ASSERT_TRUE(stereo.is_object()) << r["timing"].dump(1);
+  EXPECT_EQ(stereo["views"].get<int>(), 2);
+  for (const char* phase : {"idle_before", "streaming", "idle_after", "sustained"}) {
+    SCOPED_TRACE(phase);
+    const nlohmann::json& p = stereo["phases"][phase];
+    ASSERT_TRUE(p.is_object()) << stereo.dump(1);
+    const auto frames = p["frame_gpu_ms"]["n"].get<std::uint64_t>();
+    EXPECT_GT(p["frame_cpu_ms"]["n"].get<std::uint64_t>(), 0u);
+    EXPECT_GT(frames, 0u);
+    EXPECT_EQ(p["visible_per_eye"]["n"].get<std::uint64_t>(), 2 * frames) << "one figure per eye and frame";
+    EXPECT_GT(p["frame_gpu_ms"]["p50"].get<double>(), 0.0);
+  }
+  // The sustained frames render the set the stream left: every slot of the budget.
+  EXPECT_EQ(stereo["phases"]["sustained"]["high_water"]["p50"].get<double>(), 3000.0);
+  EXPECT_NE(read_text(out / "report.md").find("sustained"), std::string::npos);
+}
+
 void write_room_file(const fs::path& ply, const fs::path& objects) {
   auto scene = small_room1();
   ASSERT_TRUE(scene.ok()) << scene.message();
