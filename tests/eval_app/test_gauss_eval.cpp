@@ -4,6 +4,7 @@
 // min(|G_obj|, floor(rho M)) of the client's M slots, recomputed here from the report's
 // own figures. And a scene file (a room written as PLY + objects JSON here): no ground
 // truth, so the GT-referenced figures are null, while everything else holds as for a room.
+// And one run with the wall-clock figures: their phases are there and sane.
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
