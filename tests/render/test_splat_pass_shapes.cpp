@@ -169,6 +169,35 @@ TEST_F(SplatPassShapesTest, DigitWidthFollowsTheSubgroupSize) {
   EXPECT_NE(bad.message().find("GAUSS_SORT_RADIX_BITS=6"), std::string::npos) << bad.message();
 }
 
+// Two views are recorded together with the GPU shapes and one after the other with the CPU
+// shapes; GAUSS_SPLAT_STEREO overrides either way and a misspelt value is refused by name.
+TEST_F(SplatPassShapesTest, StereoRecordingFollowsTheShapesAndItsOverride) {
+  EnvOverride none("GAUSS_SPLAT_STEREO", nullptr);
+  auto gpu = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
+  auto cpu = render::choose_pass_shapes(context(), SplatPassShapes::Cpu);
+  ASSERT_TRUE(gpu.ok() && cpu.ok()) << (gpu.ok() ? cpu.message() : gpu.message());
+  EXPECT_TRUE(gpu->views_together) << gpu->views_reason;
+  EXPECT_FALSE(cpu->views_together) << cpu->views_reason;
+  EXPECT_NE(gpu->views_reason.find("together (GPU shapes)"), std::string::npos) << gpu->views_reason;
+  {
+    EnvOverride apart("GAUSS_SPLAT_STEREO", "apart");
+    auto asked = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
+    ASSERT_TRUE(asked.ok()) << asked.message();
+    EXPECT_FALSE(asked->views_together);
+    EXPECT_NE(asked->views_reason.find("GAUSS_SPLAT_STEREO"), std::string::npos) << asked->views_reason;
+  }
+  {
+    EnvOverride together("GAUSS_SPLAT_STEREO", "together");
+    auto asked = render::choose_pass_shapes(context(), SplatPassShapes::Cpu);
+    ASSERT_TRUE(asked.ok()) << asked.message();
+    EXPECT_TRUE(asked->views_together);
+  }
+  EnvOverride bad_value("GAUSS_SPLAT_STEREO", "both");
+  auto bad = render::choose_pass_shapes(context(), SplatPassShapes::Gpu);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.message().find("GAUSS_SPLAT_STEREO=both"), std::string::npos) << bad.message();
+}
+
 // A misspelt override is refused by name, not silently ignored.
 TEST_F(SplatPassShapesTest, RejectsAnUnknownOverride) {
   const char* before = std::getenv("GAUSS_PASS_SHAPES");
