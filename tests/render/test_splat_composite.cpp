@@ -130,16 +130,17 @@ TEST_F(SplatComposite, StereoEqualsTwoMonoRendersAndTheReference) {
 // Two views recorded together (each step for both eyes between the same two barriers,
 // each eye with its own scratch) give the same images, counts and overflow as the eyes
 // one after the other: with a mesh, highlight and edit tints, a pair budget both eyes
-// overflow, replayed passes, and a mono frame between stereo frames.
+// overflow, replayed passes (and passes recorded into every frame), and a mono frame
+// between stereo frames.
 TEST_F(SplatComposite, StereoViewsTogetherEqualTheEyesOneAfterTheOther) {
   const auto scene = procedural_scene(2000, 1, 17);
   const Camera centre = forward_camera(160, 120);
   const Camera left = render::stereo_eye_camera(centre, 0.064, render::Eye::Left);
   const Camera right = render::stereo_eye_camera(centre, 0.064, render::Eye::Right);
-  auto make_with = [&](std::optional<bool> together, std::uint32_t max_pairs) {
+  auto make_with = [&](std::optional<bool> together, std::uint32_t max_pairs, bool reuse = true) {
     auto r = render::SplatRenderer::create(context(), {.capacity = 2000, .sh_degree = 1, .max_width = 160,
                                                        .max_height = 120, .max_pairs = max_pairs,
-                                                       .views_together = together});
+                                                       .reuse_recorded_passes = reuse, .views_together = together});
     EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.message());
     if (!r.ok()) return std::unique_ptr<render::SplatRenderer>{};
     const std::vector<ObjectId> lit = {ObjectId{2}};
@@ -160,13 +161,15 @@ TEST_F(SplatComposite, StereoViewsTogetherEqualTheEyesOneAfterTheOther) {
 
   auto together = make_with(true, budget);
   auto apart = make_with(false, budget);
-  ASSERT_TRUE(together && apart);
+  auto recorded = make_with(true, budget, /*reuse=*/false);  // together, recorded into every frame
+  ASSERT_TRUE(together && apart && recorded);
   EXPECT_TRUE(together->pass_profile().views_together) << together->pass_profile().views_reason;
   auto same_stereo = [&](const char* what, bool replayed) {
     SCOPED_TRACE(what);
     auto a = together->render_stereo(left, right);
     auto b = apart->render_stereo(left, right);
-    ASSERT_TRUE(a.ok() && b.ok()) << (a.ok() ? b.message() : a.message());
+    auto c = recorded->render_stereo(left, right);
+    ASSERT_TRUE(a.ok() && b.ok() && c.ok()) << (!a.ok() ? a.message() : !b.ok() ? b.message() : c.message());
     for (int eye = 0; eye < 2; ++eye) {
       SCOPED_TRACE(eye == 0 ? "left" : "right");
       EXPECT_TRUE((*a)[eye].views_together);
@@ -181,6 +184,11 @@ TEST_F(SplatComposite, StereoViewsTogetherEqualTheEyesOneAfterTheOther) {
       auto ib = apart->read_image(static_cast<std::uint32_t>(eye));
       ASSERT_TRUE(ia.ok() && ib.ok());
       EXPECT_TRUE(images_equal(*ib, *ia, eye == 0 ? "splat_stereo_together_left" : "splat_stereo_together_right"));
+      auto ic = recorded->read_image(static_cast<std::uint32_t>(eye));
+      ASSERT_TRUE(ic.ok());
+      EXPECT_TRUE(images_equal(*ib, *ic, eye == 0 ? "splat_stereo_recorded_left" : "splat_stereo_recorded_right"));
+      EXPECT_TRUE((*c)[eye].views_together);
+      EXPECT_FALSE((*c)[eye].passes_replayed);
     }
     // The right eye's passes ran within the left eye's timestamps: its own spans are 0.
     EXPECT_EQ((*a)[1].gpu.total_ms, 0.0);
@@ -191,7 +199,7 @@ TEST_F(SplatComposite, StereoViewsTogetherEqualTheEyesOneAfterTheOther) {
   // A mono frame between stereo frames: recorded alone, then the pair recorded again.
   auto ma = together->render(left);
   auto mb = apart->render(left);
-  ASSERT_TRUE(ma.ok() && mb.ok());
+  ASSERT_TRUE(ma.ok() && mb.ok() && recorded->render(left).ok());
   EXPECT_FALSE(ma->views_together);
   EXPECT_TRUE(images_equal(image(*apart), image(*together), "splat_stereo_together_mono"));
   same_stereo("stereo after a mono frame", false);
