@@ -6,6 +6,8 @@
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>
 
+#include "gauss/engine/gaussian.h"
+
 namespace gauss::client {
 
 namespace {
@@ -14,12 +16,11 @@ constexpr double kMaxSigmas = 2.0;
 constexpr double kMinOpacity = 0.5;
 constexpr double kMinScale = 1e-4;
 
-bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 }  // namespace
 
 std::optional<RayHit> pick(const SlotTable& slots, const glm::dvec3& origin, const glm::dvec3& direction) {
-  if (!finite(origin) || !finite(direction) || glm::length(direction) <= 0.0) return std::nullopt;
+  if (!finite3(origin) || !finite3(direction) || glm::length(direction) <= 0.0) return std::nullopt;
   const glm::dvec3 dir = glm::normalize(direction);
   std::optional<RayHit> best;
   for (std::uint32_t k = 0; k < slots.capacity(); ++k) {
@@ -33,7 +34,7 @@ std::optional<RayHit> pick(const SlotTable& slots, const glm::dvec3& origin, con
     const glm::dquat inv = glm::conjugate(q);
     glm::dvec3 scale;
     for (int a = 0; a < 3; ++a) scale[a] = std::max(std::exp(double(g.log_scale[a])), kMinScale);
-    if (!finite(scale)) continue;
+    if (!finite3(scale)) continue;
     const glm::dvec3 o = (inv * (origin - glm::dvec3(g.position))) / scale;
     const glm::dvec3 d = (inv * dir) / scale;
     const double dd = glm::dot(d, d);

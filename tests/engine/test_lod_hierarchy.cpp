@@ -55,8 +55,7 @@ std::vector<Gaussian> random_scene(std::size_t n, int objects, std::uint64_t see
 }
 
 bool finite(const Gaussian& g) {
-  auto f3 = [](glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
-  return f3(g.position) && f3(g.log_scale) && f3(g.sh_dc) && std::isfinite(g.opacity_logit) &&
+  return finite3(g.position) && finite3(g.log_scale) && finite3(g.sh_dc) && std::isfinite(g.opacity_logit) &&
          std::isfinite(g.rotation[0]) && std::isfinite(g.rotation[1]) && std::isfinite(g.rotation[2]) &&
          std::isfinite(g.rotation[3]);
 }

@@ -246,10 +246,9 @@ TEST(LodMerge, ObjectIsCommonElseNoneAndSupportSaturates) {
 }
 
 bool all_finite(const Gaussian& g) {
-  auto f3 = [](glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
-  bool ok = f3(g.position) && f3(g.log_scale) && f3(g.sh_dc) && std::isfinite(g.opacity_logit);
+  bool ok = finite3(g.position) && finite3(g.log_scale) && finite3(g.sh_dc) && std::isfinite(g.opacity_logit);
   for (int k = 0; k < 4; ++k) ok = ok && std::isfinite(g.rotation[k]);
-  for (const glm::vec3& r : g.sh_rest) ok = ok && f3(r);
+  for (const glm::vec3& r : g.sh_rest) ok = ok && finite3(r);
   return ok;
 }
 

@@ -20,12 +20,13 @@
 
 namespace {
 
+using gauss::finite3;
+
 [[noreturn]] void fail(const char* what) {
   std::fprintf(stderr, "fuzz_compressed_ply invariant violated: %s\n", what);
   std::abort();
 }
 
-bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 void check(const gauss::Expected<gauss::SplatScene>& scene, const std::string& name) {
   if (!scene.ok()) {
@@ -38,7 +39,7 @@ void check(const gauss::Expected<gauss::SplatScene>& scene, const std::string& n
   const int coefs = gauss::sh_rest_count(c.sh_degree);
   for (std::size_t i = 0; i < c.gaussians.size(); ++i) {
     const gauss::Gaussian& g = c.gaussians[i];
-    if (!finite(g.position) || !finite(g.log_scale) || !finite(g.sh_dc) || !std::isfinite(g.opacity_logit))
+    if (!finite3(g.position) || !finite3(g.log_scale) || !finite3(g.sh_dc) || !std::isfinite(g.opacity_logit))
       fail("a non-finite value reached the cloud");
     double n2 = 0;
     for (int k = 0; k < 4; ++k) {
@@ -48,7 +49,7 @@ void check(const gauss::Expected<gauss::SplatScene>& scene, const std::string& n
     if (std::abs(std::sqrt(n2) - 1.0) > 1e-5) fail("quaternion not unit");
     for (int k = 0; k < gauss::kMaxShRest; ++k) {
       const glm::vec3& r = g.sh_rest[static_cast<std::size_t>(k)];
-      if (!finite(r)) fail("non-finite SH coefficient");
+      if (!finite3(r)) fail("non-finite SH coefficient");
       if (k >= coefs && (r.x != 0.0f || r.y != 0.0f || r.z != 0.0f)) fail("SH beyond the degree");
     }
     if (g.id != gauss::GaussianId{i} || g.object != gauss::kNoObject) fail("ids are not the index");

@@ -17,12 +17,13 @@
 
 namespace {
 
+using gauss::finite3;
+
 [[noreturn]] void fail(const char* what) {
   std::fprintf(stderr, "fuzz_splat_file invariant violated: %s\n", what);
   std::abort();
 }
 
-bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 void check_scene(const gauss::SplatScene& s) {
   const gauss::GaussianCloud& c = s.cloud;
@@ -32,14 +33,14 @@ void check_scene(const gauss::SplatScene& s) {
   const int rest = gauss::sh_rest_count(c.sh_degree);
   for (std::size_t i = 0; i < c.gaussians.size(); ++i) {
     const gauss::Gaussian& g = c.gaussians[i];
-    if (!finite(g.position) || !finite(g.log_scale) || !finite(g.sh_dc) || !std::isfinite(g.opacity_logit))
+    if (!finite3(g.position) || !finite3(g.log_scale) || !finite3(g.sh_dc) || !std::isfinite(g.opacity_logit))
       fail("a non-finite value reached the cloud");
     const glm::vec4 q = g.rotation;
     const double n2 = double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] + double(q[3]) * q[3];
     if (!(std::abs(n2 - 1.0) <= 1e-5)) fail("a quaternion is not unit");
     for (int k = 0; k < gauss::kMaxShRest; ++k) {
       const glm::vec3& r = g.sh_rest[static_cast<std::size_t>(k)];
-      if (!finite(r)) fail("a non-finite SH coefficient");
+      if (!finite3(r)) fail("a non-finite SH coefficient");
       if (k >= rest && r != glm::vec3(0.0f)) fail("SH beyond the degree");
     }
     if (!s.report.has_gaussian_id && g.id != gauss::GaussianId{i}) fail("ids are not the index");

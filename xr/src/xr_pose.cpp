@@ -4,13 +4,14 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "gauss/engine/gaussian.h"
+
 namespace gauss::xr {
 namespace {
 
 // OpenXR view axes -> OpenCV camera axes: x stays, y and z flip.
 const glm::dmat4 kCvFromXrView = glm::scale(glm::dmat4(1.0), glm::dvec3(1.0, -1.0, -1.0));
 
-bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 }  // namespace
 
@@ -18,7 +19,7 @@ bool eye_camera(const XrPose& pose, const XrFov& fov, std::uint32_t width, std::
                 const glm::dmat4& T_scene_space, Camera& out_camera) {
   const glm::dquat& q = pose.orientation;
   const double qn = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
-  if (!finite(pose.position) || !std::isfinite(qn) || qn < 1e-9 || width == 0 || height == 0) return false;
+  if (!finite3(pose.position) || !std::isfinite(qn) || qn < 1e-9 || width == 0 || height == 0) return false;
   constexpr double kMaxHalfAngle = 1.5707963267948966 - 1e-6;
   if (!(fov.angle_right > fov.angle_left) || !(fov.angle_up > fov.angle_down) ||
       std::abs(fov.angle_left) >= kMaxHalfAngle || std::abs(fov.angle_right) >= kMaxHalfAngle ||

@@ -12,8 +12,6 @@
 namespace gauss {
 namespace {
 
-bool finite(const glm::vec3& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
-bool finite(const glm::dvec3& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
 
 double opacity_weight(float logit) {
   if (std::isnan(logit)) return 0.0;
@@ -86,7 +84,7 @@ RobustBounds robust_bounds(std::span<const Gaussian> gaussians, BoundsWeighting 
   if (weighting == BoundsWeighting::Opacity) w.reserve(gaussians.size());
   double total = 0.0;
   for (const Gaussian& g : gaussians) {
-    if (!finite(g.position)) continue;
+    if (!finite3(g.position)) continue;
     ps.push_back(g.position);
     if (weighting == BoundsWeighting::Opacity) {
       w.push_back(opacity_weight(g.opacity_logit));
@@ -124,7 +122,7 @@ Framing frame_preset(const glm::dvec3& lo_in, const glm::dvec3& hi_in, const glm
   const double up_len = glm::length(up_in);
   fr.up = std::isfinite(up_len) && up_len > 1e-12 ? up_in / up_len : glm::dvec3(0.0, 1.0, 0.0);
   glm::dvec3 lo = glm::min(lo_in, hi_in), hi = glm::max(lo_in, hi_in);
-  if (!finite(lo) || !finite(hi)) lo = glm::dvec3(-1.0), hi = glm::dvec3(1.0);
+  if (!finite3(lo) || !finite3(hi)) lo = glm::dvec3(-1.0), hi = glm::dvec3(1.0);
   const glm::dvec3 centre = 0.5 * (lo + hi);
   glm::dvec3 half = 0.5 * (hi - lo);
   const double largest = std::max({half.x, half.y, half.z});

@@ -14,7 +14,6 @@
 namespace gauss::scene {
 namespace {
 
-
 // A furniture item's own frame: origin on the floor (or a support), turned by yaw about y.
 struct Frame {
   glm::vec3 origin{0.0f};

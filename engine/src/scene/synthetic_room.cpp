@@ -12,7 +12,6 @@
 namespace gauss::scene {
 namespace {
 
-
 // Rotation about +y by yaw (local -> world) and its inverse.
 glm::vec3 rot_y(const glm::vec3& v, float yaw) {
   const float c = std::cos(yaw), s = std::sin(yaw);

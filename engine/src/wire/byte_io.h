@@ -14,6 +14,7 @@
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
+#include "gauss/engine/gaussian.h"
 #include "gauss/engine/result.h"
 
 namespace gauss::wire::detail {
@@ -164,7 +165,7 @@ class Reader {
 inline Error field_error(const char* message, const std::string& field, const std::string& what) {
   return Error{std::string(message) + ": field '" + field + "': " + what};
 }
-inline bool finite3(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+using gauss::finite3;
 inline bool finite4(const glm::vec4& v) { return finite3(glm::vec3(v)) && std::isfinite(v.w); }
 
 }  // namespace gauss::wire::detail

@@ -11,7 +11,6 @@
 namespace gauss::render {
 namespace {
 
-bool finite3(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 // Standard rotation matrix of the unit quaternion (w, x, y, z), stored column-major.
 glm::dmat3 rotation_matrix(const glm::vec4& q) {

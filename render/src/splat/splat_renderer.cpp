@@ -37,18 +37,28 @@ SplatRenderer::Impl::~Impl() {
       if (view.passes != VK_NULL_HANDLE) vkFreeCommandBuffers(context->device(), context->command_pool(), 1, &view.passes);
 }
 
+namespace {
+
+// One of the renderer's buffers (at least 16 bytes: Vulkan takes no empty buffer), named for
+// validation messages and errors.
+Status make_buffer(vk::Context& context, vk::Buffer& out, std::uint64_t bytes, std::string name,
+                   VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                   vk::MemoryUsage memory = vk::MemoryUsage::DeviceLocal) {
+  auto b = vk::Buffer::create(context, {.size = std::max<std::uint64_t>(bytes, 16), .usage = usage, .memory = memory,
+                                        .name = std::move(name)});
+  if (!b) return Error{"SplatRenderer: " + b.message()};
+  out = std::move(*b);
+  return Ok{};
+}
+
+}  // namespace
+
 Status SplatRenderer::Impl::make_scratch(ViewScratch& s, const char* what) {
   const std::uint64_t sort_items = std::max<std::uint64_t>(info.capacity, info.max_pairs);
   const std::uint64_t max_tiles = std::uint64_t{render::tile_count(info.max_width)} * render::tile_count(info.max_height);
   ViewScratch made;
-  auto make = [&](vk::Buffer& out, std::uint64_t bytes, const char* name) -> Status {
-    auto b = vk::Buffer::create(*context, {.size = std::max<std::uint64_t>(bytes, 16),
-                                           .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                                           .memory = vk::MemoryUsage::DeviceLocal,
-                                           .name = std::string(name) + what});
-    if (!b) return Error{"SplatRenderer: " + b.message()};
-    out = std::move(*b);
-    return Ok{};
+  auto make = [&](vk::Buffer& out, std::uint64_t bytes, const char* name) {
+    return make_buffer(*context, out, bytes, std::string(name) + what);
   };
   for (std::uint32_t c = 0; c < plan.slot_chunks; ++c) {
     const std::uint64_t first = std::uint64_t{c} * plan.chunk_slots;
@@ -123,29 +133,20 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
     impl->keep_views_apart("the device-local heap of " + vk::format_bytes(plan->heap_bytes) + " cannot also hold " +
                            vk::format_bytes(plan->second_view_bytes) + " of second-view scratch");
   const std::uint64_t max_tiles = std::uint64_t{render::tile_count(info.max_width)} * render::tile_count(info.max_height);
-  auto make = [&](vk::Buffer& out, std::uint64_t bytes, const char* name, VkBufferUsageFlags usage,
-                  vk::MemoryUsage memory) -> Status {
-    auto b = vk::Buffer::create(context, {.size = std::max<std::uint64_t>(bytes, 16), .usage = usage, .memory = memory,
-                                          .name = name});
-    if (!b) return Error{"SplatRenderer: " + b.message()};
-    out = std::move(*b);
-    return Ok{};
-  };
-  constexpr auto SSBO = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
-  constexpr auto Dev = vk::MemoryUsage::DeviceLocal;
-  if (auto st = make(impl->highlight, std::uint64_t{kMaxHighlightObjects} * 4, "highlight object ids", SSBO, Dev); !st)
+  if (auto st = make_buffer(context, impl->highlight, std::uint64_t{kMaxHighlightObjects} * 4, "highlight object ids"); !st)
     return st.error();
   for (std::uint32_t v = 0; v < 2; ++v)
-    if (auto st = make(impl->targets[v].ranges, max_tiles * 8, "splat tile ranges", SSBO, Dev); !st) return st.error();
+    if (auto st = make_buffer(context, impl->targets[v].ranges, max_tiles * 8, "splat tile ranges"); !st) return st.error();
   impl->frame_slots.resize(info.frames_in_flight);
   for (FrameSlot& f : impl->frame_slots) {
     for (FrameViewResources& view : f.views) {
-      if (auto st = make(view.view_ubo, sizeof(gpu::GpuView), "splat view constants", VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
-                         vk::MemoryUsage::HostVisibleNearGpu);
+      if (auto st = make_buffer(context, view.view_ubo, sizeof(gpu::GpuView), "splat view constants",
+                                VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, vk::MemoryUsage::HostVisibleNearGpu);
           !st)
         return st.error();
-      if (auto st = make(view.counters, gpu::SPLAT_COUNTER_WORDS * 4, "splat counters",
-                         SSBO | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, vk::MemoryUsage::HostVisibleNearGpu);
+      if (auto st = make_buffer(context, view.counters, gpu::SPLAT_COUNTER_WORDS * 4, "splat counters",
+                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT,
+                                vk::MemoryUsage::HostVisibleNearGpu);
           !st)
         return st.error();
       auto ts = vk::TimestampQueries::create(context, kViewTimestamps);

@@ -37,10 +37,14 @@ struct Gaussian {
   bool carrier{false};  // upstream semantic carrier: never counts as appearance residency
 };
 
+// Whether every component of a 3-vector (float or double) is finite.
+template <typename T, glm::qualifier Q>
+bool finite3(const glm::vec<3, T, Q>& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
 // Field-wise equality of everything but the id: "the same value" (a bit-identical modify is
 // no change). Not memcmp: Gaussian has padding.
-inline bool finite3(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
-
 inline bool same_value(const Gaussian& a, const Gaussian& b) {
   return a.position == b.position && a.log_scale == b.log_scale && a.rotation == b.rotation &&
          a.opacity_logit == b.opacity_logit && a.sh_dc == b.sh_dc && a.sh_rest == b.sh_rest &&
