@@ -181,7 +181,9 @@ void write_objects_json(const gauss::SceneStore& store, const fs::path& objects)
 }
 
 // Whether every number in `j` is finite and not negative (the timing figures: times, counts).
+// A null counts as not finite: the report's JSON writes a NaN or an infinity as null.
 bool all_finite_and_non_negative(const nlohmann::json& j, std::string& where) {
+  if (j.is_null()) return false;
   if (j.is_number()) return std::isfinite(j.get<double>()) && j.get<double>() >= 0.0;
   if (j.is_object() || j.is_array()) {
     for (auto it = j.begin(); it != j.end(); ++it)
