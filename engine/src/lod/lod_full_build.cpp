@@ -87,9 +87,7 @@ Expected<LodUpdateReport> LodHierarchy::build_from_empty(std::span<const Gaussia
     if (id & kLodInteriorIdBit)
       return fail("LodHierarchy: Gaussian id " + id_text(id) + " has the top bit set (reserved for interior nodes)");
     if (leaf_index_.find(id)) return fail("LodHierarchy: Gaussian id " + id_text(id) + " is given twice");
-    const lod_detail::LeafFieldRefs fields{g.position, g.log_scale, g.rotation, g.opacity_logit,
-                                          g.sh_dc,    g.sh_rest.data(), g.object, g.support};
-    if (lod_detail::leaf_moments_of(fields, rest_count_, config_.merge, nullptr, nullptr) != LodLeafStatus::Usable) {
+    if (lod_detail::leaf_status(g, rest_count_, config_.merge) != LodLeafStatus::Usable) {
       leaf_index_.set(id, kPendingLeaf);  // still a duplicate if it comes again
       skipped.push_back(id);
       continue;

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "lod_internal.h"
+#include "lod_leaf_moments.h"
 
 namespace gauss {
 
@@ -290,11 +291,7 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
   // --- 2. Leaves: classify, store, and note each change's old and new cells. ---------------
   LodUpdateReport report;
   std::vector<LodLeafStatus> status(upserts.size());
-  {
-    LodMoments m;
-    std::vector<glm::dvec3> rest(std::size_t(rest_count_) + 1);
-    for (std::size_t i = 0; i < upserts.size(); ++i) status[i] = leaf_moments(*upserts[i], sh_degree_, config_.merge, m, rest);
-  }
+  for (std::size_t i = 0; i < upserts.size(); ++i) status[i] = lod_detail::leaf_status(*upserts[i], rest_count_, config_.merge);
   if (!cube_set_) {
     glm::dvec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
     for (std::size_t i = 0; i < upserts.size(); ++i)

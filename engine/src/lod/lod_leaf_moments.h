@@ -8,6 +8,7 @@
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
+#include "gauss/engine/gaussian.h"
 #include "gauss/engine/ids.h"
 #include "gauss/engine/lod_merge.h"
 
@@ -29,5 +30,13 @@ struct LeafFieldRefs {
 // `out` and `rest_out` (rest_count triples) are written when Usable.
 LodLeafStatus leaf_moments_of(const LeafFieldRefs& leaf, int rest_count, const LodMergeConfig& config,
                               LodMoments* out, glm::dvec3* rest_out);
+
+// Whether `g` may enter a merge (leaf_moments' status) without computing its moments: what an
+// update asks of every Gaussian it is given before storing it as a leaf.
+inline LodLeafStatus leaf_status(const Gaussian& g, int rest_count, const LodMergeConfig& config) {
+  const LeafFieldRefs fields{g.position, g.log_scale, g.rotation, g.opacity_logit,
+                             g.sh_dc,    g.sh_rest.data(), g.object, g.support};
+  return leaf_moments_of(fields, rest_count, config, nullptr, nullptr);
+}
 
 }  // namespace gauss::lod_detail

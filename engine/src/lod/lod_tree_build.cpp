@@ -60,6 +60,7 @@ std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> item
       const LodNode& c = nodes_[candidate];
       const auto old_kids = std::span<const std::uint32_t>(children_).subspan(c.first_child, c.child_count);
       warm_kids(old_kids);  // mostly the leaves merged below: read once, together
+      warm_interior(c.data);
       for (std::uint32_t kid : old_kids) retire_subtree(b, kid);
     } else {
       retire_subtree(b, candidate);
@@ -102,6 +103,7 @@ std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> item
   if (here) {
     const LodNode& c = nodes_[candidate];
     warm_kids(std::span<const std::uint32_t>(children_).subspan(c.first_child, c.child_count));
+    warm_interior(c.data);
     for (std::uint32_t i = 0; i < c.child_count; ++i) {
       const std::uint32_t child = children_[c.first_child + i];
       if (candidate_of(nodes_, child) && keys_[nodes_[child].data].tree == b.tree) cands[octant_of(child)] = child;
@@ -163,10 +165,30 @@ void LodHierarchy::warm_kids(std::span<const std::uint32_t> kids) const {
   const std::size_t rc = std::size_t(rest_count_);
   for (std::uint32_t kid : kids) {
     const LodNode& k = nodes_[kid];
-    if (!k.leaf) continue;
+    if (!k.leaf) {  // an interior child: its key (the descent reads it) and its moments (the merge)
+      acc += keys_[k.data].level;
+      const auto* m = reinterpret_cast<const unsigned char*>(&moments_[k.data]);
+      for (std::size_t at = 0; at < sizeof(LodMoments); at += 64) acc += m[at];
+      continue;
+    }
     acc += leaf_fields_[k.data].support;
     if (rc > 0) acc += std::bit_cast<std::uint32_t>(leaf_rest_[std::size_t(k.data) * rc].x);
   }
+  lod_detail::keep(acc);
+}
+
+void LodHierarchy::warm_interior(std::uint32_t slot) const {
+  // Every cache line of the slot's moments and record: a remerge reads both before it writes
+  // them, and one by one each was a miss the merge waited for (a recolouring's remerges
+  // spent a fifth of their time in the copy of the old record).
+  std::uint32_t acc = 0;
+  auto lines = [&](const void* p, std::size_t bytes) {
+    const auto* c = static_cast<const unsigned char*>(p);
+    for (std::size_t at = 0; at < bytes; at += 64) acc += c[at];
+    acc += c[bytes - 1];
+  };
+  lines(&moments_[slot], sizeof(LodMoments));
+  lines(&records_[slot], sizeof(Gaussian));
   lod_detail::keep(acc);
 }
 
@@ -318,6 +340,7 @@ void LodHierarchy::remerge_ancestors(std::span<const std::uint32_t> changed, Lod
       for (std::size_t j = k; j < std::min(above.size(), k + kBatch); ++j) {
         const LodNode& w = nodes_[std::uint32_t(above[j])];
         warm_kids(std::span<const std::uint32_t>(children_).subspan(w.first_child, w.child_count));
+        warm_interior(w.data);
       }
     const auto node = std::uint32_t(above[k]);
     const LodNode& n = nodes_[node];

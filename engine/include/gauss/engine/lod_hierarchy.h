@@ -252,6 +252,7 @@ class LodHierarchy {
   void node_moments(std::uint32_t node, LodMoments& m, std::span<glm::dvec3> rest) const;
   void warm_leaves(std::span<const Entry> items) const;
   void warm_kids(std::span<const std::uint32_t> kids) const;
+  void warm_interior(std::uint32_t slot) const;
   void leaf_slot_moments(std::uint32_t slot, LodMoments& m, glm::dvec3* rest) const;
 
   LodConfig config_;
