@@ -107,16 +107,22 @@ Checked check(const vk::Context& context, const SplatRendererCreateInfo& info) {
   p.bytes_per_slot = wide.sum() + kNarrowBytesPerSlot;
   const std::uint64_t max_tiles = std::uint64_t{tile_count(info.max_width)} * tile_count(info.max_height);
   const std::uint64_t pixels = std::uint64_t{info.max_width} * info.max_height;
-  const std::uint64_t hist = radix_histogram_bytes(sort_items);
-  // Sort keys and values (two each), the radix histogram, tile depth, output pixels,
+  ViewScratchBytes& vs = p.view_scratch;
+  vs.projected_per_slot = wide.projected;
+  vs.tile_counts = cap * 4;
+  vs.offsets = cap * 4;
+  vs.sort_buffer = sort_bytes;
+  vs.histogram = radix_histogram_bytes(sort_items);
+  vs.tile_depth = max_tiles * 4;
+  vs.output = pixels * 4;
+  // bytes_per_slot holds the scratch's per-slot arrays (projected, tile counts, offsets);
+  // beside them the scratch's sort buffers, histogram, tile depth and output pixels,
   // highlight ids, two views' tile ranges and targets (RGBA8 + D32), per-frame constants.
-  const std::uint64_t fixed = 4 * sort_bytes + hist + max_tiles * 4 + pixels * 4 + kMaxHighlightObjects * 4 +
+  const std::uint64_t fixed = 4 * vs.sort_buffer + vs.histogram + vs.tile_depth + vs.output + kMaxHighlightObjects * 4 +
                               2 * max_tiles * 8 + 2 * pixels * 8 +
                               std::uint64_t{info.frames_in_flight} * 2 * (sizeof(gpu::GpuView) + gpu::SPLAT_COUNTER_WORDS * 4);
   p.total_bytes = p.bytes_per_slot * cap + fixed;
-  // A view's scratch: projected splats, tile counts and offsets per slot, the sort buffers
-  // and histogram, tile depth and output pixels (SplatRenderer::Impl::make_scratch).
-  p.second_view_bytes = cap * (wide.projected + 8) + 4 * sort_bytes + hist + max_tiles * 4 + pixels * 4;
+  p.second_view_bytes = vs.total(cap);
 
   if (chunks > kMaxSlotChunks) {
     out.problem = with_commas(cap) + " slots need " + std::to_string(chunks) + " storage bindings of " + with_commas(p.chunk_slots) +

@@ -54,8 +54,7 @@ Status make_buffer(vk::Context& context, vk::Buffer& out, std::uint64_t bytes, s
 }  // namespace
 
 Status SplatRenderer::Impl::make_scratch(ViewScratch& s, const char* what) {
-  const std::uint64_t sort_items = std::max<std::uint64_t>(info.capacity, info.max_pairs);
-  const std::uint64_t max_tiles = std::uint64_t{render::tile_count(info.max_width)} * render::tile_count(info.max_height);
+  const ViewScratchBytes& sizes = plan.view_scratch;  // what the plan counted
   ViewScratch made;
   auto make = [&](vk::Buffer& out, std::uint64_t bytes, const char* name) {
     return make_buffer(*context, out, bytes, std::string(name) + what);
@@ -63,7 +62,7 @@ Status SplatRenderer::Impl::make_scratch(ViewScratch& s, const char* what) {
   for (std::uint32_t c = 0; c < plan.slot_chunks; ++c) {
     const std::uint64_t first = std::uint64_t{c} * plan.chunk_slots;
     const std::uint64_t n = std::min<std::uint64_t>(info.capacity - first, plan.chunk_slots);
-    if (auto st = make(made.projected.emplace_back(), n * sizeof(gpu::GpuProjected),
+    if (auto st = make(made.projected.emplace_back(), n * sizes.projected_per_slot,
                        plan.slot_chunks > 1 ? "splat projected chunk" : "splat projected");
         !st)
       return st;
@@ -73,15 +72,15 @@ Status SplatRenderer::Impl::make_scratch(ViewScratch& s, const char* what) {
     std::uint64_t bytes;
     const char* name;
   } reqs[] = {
-      {&made.tile_count, std::uint64_t{info.capacity} * 4, "splat tile counts"},
-      {&made.offsets, std::uint64_t{info.capacity} * 4, "splat offsets"},
-      {&made.keys[0], sort_items * 4, "sort keys A"},
-      {&made.keys[1], sort_items * 4, "sort keys B"},
-      {&made.vals[0], sort_items * 4, "sort values A"},
-      {&made.vals[1], sort_items * 4, "sort values B"},
-      {&made.hist, radix_histogram_bytes(sort_items), "radix histogram"},
-      {&made.tile_depth, max_tiles * 4, "tile max mesh depth"},
-      {&made.output, std::uint64_t{info.max_width} * info.max_height * 4, "splat output pixels"},
+      {&made.tile_count, sizes.tile_counts, "splat tile counts"},
+      {&made.offsets, sizes.offsets, "splat offsets"},
+      {&made.keys[0], sizes.sort_buffer, "sort keys A"},
+      {&made.keys[1], sizes.sort_buffer, "sort keys B"},
+      {&made.vals[0], sizes.sort_buffer, "sort values A"},
+      {&made.vals[1], sizes.sort_buffer, "sort values B"},
+      {&made.hist, sizes.histogram, "radix histogram"},
+      {&made.tile_depth, sizes.tile_depth, "tile max mesh depth"},
+      {&made.output, sizes.output, "splat output pixels"},
   };
   for (const auto& r : reqs)
     if (auto st = make(*r.out, r.bytes, r.name); !st) return st;

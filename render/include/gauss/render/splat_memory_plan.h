@@ -31,6 +31,23 @@ struct SplatRendererCreateInfo;
 // Most bindings one per-slot array is split over (splat_layout.h SPLAT_MAX_SLOT_CHUNKS).
 inline constexpr std::uint32_t kMaxSlotChunks = 4;
 
+// One view's scratch, as SplatRenderer allocates it (its ViewScratch) and the plan counts it:
+// projected splats (split like the other wide per-slot arrays), tile counts and offsets per
+// slot, two sort key and two sort value buffers, the radix histogram, tile depth and the
+// output pixels.
+struct ViewScratchBytes {
+  std::uint64_t projected_per_slot{0};
+  std::uint64_t tile_counts{0};
+  std::uint64_t offsets{0};
+  std::uint64_t sort_buffer{0};  // each of keys A, keys B, values A, values B
+  std::uint64_t histogram{0};
+  std::uint64_t tile_depth{0};
+  std::uint64_t output{0};
+  std::uint64_t total(std::uint64_t capacity) const {
+    return projected_per_slot * capacity + tile_counts + offsets + 4 * sort_buffer + histogram + tile_depth + output;
+  }
+};
+
 struct SplatMemoryPlan {
   std::uint32_t capacity{0};
   std::uint32_t max_pairs{0};     // max_pairs after the automatic choice
@@ -39,8 +56,11 @@ struct SplatMemoryPlan {
   std::uint64_t binding_range{0}; // bytes one binding may cover (device limit or the override)
   std::uint64_t bytes_per_slot{0};  // every buffer that grows with the capacity, per slot
   std::uint64_t total_bytes{0};     // every buffer and target the renderer makes
-  // The second view's scratch, made beside total_bytes at the first frame whose two views
-  // are recorded together (SplatPassProfile::views_together); never made otherwise.
+  // A view's scratch; total_bytes counts the first view's.
+  ViewScratchBytes view_scratch;
+  // The second view's scratch (view_scratch.total), made beside total_bytes at the first
+  // frame whose two views are recorded together (SplatPassProfile::views_together); never
+  // made otherwise.
   std::uint64_t second_view_bytes{0};
   std::uint64_t heap_bytes{0};      // the device-local heap
   std::uint64_t max_allocation{0};  // maxMemoryAllocationSize
