@@ -1,7 +1,8 @@
 // The LoD merge hierarchy (lod_hierarchy.h): every leaf once under the root, persistent interior
 // ids, incremental updates equal to a full build of the same leaves, edits confined to the
 // edited object's subtree and its ancestors, degenerate Gaussians left out. The timing test
-// prints build and update times (GAUSS_LOD_BENCH_N Gaussians, default 200k); it asserts none.
+// prints build and update times (GAUSS_LOD_BENCH_N Gaussians, default 200k, at SH degree GAUSS_LOD_BENCH_SH,
+// default 0); it asserts none.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -826,6 +827,16 @@ TEST(LodHierarchy, Timing) {
   if (const char* env = std::getenv("GAUSS_LOD_BENCH_N")) n = std::size_t(std::strtoull(env, nullptr, 10));
   const int objects = 98;  // objects ~1 % each: 100 shares, 2 of them background
   auto scene = random_scene(n, objects, 61);
+  // GAUSS_LOD_BENCH_SH (default 0): the scene's SH degree (real captures have 3), the rest
+  // coefficients drawn at random.
+  int sh_degree = 0;
+  if (const char* env = std::getenv("GAUSS_LOD_BENCH_SH")) sh_degree = std::clamp(std::atoi(env), 0, kMaxShDegree);
+  {
+    Rng sh_rng{62};
+    for (Gaussian& g : scene)
+      for (int k = 0; k < sh_rest_count(sh_degree); ++k)
+        g.sh_rest[std::size_t(k)] = {sh_rng.uniform(-0.2f, 0.2f), sh_rng.uniform(-0.2f, 0.2f), sh_rng.uniform(-0.2f, 0.2f)};
+  }
   // Wall and thread CPU time: the CPU time stays honest on a machine shared with builds.
   struct Stamp {
     std::chrono::steady_clock::time_point wall;
@@ -852,7 +863,7 @@ TEST(LodHierarchy, Timing) {
   for (int r = 0; r < rounds; ++r) {
     h = Error{"not built"};  // the last build's pools go back first
     const Stamp t0 = now();
-    h = LodHierarchy::build(scene, 0);
+    h = LodHierarchy::build(scene, sh_degree);
     double cpu = 0.0;
     build_walls.push_back(since(t0, cpu));
     build_cpus.push_back(cpu);
@@ -875,8 +886,8 @@ TEST(LodHierarchy, Timing) {
     ASSERT_TRUE(r.ok());
     report(what, wall, cpu, *r);
   };
-  std::printf("LoD hierarchy, %zu Gaussians: full build wall %.1f ms, cpu %.1f ms; %zu interior nodes, height %u\n", n,
-              build_ms, build_cpu, h->interior_count(), unsigned(h->node(h->root()).height));
+  std::printf("LoD hierarchy, %zu Gaussians at SH %d: full build wall %.1f ms, cpu %.1f ms; %zu interior nodes, height %u\n", n,
+              sh_degree, build_ms, build_cpu, h->interior_count(), unsigned(h->node(h->root()).height));
   time_update("unchanged epoch (update)", scene);
   for (Gaussian& g : scene)
     if (g.object == ObjectId{3 * 10 + 1}) g.position += glm::vec3(0.01f, 0.0f, -0.01f);

@@ -29,6 +29,14 @@ namespace {
 bool candidate_of(std::span<const LodNode> nodes, std::uint32_t n) {
   return n != kNoLodNode && n < nodes.size() && nodes[n].live && !nodes[n].leaf;
 }
+
+// Adds a byte of every cache line of [p, p + bytes), bytes > 0, to `acc`: loads issued back
+// to back, so that their misses overlap (see warm_leaves).
+void touch_lines(const void* p, std::size_t bytes, std::uint32_t& acc) {
+  const auto* c = static_cast<const unsigned char*>(p);
+  for (std::size_t at = 0; at < bytes; at += 64) acc += c[at];
+  acc += c[bytes - 1];
+}
 }  // namespace
 
 std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> items, int level,
@@ -169,10 +177,11 @@ void LodHierarchy::warm_kids(std::span<const std::uint32_t> kids) const {
       acc += keys_[k.data].level;
       const auto* m = reinterpret_cast<const unsigned char*>(&moments_[k.data]);
       for (std::size_t at = 0; at < sizeof(LodMoments); at += 64) acc += m[at];
+      if (rc > 0) touch_lines(moments_rest_.data() + std::size_t(k.data) * rc, rc * sizeof(glm::dvec3), acc);
       continue;
     }
     acc += leaf_fields_[k.data].support;
-    if (rc > 0) acc += std::bit_cast<std::uint32_t>(leaf_rest_[std::size_t(k.data) * rc].x);
+    if (rc > 0) touch_lines(leaf_rest_.data() + std::size_t(k.data) * rc, rc * sizeof(glm::vec3), acc);
   }
   lod_detail::keep(acc);
 }
@@ -182,13 +191,11 @@ void LodHierarchy::warm_interior(std::uint32_t slot) const {
   // them, and one by one each was a miss the merge waited for (a recolouring's remerges
   // spent a fifth of their time in the copy of the old record).
   std::uint32_t acc = 0;
-  auto lines = [&](const void* p, std::size_t bytes) {
-    const auto* c = static_cast<const unsigned char*>(p);
-    for (std::size_t at = 0; at < bytes; at += 64) acc += c[at];
-    acc += c[bytes - 1];
-  };
-  lines(&moments_[slot], sizeof(LodMoments));
-  lines(&records_[slot], sizeof(Gaussian));
+  touch_lines(&moments_[slot], sizeof(LodMoments), acc);
+  if (rest_count_ > 0)
+    touch_lines(moments_rest_.data() + std::size_t(slot) * std::size_t(rest_count_),
+                std::size_t(rest_count_) * sizeof(glm::dvec3), acc);
+  touch_lines(&records_[slot], sizeof(Gaussian), acc);
   lod_detail::keep(acc);
 }
 
