@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <mutex>
 #include <span>
 #include <thread>
@@ -213,6 +214,12 @@ GuessCounts guess_until(std::uint16_t port, int octet, Clock::time_point until) 
 }
 
 TEST(HostileClients, WrongProofsAreAnsweredAHandfulOfTimesPerAddressIn20s) {
+  // GAUSS_HOSTILE_GUESS_SECONDS=S guesses for S seconds instead of 20 (2..20; the sanitizer
+  // pass of scripts/test runs 8: the flood's host side under ASan is what it is there for,
+  // and the bounds below, set for 20 s, hold for any shorter run).
+  auto window = 20s;
+  if (const char* env = std::getenv("GAUSS_HOSTILE_GUESS_SECONDS"); env && *env)
+    window = std::chrono::seconds(std::clamp(std::atoi(env), 2, 20));
   LogCapture log;
   auto cfg = host_config(log);
   cfg.access_token = "correct horse battery staple";
@@ -221,17 +228,18 @@ TEST(HostileClients, WrongProofsAreAnsweredAHandfulOfTimesPerAddressIn20s) {
   ASSERT_TRUE(host.ok()) << host.message();
   const auto t0 = Clock::now();
   GuessCounts guessed;
-  std::thread guesser([&] { guessed = guess_until((*host)->port(), 2, t0 + 20s); });
+  std::thread guesser([&] { guessed = guess_until((*host)->port(), 2, t0 + window); });
   // Meanwhile a client with the token, on another address, gets in.
   std::this_thread::sleep_for(2s);
   const double legit = seconds_to_connect(**host, "legit", 5s, cfg.access_token);
   guesser.join();
   const auto c = (*host)->counters();
-  std::printf("20 s of guessing: %d attempts, %d challenged, %d refused; legitimate client in %.3f s; %s\n",
-              guessed.attempts, guessed.challenged, guessed.refused, legit, dump(c).c_str());
+  std::printf("%lld s of guessing: %d attempts, %d challenged, %d refused; legitimate client in %.3f s; %s\n",
+              static_cast<long long>(window.count()), guessed.attempts, guessed.challenged, guessed.refused, legit,
+              dump(c).c_str());
   EXPECT_GE(legit, 0.0);
   EXPECT_GT(guessed.attempts, 50) << "the guesser did try";
-  EXPECT_LE(c.refused_token, 6u) << "wrong proofs checked in 20 s from one address";
+  EXPECT_LE(c.refused_token, 6u) << "wrong proofs checked from one address in " << window.count() << " s";
   EXPECT_LE(guessed.challenged, 6);
   EXPECT_GT(c.refused_backoff, 40u);
   host->reset();
