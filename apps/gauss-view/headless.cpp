@@ -17,6 +17,7 @@
 #include "gauss/engine/image_io.h"
 #include "gauss/render/splat_math.h"
 #include "default_view.h"
+#include "fly_camera.h"
 #include "status_line.h"
 #include "percentile.h"
 #include "headless_report.h"
@@ -57,6 +58,26 @@ client::CameraPath default_camera_path(const Framing& fr, const client::CameraIn
 }
 
 json vec_json(const glm::dvec3& v) { return json::array({v.x, v.y, v.z}); }
+
+// The scene box a host describes its scene with (the codec's), once its SceneInfo has come;
+// an error when the host refuses the client or sends nothing within `limit_s`.
+Expected<CodecBox> wait_for_stream_box(client::ClientRuntime& rt, const std::string& host, double limit_s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  for (;;) {
+    const auto box = rt.with_state([](const ClientState& s) -> std::optional<CodecBox> {
+      if (!s.codec()) return std::nullopt;
+      return s.codec()->box;
+    });
+    if (box) return *box;
+    const client::ConnectionInfo conn = rt.connection();
+    if (conn.status == net::ClientStatus::Refused) return Error{conn.counters.last_rejection};
+    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > limit_s)
+      return Error{"no scene from " + host + " within " + std::to_string(static_cast<int>(std::ceil(limit_s))) +
+                   " s (--settle-timeout), so there is nothing to frame; is gauss-host running there? (--path flies "
+                   "a camera path regardless)"};
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
 
 json epoch_json(const std::optional<Epoch>& e) { return e ? json(to_underlying(*e)) : json(nullptr); }
 
@@ -181,8 +202,29 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
   ViewSource& src = **source;
   client::ClientRuntime* rt = src.runtime();
   json default_camera = nullptr;
-  if (!path) {
-    // options.cpp lets only a local scene through without --path; it always has bounds.
+  if (!path && rt) {
+    // A stream has no bounds until the host describes its scene: the camera is the window's
+    // first view of the scene box the host sends (FlyCamera::frame_room), held still.
+    auto box = wait_for_stream_box(*rt, src.describe(), opts.settle_timeout_s);
+    if (!box) {
+      std::fprintf(stderr, "gauss-view: %s\n", box.message().c_str());
+      return 1;
+    }
+    FlyCamera camera;
+    camera.frame_room(glm::dvec3(box->min), glm::dvec3(box->max));
+    Framing framing;
+    framing.eye = camera.pose().position;
+    framing.target = framing.eye + camera.forward();
+    framing.up = camera.up();
+    path = default_camera_path(framing, in);
+    default_camera = json{{"bounds", {{"lo", vec_json(glm::dvec3(box->min))}, {"hi", vec_json(glm::dvec3(box->max))}}},
+                          {"stream_box", true},
+                          {"up", vec_json(framing.up)},
+                          {"up_from", "the window's first view of a stream"},
+                          {"eye", vec_json(framing.eye)},
+                          {"target", vec_json(framing.target)}};
+  } else if (!path) {
+    // A local scene always has bounds.
     const auto framing = default_framing(src, src.up().up, opts.fov_deg, in.width, in.height, opts.view);
     if (!framing) {
       std::fprintf(stderr, "gauss-view: %s has no bounds to frame; give --path\n", src.describe().c_str());
@@ -213,7 +255,9 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
   }
   FrameLog log(jsonl);
   char flown[512];
-  if (opts.path.empty())
+  if (opts.path.empty() && rt)
+    std::snprintf(flown, sizeof flown, "the window's first view of the host's scene box, held");
+  else if (opts.path.empty())
     std::snprintf(flown, sizeof flown, "its default camera (up %s, %s) for %u frames", up_label(src.up().up).c_str(),
                   src.up().detail.c_str(), kDefaultCameraFrames);
   else

@@ -38,7 +38,9 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
       "scene file on the window to open it, P writes a screenshot); --headless\n"
       "flies a camera path file and writes PNG frames plus one JSON line per frame instead (a\n"
       "scene without --path: a few frames from its default camera, which frames the scene's\n"
-      "opacity-weighted 2nd..98th percentile box from outside, upright for --up).",
+      "opacity-weighted 2nd..98th percentile box from outside, upright for --up; a host without\n"
+      "--path: the window's first view of the scene box the host sends, held until the stream\n"
+      "settles).",
       "gauss-view"};
   apps::configure(app);
   std::string host, mode = o.mode == PublishMode::Immediate ? "immediate" : "progressive", size;
@@ -89,7 +91,8 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
   app.add_option("--device", o.device, "Vulkan device index or name substring");
 
   app.add_flag("--headless", o.headless,
-               "no window: fly --path (a scene without --path: a few frames from its default camera), write frames to --out");
+               "no window: fly --path (without it: a scene's default camera, or the window's first view of a "
+               "host's scene), write frames to --out");
   auto* path_opt = app.add_option("--path", o.path, "camera path JSON (see client/camera_path.h)")->check(CLI::ExistingFile);
   app.add_option("--out", o.out, "headless: folder for frames, frames.jsonl and summary.json");
   app.add_option("--every", o.every, "headless: write every Nth frame as PNG (0: only the final frame)");
@@ -121,12 +124,6 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
   if (auto rc = apps::parse(app, argc, argv)) return rc;
   if (host.empty() && o.scene.empty()) {
     std::fprintf(stderr, "gauss-view: give --host HOST:PORT or --scene FILE\nRun with --help for more information.\n");
-    return apps::kUsageError;
-  }
-  if (o.headless && o.path.empty() && !host.empty()) {
-    std::fprintf(stderr,
-                 "gauss-view: --headless --host needs --path FILE (a camera path; only a --scene has a default "
-                 "camera)\nRun with --help for more information.\n");
     return apps::kUsageError;
   }
   (void)path_opt;

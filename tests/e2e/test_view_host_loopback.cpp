@@ -10,6 +10,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -38,6 +39,22 @@ constexpr const char* kPath = R"({
 constexpr std::uint32_t kBudget = 3000;
 constexpr double kRho = 0.5;
 
+// gauss-host on a free loopback port (retried if another process took it meanwhile), dumping
+// what it sent each client into out/dump; its endpoint, empty when it could not start.
+std::string start_host(gauss::test::ChildProcess& host, const fs::path& out) {
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    const std::uint16_t port = gauss::test::free_udp_port();
+    if (port == 0) continue;
+    const std::string ep = "127.0.0.1:" + std::to_string(port);
+    if (!host.start({GAUSS_HOST_EXE, "--bind", ep, "--gaussians", "10000", "--epochs", "6", "--epoch-period", "0.2",
+                     "--duration", "400", "--dump-sent", (out / "dump").string(), "--quiet"},
+                    out / "host.log"))
+      return {};
+    if (!host.wait(700ms)) return ep;  // still running: it bound the port
+  }
+  return {};
+}
+
 
 TEST(ViewHostLoopback, ClientImageEqualsHostRenderOfTheSentSetAndTheQueryGetsItsShare) {
   const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "e2e_view_host_loopback";
@@ -45,18 +62,8 @@ TEST(ViewHostLoopback, ClientImageEqualsHostRenderOfTheSentSetAndTheQueryGetsIts
   fs::create_directories(out);
   std::ofstream(out / "path.json") << kPath;
 
-  // The host, on a free loopback port (retried if another process took it meanwhile).
   gauss::test::ChildProcess host;
-  std::string endpoint;
-  for (int attempt = 0; attempt < 3 && endpoint.empty(); ++attempt) {
-    const std::uint16_t port = gauss::test::free_udp_port();
-    ASSERT_NE(port, 0);
-    const std::string ep = "127.0.0.1:" + std::to_string(port);
-    ASSERT_TRUE(host.start({GAUSS_HOST_EXE, "--bind", ep, "--gaussians", "10000", "--epochs", "6", "--epoch-period",
-                            "0.2", "--duration", "400", "--dump-sent", (out / "dump").string(), "--quiet"},
-                           out / "host.log"));
-    if (!host.wait(700ms)) endpoint = ep;  // still running: it bound the port
-  }
+  const std::string endpoint = start_host(host, out);
   ASSERT_FALSE(endpoint.empty()) << read_text(out / "host.log");
 
   gauss::test::ChildProcess view;
@@ -85,6 +92,48 @@ TEST(ViewHostLoopback, ClientImageEqualsHostRenderOfTheSentSetAndTheQueryGetsIts
   const auto expected = std::min<std::uint64_t>(objects, static_cast<std::uint64_t>(std::floor(kRho * kBudget)));
   EXPECT_GT(expected, 0u);
   EXPECT_EQ(q["target_resident"].get<std::uint64_t>(), expected) << summary.dump(2);
+}
+
+// Without --path the client holds the window's first view of the scene box the host sent
+// (FlyCamera::frame_room), settles there, and its final frame is again the host's render of
+// what it sent.
+TEST(ViewHostLoopback, WithoutAPathTheClientHoldsTheWindowsFirstViewOfTheHostsBox) {
+  const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "e2e_view_host_loopback_no_path";
+  fs::remove_all(out);
+  fs::create_directories(out);
+  gauss::test::ChildProcess host;
+  const std::string endpoint = start_host(host, out);
+  ASSERT_FALSE(endpoint.empty()) << read_text(out / "host.log");
+
+  gauss::test::ChildProcess view;
+  ASSERT_TRUE(view.start({GAUSS_VIEW_EXE, "--headless", "--host", endpoint, "--out", (out / "view").string(), "--size",
+                          "320x240", "--budget", std::to_string(kBudget), "--every", "0", "--settle-timeout", "120",
+                          "--quiet-time", "5"},
+                         out / "view.log"));
+  const auto view_rc = view.wait(300s);
+  if (!view_rc) view.stop(SIGKILL);
+  ASSERT_TRUE(view_rc.has_value()) << "gauss-view did not finish in time:\n" << read_text(out / "view.log");
+  ASSERT_EQ(*view_rc, 0) << read_text(out / "view.log");
+  EXPECT_NE(read_text(out / "view.log").find("the window's first view of the host's scene box"), std::string::npos)
+      << read_text(out / "view.log");
+
+  const auto summary = nlohmann::json::parse(read_text(out / "view" / "summary.json"));
+  EXPECT_TRUE(summary["settled"].get<bool>());
+  EXPECT_EQ(summary["resident"].get<std::uint64_t>(), kBudget);
+  const auto& cam = summary["default_camera"];
+  ASSERT_TRUE(cam.is_object()) << summary.dump(2);
+  EXPECT_TRUE(cam["stream_box"].get<bool>());
+  // frame_room: from above a corner of the box, toward a point inside it.
+  const auto lo = cam["bounds"]["lo"].get<std::vector<double>>(), hi = cam["bounds"]["hi"].get<std::vector<double>>();
+  const auto eye = cam["eye"].get<std::vector<double>>(), target = cam["target"].get<std::vector<double>>();
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_LT(lo[a], hi[a]);
+    EXPECT_GE(eye[a], lo[a]);
+    EXPECT_LE(eye[a], hi[a]);
+  }
+  EXPECT_LT(target[1], eye[1]) << "it looks down into the room";
+
+  ASSERT_NO_FATAL_FAILURE(gauss::test::expect_client_frame_equals_host_render(host, out, out / "dump", "host.log"));
 }
 
 }  // namespace
