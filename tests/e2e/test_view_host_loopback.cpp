@@ -18,6 +18,7 @@
 #include "child_process.h"
 #include "e2e_support.h"
 #include "gauss/engine/image_io.h"
+#include "test_data.h"
 
 namespace {
 
@@ -55,29 +56,33 @@ std::string start_host(gauss::test::ChildProcess& host, const fs::path& out) {
   return {};
 }
 
+// gauss-view with `args` (the program's name first) until it exits, which must be 0.
+void run_view_to_end(const std::vector<std::string>& args, const fs::path& out) {
+  gauss::test::ChildProcess view;
+  ASSERT_TRUE(view.start(args, out / "view.log"));
+  const auto view_rc = view.wait(300s);
+  if (!view_rc) view.stop(SIGKILL);
+  ASSERT_TRUE(view_rc.has_value()) << "gauss-view did not finish in time:\n" << read_text(out / "view.log");
+  ASSERT_EQ(*view_rc, 0) << read_text(out / "view.log");
+}
+
 
 TEST(ViewHostLoopback, ClientImageEqualsHostRenderOfTheSentSetAndTheQueryGetsItsShare) {
-  const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "e2e_view_host_loopback";
-  fs::remove_all(out);
-  fs::create_directories(out);
+  const fs::path out = gauss::test::fresh_output_dir("e2e_view_host_loopback");
   std::ofstream(out / "path.json") << kPath;
 
   gauss::test::ChildProcess host;
   const std::string endpoint = start_host(host, out);
   ASSERT_FALSE(endpoint.empty()) << read_text(out / "host.log");
 
-  gauss::test::ChildProcess view;
-  ASSERT_TRUE(view.start({GAUSS_VIEW_EXE, "--headless", "--host", endpoint, "--path", (out / "path.json").string(),
-                          "--out", (out / "view").string(), "--budget", std::to_string(kBudget), "--no-highlight",
-                          "--every", "10", "--settle-timeout", "120",
-                          // The host's surface epochs can be seconds apart on a loaded machine: a
-                          // client that settled between two would no longer match the host's dump.
-                          "--quiet-time", "5"},
-                         out / "view.log"));
-  const auto view_rc = view.wait(300s);
-  if (!view_rc) view.stop(SIGKILL);
-  ASSERT_TRUE(view_rc.has_value()) << "gauss-view did not finish in time:\n" << read_text(out / "view.log");
-  ASSERT_EQ(*view_rc, 0) << read_text(out / "view.log");
+  ASSERT_NO_FATAL_FAILURE(run_view_to_end(
+      {GAUSS_VIEW_EXE, "--headless", "--host", endpoint, "--path", (out / "path.json").string(), "--out",
+       (out / "view").string(), "--budget", std::to_string(kBudget), "--no-highlight", "--every", "10",
+       "--settle-timeout", "120",
+       // The host's surface epochs can be seconds apart on a loaded machine: a client that
+       // settled between two would no longer match the host's dump.
+       "--quiet-time", "5"},
+      out));
 
   ASSERT_NO_FATAL_FAILURE(gauss::test::expect_client_frame_equals_host_render(host, out, out / "dump", "host.log"));
 
@@ -98,22 +103,16 @@ TEST(ViewHostLoopback, ClientImageEqualsHostRenderOfTheSentSetAndTheQueryGetsIts
 // (FlyCamera::frame_room), settles there, and its final frame is again the host's render of
 // what it sent.
 TEST(ViewHostLoopback, WithoutAPathTheClientHoldsTheWindowsFirstViewOfTheHostsBox) {
-  const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "e2e_view_host_loopback_no_path";
-  fs::remove_all(out);
-  fs::create_directories(out);
+  const fs::path out = gauss::test::fresh_output_dir("e2e_view_host_loopback_no_path");
   gauss::test::ChildProcess host;
   const std::string endpoint = start_host(host, out);
   ASSERT_FALSE(endpoint.empty()) << read_text(out / "host.log");
 
-  gauss::test::ChildProcess view;
-  ASSERT_TRUE(view.start({GAUSS_VIEW_EXE, "--headless", "--host", endpoint, "--out", (out / "view").string(), "--size",
-                          "320x240", "--budget", std::to_string(kBudget), "--every", "0", "--settle-timeout", "120",
-                          "--quiet-time", "5"},
-                         out / "view.log"));
-  const auto view_rc = view.wait(300s);
-  if (!view_rc) view.stop(SIGKILL);
-  ASSERT_TRUE(view_rc.has_value()) << "gauss-view did not finish in time:\n" << read_text(out / "view.log");
-  ASSERT_EQ(*view_rc, 0) << read_text(out / "view.log");
+  ASSERT_NO_FATAL_FAILURE(run_view_to_end({GAUSS_VIEW_EXE, "--headless", "--host", endpoint, "--out",
+                                           (out / "view").string(), "--size", "320x240", "--budget",
+                                           std::to_string(kBudget), "--every", "0", "--settle-timeout", "120",
+                                           "--quiet-time", "5"},
+                                          out));
   EXPECT_NE(read_text(out / "view.log").find("the window's first view of the host's scene box"), std::string::npos)
       << read_text(out / "view.log");
 
