@@ -16,7 +16,6 @@ constexpr double kMaxSigmas = 2.0;
 constexpr double kMinOpacity = 0.5;
 constexpr double kMinScale = 1e-4;
 
-
 }  // namespace
 
 std::optional<RayHit> pick(const SlotTable& slots, const glm::dvec3& origin, const glm::dvec3& direction) {

@@ -66,7 +66,6 @@ void run_view_to_end(const std::vector<std::string>& args, const fs::path& out) 
   ASSERT_EQ(*view_rc, 0) << read_text(out / "view.log");
 }
 
-
 TEST(ViewHostLoopback, ClientImageEqualsHostRenderOfTheSentSetAndTheQueryGetsItsShare) {
   const fs::path out = gauss::test::fresh_output_dir("e2e_view_host_loopback");
   std::ofstream(out / "path.json") << kPath;

@@ -27,7 +27,6 @@ using gauss::finite3;
   std::abort();
 }
 
-
 void check(const gauss::Expected<gauss::SplatScene>& scene, const std::string& name) {
   if (!scene.ok()) {
     if (scene.message().rfind(name + ": ", 0) != 0) fail("rejection without the input's name");

@@ -24,7 +24,6 @@ using gauss::finite3;
   std::abort();
 }
 
-
 void check_scene(const gauss::SplatScene& s) {
   const gauss::GaussianCloud& c = s.cloud;
   if (s.report.count != c.gaussians.size()) fail("report count differs from the cloud");

@@ -12,7 +12,6 @@ namespace {
 // OpenXR view axes -> OpenCV camera axes: x stays, y and z flip.
 const glm::dmat4 kCvFromXrView = glm::scale(glm::dmat4(1.0), glm::dvec3(1.0, -1.0, -1.0));
 
-
 }  // namespace
 
 bool eye_camera(const XrPose& pose, const XrFov& fov, std::uint32_t width, std::uint32_t height,

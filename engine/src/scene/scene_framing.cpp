@@ -12,7 +12,6 @@
 namespace gauss {
 namespace {
 
-
 double opacity_weight(float logit) {
   if (std::isnan(logit)) return 0.0;
   return 1.0 / (1.0 + std::exp(-static_cast<double>(logit)));  // +inf -> 1, -inf -> 0

@@ -11,7 +11,6 @@
 namespace gauss::render {
 namespace {
 
-
 // Standard rotation matrix of the unit quaternion (w, x, y, z), stored column-major.
 glm::dmat3 rotation_matrix(const glm::vec4& q) {
   const double r = q[0], x = q[1], y = q[2], z = q[3];
