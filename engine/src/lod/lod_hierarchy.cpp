@@ -382,8 +382,8 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
   std::sort(dirty.begin(), dirty.end());
   dirty.erase(std::unique(dirty.begin(), dirty.end()), dirty.end());
   std::vector<std::uint32_t> retired;
+  warm_descent(leaving);
   update_trees(dirty, report, retired, false);
-
   // --- 6. Free what left, compact the children runs, sort the report. --------------------
   for (std::uint32_t n : retired) {
     free_interior_slots_.push_back(nodes_[n].data);
@@ -444,6 +444,7 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
   std::vector<std::uint32_t> stack;
   std::vector<LodMoments> scratch_moments;
   std::vector<glm::dvec3> scratch_rest;
+  std::vector<DeferredMerge> deferred;
   auto make_build = [&](std::uint32_t tree, int levels, std::span<const std::uint64_t> changed) {
     TreeBuild b;
     b.tree = tree;
@@ -454,6 +455,7 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
     b.stack = &stack;
     b.moments = &scratch_moments;
     b.rest = &scratch_rest;
+    if (!all_new) b.deferred = &deferred;
     return b;
   };
   std::vector<std::uint64_t> changed_objects;
@@ -501,12 +503,16 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
                                keys_[nodes_[root_].data].tree == kRootTree;
     if (objects_root_ != kNoLodNode && background != kNoLodNode) {
       const std::uint32_t kids[2] = {objects_root_, background};
-      root_ = make_interior(b, 0, 0, had_root_node ? root_ : kNoLodNode, kids);
+      root_ = make_interior(b, 0, 0, had_root_node ? root_ : kNoLodNode, kids, 0);
     } else {
       if (had_root_node) retire_node(b, root_);
       root_ = objects_root_ != kNoLodNode ? objects_root_ : background;
     }
     if (root_ != kNoLodNode) nodes_[root_].parent = kNoLodNode;
+  }
+  if (!deferred.empty()) {
+    TreeBuild b = make_build(kRootTree, 0, {});
+    merge_in_batches(b, deferred);
   }
 }
 

@@ -81,6 +81,10 @@ struct LodHierarchy::TreeBuild {
   std::vector<std::uint32_t>* stack{nullptr};    // children under construction
   std::vector<LodMoments>* moments{nullptr};     // merge scratch
   std::vector<glm::dvec3>* rest{nullptr};
+  // Incremental updates: interior nodes made or kept, merged after the descent (in this
+  // order: children first) instead of as they are made. Null in a full build, which merges
+  // each cell while its leaves are in cache.
+  std::vector<DeferredMerge>* deferred{nullptr};
   // A full build visits every leaf of the sorted order once, in order, so the first cell of
   // at most kWarmLeaves leaves loads all of them (warm_leaves); warmed_to is how far it has.
   // False in incremental updates (which visit few leaves).

@@ -190,6 +190,10 @@ class LodHierarchy {
   struct InteriorKey {  // the cell an interior node is
     std::uint32_t tree{0};  // object id, kBackgroundTree, kObjectsTree or kRootTree
     std::uint8_t level{0};
+    // A node split by octant: bit d set for each octant with leaves, whose children are in
+    // octant order, so the descent finds an old child's octant without reading the child. 0
+    // for a node whose children are its cell's leaves (or another tree's roots) as they come.
+    std::uint8_t octants{0};
     std::uint64_t prefix{0};
   };
   struct Entry {  // one leaf in the sorted order: tree, then code, then id
@@ -199,6 +203,10 @@ class LodHierarchy {
     std::uint64_t id;
   };
   struct TreeBuild;
+  struct DeferredMerge {  // an interior node an update merges once the trees' shapes stand
+    std::uint32_t node;
+    bool kept;  // it stood before the update (merge_kids' `kept`)
+  };
 
   LodHierarchy() = default;
 
@@ -235,7 +243,7 @@ class LodHierarchy {
   std::uint32_t build_cell(TreeBuild& b, std::span<const Entry> items, int level, std::uint64_t prefix,
                            std::uint32_t candidate);
   std::uint32_t make_interior(TreeBuild& b, int level, std::uint64_t prefix, std::uint32_t reuse,
-                              std::span<const std::uint32_t> kids);
+                              std::span<const std::uint32_t> kids, std::uint8_t octants);
   // The node's moments, record, sphere, leaf count and height from `kids` (its children,
   // in order). `kept`: the node stood before this update with `old_record` (the report
   // lists it as modified if its record's bits change; a recolouring keeps its geometry).
@@ -247,12 +255,17 @@ class LodHierarchy {
   // bottom-up, each from its children as they stand (what the recursion from the root would
   // do to them, without the descent).
   void remerge_ancestors(std::span<const std::uint32_t> changed, LodUpdateReport& report);
+  // merge_kids of each listed node (children listed before parents), a batch at a time.
+  void merge_in_batches(TreeBuild& b, std::span<const DeferredMerge> list);
   void retire_subtree(TreeBuild& b, std::uint32_t node);
   void retire_node(TreeBuild& b, std::uint32_t node);
   void node_moments(std::uint32_t node, LodMoments& m, std::span<glm::dvec3> rest) const;
+  // Loads issued back to back so that their misses overlap (lod_tree_build.cpp): a full
+  // build's leaves a cell at a time, the reads of a batch of merges, the old paths an
+  // update's descent will walk.
   void warm_leaves(std::span<const Entry> items) const;
-  void warm_kids(std::span<const std::uint32_t> kids) const;
-  void warm_interior(std::uint32_t slot) const;
+  void warm_merges(std::span<const std::uint32_t> nodes) const;
+  void warm_descent(std::span<const Entry> leaving);
   void leaf_slot_moments(std::uint32_t slot, LodMoments& m, glm::dvec3* rest) const;
 
   LodConfig config_;
