@@ -169,7 +169,7 @@ Expected<LodUpdateReport> LodHierarchy::build_from_empty(std::span<const Gaussia
   for (std::size_t r = 0; r < trees.size(); ++r)
     for (std::size_t i = start[r]; i < start[r + 1]; ++i) {
       const std::uint32_t j = pairs[i].second;
-      order_[i] = Entry{tree_at[r], j, pairs[i].first, id_of(j)};
+      order_[i] = Entry{tree_at[r], j, pairs[i].first};
     }
 
   // 3. Every tree, all cells new.

@@ -27,12 +27,6 @@ namespace {
 
 std::string id_text(GaussianId id) { return std::to_string(to_underlying(id)); }
 
-bool entry_less(std::uint32_t ta, std::uint64_t ca, std::uint64_t ia, std::uint32_t tb, std::uint64_t cb,
-                std::uint64_t ib) {
-  if (ta != tb) return ta < tb;
-  if (ca != cb) return ca < cb;
-  return ia < ib;
-}
 
 }  // namespace
 
@@ -312,7 +306,7 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
     const std::uint32_t tree = tree_of(f.object);
     const std::uint64_t code = morton(f.position);
     dirty.emplace_back(tree, code);
-    leaving.push_back(Entry{tree, node, code, to_underlying(nodes_[node].id)});
+    leaving.push_back(Entry{tree, node, code});
     dead_leaves.push_back(node);
     leaf_index_.erase(to_underlying(nodes_[node].id));
     ++report.leaves_removed;
@@ -347,7 +341,7 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
       }
       store_leaf(n, g);
       leaf_index_.set(to_underlying(g.id), n);
-      fresh.push_back(Entry{tree, n, code, to_underlying(g.id)});
+      fresh.push_back(Entry{tree, n, code});
       dirty.emplace_back(tree, code);
       ++report.leaves_inserted;
       continue;
@@ -359,8 +353,8 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
     dirty.emplace_back(old_tree, old_code);
     if (old_tree != tree || old_code != code) {
       dirty.emplace_back(tree, code);
-      leaving.push_back(Entry{old_tree, node, old_code, to_underlying(g.id)});
-      fresh.push_back(Entry{tree, node, code, to_underlying(g.id)});
+      leaving.push_back(Entry{old_tree, node, old_code});
+      fresh.push_back(Entry{tree, node, code});
     } else {
       in_place.push_back(node);
     }
@@ -402,7 +396,13 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
 void LodHierarchy::update_order(std::vector<Entry>& leaving, std::vector<Entry>& fresh) {
   // One pass: the runs between changes are copied whole, each run's end found by galloping
   // from its start, so the order is read and written once and no entry's node is looked at.
-  auto less = [](const Entry& a, const Entry& b) { return entry_less(a.tree, a.code, a.id, b.tree, b.code, b.id); };
+  // Entries hold no id (16 bytes, not 24: the order is copied whole each update); the rare
+  // tie of tree and code reads the two nodes' ids.
+  auto less = [this](const Entry& a, const Entry& b) {
+    if (a.tree != b.tree) return a.tree < b.tree;
+    if (a.code != b.code) return a.code < b.code;
+    return nodes_[a.node].id < nodes_[b.node].id;
+  };
   std::sort(leaving.begin(), leaving.end(), less);
   std::sort(fresh.begin(), fresh.end(), less);
   order_scratch_.resize(order_.size() - leaving.size() + fresh.size());
@@ -491,7 +491,7 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
   if (!changed_objects.empty()) {
     std::vector<Entry> items;
     for (const auto& [tree, node] : group_roots_)
-      if (tree != kBackgroundTree) items.push_back(Entry{kObjectsTree, node, tree, 0});
+      if (tree != kBackgroundTree) items.push_back(Entry{kObjectsTree, node, tree});
     TreeBuild b = make_build(kObjectsTree, kObjectsLevels, changed_objects);
     objects_root_ = build_cell(b, items, 0, 0, objects_root_);
   }

@@ -196,11 +196,10 @@ class LodHierarchy {
     std::uint8_t octants{0};
     std::uint64_t prefix{0};
   };
-  struct Entry {  // one leaf in the sorted order: tree, then code, then id
+  struct Entry {  // one leaf in the sorted order: tree, then code, then id (the node's)
     std::uint32_t tree;
     std::uint32_t node;
     std::uint64_t code;
-    std::uint64_t id;
   };
   struct TreeBuild;
   struct DeferredMerge {  // an interior node an update merges once the trees' shapes stand
