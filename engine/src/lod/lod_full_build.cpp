@@ -181,7 +181,7 @@ Expected<LodUpdateReport> LodHierarchy::build_from_empty(std::span<const Gaussia
   std::vector<std::pair<std::uint32_t, std::uint64_t>> dirty;  // one (tree, any code) per tree
   for (std::uint32_t t : tree_at) dirty.emplace_back(t, 0);
   std::vector<std::uint32_t> retired;  // stays empty: nothing was there
-  update_trees(dirty, report, retired, true);
+  update_trees(dirty, {}, {}, report, retired, true);
   sort_report(report);
   return report;
 }

@@ -377,7 +377,7 @@ Expected<LodUpdateReport> LodHierarchy::apply_changes(std::span<const Gaussian* 
   dirty.erase(std::unique(dirty.begin(), dirty.end()), dirty.end());
   std::vector<std::uint32_t> retired;
   warm_descent(leaving);
-  update_trees(dirty, report, retired, false);
+  update_trees(dirty, fresh, leaving, report, retired, false);
   // --- 6. Free what left, compact the children runs, sort the report. --------------------
   for (std::uint32_t n : retired) {
     free_interior_slots_.push_back(nodes_[n].data);
@@ -436,7 +436,8 @@ void LodHierarchy::sort_report(LodUpdateReport& report) const {
 }
 
 void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::uint64_t>> dirty,
-                                LodUpdateReport& report, std::vector<std::uint32_t>& retired, bool all_new) {
+                                std::span<const Entry> fresh, std::span<const Entry> leaving, LodUpdateReport& report,
+                                std::vector<std::uint32_t>& retired, bool all_new) {
   // --- 4. Group trees with changes. -----------------------------------------------------
   std::vector<std::uint64_t> codes;
   codes.reserve(dirty.size());
@@ -472,7 +473,14 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
     const bool had = root_it != group_roots_.end() && root_it->first == tree;
     TreeBuild b = make_build(tree, kGroupLevels, std::span<const std::uint64_t>(codes).subspan(i, j - i));
     b.full = all_new;
-    const std::uint32_t root = build_cell(b, items, 0, 0, had ? root_it->second : kNoLodNode);
+    b.sized = !all_new;
+    auto of_tree = [&](std::span<const Entry> list) {
+      const auto lo = std::partition_point(list.begin(), list.end(), [&](const Entry& e) { return e.tree < tree; });
+      const auto hi = std::partition_point(lo, list.end(), [&](const Entry& e) { return e.tree == tree; });
+      return list.subspan(std::size_t(lo - list.begin()), std::size_t(hi - lo));
+    };
+    const CellChanges changes{of_tree(fresh), of_tree(leaving)};
+    const std::uint32_t root = build_cell(b, items, 0, 0, had ? root_it->second : kNoLodNode, changes);
     if (root == kNoLodNode) {
       if (had) group_roots_.erase(root_it);
     } else if (had) {
@@ -493,7 +501,7 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
     for (const auto& [tree, node] : group_roots_)
       if (tree != kBackgroundTree) items.push_back(Entry{kObjectsTree, node, tree});
     TreeBuild b = make_build(kObjectsTree, kObjectsLevels, changed_objects);
-    objects_root_ = build_cell(b, items, 0, 0, objects_root_);
+    objects_root_ = build_cell(b, items, 0, 0, objects_root_, CellChanges{});
   }
   if (!changed_objects.empty() || background_changed) {
     const std::uint32_t background =

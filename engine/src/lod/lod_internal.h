@@ -19,6 +19,10 @@ inline constexpr std::size_t kWarmLeaves = 2048;
 // Keeps a value computed only for its loads' effect on the cache (warm_leaves).
 inline void keep(std::uint32_t v) { asm volatile("" : : "r"(v)); }
 
+// Cells of more leaves than this have their octants sized from the old subtree's leaf counts
+// in an update (build_cell); smaller ones, a few cache lines of the order, are searched.
+inline constexpr std::size_t kSizedFrom = 32;
+
 // Marks a new id in leaf_index_ while an update is validated (rolled back on failure).
 inline constexpr std::uint32_t kPendingLeaf = 0xFFFFFFFEu;
 
@@ -89,10 +93,21 @@ struct LodHierarchy::TreeBuild {
   // at most kWarmLeaves leaves loads all of them (warm_leaves); warmed_to is how far it has.
   // False in incremental updates (which visit few leaves).
   bool full{false};
+  // An update of a group tree: items are leaves and the descent is given each cell's changes,
+  // so octants may be sized from the old subtree's leaf counts (an objects tree's items are
+  // trees, whose leaf counts are not item counts).
+  bool sized{false};
   const Entry* warmed_to{nullptr};
 
   // True when a changed code lies in cell (level, prefix).
   bool dirty_cell(int level, std::uint64_t prefix) const;
+};
+
+// The entries entering and leaving the sorted order within one cell of a group tree (each
+// sorted by code): with the old subtree's leaf counts they give the cell's octant sizes.
+struct LodHierarchy::CellChanges {
+  std::span<const Entry> fresh;
+  std::span<const Entry> leaving;
 };
 
 }  // namespace gauss

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cassert>
 #include <cmath>
 
 #include "lod_internal.h"
@@ -11,6 +12,7 @@
 namespace gauss {
 
 using lod_detail::kRootTree;
+using lod_detail::kSizedFrom;
 using lod_detail::kWarmLeaves;
 
 bool LodHierarchy::TreeBuild::dirty_cell(int level, std::uint64_t prefix) const {
@@ -40,7 +42,7 @@ void touch_lines(const void* p, std::size_t bytes, std::uint32_t& acc) {
 }  // namespace
 
 std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> items, int level,
-                                       std::uint64_t prefix, std::uint32_t candidate) {
+                                       std::uint64_t prefix, std::uint32_t candidate, const CellChanges& changes) {
   // `candidate` (or none) holds exactly the cell's leaves as they were before this update:
   // the old tree's node for the cell (or the leaf, or another tree's root, where the cell
   // held one), or the deeper node a chain collapsed onto.
@@ -82,26 +84,6 @@ std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> item
     return made;
   }
 
-  // Split into octants (digits of the next level; items are sorted by code, so each octant is
-  // a contiguous run).
-  const int shift = 3 * (b.levels - level - 1);
-  std::array<std::span<const Entry>, 8> parts;
-  {
-    // Each octant's end by galloping from its start (octants are small, and a binary search
-    // over everything left would begin with probes far away: most of an incremental update's
-    // descent was those misses).
-    std::size_t begin = 0;
-    for (std::uint64_t d = 0; d < 8; ++d) {
-      const std::uint64_t limit = ((prefix << 3) | d) + 1;
-      std::size_t end = n;  // the last octant takes the rest: every item lies in the cell
-      if (d < 7)
-        end = std::size_t(lod_detail::gallop_partition_point(items.begin() + std::ptrdiff_t(begin), items.end(),
-                                                             [&](const Entry& e) { return (e.code >> shift) < limit; }) -
-                          items.begin());
-      parts[d] = items.subspan(begin, end - begin);
-      begin = end;
-    }
-  }
   // The old subtree's pieces, by octant.
   std::array<std::uint32_t, 8> cands;
   cands.fill(kNoLodNode);
@@ -109,6 +91,7 @@ std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> item
     const InteriorKey& k = keys_[nodes_[node].data];
     return std::size_t((k.prefix >> (3 * (k.level - (level + 1)))) & 7u);
   };
+  bool old_known = false;  // cands stand for every octant's old leaves
   if (here) {
     // The old children by octant, from the node's octant mask (a node that was not split,
     // mask 0, has no child standing for an octant).
@@ -116,9 +99,63 @@ std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> item
     const std::uint8_t mask = keys_[c.data].octants;
     for (std::uint32_t d = 0, i = 0; d < 8; ++d)
       if (mask & (1u << d)) cands[d] = children_[c.first_child + i++];
+    old_known = mask != 0;
   } else if (candidate != kNoLodNode) {
     cands[octant_of(candidate)] = candidate;  // a collapsed chain: it lies within one octant
+    old_known = true;
   }
+
+  // Split into octants (digits of the next level; items are sorted by code, so each octant is
+  // a contiguous run), the changes too.
+  const int shift = 3 * (b.levels - level - 1);
+  auto split = [&](std::span<const Entry> list, std::array<std::span<const Entry>, 8>& out, bool gallop) {
+    std::size_t begin = 0;
+    for (std::uint64_t d = 0; d < 8; ++d) {
+      const std::uint64_t limit = ((prefix << 3) | d) + 1;
+      auto below = [&](const Entry& e) { return (e.code >> shift) < limit; };
+      const auto from = list.begin() + std::ptrdiff_t(begin);
+      // The last octant takes the rest: every entry lies in the cell.
+      const std::size_t end =
+          d == 7 ? list.size()
+                 : std::size_t((gallop ? lod_detail::gallop_partition_point(from, list.end(), below)
+                                       : std::find_if_not(from, list.end(), below)) -
+                               list.begin());
+      out[d] = list.subspan(begin, end - begin);
+      begin = end;
+    }
+  };
+  std::array<std::span<const Entry>, 8> parts, fresh8, leaving8;
+  split(changes.fresh, fresh8, false);
+  split(changes.leaving, leaving8, false);
+  bool sized = false;
+  if (b.sized && old_known && n > kSizedFrom) {
+    // Each octant's size is its old leaf count (the old child's, read in parallel) plus what
+    // enters it less what leaves it: a large cell's octant ends were searched for in the
+    // sorted order by probes each waiting for the last (most of an update's descent at the
+    // upper levels). Any mismatch (none is expected) falls back to the search.
+    std::array<std::int64_t, 8> size{};
+    for (std::size_t d = 0; d < 8; ++d)
+      if (cands[d] != kNoLodNode) size[d] = nodes_[cands[d]].leaf_count;
+    std::int64_t total = 0;
+    bool fits = true;
+    for (std::size_t d = 0; d < 8; ++d) {
+      size[d] += std::int64_t(fresh8[d].size()) - std::int64_t(leaving8[d].size());
+      fits = fits && size[d] >= 0;
+      total += size[d];
+    }
+    assert(fits && total == std::int64_t(n));  // the candidate holds the cell's old leaves
+    if (fits && total == std::int64_t(n)) {
+      std::size_t begin = 0;
+      for (std::size_t d = 0; d < 8; ++d) {
+        parts[d] = items.subspan(begin, std::size_t(size[d]));
+        begin += std::size_t(size[d]);
+      }
+      sized = true;
+    }
+  }
+  // Each octant's end by galloping from its start (octants are small, and a binary search
+  // over everything left would begin with probes far away).
+  if (!sized) split(items, parts, true);
 
   int non_empty = 0;
   std::size_t only = 0;
@@ -132,7 +169,8 @@ std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> item
     for (std::size_t d = 0; d < 8; ++d)
       if (d != only) retire_subtree(b, cands[d]);
     if (here) retire_node(b, candidate);
-    return build_cell(b, parts[only], level + 1, (prefix << 3) | only, cands[only]);
+    return build_cell(b, parts[only], level + 1, (prefix << 3) | only, cands[only],
+                      CellChanges{fresh8[only], leaving8[only]});
   }
   const std::size_t base = b.stack->size();
   std::uint8_t octants = 0;
@@ -141,7 +179,8 @@ std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> item
       retire_subtree(b, cands[d]);
       continue;
     }
-    const std::uint32_t child = build_cell(b, parts[d], level + 1, (prefix << 3) | d, cands[d]);
+    const std::uint32_t child =
+        build_cell(b, parts[d], level + 1, (prefix << 3) | d, cands[d], CellChanges{fresh8[d], leaving8[d]});
     b.stack->push_back(child);
     octants = std::uint8_t(octants | (1u << d));
   }

@@ -202,6 +202,7 @@ class LodHierarchy {
     std::uint64_t code;
   };
   struct TreeBuild;
+  struct CellChanges;
   struct DeferredMerge {  // an interior node an update merges once the trees' shapes stand
     std::uint32_t node;
     bool kept;  // it stood before the update (merge_kids' `kept`)
@@ -217,8 +218,11 @@ class LodHierarchy {
   // Steps 4-5 of an update: rebuilds the group trees named in `dirty` ((tree, code) of every
   // changed leaf, sorted, unique), then the objects tree and the root as needed. `all_new`:
   // the full build (no old tree; every leaf of the order is visited).
-  void update_trees(std::span<const std::pair<std::uint32_t, std::uint64_t>> dirty, LodUpdateReport& report,
-                    std::vector<std::uint32_t>& retired, bool all_new);
+  // `fresh` and `leaving`: the entries entering and leaving the order (sorted; empty in a
+  // full build).
+  void update_trees(std::span<const std::pair<std::uint32_t, std::uint64_t>> dirty, std::span<const Entry> fresh,
+                    std::span<const Entry> leaving, LodUpdateReport& report, std::vector<std::uint32_t>& retired,
+                    bool all_new);
   // Step 3 of an update: `leaving` (entries as they stand) out of order_, `fresh` in, order_
   // sorted by (tree, code, id) after as before. Sorts both lists.
   void update_order(std::vector<Entry>& leaving, std::vector<Entry>& fresh);
@@ -240,7 +244,7 @@ class LodHierarchy {
   void clear_pools();
   // lod_tree_build.cpp
   std::uint32_t build_cell(TreeBuild& b, std::span<const Entry> items, int level, std::uint64_t prefix,
-                           std::uint32_t candidate);
+                           std::uint32_t candidate, const CellChanges& changes);
   std::uint32_t make_interior(TreeBuild& b, int level, std::uint64_t prefix, std::uint32_t reuse,
                               std::span<const std::uint32_t> kids, std::uint8_t octants);
   // The node's moments, record, sphere, leaf count and height from `kids` (its children,
