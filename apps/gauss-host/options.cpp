@@ -125,7 +125,8 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
   app.add_option("--lod", o.lod,
                  "level of detail: 'on' (default) sends what a client's budget cannot hold in detail as a coarse cut "
                  "through a merge hierarchy (no black holes; one hierarchy for all clients, about 0.6 KB per "
-                 "Gaussian), 'off' sends the best Gaussians only")
+                 "Gaussian; where the machine lacks the memory, the best Gaussians with one logged line), 'off' "
+                 "sends the best Gaussians only")
       ->transform(CLI::Transformer(std::map<std::string, bool>{{"on", true}, {"off", false}}))
       ->type_name("on|off")
       ->default_str(o.lod ? "on" : "off");

@@ -819,6 +819,29 @@ TEST(LodHierarchy, GallopingFindsWhatPartitionPointFinds) {
     }
 }
 
+TEST(LodHierarchy, BytesForBoundsWhatAHierarchyHolds) {
+  // bytes_for() is what a host compares with the memory it has before a build (and an
+  // update's growth): it must not fall short of the pools of typical scenes (random ones at
+  // each SH degree, and the awkward one's coincident runs), while staying near them.
+  for (int sh = 0; sh <= kMaxShDegree; ++sh) {
+    for (const std::size_t n : {std::size_t{2000}, std::size_t{20000}}) {
+      const auto scene = random_scene(n, 9, 31 + std::uint64_t(sh));
+      auto h = LodHierarchy::build(scene, sh);
+      ASSERT_TRUE(h.ok()) << h.message();
+      const std::size_t held = h->memory_bytes();
+      const std::size_t estimate = LodHierarchy::bytes_for(n, sh);
+      EXPECT_GE(estimate, held) << n << " leaves at SH " << sh;
+      EXPECT_LE(estimate, 2 * held) << n << " leaves at SH " << sh;
+    }
+    EXPECT_LT(LodHierarchy::bytes_for(1000, sh), LodHierarchy::bytes_for(1001, sh));
+  }
+  const auto awkward = awkward_scene(6000, 5);
+  auto h = LodHierarchy::build(awkward, 1);
+  ASSERT_TRUE(h.ok()) << h.message();
+  EXPECT_GE(LodHierarchy::bytes_for(awkward.size(), 1), h->memory_bytes());
+  EXPECT_EQ(LodHierarchy::bytes_for(0, 3), 0u);
+}
+
 TEST(LodHierarchy, Timing) {
   // Reports, never asserts: full build; update() of an unchanged epoch and of epochs touching
   // 1 % (one object moved, random value edits, random moves); then apply() of change lists

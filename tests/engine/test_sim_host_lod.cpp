@@ -5,8 +5,12 @@
 #include <algorithm>
 #include <map>
 #include <cmath>
+#include <fstream>
 #include <set>
 #include <vector>
+
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -541,6 +545,112 @@ TEST(HostSessionLod, ABackgroundHierarchyThatCannotBeMadeLeavesNoSessionWaiting)
   auto again = background->update_in_background(w.store, nullptr);
   ASSERT_TRUE(again.ok()) << "said once: " << again.message();
   EXPECT_EQ(*again, LodEpochHierarchy::Progress::Ready);
+}
+
+TEST(HostSessionLod, AHierarchyTooLargeForItsMemoryIsRefusedBeforeItIsBuilt) {
+  // LodConfig::max_bytes below what bytes_for() says of the scene (2000 Gaussians: about
+  // 1.4 MB): nothing is built, the session selects leaves (the client stays exact) and says
+  // why once, with the figures; later epochs are quiet.
+  World w;
+  const CodecParams params = lod_params(w);
+  HostSessionConfig config = lod_config(true);
+  config.lod->max_bytes = 300000;
+  Pair p = connect(w, params, config, 250);
+  step(p, w, params, 0.0);
+  EXPECT_EQ(interior_count(p.host.sent_ids()), 0u);
+  EXPECT_EQ(p.host.sent_ids().size(), 250u);
+  const auto first = p.host.take_notices();
+  ASSERT_EQ(first.size(), 1u);
+  EXPECT_NE(first[0].find("not enough memory"), std::string::npos) << first[0];
+  EXPECT_NE(first[0].find("needs about"), std::string::npos) << first[0];
+  EXPECT_NE(first[0].find("more than the 0.3 MB allowed"), std::string::npos) << first[0];
+  EXPECT_NE(first[0].find("selecting leaves"), std::string::npos) << first[0];
+  EXPECT_EQ(p.host.stats().lod_fallbacks, 1u);
+  EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum());
+  for (int e = 0; e < 2; ++e) {
+    ASSERT_TRUE(w.store.begin_next_epoch().ok());
+    ASSERT_TRUE(w.store.commit_epoch().ok());
+    step(p, w, params, 1.0 + e);
+    EXPECT_TRUE(p.host.take_notices().empty()) << "said once";
+  }
+  EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum());
+}
+
+TEST(HostSessionLod, ABackgroundHierarchyTooLargeForItsMemoryLeavesNoSessionWaiting) {
+  // The same refusal through the worker: it comes before the scene is copied, so nothing is
+  // posted; the epoch counts as done (hierarchy() null) and the session selects leaves.
+  World w;
+  const CodecParams params = lod_params(w);
+  LodConfig small;
+  small.max_bytes = 300000;
+  auto background = std::make_shared<LodEpochHierarchy>(params.sh_degree, small);
+  Pair p = connect(w, params, following(background), 250);
+  auto first = background->update_in_background(w.store, nullptr);
+  ASSERT_FALSE(first.ok());
+  EXPECT_NE(first.message().find("not enough memory"), std::string::npos) << first.message();
+  EXPECT_FALSE(background->busy());
+  EXPECT_EQ(background->progress(w.store), LodEpochHierarchy::Progress::Ready);
+  EXPECT_EQ(background->hierarchy(), nullptr);
+  step(p, w, params, 0.0);
+  EXPECT_EQ(interior_count(p.host.sent_ids()), 0u);
+  EXPECT_EQ(p.host.sent_ids().size(), 250u);
+  EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum());
+  ASSERT_TRUE(w.store.begin_next_epoch().ok());
+  ASSERT_TRUE(w.store.commit_epoch().ok());
+  auto again = background->update_in_background(w.store, nullptr);
+  ASSERT_TRUE(again.ok()) << "said once: " << again.message();
+  EXPECT_EQ(*again, LodEpochHierarchy::Progress::Ready);
+}
+
+TEST(HostSessionLod, AnUpdateThatRunsOutOfMemoryDropsTheHierarchyNotTheHost) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "ASan reserves more address space than the limit this test sets";
+#else
+  // A limit the estimate cannot see (the process's address space here; a container's memory
+  // limit in the field): the build's allocations fail partway. The update reports it as a
+  // failure (the hierarchy dropped, leaves selected) instead of the exception ending the
+  // process, and the next epoch, with memory again, builds it. In a child process, which
+  // the limit cannot outlive.
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(
+      {
+        World w;
+        // 40k Gaussians (copies of the world's, moved and renamed): a hierarchy of tens of
+        // megabytes, beyond what the allocator keeps free from the set-up.
+        if (!w.store.begin_next_epoch().ok()) std::_Exit(2);
+        const std::vector<Gaussian> base(w.store.gaussians().begin(), w.store.gaussians().end());
+        for (int copy = 1; copy < 20; ++copy)
+          for (const Gaussian& g : base) {
+            if (g.carrier) continue;
+            Gaussian c = g;
+            c.id = GaussianId{to_underlying(g.id) + std::uint64_t(copy) * 1000000};
+            c.position.x += 0.01f * float(copy);
+            if (!w.store.insert(c).ok()) std::_Exit(2);
+          }
+        if (!w.store.commit_epoch().ok()) std::_Exit(2);
+        LodEpochHierarchy h(w.store.sh_degree(), LodConfig{});
+        rlimit was{};
+        if (getrlimit(RLIMIT_AS, &was) != 0) std::_Exit(3);
+        // What the process has mapped now: the pools' large blocks fail.
+        std::size_t mapped = 0;
+        {
+          std::ifstream statm("/proc/self/statm");
+          statm >> mapped;
+        }
+        rlimit tight = was;
+        tight.rlim_cur = rlim_t(mapped * std::size_t(sysconf(_SC_PAGESIZE)));
+        if (setrlimit(RLIMIT_AS, &tight) != 0) std::_Exit(4);
+        const Status failed = h.update(w.store, nullptr);
+        setrlimit(RLIMIT_AS, &was);
+        if (failed.ok()) std::_Exit(5);
+        if (failed.message().find("not enough memory") == std::string::npos) std::_Exit(6);
+        if (h.hierarchy() != nullptr) std::_Exit(7);
+        if (!w.store.begin_next_epoch().ok() || !w.store.commit_epoch().ok()) std::_Exit(8);
+        if (!h.update(w.store, nullptr).ok() || h.hierarchy() == nullptr) std::_Exit(9);
+        std::_Exit(0);
+      },
+      ::testing::ExitedWithCode(0), "");
+#endif
 }
 
 namespace {

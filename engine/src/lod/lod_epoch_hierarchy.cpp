@@ -3,9 +3,25 @@
 #include "gauss/engine/lod_epoch_hierarchy.h"
 
 #include <algorithm>
+#include <new>
 #include <utility>
 
+#include "gauss/engine/system_memory.h"
+
 namespace gauss {
+
+namespace {
+
+// Failures for want of memory start with this: their figures change from epoch to epoch, and
+// they are said once all the same (drop()).
+constexpr std::string_view kNoMemory = "not enough memory: ";
+
+std::string megabytes(std::size_t bytes) {
+  const std::size_t tenths = (bytes + 50000) / 100000;
+  return std::to_string(tenths / 10) + "." + std::to_string(tenths % 10) + " MB";
+}
+
+}  // namespace
 
 LodEpochHierarchy::LodEpochHierarchy(int sh_degree, LodConfig config) : sh_degree_(sh_degree), config_(config) {}
 
@@ -37,7 +53,13 @@ Status LodEpochHierarchy::update(const SceneStore& scene, const EligibleSet* eli
   filter.filtered = eligible != nullptr;
   filter.set = eligible;
   if (eligible && eligible->rule && !eligible->counts.surface_rule_applied) filter.own_rule = eligible->rule;
-  if (Status st = prepare(scene, filter, job_, /*copy_span=*/false); !st) return st;
+  if (Status st = prepare(scene, filter, job_, /*copy_span=*/false); !st) {
+    // Nothing can run (a LodConfig the hierarchy refuses, too little memory): this epoch's
+    // readers select leaves, and the reason is said once.
+    epoch_ = scene.epoch();
+    const Status said = drop(scene.epoch(), st.message());
+    return settled ? said : settled;
+  }
   run(job_);
   const Status now = finish(job_);
   return settled ? now : settled;
@@ -71,8 +93,8 @@ Expected<LodEpochHierarchy::Progress> LodEpochHierarchy::update_in_background(co
     filter.own_rule = *rule;
   }
   if (Status st = prepare(scene, filter, job_, /*copy_span=*/true); !st) {
-    // Nothing can run (a LodConfig the hierarchy refuses): the readers must not wait for it,
-    // they select leaves for this epoch.
+    // Nothing can run (a LodConfig the hierarchy refuses, too little memory): the readers
+    // must not wait for it, they select leaves for this epoch.
     epoch_ = scene.epoch();
     if (Status said = drop(scene.epoch(), st.message()); !said) return said.error();
     return Progress::Ready;
@@ -126,7 +148,42 @@ void LodEpochHierarchy::worker_loop() {
   }
 }
 
+Status LodEpochHierarchy::memory_for(std::size_t leaves_after, std::size_t copy_bytes, std::size_t held_copy_bytes) const {
+  // A build needs what bytes_for() says of its leaves; an update, what the larger tree needs
+  // beyond the present one (the estimate's own slack is already held), and a copy what it
+  // needs beyond the last job's (whose buffer it reuses).
+  const std::size_t leaves_now = hierarchy_ ? hierarchy_->leaf_count() : 0;
+  const std::size_t total = LodHierarchy::bytes_for(leaves_after, sh_degree_) + copy_bytes;
+  const std::size_t held = (hierarchy_ ? LodHierarchy::bytes_for(leaves_now, sh_degree_) : 0) + held_copy_bytes;
+  const std::string what = "a hierarchy of " + std::to_string(leaves_after) + " Gaussians at SH degree " +
+                           std::to_string(sh_degree_) + " needs about " + megabytes(total);
+  if (config_.max_bytes > 0) {
+    if (total > config_.max_bytes)
+      return Error{std::string(kNoMemory) + what + ", more than the " + megabytes(config_.max_bytes) + " allowed"};
+    return Ok{};
+  }
+  const std::size_t more = total > held ? total - held : 0;
+  if (const auto available = available_memory_bytes(); available && more > *available)
+    return Error{std::string(kNoMemory) + what + (held > 0 ? " (" + megabytes(more) + " more than it holds)" : "") +
+                 ", and the machine has " + megabytes(*available) + " available"};
+  return Ok{};
+}
+
 Status LodEpochHierarchy::prepare(const SceneStore& scene, const Filter& filter, Job& job, bool copy_span) {
+  // The copies below and the hierarchy's pools can be large (a background update copies the
+  // scene): too little memory is a failure like any other, the readers select leaves.
+  try {
+    return prepare_job(scene, filter, job, copy_span);
+  } catch (const std::bad_alloc&) {
+    job.gaussians = {};
+    job.upserts = {};
+    job.subset = {};
+    return Error{std::string(kNoMemory) + "copying " + std::to_string(scene.gaussians().size()) +
+                 " Gaussians for the hierarchy's update ran out"};
+  }
+}
+
+Status LodEpochHierarchy::prepare_job(const SceneStore& scene, const Filter& filter, Job& job, bool copy_span) {
   job.epoch = scene.epoch();
   job.result.reset();
   job.upserts.clear();
@@ -170,6 +227,7 @@ Status LodEpochHierarchy::prepare(const SceneStore& scene, const Filter& filter,
       }
       std::sort(job.removed.begin(), job.removed.end());
       job.removed.erase(std::unique(job.removed.begin(), job.removed.end()), job.removed.end());
+      if (Status st = memory_for(hierarchy_->leaf_count() + job.upserts.size(), 0, 0); !st) return st;
       job.from_change_log = true;
       job.span = {};
       job.gaussians = {};  // a full job's copy is not kept for a scene that has a change log
@@ -178,6 +236,10 @@ Status LodEpochHierarchy::prepare(const SceneStore& scene, const Filter& filter,
     job.removed.clear();
   }
   const auto gaussians = scene.gaussians();
+  // Checked before anything is copied or built: at most every Gaussian is a leaf.
+  const std::size_t copy_bytes = copy_span ? gaussians.size() * (sizeof(Gaussian) + sizeof(std::uint32_t)) : 0;
+  const std::size_t held_copy = job.gaussians.capacity() * sizeof(Gaussian) + job.subset.capacity() * sizeof(std::uint32_t);
+  if (Status st = memory_for(gaussians.size(), copy_bytes, held_copy); !st) return st;
   // The whole span, not the eligible ones alone: the hierarchy remembers where each leaf was
   // in it (leaf_source), which the cut hands on as the leaf's place in the scene.
   if (copy_span) {
@@ -213,10 +275,19 @@ std::vector<std::uint32_t> LodEpochHierarchy::own_subset(std::span<const Gaussia
 }
 
 void LodEpochHierarchy::run(Job& job) {
-  if (job.subset_on_worker) job.subset = own_subset(job.span, job.filter);
-  // Removed ids that were never leaves (carriers, unusable ones) are fine: lenient.
-  job.result = job.from_change_log ? hierarchy_->apply(job.upserts, job.removed, /*lenient_removes=*/true)
-                                   : hierarchy_->update(job.span, job.subset);
+  try {
+    if (job.subset_on_worker) job.subset = own_subset(job.span, job.filter);
+    // Removed ids that were never leaves (carriers, unusable ones) are fine: lenient.
+    job.result = job.from_change_log ? hierarchy_->apply(job.upserts, job.removed, /*lenient_removes=*/true)
+                                     : hierarchy_->update(job.span, job.subset);
+  } catch (const std::bad_alloc&) {
+    // Past the estimate (memory_for: a limit it cannot see, such as a container's). The
+    // half-updated hierarchy goes first, giving its memory back (the job is this thread's
+    // until it is taken up, and the readers wait for that), then the reason is written.
+    const std::size_t given = job.from_change_log ? job.upserts.size() : job.span.size();
+    hierarchy_.reset();
+    job.result = Error{std::string(kNoMemory) + "the update ran out (" + std::to_string(given) + " Gaussians given)"};
+  }
 }
 
 Status LodEpochHierarchy::finish(Job& job) {
@@ -238,9 +309,10 @@ Status LodEpochHierarchy::drop(Epoch epoch, const std::string& why) {
   hierarchy_.reset();
   ++lineage_;
   // Said once per reason: a scene that keeps the cause (an id with the top bit, say) would
-  // otherwise log a line every epoch.
-  if (why == last_failure_) return Ok{};
-  last_failure_ = why;
+  // otherwise log a line every epoch. Want of memory is one reason whatever its figures.
+  const std::string reason = std::string_view(why).starts_with(kNoMemory) ? std::string(kNoMemory) : why;
+  if (reason == last_failure_) return Ok{};
+  last_failure_ = reason;
   return Error{"LoD: no hierarchy for epoch " + std::to_string(to_underlying(epoch)) + ": " + why +
                "; selecting leaves until it can be built"};
 }

@@ -535,6 +535,28 @@ void LodHierarchy::fix_cube(const glm::dvec3& lo, const glm::dvec3& hi) {
   cube_set_ = true;
 }
 
+std::size_t LodHierarchy::memory_bytes() const {
+  auto bytes = [](const auto& v) { return v.capacity() * sizeof(typename std::decay_t<decltype(v)>::value_type); };
+  return bytes(nodes_) + bytes(free_nodes_) + bytes(children_) + bytes(leaf_fields_) + bytes(leaf_rest_) +
+         bytes(leaf_source_) + bytes(input_nodes_) + bytes(free_leaf_slots_) + leaf_index_.bytes() + bytes(records_) +
+         bytes(moments_) + bytes(moments_rest_) + bytes(keys_) + bytes(free_interior_slots_) + bytes(order_) +
+         bytes(order_scratch_) + bytes(touch_stamp_) + bytes(group_roots_);
+}
+
+std::size_t LodHierarchy::bytes_for(std::size_t leaves, int sh_degree) {
+  const std::size_t rc = std::size_t(sh_rest_count(std::clamp(sh_degree, 0, kMaxShDegree)));
+  // A leaf: its node and stamp, fields and SH rest, source and input place, the id index's
+  // cells (at most 4 per id: the table doubles past half full), two order entries and its
+  // place in a children run (with garbage); while building, the sort's scratch and pointers.
+  const std::size_t leaf = sizeof(LodNode) + 4 + sizeof(LeafFields) + rc * sizeof(glm::vec3) + 4 + 4 +
+                           4 * detail::IdIndex::kCellBytes + 2 * sizeof(Entry) + 8 + 60;
+  // An interior node: its node and stamp, record, moments and their SH rest, key and place
+  // in a children run.
+  const std::size_t interior = sizeof(LodNode) + 4 + sizeof(Gaussian) + sizeof(LodMoments) +
+                               rc * sizeof(glm::dvec3) + sizeof(InteriorKey) + 8;
+  return leaves * leaf + leaves / 2 * interior;
+}
+
 std::uint32_t LodHierarchy::next_stamp() {
   if (++stamp_ == 0) {  // wrapped: old marks could collide
     std::fill(touch_stamp_.begin(), touch_stamp_.end(), 0u);

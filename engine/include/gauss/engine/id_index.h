@@ -41,6 +41,8 @@ class IdIndex {
   static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
 
   std::size_t size() const noexcept { return count_; }
+  // The table's bytes (its cells; kCellBytes each).
+  std::size_t bytes() const noexcept { return cells_.capacity() * kCellBytes; }
 
   // Pointer to the value of key, or nullptr.
   std::uint32_t* find(std::uint64_t key) {
@@ -110,6 +112,11 @@ class IdIndex {
     std::uint64_t key{kEmpty};
     std::uint32_t value{0};
   };
+
+ public:
+  static constexpr std::size_t kCellBytes = sizeof(Cell);
+
+ private:
 
   std::size_t slot(std::uint64_t key) const {
     // Fibonacci hashing: host ids are often dense runs; multiply-shift spreads them.

@@ -132,7 +132,13 @@ class LodEpochHierarchy {
   // the filter is the last update's own rule (or none), else the whole span (a copy when
   // `copy_span`: the worker's job outlives the scene's epoch; the caller's thread reads the
   // scene itself). Creates the hierarchy when none is held.
+  // Fails, copying nothing, when the update would need more memory than there is (below).
   Status prepare(const SceneStore& scene, const Filter& filter, Job& job, bool copy_span);
+  Status prepare_job(const SceneStore& scene, const Filter& filter, Job& job, bool copy_span);
+  // Whether a hierarchy of `leaves_after` leaves and `copy_bytes` of the job's copies fit in
+  // LodConfig::max_bytes, or else in what the machine has available beyond what this holds
+  // (the hierarchy, and `held_copy_bytes` of the last job's copies, whose buffers are reused).
+  Status memory_for(std::size_t leaves_after, std::size_t copy_bytes, std::size_t held_copy_bytes) const;
   // The indices of the non-carriers that pass the filter's own rule (every one without it).
   static std::vector<std::uint32_t> own_subset(std::span<const Gaussian> gaussians, const Filter& filter);
   // Runs a prepared job on the hierarchy (the caller's thread or the worker).

@@ -75,8 +75,8 @@ struct LodCube {
 
 struct LodConfig {
   // A cell with more leaves than this is split. 8 matches the octree's fan-out: a bottom node
-  // merges at most as many children as a split one, so every level shrinks the count ~8x and a
-  // 1M-leaf tree is ~7 levels deep with ~1/7 as many interior nodes as leaves. Range 2..64.
+  // merges at most as many children as a split one. A random 1M-leaf scene gets 0.35 interior
+  // nodes per leaf (cells are uneven: many bottom nodes hold 2 or 3 leaves). Range 2..64.
   std::uint32_t max_leaves_per_node{8};
   LodMergeConfig merge;
   // The quantisation cube; when absent (edge 0) it is fixed at the first non-empty update:
@@ -84,6 +84,11 @@ struct LodConfig {
   // first epoch still falls inside. A caller that knows its scene's box (the codec's) may fix
   // it here; positions outside are clamped to the border cells (valid, only less split).
   LodCube cube;
+  // Memory the hierarchy may take (its pools, the build's scratch and the copy a background
+  // update reads), in bytes; 0: what the machine has available (MemAvailable) when an update
+  // starts. An update that would need more is refused before anything is allocated
+  // (LodEpochHierarchy; its readers select leaves meanwhile).
+  std::size_t max_bytes{0};
 };
 
 struct LodNode {
@@ -176,6 +181,13 @@ class LodHierarchy {
   // something derived from one (LodCutter's layout) knows when it is stale, even when another
   // hierarchy now lives at the same address.
   std::uint64_t generation() const { return generation_; }
+  // The bytes the pools hold now (their capacities).
+  std::size_t memory_bytes() const;
+  // About the most a hierarchy of `leaves` leaves at this SH degree takes while it is built:
+  // pools and the build's scratch, with interior nodes for half the leaves (random scenes
+  // have 0.35 per leaf). An upper bound for the memory_bytes() of typical scenes (a test
+  // checks), not for every layout.
+  static std::size_t bytes_for(std::size_t leaves, int sh_degree);
 
  private:
   struct LeafFields {  // what a leaf's value is (compared by update(), merged by its parent)
