@@ -181,6 +181,19 @@ class StreamHarness {
     } else {
       out += ", no host session";
     }
+    if (c.net) {
+      // The transport's side: whether it ever got through (a failure that never welcomed
+      // says here whether the host refused it, or every attempt timed out).
+      static constexpr const char* kStatus[] = {"connecting", "connected", "refused", "stopped"};
+      const net::ClientCounters k = c.net->counters();
+      out += "; transport " + std::string(kStatus[static_cast<int>(c.net->status())]) + ", " +
+             std::to_string(k.connects) + " connects, " + std::to_string(k.welcomes) + " welcomes, " +
+             std::to_string(k.failed_attempts) + " failed attempts, " + std::to_string(k.disconnects) +
+             " disconnects" + (k.last_rejection.empty() ? "" : ", last rejection '" + k.last_rejection + "'");
+    }
+    out += "; host counters: " + std::to_string(host_->net().counters().refused()) + " refused, " +
+           std::to_string(host_->stats().sessions_opened) + " sessions opened, " +
+           std::to_string(host_->stats().sessions_closed) + " closed";
     c.sink->with_state([&](ClientState& s) {
       out += "; client desired " + std::to_string(s.desired().desired_count()) + " published " +
              std::to_string(s.slots().size()) + " pending " + std::to_string(s.desired().pending_count()) +
