@@ -519,20 +519,20 @@ TEST(HostSessionLod, ABackgroundUpdateThatFailsIsSaidOnceAndLeavesAreSelected) {
   EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum());
 }
 
-TEST(HostSessionLod, ABackgroundHierarchyThatCannotBeMadeLeavesNoSessionWaiting) {
-  // A LodConfig the hierarchy refuses: there is nothing for a worker to run. The reason is said
-  // once, the epoch counts as done (hierarchy() null) and a following session selects leaves
-  // instead of waiting for an update that never comes.
+namespace {
+
+// A background hierarchy that cannot run under `config`: there is nothing for a worker to do.
+// The reason (containing `why`) is said once, the epoch counts as done (hierarchy() null), a
+// following session selects leaves instead of waiting for an update that never comes, and the
+// next epoch is quiet.
+void expect_background_refusal(const LodConfig& config, const std::string& why) {
   World w;
   const CodecParams params = lod_params(w);
-  LodConfig bad;
-  bad.max_leaves_per_node = 1;
-  auto background = std::make_shared<LodEpochHierarchy>(params.sh_degree, bad);
-  const HostSessionConfig follows = following(background);
-  Pair p = connect(w, params, follows, 250);
+  auto background = std::make_shared<LodEpochHierarchy>(params.sh_degree, config);
+  Pair p = connect(w, params, following(background), 250);
   auto first = background->update_in_background(w.store, nullptr);
   ASSERT_FALSE(first.ok());
-  EXPECT_NE(first.message().find("max_leaves_per_node"), std::string::npos) << first.message();
+  EXPECT_NE(first.message().find(why), std::string::npos) << first.message();
   EXPECT_FALSE(background->busy());
   EXPECT_EQ(background->progress(w.store), LodEpochHierarchy::Progress::Ready);
   EXPECT_EQ(background->hierarchy(), nullptr);
@@ -540,11 +540,21 @@ TEST(HostSessionLod, ABackgroundHierarchyThatCannotBeMadeLeavesNoSessionWaiting)
   EXPECT_FALSE(s.payloads.empty()) << "the session selects leaves";
   EXPECT_EQ(interior_count(p.host.sent_ids()), 0u);
   EXPECT_EQ(p.host.sent_ids().size(), 250u);
+  EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum());
   ASSERT_TRUE(w.store.begin_next_epoch().ok());
   ASSERT_TRUE(w.store.commit_epoch().ok());
   auto again = background->update_in_background(w.store, nullptr);
   ASSERT_TRUE(again.ok()) << "said once: " << again.message();
   EXPECT_EQ(*again, LodEpochHierarchy::Progress::Ready);
+}
+
+}  // namespace
+
+TEST(HostSessionLod, ABackgroundHierarchyThatCannotBeMadeLeavesNoSessionWaiting) {
+  // A LodConfig the hierarchy refuses.
+  LodConfig bad;
+  bad.max_leaves_per_node = 1;
+  expect_background_refusal(bad, "max_leaves_per_node");
 }
 
 TEST(HostSessionLod, AHierarchyTooLargeForItsMemoryIsRefusedBeforeItIsBuilt) {
@@ -577,29 +587,11 @@ TEST(HostSessionLod, AHierarchyTooLargeForItsMemoryIsRefusedBeforeItIsBuilt) {
 }
 
 TEST(HostSessionLod, ABackgroundHierarchyTooLargeForItsMemoryLeavesNoSessionWaiting) {
-  // The same refusal through the worker: it comes before the scene is copied, so nothing is
-  // posted; the epoch counts as done (hierarchy() null) and the session selects leaves.
-  World w;
-  const CodecParams params = lod_params(w);
+  // The memory refusal through the worker: it comes before the scene is copied, so nothing
+  // is posted.
   LodConfig small;
   small.max_bytes = 300000;
-  auto background = std::make_shared<LodEpochHierarchy>(params.sh_degree, small);
-  Pair p = connect(w, params, following(background), 250);
-  auto first = background->update_in_background(w.store, nullptr);
-  ASSERT_FALSE(first.ok());
-  EXPECT_NE(first.message().find("not enough memory"), std::string::npos) << first.message();
-  EXPECT_FALSE(background->busy());
-  EXPECT_EQ(background->progress(w.store), LodEpochHierarchy::Progress::Ready);
-  EXPECT_EQ(background->hierarchy(), nullptr);
-  step(p, w, params, 0.0);
-  EXPECT_EQ(interior_count(p.host.sent_ids()), 0u);
-  EXPECT_EQ(p.host.sent_ids().size(), 250u);
-  EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum());
-  ASSERT_TRUE(w.store.begin_next_epoch().ok());
-  ASSERT_TRUE(w.store.commit_epoch().ok());
-  auto again = background->update_in_background(w.store, nullptr);
-  ASSERT_TRUE(again.ok()) << "said once: " << again.message();
-  EXPECT_EQ(*again, LodEpochHierarchy::Progress::Ready);
+  expect_background_refusal(small, "not enough memory");
 }
 
 TEST(HostSessionLod, AnUpdateThatRunsOutOfMemoryDropsTheHierarchyNotTheHost) {

@@ -245,16 +245,13 @@ void LodHierarchy::warm_merges(std::span<const std::uint32_t> nodes) const {
   lod_detail::keep(acc);
 }
 
-void LodHierarchy::warm_descent(std::span<const Entry> leaving) {
-  // The descent from a root to each change reads, level by level, a node, its key and its
-  // children run, each load waiting for the one before. The leaving leaves' old paths are
-  // most of those nodes: walked up from the leaves a level at a time, every level's loads are
-  // independent of each other and overlap, and the descent then finds them in cache.
+template <class Visit>
+void LodHierarchy::for_each_ancestor(std::vector<std::uint32_t> level, Visit&& visit) {
+  // Up a level at a time over all the nodes at once: each step's parent loads are independent
+  // of each other and overlap (a walk up one path at a time waits for each node before it can
+  // ask for the next).
   const std::uint32_t stamp = next_stamp();
-  std::vector<std::uint32_t> level, next;
-  level.reserve(leaving.size());
-  for (const Entry& e : leaving) level.push_back(e.node);
-  std::uint32_t acc = 0;
+  std::vector<std::uint32_t> next;
   while (!level.empty()) {
     next.clear();
     for (std::uint32_t n : level) {
@@ -263,12 +260,24 @@ void LodHierarchy::warm_descent(std::span<const Entry> leaving) {
       touch_stamp_[p] = stamp;
       next.push_back(p);
     }
-    for (std::uint32_t p : next) {
-      const LodNode& w = nodes_[p];
-      acc += keys_[w.data].level + children_[w.first_child];
-    }
+    for (std::uint32_t p : next) visit(p);
     level.swap(next);
   }
+}
+
+void LodHierarchy::warm_descent(std::span<const Entry> leaving) {
+  // The descent from a root to each change reads, level by level, a node, its key and its
+  // children run, each load waiting for the one before. The leaving leaves' old paths are
+  // most of those nodes: walked up from the leaves a level at a time, every level's loads are
+  // independent of each other and overlap, and the descent then finds them in cache.
+  std::vector<std::uint32_t> leaves;
+  leaves.reserve(leaving.size());
+  for (const Entry& e : leaving) leaves.push_back(e.node);
+  std::uint32_t acc = 0;
+  for_each_ancestor(std::move(leaves), [&](std::uint32_t p) {
+    const LodNode& w = nodes_[p];
+    acc += keys_[w.data].level + children_[w.first_child];
+  });
   lod_detail::keep(acc);
 }
 
@@ -412,23 +421,9 @@ void LodHierarchy::merge_kids(TreeBuild& b, std::uint32_t node, bool kept, const
 void LodHierarchy::remerge_ancestors(std::span<const std::uint32_t> changed, LodUpdateReport& report) {
   // Every interior node above a changed leaf, once, children before parents (a node is
   // higher than each of its children).
-  const std::uint32_t stamp = next_stamp();
-  // Up a level at a time over all the changed leaves at once: each step's parent loads are
-  // independent of each other and overlap (a walk up one leaf's path at a time waits for
-  // each node before it can ask for the next).
   std::vector<std::uint64_t> above;  // height << 32 | node: sorted without reading the nodes again
-  std::vector<std::uint32_t> level(changed.begin(), changed.end()), next;
-  while (!level.empty()) {
-    next.clear();
-    for (std::uint32_t n : level) {
-      const std::uint32_t p = nodes_[n].parent;
-      if (p == kNoLodNode || touch_stamp_[p] == stamp) continue;
-      touch_stamp_[p] = stamp;
-      next.push_back(p);
-    }
-    for (std::uint32_t p : next) above.push_back(std::uint64_t{nodes_[p].height} << 32 | p);
-    level.swap(next);
-  }
+  for_each_ancestor(std::vector<std::uint32_t>(changed.begin(), changed.end()),
+                    [&](std::uint32_t p) { above.push_back(std::uint64_t{nodes_[p].height} << 32 | p); });
   std::sort(above.begin(), above.end());
   std::vector<DeferredMerge> list;
   list.reserve(above.size());

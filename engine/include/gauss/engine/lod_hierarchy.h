@@ -281,6 +281,10 @@ class LodHierarchy {
   void warm_leaves(std::span<const Entry> items) const;
   void warm_merges(std::span<const std::uint32_t> nodes) const;
   void warm_descent(std::span<const Entry> leaving);
+  // visit(p) for every ancestor p of the `from` nodes, once each, a level at a time
+  // (lod_tree_build.cpp, its only users).
+  template <class Visit>
+  void for_each_ancestor(std::vector<std::uint32_t> from, Visit&& visit);
   void leaf_slot_moments(std::uint32_t slot, LodMoments& m, glm::dvec3* rest) const;
 
   LodConfig config_;
