@@ -125,8 +125,10 @@ std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> item
     }
   };
   std::array<std::span<const Entry>, 8> parts, fresh8, leaving8;
-  split(changes.fresh, fresh8, false);
-  split(changes.leaving, leaving8, false);
+  if (b.sized) {  // only a group tree's update carries its changes down
+    split(changes.fresh, fresh8, false);
+    split(changes.leaving, leaving8, false);
+  }
   bool sized = false;
   if (b.sized && old_known && n > kSizedFrom) {
     // Each octant's size is its old leaf count (the old child's, read in parallel) plus what
@@ -330,7 +332,7 @@ std::uint32_t LodHierarchy::make_interior(TreeBuild& b, int level, std::uint64_t
 
   keys_[nodes_[node].data].octants = octants;
   if (b.deferred) {
-    // Merged after the shapes stand (merge_deferred): the descent then reads only keys,
+    // Merged after the shapes stand (merge_in_batches): the descent then reads only keys,
     // nodes and children runs, and the merges' reads are loaded a batch at a time.
     nodes_[node].live = true;
     nodes_[node].leaf = false;
