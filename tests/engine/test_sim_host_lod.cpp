@@ -573,7 +573,7 @@ TEST(HostSessionLod, AHierarchyTooLargeForItsMemoryIsRefusedBeforeItIsBuilt) {
   ASSERT_EQ(first.size(), 1u);
   EXPECT_NE(first[0].find("not enough memory"), std::string::npos) << first[0];
   EXPECT_NE(first[0].find("needs about"), std::string::npos) << first[0];
-  EXPECT_NE(first[0].find("more than the 0.3 MB allowed"), std::string::npos) << first[0];
+  EXPECT_NE(first[0].find("more than the 300000 bytes allowed"), std::string::npos) << first[0];
   EXPECT_NE(first[0].find("selecting leaves"), std::string::npos) << first[0];
   EXPECT_EQ(p.host.stats().lod_fallbacks, 1u);
   EXPECT_EQ(p.client.desired().desired_checksum(), p.host.sent_checksum());

@@ -6,6 +6,7 @@
 #include <new>
 #include <utility>
 
+#include "gauss/engine/log_text.h"
 #include "gauss/engine/system_memory.h"
 
 namespace gauss {
@@ -15,11 +16,6 @@ namespace {
 // Failures for want of memory start with this: their figures change from epoch to epoch, and
 // they are said once all the same (drop()).
 constexpr std::string_view kNoMemory = "not enough memory: ";
-
-std::string megabytes(std::size_t bytes) {
-  const std::size_t tenths = (bytes + 50000) / 100000;
-  return std::to_string(tenths / 10) + "." + std::to_string(tenths % 10) + " MB";
-}
 
 }  // namespace
 
@@ -156,16 +152,16 @@ Status LodEpochHierarchy::memory_for(std::size_t leaves_after, std::size_t copy_
   const std::size_t total = LodHierarchy::bytes_for(leaves_after, sh_degree_) + copy_bytes;
   const std::size_t held = (hierarchy_ ? LodHierarchy::bytes_for(leaves_now, sh_degree_) : 0) + held_copy_bytes;
   const std::string what = "a hierarchy of " + std::to_string(leaves_after) + " Gaussians at SH degree " +
-                           std::to_string(sh_degree_) + " needs about " + megabytes(total);
+                           std::to_string(sh_degree_) + " needs about " + format_bytes(total);
   if (config_.max_bytes > 0) {
     if (total > config_.max_bytes)
-      return Error{std::string(kNoMemory) + what + ", more than the " + megabytes(config_.max_bytes) + " allowed"};
+      return Error{std::string(kNoMemory) + what + ", more than the " + format_bytes(config_.max_bytes) + " allowed"};
     return Ok{};
   }
   const std::size_t more = total > held ? total - held : 0;
   if (const auto available = available_memory_bytes(); available && more > *available)
-    return Error{std::string(kNoMemory) + what + (held > 0 ? " (" + megabytes(more) + " more than it holds)" : "") +
-                 ", and the machine has " + megabytes(*available) + " available"};
+    return Error{std::string(kNoMemory) + what + (held > 0 ? " (" + format_bytes(more) + " more than it holds)" : "") +
+                 ", and the machine has " + format_bytes(*available) + " available"};
   return Ok{};
 }
 

@@ -1,7 +1,8 @@
-// escape_for_log (log_text.h): a byte-level scan with a strict UTF-8 decoder.
+// escape_for_log (log_text.h): a byte-level scan with a strict UTF-8 decoder; format_bytes.
 #include "gauss/engine/log_text.h"
 
 #include <cstdint>
+#include <cstdio>
 
 namespace gauss {
 
@@ -103,6 +104,16 @@ std::string escape_for_log(std::string_view text, std::size_t max_bytes) {
   }
   if (cut) out += "...";
   return out;
+}
+
+std::string format_bytes(std::uint64_t bytes) {
+  char buf[64];
+  if (bytes >= (std::uint64_t{1} << 20))
+    std::snprintf(buf, sizeof(buf), "%llu bytes (%.1f MiB)", static_cast<unsigned long long>(bytes),
+                  static_cast<double>(bytes) / (1024.0 * 1024.0));
+  else
+    std::snprintf(buf, sizeof(buf), "%llu bytes", static_cast<unsigned long long>(bytes));
+  return buf;
 }
 
 }  // namespace gauss

@@ -8,12 +8,12 @@
 #include <string>
 #include <vector>
 
+#include "gauss/engine/log_text.h"
 #include "gauss/render/splat_math.h"
 #include "gauss/render/splat_renderer.h"
 #include "gauss/render/vk_context.h"
 #include "gauss/render/vk_frame_ring.h"
 #include "splat_layout.h"
-#include "vk/memory.h"
 
 namespace gauss::render {
 
@@ -143,10 +143,10 @@ Checked check(const vk::Context& context, const SplatRendererCreateInfo& info) {
     return out;
   }
   if (p.total_bytes > p.heap_bytes) {
-    out.problem = "it needs " + vk::format_bytes(p.total_bytes) + " (" + with_commas(p.bytes_per_slot) + " bytes per slot x " +
-                  with_commas(cap) + " slots + " + vk::format_bytes(fixed) + " for sorting and " +
+    out.problem = "it needs " + format_bytes(p.total_bytes) + " (" + with_commas(p.bytes_per_slot) + " bytes per slot x " +
+                  with_commas(cap) + " slots + " + format_bytes(fixed) + " for sorting and " +
                   std::to_string(info.max_width) + "x" + std::to_string(info.max_height) +
-                  " targets), more than the device-local heap of " + vk::format_bytes(p.heap_bytes);
+                  " targets), more than the device-local heap of " + format_bytes(p.heap_bytes);
     return out;
   }
   return out;

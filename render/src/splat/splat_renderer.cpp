@@ -18,11 +18,11 @@
 #include <string>
 #include <string_view>
 
+#include "gauss/engine/log_text.h"
 #include "gauss/render/reference_rasterizer.h"
 #include "gauss/render/vk_context.h"
 #include "splat_frame.h"
 #include "splat_layout.h"
-#include "vk/memory.h"
 
 namespace gauss::render {
 
@@ -129,8 +129,8 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
         std::string(*info.views_together ? "two views together" : "two views one after the other") + " (asked for)";
   }
   if (impl->profile.views_together && plan->total_bytes + plan->second_view_bytes > plan->heap_bytes)
-    impl->keep_views_apart("the device-local heap of " + vk::format_bytes(plan->heap_bytes) + " cannot also hold " +
-                           vk::format_bytes(plan->second_view_bytes) + " of second-view scratch");
+    impl->keep_views_apart("the device-local heap of " + format_bytes(plan->heap_bytes) + " cannot also hold " +
+                           format_bytes(plan->second_view_bytes) + " of second-view scratch");
   const std::uint64_t max_tiles = std::uint64_t{render::tile_count(info.max_width)} * render::tile_count(info.max_height);
   if (auto st = make_buffer(context, impl->highlight, std::uint64_t{kMaxHighlightObjects} * 4, "highlight object ids"); !st)
     return st.error();

@@ -5,6 +5,7 @@
 #include <utility>
 #include <vector>
 
+#include "gauss/engine/log_text.h"
 #include "gauss/render/vk_check.h"
 #include "gauss/render/vk_commands.h"
 #include "gauss/render/vk_context.h"

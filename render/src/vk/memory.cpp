@@ -2,23 +2,11 @@
 // maxMemoryAllocationCount for the few large buffers a renderer needs.
 #include "vk/memory.h"
 
-#include <cstdio>
-
+#include "gauss/engine/log_text.h"
 #include "gauss/render/vk_check.h"
 #include "gauss/render/vk_context.h"
 
 namespace gauss::vk {
-
-std::string format_bytes(VkDeviceSize bytes) {
-  char buf[64];
-  if (bytes >= (VkDeviceSize{1} << 20)) {
-    std::snprintf(buf, sizeof(buf), "%llu bytes (%.1f MiB)", static_cast<unsigned long long>(bytes),
-                  static_cast<double>(bytes) / (1024.0 * 1024.0));
-  } else {
-    std::snprintf(buf, sizeof(buf), "%llu bytes", static_cast<unsigned long long>(bytes));
-  }
-  return buf;
-}
 
 Expected<Allocation> allocate_memory(Context& context, const VkMemoryRequirements& requirements,
                                      VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred,

@@ -21,6 +21,4 @@ Expected<Allocation> allocate_memory(Context& context, const VkMemoryRequirement
                                      VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred,
                                      const std::string& what);
 
-std::string format_bytes(VkDeviceSize bytes);
-
 }  // namespace gauss::vk

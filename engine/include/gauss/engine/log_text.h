@@ -16,11 +16,16 @@
 // readable. The result is at most 10 bytes per input byte; `max_bytes` (0: no limit)
 // bounds the input read, and a cut input ends in "..." so the reader knows.
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <string_view>
 
 namespace gauss {
 
 std::string escape_for_log(std::string_view text, std::size_t max_bytes = 0);
+
+// A byte count for a message that names a limit: "123 bytes", and from 1 MiB on with the
+// MiB beside it, "1468006 bytes (1.4 MiB)" (the exact figure stays for whoever compares it).
+std::string format_bytes(std::uint64_t bytes);
 
 }  // namespace gauss
