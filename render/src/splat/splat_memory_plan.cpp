@@ -122,7 +122,6 @@ Checked check(const vk::Context& context, const SplatRendererCreateInfo& info) {
                               2 * max_tiles * 8 + 2 * pixels * 8 +
                               std::uint64_t{info.frames_in_flight} * 2 * (sizeof(gpu::GpuView) + gpu::SPLAT_COUNTER_WORDS * 4);
   p.total_bytes = p.bytes_per_slot * cap + fixed;
-  p.second_view_bytes = vs.total(cap);
 
   if (chunks > kMaxSlotChunks) {
     out.problem = with_commas(cap) + " slots need " + std::to_string(chunks) + " storage bindings of " + with_commas(p.chunk_slots) +

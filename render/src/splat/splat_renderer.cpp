@@ -128,9 +128,9 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
     impl->profile.views_reason =
         std::string(*info.views_together ? "two views together" : "two views one after the other") + " (asked for)";
   }
-  if (impl->profile.views_together && plan->total_bytes + plan->second_view_bytes > plan->heap_bytes)
+  if (impl->profile.views_together && plan->total_bytes + plan->second_view_bytes() > plan->heap_bytes)
     impl->keep_views_apart("the device-local heap of " + format_bytes(plan->heap_bytes) + " cannot also hold " +
-                           format_bytes(plan->second_view_bytes) + " of second-view scratch");
+                           format_bytes(plan->second_view_bytes()) + " of second-view scratch");
   const std::uint64_t max_tiles = std::uint64_t{render::tile_count(info.max_width)} * render::tile_count(info.max_height);
   if (auto st = make_buffer(context, impl->highlight, std::uint64_t{kMaxHighlightObjects} * 4, "highlight object ids"); !st)
     return st.error();

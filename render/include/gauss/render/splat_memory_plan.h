@@ -58,12 +58,11 @@ struct SplatMemoryPlan {
   std::uint64_t total_bytes{0};     // every buffer and target the renderer makes
   // A view's scratch; total_bytes counts the first view's.
   ViewScratchBytes view_scratch;
-  // The second view's scratch (view_scratch.total), made beside total_bytes at the first
-  // frame whose two views are recorded together (SplatPassProfile::views_together); never
-  // made otherwise.
-  std::uint64_t second_view_bytes{0};
   std::uint64_t heap_bytes{0};      // the device-local heap
   std::uint64_t max_allocation{0};  // maxMemoryAllocationSize
+  // The second view's scratch, made beside total_bytes at the first frame whose two views
+  // are recorded together (SplatPassProfile::views_together); never made otherwise.
+  std::uint64_t second_view_bytes() const { return view_scratch.total(capacity); }
 };
 
 // Slots per chunk of the wide per-slot arrays for `capacity` slots at `sh_degree` with

@@ -87,7 +87,7 @@ struct SplatPassProfile {
   std::uint32_t sort_rows{64};
   // Two views of one size (stereo) recorded together: each step of the passes for both
   // views between the same two barriers, each view with its own scratch (made at the first
-  // such frame; SplatMemoryPlan::second_view_bytes). A GPU then overlaps the two views'
+  // such frame; SplatMemoryPlan::second_view_bytes()). A GPU then overlaps the two views'
   // small dispatches (the scans' one-workgroup steps) and pays each barrier once per pair.
   // GPU shapes only: lavapipe runs dispatches one after another, so it would pay the
   // memory for nothing. GAUSS_SPLAT_STEREO=together|apart overrides it (benchmarks, tests).
