@@ -71,10 +71,16 @@ Expected<CodecBox> wait_for_stream_box(client::ClientRuntime& rt, const std::str
     if (box) return *box;
     const client::ConnectionInfo conn = rt.connection();
     if (conn.status == net::ClientStatus::Refused) return Error{conn.counters.last_rejection};
-    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > limit_s)
-      return Error{"no scene from " + host + " within " + std::to_string(static_cast<int>(std::ceil(limit_s))) +
-                   " s (--settle-timeout), so there is nothing to frame; is gauss-host running there? (--path flies "
-                   "a camera path regardless)"};
+    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > limit_s) {
+      const std::string within = "no scene from " + host + " within " +
+                                 std::to_string(static_cast<int>(std::ceil(limit_s))) + " s (--settle-timeout)";
+      // A host that keeps turning the client away for now (full) is there, just without room.
+      if (conn.counters.turned_away > 0)
+        return Error{within + ": " + conn.counters.last_rejection + " (" + std::to_string(conn.counters.turned_away) +
+                     " attempts)"};
+      return Error{within + ", so there is nothing to frame; is gauss-host running there? (--path flies a camera "
+                   "path regardless)"};
+    }
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
 }
@@ -288,7 +294,8 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
   for (; frame < opts.max_frames; ++frame) {
     bool connected = false;  // welcomed by the host at this frame (a local scene: never)
     if (rt) {
-      // A refusal is final (the network service stopped): no stream will ever settle.
+      // A refusal is final (the network service stopped): no stream will ever settle. (A host
+      // that is full for now leaves the client Connecting, retrying.)
       const client::ConnectionInfo conn = rt->connection();
       connected = conn.status == net::ClientStatus::Connected;
       if (conn.status == net::ClientStatus::Refused) {

@@ -68,6 +68,12 @@ void Panels::draw_connection(double now_s) {
       } else {
         ImGui::TextColored(kStreamWarn, "connecting...");
       }
+      if (c.counters.turned_away > 0 && !c.counters.last_rejection.empty()) {
+        // The host has no place for now (full, or too many new sessions): it is retried.
+        ImGui::PushStyleColor(ImGuiCol_Text, kStreamWarn);
+        ImGui::TextWrapped("%s; retrying", c.counters.last_rejection.c_str());
+        ImGui::PopStyleColor();
+      }
       break;
     case net::ClientStatus::Refused:
       ImGui::TextColored(kBad, "refused");

@@ -72,6 +72,8 @@ struct NetClient::Impl {
   bool host_proved{false};
   std::unique_ptr<StreamCipher> sealer;  // client -> host
   std::unique_ptr<StreamCipher> opener;  // host -> client
+  // This connection was refused for a reason that may pass (msg::refusal_is_transient).
+  bool turned_away{false};
 
   ~Impl() {
     if (thread.joinable()) {
@@ -182,11 +184,18 @@ struct NetClient::Impl {
       // reaches logs, terminals and panels escaped (no line breaks, no terminal codes).
       refuse->detail = escape_for_log(refuse->detail, msg::kMaxReasonBytes);
       const std::string why = "refused by " + endpoint + ": " + refuse->detail;
-      log(why + "; not retrying");
       {
         std::lock_guard lock(mu);
         counters.last_rejection = why;
       }
+      if (cfg.reconnect && !welcomed && msg::refusal_is_transient(refuse->reason)) {
+        // The host cannot take this session now (full, or sessions opened too fast):
+        // run() tries again later, backing off, and says so once. The sink hears nothing:
+        // it was never welcomed on this connection.
+        turned_away = true;
+        return false;
+      }
+      log(why + "; not retrying");
       sink->on_refused(*refuse);
       set_status(ClientStatus::Refused);
       return false;
@@ -290,7 +299,7 @@ struct NetClient::Impl {
   }
 
   // How one attempt ended.
-  enum class Outcome { Unreachable, ClosedBeforeWelcome, Lost, Refused, Stopped };
+  enum class Outcome { Unreachable, ClosedBeforeWelcome, TurnedAway, Lost, Refused, Stopped };
 
   // One connection attempt and its whole life. Returns when it ends; `welcome` gets the
   // connection's Welcome when there was one.
@@ -298,6 +307,7 @@ struct NetClient::Impl {
     keys.reset();  // keys belong to one connection
     encrypt = false;
     host_proved = false;
+    turned_away = false;
     sealer.reset();
     opener.reset();
     ENetPeer* peer = enet_host_connect(host, &server, msg::kChannelCount, 0);
@@ -338,15 +348,14 @@ struct NetClient::Impl {
         // Nothing after a refusal is handled: it would speak over the reason given.
         if (alive && !refused) r = enet_host_service(host, &ev, 0);
       }
-      if (refused) {
-        // Let the host's disconnect arrive (or give up quickly); nothing more to say.
-        enet_peer_disconnect(peer, 0);
-        alive = false;
-      }
+      if (refused) alive = false;  // nothing more to say
     }
     if (abandoned.load()) {
       enet_peer_reset(peer);  // no goodbye: the host finds out by timeout
-    } else if (alive) {
+    } else if (alive || refused) {
+      // Ours to end (stop()), or refused: let the host's disconnect arrive (it closes once
+      // its Refuse is delivered) or give up quickly, and free the one peer for the next
+      // attempt.
       enet_peer_disconnect(peer, 0);
       const auto until = Clock::now() + std::chrono::milliseconds(300);
       while (Clock::now() < until)
@@ -357,6 +366,7 @@ struct NetClient::Impl {
       std::lock_guard lock(mu);
       ++counters.disconnects;
     }
+    if (turned_away) return Outcome::TurnedAway;
     if (welcomed || refused) sink->on_disconnected(refused ? "refused" : "connection closed");
     if (refused) return Outcome::Refused;
     if (alive) return Outcome::Stopped;  // we ended it: stop() or abandon()
@@ -374,6 +384,7 @@ struct NetClient::Impl {
   void run(ENetHost* host) {
     std::chrono::milliseconds delay = cfg.reconnect_delay;
     bool reported_unreachable = false;
+    std::string reported_refusal;  // the transient refusal last logged
     while (!stop.load()) {
       std::optional<msg::Welcome> welcome;
       const Outcome outcome = session(host, welcome);
@@ -381,9 +392,21 @@ struct NetClient::Impl {
       if (welcome) {
         delay = cfg.reconnect_delay;  // a Welcome resets the backoff
         reported_unreachable = false;
+        reported_refusal.clear();
       }
       if (outcome == Outcome::Refused || outcome == Outcome::Stopped) break;
-      if (outcome == Outcome::Lost) {
+      if (outcome == Outcome::TurnedAway) {
+        std::string why;
+        {
+          std::lock_guard lock(mu);
+          ++counters.turned_away;
+          why = counters.last_rejection;
+        }
+        if (why != reported_refusal) {
+          reported_refusal = why;
+          log(why + "; retrying, up to " + seconds(cfg.reconnect_delay_max) + " apart");
+        }
+      } else if (outcome == Outcome::Lost) {
         log("lost the connection to " + endpoint + "; " +
             (cfg.reconnect ? "reconnecting, showing the last state meanwhile" : "not reconnecting"));
         last_lost = Clock::now();

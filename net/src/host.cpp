@@ -69,6 +69,9 @@ constexpr auto kSilentGrace = std::chrono::milliseconds(500);
 // half-open and silent connections early, so the next connect finds one.
 constexpr std::size_t kReserveDivisor = 8;
 
+// "1 client", "4 clients": a limit as a refusal states it.
+std::string clients_text(std::size_t n) { return std::to_string(n) + (n == 1 ? " client" : " clients"); }
+
 }  // namespace
 
 struct NetHost::Impl {
@@ -221,7 +224,7 @@ struct NetHost::Impl {
                       &HostCounters::refused_backoff);
       }
       if (!admission->take_proof(now))
-        return refuse(peer, ps, msg::RefuseReason::Other, "too many authentication attempts on this host; retry shortly",
+        return refuse(peer, ps, msg::RefuseReason::HostFull, "too many authentication attempts on this host; retry shortly",
                       &HostCounters::refused_proof_rate);
       // Nothing else about this Hello is judged before the peer proved the token, so a
       // peer without it learns nothing but why its proof failed. The Challenge carries one
@@ -277,7 +280,7 @@ struct NetHost::Impl {
                     &HostCounters::refused_capacity);
     if (clients.size() >= cfg.max_clients)
       return refuse(peer, ps, msg::RefuseReason::HostFull,
-                    "host full (" + std::to_string(cfg.max_clients) + " clients)", &HostCounters::refused_full);
+                    "host full (" + clients_text(cfg.max_clients) + ")", &HostCounters::refused_full);
     // A session costs the host its first scene, surface and resync: per address, a
     // bounded number at once and a bounded rate of new ones.
     switch (admission->open_session(ps.address, Clock::now())) {
@@ -286,8 +289,7 @@ struct NetHost::Impl {
         break;
       case AdmissionGuard::Open::AddressFull:
         return refuse(peer, ps, msg::RefuseReason::HostFull,
-                      "host full for this address (" + std::to_string(cfg.admission.max_clients_per_address) +
-                          " clients)",
+                      "host full for this address (" + clients_text(cfg.admission.max_clients_per_address) + ")",
                       &HostCounters::refused_address_full);
       case AdmissionGuard::Open::RateLimited:
         return refuse(peer, ps, msg::RefuseReason::HostFull,

@@ -188,7 +188,8 @@ class StreamHarness {
       const net::ClientCounters k = c.net->counters();
       out += "; transport " + std::string(kStatus[static_cast<int>(c.net->status())]) + ", " +
              std::to_string(k.connects) + " connects, " + std::to_string(k.welcomes) + " welcomes, " +
-             std::to_string(k.failed_attempts) + " failed attempts, " + std::to_string(k.disconnects) +
+             std::to_string(k.failed_attempts) + " failed attempts, " + std::to_string(k.turned_away) +
+             " turned away, " + std::to_string(k.disconnects) +
              " disconnects" + (k.last_rejection.empty() ? "" : ", last rejection '" + k.last_rejection + "'");
     }
     out += "; host counters: " + std::to_string(host_->net().counters().refused()) + " refused, " +

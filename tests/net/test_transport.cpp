@@ -255,10 +255,29 @@ TEST(Transport, CapacityAndHostLimitsAreRefused) {
   ASSERT_TRUE(c2.ok());
   accept_next(**host);
   ASSERT_TRUE((*c2)->wait_for(net::ClientStatus::Connected, 20s));
+  // A full host turns the next client away for now: it keeps trying, backing off, says
+  // why, tells its sink nothing, and is welcomed once the first client has left.
   auto c3 = net::NetClient::start(client_config((*host)->port(), 10), second);
   ASSERT_TRUE(c3.ok());
-  ASSERT_TRUE((*c3)->wait_for(net::ClientStatus::Refused, 20s));
-  EXPECT_EQ(second.refused->reason, msg::RefuseReason::HostFull);
+  ASSERT_TRUE(wait_until([&] { return (*c3)->counters().turned_away >= 2; }));
+  EXPECT_EQ((*c3)->status(), net::ClientStatus::Connecting);
+  EXPECT_NE((*c3)->counters().last_rejection.find("host full (1 client)"), std::string::npos)
+      << (*c3)->counters().last_rejection;
+  EXPECT_FALSE(second.wait([&] { return second.refused.has_value(); }, 0ms));
+  c2->reset();  // a polite goodbye frees the place
+  accept_next(**host);
+  ASSERT_TRUE((*c3)->wait_for(net::ClientStatus::Connected, 20s));
+  EXPECT_FALSE(second.refused.has_value());
+  // A client that does not reconnect takes the same refusal as final.
+  RecordingSink fourth;
+  auto once = client_config((*host)->port(), 10);
+  once.reconnect = false;
+  auto c4 = net::NetClient::start(once, fourth);
+  ASSERT_TRUE(c4.ok());
+  ASSERT_TRUE((*c4)->wait_for(net::ClientStatus::Refused, 20s));
+  ASSERT_TRUE(fourth.wait([&] { return fourth.refused.has_value(); }));
+  EXPECT_EQ(fourth.refused->reason, msg::RefuseReason::HostFull);
+  EXPECT_EQ((*c4)->counters().turned_away, 0u);
 
   // Capacity 0 or 10^9 cannot even be put in a Hello.
   RecordingSink unused;

@@ -152,6 +152,13 @@ enum class RefuseReason : std::uint8_t {
 };
 inline constexpr std::uint8_t kLastRefuseReason = 6;
 
+// Whether a refusal is about the host's state now rather than about the Hello: HostFull
+// covers the host's client limit, this address's share of it, and the rates of new
+// sessions and of authentication proofs. The same Hello may be welcomed later, so a client
+// that reconnects tries again (backing off); every other reason stands until the client
+// changes its token, version or capacity.
+constexpr bool refusal_is_transient(RefuseReason r) { return r == RefuseReason::HostFull; }
+
 struct Refuse {
   RefuseReason reason{RefuseReason::Other};
   std::uint32_t host_protocol_version{kProtocolVersion};

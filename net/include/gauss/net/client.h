@@ -9,7 +9,8 @@
 // resynchronisation (see msg::Welcome). Attempts that do not reach a Welcome back off
 // exponentially (reconnect_delay doubling to reconnect_delay_max between attempts; a
 // Welcome resets it), so a host that is down for minutes costs one attempt every few
-// seconds. The log gets one line per change of state (connected, lost, unreachable,
+// seconds. A host that refuses for now (full, or too many new sessions) is retried the
+// same way. The log gets one line per change of state (connected, lost, unreachable,
 // refused), never one per attempt. The display loop never waits on any of this.
 #include <chrono>
 #include <cstdint>
@@ -30,7 +31,9 @@ struct NetClientConfig {
   std::uint32_t slot_capacity{0};    // M, sent in Hello
   std::string access_token;
   std::string name{"client"};
-  bool reconnect{true};              // reconnect after a drop (never after a Refuse)
+  // Reconnect after a drop, and after a refusal that may pass (msg::refusal_is_transient:
+  // the host full, or opening sessions too fast); never after any other Refuse.
+  bool reconnect{true};
   // Wait before the next attempt: reconnect_delay after a welcomed connection drops (a
   // host restart is usually back within a second), then doubled after every attempt that
   // got no Welcome, up to reconnect_delay_max (4 s: a host that stays down costs one
@@ -62,7 +65,9 @@ class ClientSink {
 
 // Connecting: before the first Welcome, and again while reconnecting after a drop (then
 // counters().disconnects > 0: the client is disconnected and shows its last state).
-// Connected: welcomed. Refused: final, no more attempts. Stopped: the service ended.
+// Connected: welcomed. Refused: final, no more attempts. Stopped: the service ended. A
+// transient refusal (the host full) leaves the client Connecting, retrying, with
+// counters().turned_away and last_rejection saying why.
 enum class ClientStatus : std::uint8_t { Connecting, Connected, Refused, Stopped };
 
 struct ClientCounters {
@@ -77,6 +82,7 @@ struct ClientCounters {
   std::uint64_t bytes_received{0};
   std::uint64_t send_dropped{0};       // send() while not connected
   std::uint64_t failed_attempts{0};    // attempts that ended without a Welcome (nor a Refuse)
+  std::uint64_t turned_away{0};        // transient refusals (host full, too fast), each retried
   // CPU time the network thread has used (receive, decode, the sink's apply): what it takes
   // from a display thread and a CPU renderer sharing its core. -1 where not measurable.
   double thread_cpu_ms{-1.0};
