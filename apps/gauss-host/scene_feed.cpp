@@ -2,12 +2,15 @@
 
 #include <chrono>
 #include <cstdio>
+#include <new>
 #include <system_error>
 #include <thread>
 
 #include "gauss/engine/ply_mesh.h"
 #include "gauss/engine/rgbd_scene.h"
 #include "gauss/engine/rgbd_source.h"
+#include "gauss/engine/log_text.h"
+#include "gauss/engine/system_memory.h"
 #include "status_line.h"
 
 namespace gauss::host_app {
@@ -185,6 +188,22 @@ Status SceneFeed::synthetic_surface(SceneStore& store) {
 }
 
 Expected<bool> SceneFeed::step(SceneStore& store, double now) {
+  // A snapshot too large is refused before the store changes (SceneStore::reserve) and
+  // skipped; memory running out anywhere else mid-epoch leaves nothing consistent to serve,
+  // so the host ends with the figures (closing its clients and writing its records) instead
+  // of on std::terminate.
+  try {
+    return step_epoch(store, now);
+  } catch (const std::bad_alloc&) {
+    const auto headroom = memory_headroom();
+    return Error{"out of memory in epoch " + std::to_string(to_underlying(store.epoch()) + 1) + " with " +
+                 std::to_string(store.size()) + " Gaussians in the scene" +
+                 (headroom ? " (" + format_bytes(headroom->bytes) + " left under " + std::string(headroom->bound) + ")"
+                           : std::string{})};
+  }
+}
+
+Expected<bool> SceneFeed::step_epoch(SceneStore& store, double now) {
   if (now < next_epoch_ || exhausted_) return false;
   next_epoch_ = now + period_s_;
   if (synthetic_) {

@@ -46,6 +46,7 @@ class SceneFeed {
   static Expected<std::unique_ptr<SceneFeed>> open_capture(const Options& options, SceneStore& store);
   Status fuse_rgbd(const Options& options, SceneStore& store);
   Status synthetic_surface(SceneStore& store);
+  Expected<bool> step_epoch(SceneStore& store, double now);
 
   std::optional<SyntheticScene> synthetic_;
   std::optional<TsdfVolume> surface_;  // synthetic: fused per epoch

@@ -231,6 +231,35 @@ TEST(SceneStore, SurfaceChunksCarryTheirEpochAndAreValidated) {
   EXPECT_TRUE(s.surface_chunks().empty());
 }
 
+TEST(SceneStore, RoomBeyondWhatTheProcessCanHaveIsRefusedWithTheStoreUnchanged) {
+  SceneStore s;
+  ASSERT_TRUE(s.begin_next_epoch().ok());
+  for (std::uint64_t i = 1; i <= 3; ++i) ASSERT_TRUE(s.insert(make(i, glm::vec3(float(i)))).ok());
+  ASSERT_TRUE(s.commit_epoch().ok());
+  // 2^40 Gaussians: far beyond any machine this runs on.
+  const std::size_t huge = std::size_t{1} << 40;
+  EXPECT_GE(s.bytes_to_hold(huge), huge * sizeof(Gaussian));
+  const Status refused = s.reserve(huge);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.message().find("not enough memory: a scene of 1099511627776 Gaussians needs about"),
+            std::string::npos)
+      << refused.message();
+  EXPECT_NE(refused.message().find("this process can have"), std::string::npos) << refused.message();
+  EXPECT_EQ(s.size(), 3u);
+  EXPECT_EQ(s.epoch(), Epoch{1});
+  EXPECT_FALSE(s.in_epoch());
+  // Room that fits is taken, and nothing is asked for a span the store already has.
+  EXPECT_EQ(s.bytes_to_hold(2), 0u);
+  EXPECT_TRUE(s.reserve(1000).ok());
+  EXPECT_GT(s.bytes_to_hold(1001), 0u);
+  EXPECT_LT(s.bytes_to_hold(1001), s.bytes_to_hold(5000));
+  ASSERT_TRUE(s.begin_next_epoch().ok());
+  EXPECT_FALSE(s.reserve(2000).ok());  // not while an epoch is open
+  ASSERT_TRUE(s.insert(make(4, glm::vec3(4.0f))).ok());
+  ASSERT_TRUE(s.commit_epoch().ok());
+  EXPECT_EQ(s.size(), 4u);
+}
+
 TEST(SceneStore, ChangeLogIsBounded) {
   SceneStore s(3);
   for (int e = 0; e < 5; ++e) {

@@ -598,8 +598,8 @@ TEST(HostSessionLod, AnUpdateThatRunsOutOfMemoryDropsTheHierarchyNotTheHost) {
 #if defined(__SANITIZE_ADDRESS__)
   GTEST_SKIP() << "ASan reserves more address space than the limit this test sets";
 #else
-  // A limit the estimate cannot see (the process's address space here; a container's memory
-  // limit in the field): the build's allocations fail partway. The update reports it as a
+  // A limit the estimate cannot see (an allowance above what the process may map here; in
+  // the field, one no file says): the build's allocations fail partway. The update reports it as a
   // failure (the hierarchy dropped, leaves selected) instead of the exception ending the
   // process, and the next epoch, with memory again, builds it. In a child process, which
   // the limit cannot outlive.
@@ -620,7 +620,11 @@ TEST(HostSessionLod, AnUpdateThatRunsOutOfMemoryDropsTheHierarchyNotTheHost) {
             if (!w.store.insert(c).ok()) std::_Exit(2);
           }
         if (!w.store.commit_epoch().ok()) std::_Exit(2);
-        LodEpochHierarchy h(w.store.sh_degree(), LodConfig{});
+        // The estimate would see this limit (memory_headroom() reads it): an explicit
+        // allowance far above it stands for a limit it cannot see.
+        LodConfig unseen;
+        unseen.max_bytes = std::size_t{1} << 40;
+        LodEpochHierarchy h(w.store.sh_degree(), unseen);
         rlimit was{};
         if (getrlimit(RLIMIT_AS, &was) != 0) std::_Exit(3);
         // What the process has mapped now: the pools' large blocks fail.
@@ -636,6 +640,7 @@ TEST(HostSessionLod, AnUpdateThatRunsOutOfMemoryDropsTheHierarchyNotTheHost) {
         setrlimit(RLIMIT_AS, &was);
         if (failed.ok()) std::_Exit(5);
         if (failed.message().find("not enough memory") == std::string::npos) std::_Exit(6);
+        if (failed.message().find("ran out") == std::string::npos) std::_Exit(10);  // caught, not estimated
         if (h.hierarchy() != nullptr) std::_Exit(7);
         if (!w.store.begin_next_epoch().ok() || !w.store.commit_epoch().ok()) std::_Exit(8);
         if (!h.update(w.store, nullptr).ok() || h.hierarchy() == nullptr) std::_Exit(9);

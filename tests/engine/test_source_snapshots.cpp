@@ -1,9 +1,14 @@
 // Scene sources: snapshot folder replay (trainer layout ordered by iteration number, flat
 // folders ordered by number), corrupt/missing/NaN snapshots logged and skipped with the last
 // good epoch kept, identity tracking for id-less snapshots, given ids, labels, objects JSON,
-// meshes, one PLY as one epoch, the synthetic source.
+// meshes, one PLY as one epoch, the synthetic source; a snapshot too large for the process
+// skipped the same way.
+#include <sys/resource.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <string>
@@ -149,6 +154,97 @@ TEST(SourceSnapshots, BadSnapshotsAreLoggedAndSkippedKeepingTheLastGoodEpoch) {
   ASSERT_TRUE(r.ok());
   EXPECT_TRUE(*r);
   EXPECT_EQ(store.size(), 140u);
+}
+
+// A trainer's scene that outgrows the process (its densification can multiply it): the
+// snapshot is skipped with the figures, the store keeps the last one that fitted, and the
+// next snapshot that fits is taken. Under an address-space limit in a child, which the
+// limit cannot outlive; the machine's own limits are met the same way (memory_headroom()).
+TEST(SourceSnapshots, ASnapshotTooLargeForTheProcessIsSkippedKeepingTheLastGoodEpoch) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "ASan reserves more address space than the limit this test sets";
+#else
+  const fs::path root = test::fresh_output_dir("source_snapshots/memory");
+  write(root / "snap_1.ply", grid_cloud(100));
+  write(root / "snap_2.ply", grid_cloud(200000));  // about 53 MB once read, 65 MB more in the store
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(
+      {
+        Collect log;
+        SnapshotOptions settled;
+        settled.settle_s = 0.0;
+        auto src = open_snapshot_folder(root, settled, log.log());
+        SceneStore store;
+        if (!src.ok() || !(*src)->next_epoch(store).ok() || store.size() != 100) std::_Exit(2);
+        std::size_t pages = 0;
+        {
+          std::ifstream statm("/proc/self/statm");
+          statm >> pages;
+        }
+        rlimit was{};
+        if (getrlimit(RLIMIT_AS, &was) != 0) std::_Exit(3);
+        rlimit tight = was;
+        tight.rlim_cur = rlim_t(pages * std::size_t(sysconf(_SC_PAGESIZE)) + (std::size_t{80} << 20));
+        if (setrlimit(RLIMIT_AS, &tight) != 0) std::_Exit(4);
+        auto r = (*src)->next_epoch(store);
+        setrlimit(RLIMIT_AS, &was);
+        // Skipped, not an error: the source has produced before, and the store is untouched.
+        if (!r.ok() || *r) std::_Exit(5);
+        if (store.size() != 100 || store.epoch() != Epoch{1} || store.in_epoch()) std::_Exit(6);
+        const bool said = std::any_of(log.lines.begin(), log.lines.end(), [](const std::string& l) {
+          return l.find("skipped snapshot") != std::string::npos && l.find("snap_2.ply") != std::string::npos &&
+                 l.find("not enough memory") != std::string::npos && l.find("keeps epoch 1") != std::string::npos;
+        });
+        if (!said) {
+          for (const auto& l : log.lines) std::fprintf(stderr, "%s\n", l.c_str());
+          std::_Exit(7);
+        }
+        // With memory back, the next snapshot is taken.
+        write(root / "snap_3.ply", grid_cloud(300));
+        auto next = (*src)->next_epoch(store);
+        std::_Exit(next.ok() && *next && store.size() == 300 ? 0 : 8);
+      },
+      ::testing::ExitedWithCode(0), "");
+#endif
+}
+
+// The same refusal where apply_snapshot meets it: the snapshot is read and compared, and the
+// store's room is asked for before its epoch opens, naming the limit that binds.
+TEST(SourceSnapshots, ApplyAsksForTheStoresRoomBeforeTheEpochOpens) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "ASan reserves more address space than the limit this test sets";
+#else
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(
+      {
+        SceneStore store;
+        if (!apply_snapshot(store, grid_cloud(50), false, {}, {}, nullptr).ok()) std::_Exit(2);
+        GaussianCloud big = grid_cloud(200000);
+        GaussianCloud given = big;  // the call takes its cloud by value: copied before the limit
+        std::size_t pages = 0;
+        {
+          std::ifstream statm("/proc/self/statm");
+          statm >> pages;
+        }
+        rlimit was{};
+        if (getrlimit(RLIMIT_AS, &was) != 0) std::_Exit(3);
+        rlimit tight = was;
+        // Room for the comparison's id sets (a few MB), not for the store's 65 MB.
+        tight.rlim_cur = rlim_t(pages * std::size_t(sysconf(_SC_PAGESIZE)) + (std::size_t{40} << 20));
+        if (setrlimit(RLIMIT_AS, &tight) != 0) std::_Exit(4);
+        auto r = apply_snapshot(store, std::move(given), false, {}, {}, nullptr);
+        setrlimit(RLIMIT_AS, &was);
+        if (r.ok()) std::_Exit(5);
+        std::fprintf(stderr, "%s\n", r.message().c_str());
+        if (r.message().find("not enough memory: a scene of 200000 Gaussians needs about") == std::string::npos ||
+            r.message().find("the address-space limit (ulimit -v)") == std::string::npos)
+          std::_Exit(6);
+        if (store.size() != 50 || store.epoch() != Epoch{1} || store.in_epoch()) std::_Exit(7);
+        auto again = apply_snapshot(store, std::move(big), false, {}, {}, nullptr);
+        std::_Exit(again.ok() && store.size() == 200000 ? 0 : 8);
+      },
+      ::testing::ExitedWithCode(0), "");
+#endif
 }
 
 TEST(SourceSnapshots, CorruptLastSnapshotKeepsTheStoreUntouched) {

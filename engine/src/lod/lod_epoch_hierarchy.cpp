@@ -159,9 +159,10 @@ Status LodEpochHierarchy::memory_for(std::size_t leaves_after, std::size_t copy_
     return Ok{};
   }
   const std::size_t more = total > held ? total - held : 0;
-  if (const auto available = available_memory_bytes(); available && more > *available)
+  if (const auto headroom = memory_headroom(); headroom && more > headroom->bytes)
     return Error{std::string(kNoMemory) + what + (held > 0 ? " (" + format_bytes(more) + " more than it holds)" : "") +
-                 ", and the machine has " + format_bytes(*available) + " available"};
+                 ", and this process can have " + format_bytes(headroom->bytes) + " more (" +
+                 std::string(headroom->bound) + ")"};
   return Ok{};
 }
 

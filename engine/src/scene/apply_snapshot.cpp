@@ -1,5 +1,6 @@
 // Turning a whole snapshot (a GaussianCloud) into one SceneStore epoch, plus labels.
 #include <algorithm>
+#include <new>
 #include <string>
 #include <unordered_set>
 
@@ -7,6 +8,44 @@
 #include "gauss/engine/scene_source.h"
 
 namespace gauss {
+
+namespace {
+
+// The snapshot's ids (given, or tracked from the scene's), the scene's ids it no longer has
+// and how many of its Gaussians are new to the scene.
+Status match_ids(SceneStore& store, GaussianCloud& cloud, bool ids_given, const IdentityTrackerConfig& identity,
+                 SnapshotApplyReport& report, std::vector<GaussianId>& gone, std::size_t& entering) {
+  if (ids_given) {
+    std::unordered_set<GaussianId> seen;
+    seen.reserve(cloud.gaussians.size());
+    for (const Gaussian& g : cloud.gaussians) {
+      if (!seen.insert(g.id).second)
+        return Error{"apply_snapshot: gaussian_id " + std::to_string(to_underlying(g.id)) + " appears twice"};
+      if (store.was_removed(g.id))
+        return Error{"apply_snapshot: gaussian_id " + std::to_string(to_underlying(g.id)) +
+                     " was removed in an earlier epoch; ids are never reused"};
+    }
+  } else {
+    auto r = track_identity(store.gaussians(), cloud.gaussians, identity, [&] { return store.allocate_id(); });
+    if (!r) return Error{"apply_snapshot: " + r.message()};
+    report.tracked = true;
+    report.identity = *r;
+  }
+
+  {
+    std::unordered_set<GaussianId> in_cloud;
+    in_cloud.reserve(cloud.gaussians.size());
+    for (const Gaussian& g : cloud.gaussians) in_cloud.insert(g.id);
+    for (const Gaussian& g : store.gaussians())
+      if (!in_cloud.count(g.id)) gone.push_back(g.id);
+  }
+
+  for (const Gaussian& g : cloud.gaussians)
+    if (!store.contains(g.id)) ++entering;
+  return Ok{};
+}
+
+}  // namespace
 
 Status apply_labels(GaussianCloud& cloud, const std::vector<std::int32_t>& labels, bool zero_is_unlabelled,
                     const std::string& labels_name, const std::string& scene_name) {
@@ -36,31 +75,17 @@ Expected<SnapshotApplyReport> apply_snapshot(SceneStore& store, GaussianCloud cl
     if (auto s = SceneStore::validate(*mesh); !s) return Error{"apply_snapshot: mesh: " + s.message()};
 
   SnapshotApplyReport report;
-  if (ids_given) {
-    std::unordered_set<GaussianId> seen;
-    seen.reserve(cloud.gaussians.size());
-    for (const Gaussian& g : cloud.gaussians) {
-      if (!seen.insert(g.id).second)
-        return Error{"apply_snapshot: gaussian_id " + std::to_string(to_underlying(g.id)) + " appears twice"};
-      if (store.was_removed(g.id))
-        return Error{"apply_snapshot: gaussian_id " + std::to_string(to_underlying(g.id)) +
-                     " was removed in an earlier epoch; ids are never reused"};
-    }
-  } else {
-    auto r = track_identity(store.gaussians(), cloud.gaussians, identity, [&] { return store.allocate_id(); });
-    if (!r) return Error{"apply_snapshot: " + r.message()};
-    report.tracked = true;
-    report.identity = *r;
-  }
-
   std::vector<GaussianId> gone;
-  {
-    std::unordered_set<GaussianId> in_cloud;
-    in_cloud.reserve(cloud.gaussians.size());
-    for (const Gaussian& g : cloud.gaussians) in_cloud.insert(g.id);
-    for (const Gaussian& g : store.gaussians())
-      if (!in_cloud.count(g.id)) gone.push_back(g.id);
+  std::size_t entering = 0;
+  // The comparison with the scene holds sets of every id: a scene too large for the process
+  // is refused here, the store unchanged.
+  try {
+    if (auto s = match_ids(store, cloud, ids_given, identity, report, gone, entering); !s) return s.error();
+  } catch (const std::bad_alloc&) {
+    return Error{"apply_snapshot: not enough memory to compare " + std::to_string(cloud.gaussians.size()) +
+                 " Gaussians with the scene's " + std::to_string(store.size())};
   }
+  if (auto s = store.reserve(store.gaussians().size() + entering); !s) return Error{"apply_snapshot: " + s.message()};
 
   if (auto s = store.begin_next_epoch(); !s) return s.error();
   // Past validation nothing below should fail; if it does, commit what was applied (the

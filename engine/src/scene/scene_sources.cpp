@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <new>
 #include <chrono>
 #include <system_error>
 #include <tuple>
@@ -202,6 +203,18 @@ class SnapshotSource final : public SceneSource {
   }
 
   Status load_and_apply(const Entry& e, SceneStore& store) {
+    // A snapshot that does not fit in memory is skipped like a broken one: reading it and
+    // comparing it with the scene come before the store changes (apply_snapshot), and the
+    // store's own room is asked for before its epoch opens (SceneStore::reserve).
+    try {
+      return read_and_apply(e, store);
+    } catch (const std::bad_alloc&) {
+      return Error{"not enough memory to read " + e.ply.string() + " and compare it with the scene's " +
+                   std::to_string(store.size()) + " Gaussians"};
+    }
+  }
+
+  Status read_and_apply(const Entry& e, SceneStore& store) {
     auto scene = read_splat_file(e.ply);
     if (!scene) return scene.error();
     format_ = std::string(to_string(scene->report.format));

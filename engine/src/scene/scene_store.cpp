@@ -7,6 +7,9 @@
 
 #include <glm/common.hpp>
 
+#include "gauss/engine/log_text.h"
+#include "gauss/engine/system_memory.h"
+
 namespace gauss {
 namespace {
 
@@ -263,6 +266,52 @@ void SceneStore::recompute_derived() {
   for (std::size_t i = 0; !changed && i < next.size(); ++i) changed = !same_object(next[i], objects_[i]);
   pending_objects_changed_ = changed;
   objects_ = std::move(next);
+}
+
+// Per Gaussian beyond the span's own record: its pending mark and touched place (5 bytes),
+// its index entry (a hash node of id and place, about 32 bytes with the allocator's header,
+// and its bucket) and what a commit's recomputation of object members holds (8).
+constexpr std::size_t kStoreBytesPerGaussian = 5 + 48 + 8;
+
+std::size_t SceneStore::bytes_to_hold(std::size_t span) const {
+  const std::size_t now = gaussians_.size();
+  std::size_t bytes = span > now ? (span - now) * kStoreBytesPerGaussian : 0;
+  // A span beyond the capacity is moved into a new buffer: both are held while it moves.
+  if (span > gaussians_.capacity()) bytes += span * sizeof(Gaussian);
+  return bytes;
+}
+
+Status SceneStore::reserve(std::size_t span) {
+  if (open_) return Error{"SceneStore::reserve: an epoch is open"};
+  if (span <= gaussians_.size()) return Ok{};
+  const std::size_t need = bytes_to_hold(span);
+  const auto refuse = [&](const std::string& why) {
+    return Error{"not enough memory: a scene of " + std::to_string(span) + " Gaussians needs about " +
+                 format_bytes(need) + " more, " + why};
+  };
+  const auto headroom = memory_headroom();
+  if (headroom && need > headroom->bytes)
+    return refuse("and this process can have " + format_bytes(headroom->bytes) + " more (" +
+                  std::string(headroom->bound) + ")");
+  // Growth by half the capacity at a time, as push_back would have grown, where that fits
+  // too: a trainer's snapshots grow a little each, and room for exactly each would move the
+  // whole span (and rehash the index) every epoch.
+  std::size_t room = span;
+  if (span > gaussians_.capacity()) {
+    const std::size_t grown = gaussians_.capacity() + gaussians_.capacity() / 2;
+    if (grown > span && (!headroom || bytes_to_hold(grown) <= headroom->bytes)) room = grown;
+  }
+  // Each reserve leaves its container as it was when it throws; those that succeeded only
+  // hold spare capacity.
+  try {
+    gaussians_.reserve(room);
+    pending_.reserve(room);
+    touched_.reserve(room);
+    index_.reserve(room);
+  } catch (const std::bad_alloc&) {
+    return refuse("and allocating it failed");
+  }
+  return Ok{};
 }
 
 Status SceneStore::commit_epoch() {

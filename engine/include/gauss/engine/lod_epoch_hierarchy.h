@@ -136,7 +136,7 @@ class LodEpochHierarchy {
   Status prepare(const SceneStore& scene, const Filter& filter, Job& job, bool copy_span);
   Status prepare_job(const SceneStore& scene, const Filter& filter, Job& job, bool copy_span);
   // Whether a hierarchy of `leaves_after` leaves and `copy_bytes` of the job's copies fit in
-  // LodConfig::max_bytes, or else in what the machine has available beyond what this holds
+  // LodConfig::max_bytes, or else in what the process can still have (memory_headroom()) beyond what this holds
   // (the hierarchy, and `held_copy_bytes` of the last job's copies, whose buffers are reused).
   Status memory_for(std::size_t leaves_after, std::size_t copy_bytes, std::size_t held_copy_bytes) const;
   // The indices of the non-carriers that pass the filter's own rule (every one without it).

@@ -85,9 +85,10 @@ struct LodConfig {
   // it here; positions outside are clamped to the border cells (valid, only less split).
   LodCube cube;
   // Memory the hierarchy may take (its pools, the build's scratch and the copy a background
-  // update reads), in bytes; 0: what the machine has available (MemAvailable) when an update
-  // starts. An update that would need more is refused before anything is allocated
-  // (LodEpochHierarchy; its readers select leaves meanwhile).
+  // update reads), in bytes; 0: what the process can still have when an update starts
+  // (memory_headroom(): MemAvailable, a cgroup's limit, ulimit -v). An update that would need
+  // more is refused before anything is allocated (LodEpochHierarchy; its readers select
+  // leaves meanwhile).
   std::size_t max_bytes{0};
 };
 

@@ -82,6 +82,13 @@ class SceneStore {
   // Fills removed places (see above), recomputes object membership/centroids/extents and bounds,
   // appends the change log entry and makes the epoch current. Fails when none is open.
   Status commit_epoch();
+  // Makes room, before an epoch opens, for a span of `span` Gaussians at its peak (the live
+  // ones plus those the epoch will insert; removed ones leave at commit), so that a snapshot
+  // too large for this process is refused before the store changes. Fails, changing nothing,
+  // when that would take more memory than the process can still have (memory_headroom()) or
+  // an allocation fails; the message has the figures. bytes_to_hold() is the estimate.
+  Status reserve(std::size_t span);
+  std::size_t bytes_to_hold(std::size_t span) const;
 
   // --- Gaussians (inside an open epoch only) -------------------------------------------
   // Fails when no epoch is open, the id is live or was used before, or a field is

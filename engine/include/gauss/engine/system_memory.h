@@ -1,20 +1,51 @@
 #pragma once
 // What the machine can still give this process: a structure that grows with the scene (the
-// host's LoD hierarchy) asks before it is built, so a scene too large for the machine is
-// refused with the numbers instead of the process being killed by the kernel's out-of-memory
-// handler halfway through.
+// host's LoD hierarchy, the scene store taking a larger snapshot) asks before it is built,
+// so a scene too large is refused with the numbers instead of the process being killed by
+// the kernel's out-of-memory handler (or ending on std::bad_alloc) halfway through.
+//
+// Three limits can bind, and the least of them is the answer: the machine's MemAvailable; a
+// cgroup's memory limit (a container started with a memory limit, a systemd slice), where
+// /proc/meminfo still shows the whole machine; and the address-space limit (`ulimit -v`),
+// under which allocations fail while the machine has plenty.
 #include <cstddef>
+#include <filesystem>
 #include <optional>
 #include <string_view>
 
 namespace gauss {
 
-// Linux's MemAvailable (/proc/meminfo: free memory plus what the kernel can reclaim without
-// swapping), in bytes; nothing where it cannot be read (another system, no /proc).
-std::optional<std::size_t> available_memory_bytes();
+struct MemoryHeadroom {
+  std::size_t bytes{0};
+  // The limit that binds, for a message: "the machine's available memory", "the cgroup's
+  // memory limit" or "the address-space limit (ulimit -v)".
+  std::string_view bound;
+};
 
-// The MemAvailable figure of a /proc/meminfo text, in bytes (what available_memory_bytes()
-// parses; apart so that a test can give it any text).
+// What this process can still allocate: the least of MemAvailable, the headroom under every
+// cgroup memory limit above it, and under its address-space limit; nothing where none of
+// them can be read (another system, no /proc).
+std::optional<MemoryHeadroom> memory_headroom();
+
+// The pieces memory_headroom() reads, apart so that a test can give them any text.
+//
+// The MemAvailable figure of a /proc/meminfo text, in bytes.
 std::optional<std::size_t> mem_available_of(std::string_view meminfo);
+// The headroom under one cgroup's limit: the limit (cgroup v2 memory.max, v1
+// memory.limit_in_bytes) less the usage (memory.current, memory.usage_in_bytes), where the
+// usage does not count inactive file cache (memory.stat's total_inactive_file for v1,
+// inactive_file for v2), which the kernel reclaims before it kills. Nothing for no limit
+// ("max", or v1's near-2^63 figure) or a text that does not parse.
+std::optional<std::size_t> cgroup_headroom_of(std::string_view limit, std::string_view usage, std::string_view stat);
+// The least headroom under the limits of the cgroup at `path` and its ancestors (a parent's
+// limit binds its children too) in a cgroup file system mounted at `mount`: v2's memory.max
+// or v1's memory.limit_in_bytes, each with its usage and memory.stat. Nothing when none of
+// them has a limit.
+std::optional<std::size_t> cgroup_headroom_below(const std::filesystem::path& mount, std::string_view path, bool v2);
+// This process's cgroup path from a /proc/self/cgroup text: the v2 entry ("0::/path") when
+// `v2`, else the v1 memory controller's ("N:memory:/path", possibly with other controllers).
+std::optional<std::string_view> cgroup_path_of(std::string_view proc_self_cgroup, bool v2);
+// The virtual size in bytes from a /proc/self/statm text (its first field, in pages).
+std::optional<std::size_t> vm_size_of(std::string_view statm, std::size_t page_bytes);
 
 }  // namespace gauss
