@@ -317,6 +317,8 @@ TEST(SourceSnapshots, MissingIterationFileIsSkipped) {
   const fs::path root = test::fresh_output_dir("source_snapshots/missing");
   write(root / "point_cloud/iteration_100/point_cloud.ply", grid_cloud(50));
   fs::create_directories(root / "point_cloud/iteration_200");  // no point_cloud.ply
+  // Made an hour ago: not a folder a trainer is about to write into (next test).
+  fs::last_write_time(root / "point_cloud/iteration_200", fs::file_time_type::clock::now() - std::chrono::hours(1));
   write(root / "point_cloud/iteration_300/point_cloud.ply", grid_cloud(60));
   Collect log;
   auto src = open_snapshot_folder(root, {}, log.log());
@@ -328,6 +330,34 @@ TEST(SourceSnapshots, MissingIterationFileIsSkipped) {
   EXPECT_EQ(store.epoch(), Epoch{2});
   ASSERT_EQ(log.lines.size(), 1u);
   EXPECT_NE(log.lines[0].find("iteration_200"), std::string::npos) << log.lines[0];
+}
+
+// A trainer makes an iteration's folder, then writes its file into it: a folder made within
+// the settle time whose file is not there yet is waited for, not skipped for good (which
+// lost that iteration, the final one too, when a poll fell between the two).
+TEST(SourceSnapshots, AFreshIterationFolderIsWaitedForUntilItsFileComes) {
+  const fs::path root = test::fresh_output_dir("source_snapshots/fresh_folder");
+  write(root / "point_cloud/iteration_100/point_cloud.ply", grid_cloud(50));
+  Collect log;
+  SnapshotOptions o;
+  o.settle_s = 3600.0;  // anything written this hour may still be in progress
+  auto src = open_snapshot_folder(root, o, log.log());
+  ASSERT_TRUE(src.ok());
+  SceneStore store;
+  ASSERT_TRUE(*(*src)->next_epoch(store));
+  fs::create_directories(root / "point_cloud/iteration_200");
+  auto r = (*src)->next_epoch(store);
+  ASSERT_TRUE(r.ok()) << r.message();
+  EXPECT_FALSE(*r);
+  ASSERT_EQ(log.lines.size(), 1u);
+  EXPECT_NE(log.lines[0].find("waiting for"), std::string::npos) << log.lines[0];
+  EXPECT_NE(log.lines[0].find("iteration_200"), std::string::npos) << log.lines[0];
+  write(root / "point_cloud/iteration_200/point_cloud.ply", grid_cloud(70));
+  r = (*src)->next_epoch(store);
+  ASSERT_TRUE(r.ok()) << r.message();
+  EXPECT_TRUE(*r);
+  EXPECT_EQ(store.size(), 70u);
+  EXPECT_EQ(log.lines.size(), 1u);  // said once
 }
 
 TEST(SourceSnapshots, GivenIdsObjectsJsonLabelsAndMesh) {

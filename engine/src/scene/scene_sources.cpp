@@ -127,7 +127,7 @@ class SnapshotSource final : public SceneSource {
       }
       // A folder's file written within the settle time may be one a trainer is still
       // writing: it is tried again on the next call instead of being skipped as corrupt.
-      const std::optional<double> age = single_ ? std::nullopt : seconds_since_write(e.ply);
+      const std::optional<double> age = single_ ? std::nullopt : age_of(e);
       if (age && *age < options_.settle_s) {
         if (waiting_for_ != e.ply) report("waiting for " + e.ply.string() + " (" + r.message() + "; still being written?)");
         waiting_for_ = e.ply;
@@ -145,7 +145,9 @@ class SnapshotSource final : public SceneSource {
   double epoch_period_s() const override { return 1.0 / options_.rate_hz; }
   std::string describe() const override {
     if (single_) return "scene file " + root_.string() + (format_.empty() ? "" : " (" + format_ + ")");
-    return "snapshot folder " + root_.string() + " at " + std::to_string(options_.rate_hz) + " epochs/s";
+    char rate[32];
+    std::snprintf(rate, sizeof rate, "%g", options_.rate_hz);  // "10", not std::to_string's "10.000000"
+    return "snapshot folder " + root_.string() + " followed, at most " + rate + " epochs/s";
   }
 
  private:
@@ -249,6 +251,15 @@ class SnapshotSource final : public SceneSource {
     if (mesh) last_mesh_ = *mesh_path;
     last_report_ = *applied;
     return Ok{};
+  }
+
+  // Seconds since the entry was last written: its file's, or, while a trainer's iteration
+  // folder has no file yet (it makes the folder, then writes the file into it), the folder's.
+  std::optional<double> age_of(const Entry& e) const {
+    if (const auto age = seconds_since_write(e.ply)) return age;
+    const fs::path dir = e.ply.parent_path();
+    if (dir == root_) return std::nullopt;
+    return seconds_since_write(dir);
   }
 
   fs::path root_;
