@@ -5,18 +5,15 @@
 #include <algorithm>
 #include <map>
 #include <cmath>
-#include <fstream>
 #include <set>
 #include <vector>
-
-#include <sys/resource.h>
-#include <unistd.h>
 
 #include <gtest/gtest.h>
 
 #include "gauss/engine/client_state.h"
 #include "gauss/engine/codec.h"
 #include "gauss/engine/host_session.h"
+#include "address_space_limit.h"
 #include "host_world.h"
 
 using namespace gauss;
@@ -625,19 +622,11 @@ TEST(HostSessionLod, AnUpdateThatRunsOutOfMemoryDropsTheHierarchyNotTheHost) {
         LodConfig unseen;
         unseen.max_bytes = std::size_t{1} << 40;
         LodEpochHierarchy h(w.store.sh_degree(), unseen);
-        rlimit was{};
-        if (getrlimit(RLIMIT_AS, &was) != 0) std::_Exit(3);
         // What the process has mapped now: the pools' large blocks fail.
-        std::size_t mapped = 0;
-        {
-          std::ifstream statm("/proc/self/statm");
-          statm >> mapped;
-        }
-        rlimit tight = was;
-        tight.rlim_cur = rlim_t(mapped * std::size_t(sysconf(_SC_PAGESIZE)));
-        if (setrlimit(RLIMIT_AS, &tight) != 0) std::_Exit(4);
+        test::AddressSpaceLimit limit(0);
+        if (!limit.set()) std::_Exit(3);
         const Status failed = h.update(w.store, nullptr);
-        setrlimit(RLIMIT_AS, &was);
+        limit.lift();
         if (failed.ok()) std::_Exit(5);
         if (failed.message().find("not enough memory") == std::string::npos) std::_Exit(6);
         if (failed.message().find("ran out") == std::string::npos) std::_Exit(10);  // caught, not estimated

@@ -3,9 +3,6 @@
 // good epoch kept, identity tracking for id-less snapshots, given ids, labels, objects JSON,
 // meshes, one PLY as one epoch, the synthetic source; a snapshot too large for the process
 // skipped the same way.
-#include <sys/resource.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -19,6 +16,7 @@
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/ply_mesh.h"
 #include "gauss/engine/scene_source.h"
+#include "address_space_limit.h"
 #include "test_data.h"
 
 namespace gauss {
@@ -176,18 +174,10 @@ TEST(SourceSnapshots, ASnapshotTooLargeForTheProcessIsSkippedKeepingTheLastGoodE
         auto src = open_snapshot_folder(root, settled, log.log());
         SceneStore store;
         if (!src.ok() || !(*src)->next_epoch(store).ok() || store.size() != 100) std::_Exit(2);
-        std::size_t pages = 0;
-        {
-          std::ifstream statm("/proc/self/statm");
-          statm >> pages;
-        }
-        rlimit was{};
-        if (getrlimit(RLIMIT_AS, &was) != 0) std::_Exit(3);
-        rlimit tight = was;
-        tight.rlim_cur = rlim_t(pages * std::size_t(sysconf(_SC_PAGESIZE)) + (std::size_t{80} << 20));
-        if (setrlimit(RLIMIT_AS, &tight) != 0) std::_Exit(4);
+        test::AddressSpaceLimit limit(std::size_t{80} << 20);
+        if (!limit.set()) std::_Exit(3);
         auto r = (*src)->next_epoch(store);
-        setrlimit(RLIMIT_AS, &was);
+        limit.lift();
         // Skipped, not an error: the source has produced before, and the store is untouched.
         if (!r.ok() || *r) std::_Exit(5);
         if (store.size() != 100 || store.epoch() != Epoch{1} || store.in_epoch()) std::_Exit(6);
@@ -221,19 +211,11 @@ TEST(SourceSnapshots, ApplyAsksForTheStoresRoomBeforeTheEpochOpens) {
         if (!apply_snapshot(store, grid_cloud(50), false, {}, {}, nullptr).ok()) std::_Exit(2);
         GaussianCloud big = grid_cloud(200000);
         GaussianCloud given = big;  // the call takes its cloud by value: copied before the limit
-        std::size_t pages = 0;
-        {
-          std::ifstream statm("/proc/self/statm");
-          statm >> pages;
-        }
-        rlimit was{};
-        if (getrlimit(RLIMIT_AS, &was) != 0) std::_Exit(3);
-        rlimit tight = was;
         // Room for the comparison's id sets (a few MB), not for the store's 65 MB.
-        tight.rlim_cur = rlim_t(pages * std::size_t(sysconf(_SC_PAGESIZE)) + (std::size_t{40} << 20));
-        if (setrlimit(RLIMIT_AS, &tight) != 0) std::_Exit(4);
+        test::AddressSpaceLimit limit(std::size_t{40} << 20);
+        if (!limit.set()) std::_Exit(3);
         auto r = apply_snapshot(store, std::move(given), false, {}, {}, nullptr);
-        setrlimit(RLIMIT_AS, &was);
+        limit.lift();
         if (r.ok()) std::_Exit(5);
         std::fprintf(stderr, "%s\n", r.message().c_str());
         if (r.message().find("not enough memory: a scene of 200000 Gaussians needs about") == std::string::npos ||

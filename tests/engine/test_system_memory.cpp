@@ -1,16 +1,15 @@
 // memory_headroom(): the least of MemAvailable, the cgroup limits above this process and its
 // address-space limit, which the host's LoD hierarchy and snapshot loads ask before they
 // grow. The parsers on well-formed and broken texts, and the address-space limit in a child.
-#include <sys/resource.h>
 #include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 #include <gtest/gtest.h>
 
+#include "address_space_limit.h"
 #include "gauss/engine/system_memory.h"
 
 using namespace gauss;
@@ -100,15 +99,9 @@ TEST(SystemMemory, AnAddressSpaceLimitBindsBelowWhatTheMachineHas) {
   if (!std::filesystem::exists("/proc/self/statm")) GTEST_SKIP() << "no /proc/self/statm here";
   EXPECT_EXIT(
       {
-        std::ifstream in("/proc/self/statm");
-        std::ostringstream text;
-        text << in.rdbuf();
-        const auto size = vm_size_of(text.str(), static_cast<std::size_t>(sysconf(_SC_PAGESIZE)));
-        if (!size) std::_Exit(2);
         const std::size_t room = std::size_t{64} << 20;
-        rlimit lim{};
-        lim.rlim_cur = lim.rlim_max = *size + room;
-        if (setrlimit(RLIMIT_AS, &lim) != 0) std::_Exit(3);
+        test::AddressSpaceLimit limit(room);
+        if (!limit.set()) std::_Exit(3);
         const auto h = memory_headroom();
         if (!h) std::_Exit(4);
         if (h->bound != "the address-space limit (ulimit -v)") std::_Exit(5);
