@@ -4,6 +4,7 @@
 // writes its screenshots to (numbered_file.h).
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -16,6 +17,7 @@
 #include "gauss/engine/numbered_file.h"
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/scene_load.h"
+#include "address_space_limit.h"
 #include "test_data.h"
 
 namespace gauss {
@@ -106,6 +108,44 @@ TEST(SceneLoad, ReadersErrorsNameTheFile) {
   auto none = load_scene_file(empty, std::nullopt);
   ASSERT_FALSE(none.ok());
   EXPECT_NE(none.message().find("no Gaussians"), std::string::npos) << none.message();
+}
+
+// A scene larger than the process may hold (a container's limit, ulimit -v, a small machine):
+// an error with the figures from the loading thread, where the allocation ended the viewer
+// with the scene it still showed. In a child under an address-space limit.
+TEST(SceneLoad, AFileTooLargeForTheProcessIsAnErrorWithTheFigures) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "ASan reserves more address space than the limit this test sets";
+#else
+  const fs::path ply = test::fresh_output_dir("scene_load/memory") / "large.ply";
+  ASSERT_TRUE(write_gaussian_ply(ply, line(200000)).ok());  // 14 MB on disk, 53 MB read
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(
+      {
+        const auto says = [](const Expected<LoadedScene>& r, const std::string& what) {
+          if (r.ok()) return false;
+          std::fprintf(stderr, "%s\n", r.message().c_str());
+          return r.message().find(what) != std::string::npos &&
+                 r.message().find("the address-space limit (ulimit -v)") != std::string::npos;
+        };
+        {
+          // Room for the file's bytes, not for its Gaussians.
+          test::AddressSpaceLimit limit(std::size_t{30} << 20);
+          if (!limit.set()) std::_Exit(2);
+          SceneLoadJob job(ply, std::nullopt);
+          if (!says(job.take(), "large.ply: not enough memory: 200000 Gaussians need about")) std::_Exit(3);
+        }
+        {
+          test::AddressSpaceLimit limit(std::size_t{8} << 20);  // not even for the bytes
+          if (!limit.set()) std::_Exit(4);
+          if (!says(load_scene_file(ply, std::nullopt), "large.ply: not enough memory: its bytes need about"))
+            std::_Exit(5);
+        }
+        auto loaded = load_scene_file(ply, std::nullopt);  // the limit lifted
+        std::_Exit(loaded.ok() && loaded->scene.cloud.gaussians.size() == 200000 ? 0 : 6);
+      },
+      ::testing::ExitedWithCode(0), "");
+#endif
 }
 
 TEST(SceneLoad, FullBoundsSkipNonFiniteCentres) {

@@ -5,8 +5,11 @@
 #include <cstdio>
 #include <cstring>
 #include <memory>
+#include <new>
 #include <string>
 #include <system_error>
+
+#include "io/memory_room.h"
 
 namespace gauss::io {
 namespace {
@@ -32,7 +35,13 @@ Expected<std::vector<std::uint8_t>> read_file_bytes(const std::filesystem::path&
   if (ec) return file_error(path, "cannot get file size: " + ec.message());
   FilePtr f(std::fopen(path.c_str(), "rb"));
   if (!f) return file_error(path, std::string("cannot open: ") + std::strerror(errno));
-  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(size));
+  if (auto s = check_memory_room(static_cast<std::size_t>(size), path.string(), "its bytes"); !s) return s.error();
+  std::vector<std::uint8_t> bytes;
+  try {
+    bytes.resize(static_cast<std::size_t>(size));
+  } catch (const std::bad_alloc&) {
+    return file_error(path, "not enough memory: its " + std::to_string(size) + " bytes could not be allocated");
+  }
   std::size_t got = 0;
   while (got < bytes.size()) {
     const std::size_t want = bytes_read != nullptr ? std::min(kReadChunkBytes, bytes.size() - got) : bytes.size() - got;

@@ -10,6 +10,7 @@
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/quaternion.h"
 #include "io/file_bytes.h"
+#include "io/memory_room.h"
 #include "io/ply_core.h"
 
 namespace gauss {
@@ -134,7 +135,7 @@ template <class Reader>
 Status decode_vertices(Reader& r, const Element& v, const Plan& plan, std::string_view name,
                        std::vector<Gaussian>& out) {
   const std::size_t count = static_cast<std::size_t>(v.count);
-  out.resize(count);
+  if (auto s = io::resize_cloud(out, count, name); !s) return s;
   const int coefs = plan.rest_props / 3;
   std::array<float, kFloatSlots> vals{};
   Scalar s;

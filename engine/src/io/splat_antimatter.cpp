@@ -32,6 +32,7 @@
 #include <string>
 
 #include "gauss/engine/splat_file.h"
+#include "io/memory_room.h"
 #include "io/ply_core.h"  // ply::format_double
 #include "io/splat_quantized.h"
 
@@ -64,7 +65,7 @@ Expected<SplatScene> parse_antimatter_splat(std::span<const std::uint8_t> bytes,
   scene.report.format = SplatFormat::AntimatterSplat;
   scene.cloud.sh_degree = 0;
   std::vector<Gaussian>& gs = scene.cloud.gaussians;
-  gs.resize(count);
+  if (auto s = io::resize_cloud(gs, count, name); !s) return s.error();
   for (std::size_t i = 0; i < count; ++i) {
     const std::size_t at = i * kRecordBytes;
     const std::uint8_t* r = bytes.data() + at;

@@ -48,6 +48,7 @@
 #include <vector>
 
 #include "gauss/engine/splat_file.h"
+#include "io/memory_room.h"
 #include "io/ply_core.h"
 #include "io/splat_quantized.h"
 
@@ -280,7 +281,7 @@ Expected<SplatScene> parse_compressed_ply(std::span<const std::uint8_t> bytes, s
   scene.report.format = SplatFormat::CompressedPly;
   scene.cloud.sh_degree = degree;
   std::vector<Gaussian>& gs = scene.cloud.gaussians;
-  gs.resize(static_cast<std::size_t>(n));
+  if (auto s = io::resize_cloud(gs, static_cast<std::size_t>(n), name); !s) return s.error();
   const int coefs = sh_rest_count(degree);
   const double sqrt2 = std::sqrt(2.0);
   for (std::size_t i = 0; i < gs.size(); ++i) {

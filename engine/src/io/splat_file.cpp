@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <new>
 #include <string>
 #include <system_error>
 
@@ -109,12 +110,19 @@ Expected<SplatScene> parse_splat_file(std::span<const std::uint8_t> bytes, std::
 }
 
 Expected<SplatScene> read_splat_file(const std::filesystem::path& path, std::atomic<std::uint64_t>* bytes_read) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) return read_sog_folder(path);
-  if (path.filename() == "meta.json") return read_sog_folder(path.parent_path());
-  auto bytes = io::read_file_bytes(path, bytes_read);
-  if (!bytes) return bytes.error();
-  return parse_splat_file(*bytes, path.string());
+  // The readers ask for room before their large allocations (io/memory_room.h); anything
+  // smaller that fails anyway is the same error, not an exception through the caller (a
+  // viewer's loading thread, a host's followed folder).
+  try {
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) return read_sog_folder(path);
+    if (path.filename() == "meta.json") return read_sog_folder(path.parent_path());
+    auto bytes = io::read_file_bytes(path, bytes_read);
+    if (!bytes) return bytes.error();
+    return parse_splat_file(*bytes, path.string());
+  } catch (const std::bad_alloc&) {
+    return Error{path.string() + ": not enough memory to read it"};
+  }
 }
 
 }  // namespace gauss

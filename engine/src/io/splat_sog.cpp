@@ -53,6 +53,7 @@
 
 #include "gauss/engine/splat_file.h"
 #include "io/file_bytes.h"
+#include "io/memory_room.h"
 #include "io/splat_quantized.h"
 #include "io/splat_sog_meta.h"
 #include "io/webp_image.h"
@@ -290,7 +291,7 @@ Expected<SplatScene> decode_sog(const SogFiles& files, std::span<const std::uint
   scene.report.format = SplatFormat::Sog;
   scene.report.version = static_cast<std::uint32_t>(m.version);
   std::vector<Gaussian>& gs = scene.cloud.gaussians;
-  gs.resize(m.count);
+  if (auto s = io::resize_cloud(gs, m.count, meta_what); !s) return s.error();
   Grid grid;
 
   auto means_l = load_grid_image(files, m.means_l, "means, low bytes", m.count, grid);

@@ -66,6 +66,7 @@
 #include <vector>
 
 #include "gauss/engine/splat_file.h"
+#include "io/memory_room.h"
 #include "io/splat_quantized.h"
 
 namespace gauss {
@@ -207,8 +208,8 @@ std::array<float, kMaxShRest> sh_signs(const AxisSigns& s) {
 }
 
 // Decodes the six blocks (already checked to hold num_points each) into the scene.
-SplatScene decode(const Header& h, const std::array<std::span<const std::uint8_t>, kBlockCount>& blocks,
-                  const AxisSigns& signs) {
+Expected<SplatScene> decode(const Header& h, const std::array<std::span<const std::uint8_t>, kBlockCount>& blocks,
+                            const AxisSigns& signs, std::string_view name) {
   SplatScene scene;
   SplatFileReport& report = scene.report;
   report.format = SplatFormat::Spz;
@@ -224,7 +225,7 @@ SplatScene decode(const Header& h, const std::array<std::span<const std::uint8_t
   const bool smallest_three = h.version >= 3;
 
   std::vector<Gaussian>& gs = scene.cloud.gaussians;
-  gs.resize(h.num_points);
+  if (auto s = io::resize_cloud(gs, h.num_points, name); !s) return s.error();
   for (std::size_t i = 0; i < gs.size(); ++i) {
     Gaussian& g = gs[i];
     const std::uint8_t* p = blocks[kPositions].data() + 9 * i;
@@ -366,7 +367,7 @@ Expected<SplatScene> parse_legacy(std::span<const std::uint8_t> file, std::strin
     return fail(name, std::to_string(data.size() - at) + " bytes follow the last attribute block (byte offset " +
                           std::to_string(at) + where + ") and the header's flags declare no extensions");
   }
-  return decode(h, blocks, signs);
+  return decode(h, blocks, signs, name);
 }
 
 // Version 4: the NGSP container with one zstd stream per block.
@@ -437,7 +438,7 @@ Expected<SplatScene> parse_ngsp(std::span<const std::uint8_t> file, std::string_
   if (at != file.size())
     return fail(name, std::to_string(file.size() - at) + " bytes follow the last stream (byte offset " +
                           std::to_string(at) + ")");
-  return decode(h, blocks, signs);
+  return decode(h, blocks, signs, name);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <new>
 #include <system_error>
 #include <utility>
 
@@ -83,7 +84,12 @@ Expected<LoadedScene> load_scene_file(const std::filesystem::path& path, const s
 
 SceneLoadJob::SceneLoadJob(std::filesystem::path path, std::optional<glm::dvec3> up_option) : path_(std::move(path)) {
   thread_ = std::thread([this, up_option] {
-    result_.emplace(load_scene_file(path_, up_option, &progress_));
+    // An exception leaving this thread would end the viewer and the scene it still shows.
+    try {
+      result_.emplace(load_scene_file(path_, up_option, &progress_));
+    } catch (const std::bad_alloc&) {
+      result_.emplace(Error{path_.string() + ": not enough memory to load it"});
+    }
     progress_.set_stage(SceneLoadPhase::Done);  // release: result_ is complete before done() reads true
   });
 }
