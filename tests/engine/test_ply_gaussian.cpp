@@ -26,13 +26,6 @@ struct Stopwatch {
   }
 };
 
-template <class T>
-void append(std::vector<std::uint8_t>& out, T v) {
-  std::uint8_t b[sizeof(T)];
-  std::memcpy(b, &v, sizeof(T));
-  out.insert(out.end(), b, b + sizeof(T));
-}
-
 std::uint32_t bits(float f) {
   std::uint32_t u;
   std::memcpy(&u, &f, 4);
@@ -262,26 +255,26 @@ TEST(PlyGaussian, AcceptsOtherNumericTypesAndSkipsUnknownPropertiesAndElements) 
   std::vector<std::uint8_t> b = test::bytes_of(h);
   // extra: item 0 has 2 ints, item 1 has 0.
   b.push_back(2);
-  append<std::int32_t>(b, 7);
-  append<std::int32_t>(b, 8);
-  append<std::int16_t>(b, -1);
+  test::append_bytes<std::int32_t>(b, 7);
+  test::append_bytes<std::int32_t>(b, 8);
+  test::append_bytes<std::int16_t>(b, -1);
   b.push_back(0);
-  append<std::int16_t>(b, -2);
+  test::append_bytes<std::int16_t>(b, -2);
   for (int i = 0; i < 2; ++i) {
-    append<double>(b, 1.5 + i);
-    append<std::int32_t>(b, -3);
-    append<std::int16_t>(b, 300);
+    test::append_bytes<double>(b, 1.5 + i);
+    test::append_bytes<std::int32_t>(b, -3);
+    test::append_bytes<std::int16_t>(b, 300);
     b.push_back(200);
-    append<std::uint16_t>(b, std::uint16_t(i + 1));  // list of i+1 floats
-    for (int k = 0; k <= i; ++k) append<float>(b, 9.0f);
-    for (float f : {0.1f, 0.2f, 0.3f}) append<float>(b, f);
-    append<double>(b, -2.0);
-    for (float f : {-1.0f, -2.0f, -3.0f, 1.0f, 0.0f, 0.0f, 0.0f}) append<float>(b, f);
-    append<float>(b, i == 0 ? -1.0f : 4.0f);
-    append<std::uint16_t>(b, 65535);
-    append<double>(b, 1e15 + i);
+    test::append_bytes<std::uint16_t>(b, std::uint16_t(i + 1));  // list of i+1 floats
+    for (int k = 0; k <= i; ++k) test::append_bytes<float>(b, 9.0f);
+    for (float f : {0.1f, 0.2f, 0.3f}) test::append_bytes<float>(b, f);
+    test::append_bytes<double>(b, -2.0);
+    for (float f : {-1.0f, -2.0f, -3.0f, 1.0f, 0.0f, 0.0f, 0.0f}) test::append_bytes<float>(b, f);
+    test::append_bytes<float>(b, i == 0 ? -1.0f : 4.0f);
+    test::append_bytes<std::uint16_t>(b, 65535);
+    test::append_bytes<double>(b, 1e15 + i);
   }
-  append<std::uint64_t>(b, 42);
+  test::append_bytes<std::uint64_t>(b, 42);
   auto s = parse_gaussian_ply(b, "types.ply");
   ASSERT_TRUE(s.ok()) << s.message();
   ASSERT_EQ(s->cloud.gaussians.size(), 2u);

@@ -13,13 +13,6 @@
 namespace gauss {
 namespace {
 
-template <class T>
-void append(std::vector<std::uint8_t>& out, T v) {
-  std::uint8_t b[sizeof(T)];
-  std::memcpy(b, &v, sizeof(T));
-  out.insert(out.end(), b, b + sizeof(T));
-}
-
 TriangleMesh make_mesh() {
   TriangleMesh m;
   for (int i = 0; i < 6; ++i) {
@@ -67,7 +60,7 @@ TEST(PlyMesh, QuadsAndPolygonsAreFannedWithUintAndUshortIndices) {
                     " vertex_indices\nproperty uchar flags\nend_header\n";
     std::vector<std::uint8_t> b = test::bytes_of(h);
     for (int i = 0; i < 5; ++i)
-      for (int k = 0; k < 4; ++k) append<float>(b, float(i + k));
+      for (int k = 0; k < 4; ++k) test::append_bytes<float>(b, float(i + k));
     auto put_le = [&](std::uint32_t v, int n) {
       for (int k = 0; k < n; ++k) b.push_back(std::uint8_t(v >> (8 * k)));
     };

@@ -77,7 +77,7 @@ GaussianId SceneStore::allocate_id() { return GaussianId{next_id_++}; }
 Status SceneStore::insert(const Gaussian& g) {
   if (auto s = require_open("insert"); !s) return s;
   if (index_.count(g.id)) return Error{"SceneStore::insert: Gaussian id " + id_text(g.id) + " is already live"};
-  if (retired_.count(g.id))
+  if (retired_.contains(g.id))
     return Error{"SceneStore::insert: Gaussian id " + id_text(g.id) + " was removed before; ids are never reused"};
   if (auto why = invalid_field(g, sh_degree_); !why.empty())
     return Error{"SceneStore::insert: Gaussian id " + id_text(g.id) + ": " + why};

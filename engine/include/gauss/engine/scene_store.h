@@ -26,11 +26,11 @@
 #include <span>
 #include <string>
 #include <unordered_map>
-#include <unordered_set>
 #include <vector>
 
 #include <glm/vec3.hpp>
 
+#include "gauss/engine/compact_id_set.h"
 #include "gauss/engine/gaussian.h"
 #include "gauss/engine/ids.h"
 #include "gauss/engine/mesh.h"
@@ -109,7 +109,7 @@ class SceneStore {
   const Gaussian* find(GaussianId id) const;
   bool contains(GaussianId id) const { return find(id) != nullptr; }
   // True when `id` was live once and removed: it may never be inserted again.
-  bool was_removed(GaussianId id) const { return retired_.count(id) != 0; }
+  bool was_removed(GaussianId id) const { return retired_.contains(id); }
   // All stored Gaussians (carriers included), see the storage contract above.
   std::span<const Gaussian> gaussians() const { return gaussians_; }
   // Live Gaussians (carriers included).
@@ -172,7 +172,7 @@ class SceneStore {
   std::vector<Pending> pending_;       // parallel to gaussians_: what the open epoch did to it
   std::vector<std::uint32_t> touched_; // places whose pending_ left None this epoch (each once)
   std::unordered_map<GaussianId, std::uint32_t> index_;  // live id -> position in gaussians_
-  std::unordered_set<GaussianId> retired_;               // removed ids, never reused
+  CompactIdSet retired_;                                 // removed ids, never reused
   std::size_t appearance_count_{0};
   Aabb bounds_;
 
