@@ -9,7 +9,6 @@
 #include "gauss/engine/ply_mesh.h"
 #include "gauss/engine/rgbd_scene.h"
 #include "gauss/engine/rgbd_source.h"
-#include "gauss/engine/log_text.h"
 #include "gauss/engine/system_memory.h"
 #include "status_line.h"
 
@@ -198,8 +197,7 @@ Expected<bool> SceneFeed::step(SceneStore& store, double now) {
     const auto headroom = memory_headroom();
     return Error{"out of memory in epoch " + std::to_string(to_underlying(store.epoch()) + 1) + " with " +
                  std::to_string(store.size()) + " Gaussians in the scene" +
-                 (headroom ? " (" + format_bytes(headroom->bytes) + " left under " + std::string(headroom->bound) + ")"
-                           : std::string{})};
+                 (headroom ? "; " + headroom->text() : std::string{})};
   }
 }
 

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "gauss/engine/log_text.h"
+
 namespace gauss {
 
 namespace {
@@ -184,6 +186,10 @@ std::optional<std::size_t> cgroup_headroom_below(const std::filesystem::path& mo
       least = h;
   }
   return least;
+}
+
+std::string MemoryHeadroom::text() const {
+  return "this process can have " + format_bytes(bytes) + " more (" + std::string(bound) + ")";
 }
 
 std::optional<MemoryHeadroom> memory_headroom() {

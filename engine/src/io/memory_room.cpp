@@ -12,8 +12,7 @@ Status check_memory_room(std::size_t bytes, std::string_view name, std::string_v
   const auto headroom = memory_headroom();
   if (!headroom || bytes <= headroom->bytes) return Ok{};
   return Error{std::string(name) + ": not enough memory: " + std::string(what) + " need about " + format_bytes(bytes) +
-               ", and this process can have " + format_bytes(headroom->bytes) + " more (" + std::string(headroom->bound) +
-               ")"};
+               ", and " + headroom->text()};
 }
 
 Status resize_cloud(std::vector<Gaussian>& gs, std::size_t count, std::string_view name) {

@@ -161,8 +161,7 @@ Status LodEpochHierarchy::memory_for(std::size_t leaves_after, std::size_t copy_
   const std::size_t more = total > held ? total - held : 0;
   if (const auto headroom = memory_headroom(); headroom && more > headroom->bytes)
     return Error{std::string(kNoMemory) + what + (held > 0 ? " (" + format_bytes(more) + " more than it holds)" : "") +
-                 ", and this process can have " + format_bytes(headroom->bytes) + " more (" +
-                 std::string(headroom->bound) + ")"};
+                 ", and " + headroom->text()};
   return Ok{};
 }
 

@@ -40,8 +40,13 @@ Status match_ids(SceneStore& store, GaussianCloud& cloud, bool ids_given, const 
       if (!in_cloud.count(g.id)) gone.push_back(g.id);
   }
 
-  for (const Gaussian& g : cloud.gaussians)
-    if (!store.contains(g.id)) ++entering;
+  // Tracking counted them (its fresh ids); given ids are looked up.
+  if (report.tracked) {
+    entering = report.identity.fresh;
+  } else {
+    for (const Gaussian& g : cloud.gaussians)
+      if (!store.contains(g.id)) ++entering;
+  }
   return Ok{};
 }
 

@@ -291,8 +291,7 @@ Status SceneStore::reserve(std::size_t span) {
   };
   const auto headroom = memory_headroom();
   if (headroom && need > headroom->bytes)
-    return refuse("and this process can have " + format_bytes(headroom->bytes) + " more (" +
-                  std::string(headroom->bound) + ")");
+    return refuse("and " + headroom->text());
   // Growth by half the capacity at a time, as push_back would have grown, where that fits
   // too: a trainer's snapshots grow a little each, and room for exactly each would move the
   // whole span (and rehash the index) every epoch.

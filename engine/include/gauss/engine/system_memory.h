@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <optional>
+#include <string>
 #include <string_view>
 
 namespace gauss {
@@ -20,6 +21,9 @@ struct MemoryHeadroom {
   // The limit that binds, for a message: "the machine's available memory", "the cgroup's
   // memory limit" or "the address-space limit (ulimit -v)".
   std::string_view bound;
+  // "this process can have 12 MiB more (the address-space limit (ulimit -v))": how every
+  // refusal for want of memory ends.
+  std::string text() const;
 };
 
 // What this process can still allocate: the least of MemAvailable, the headroom under every
