@@ -4,7 +4,10 @@
 // display loop that checks every client's invariants at every frame.
 // All waits are on conditions with generous deadlines: no timing assertions.
 #include <chrono>
+#include <cstdio>
+#include <deque>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -20,6 +23,36 @@
 namespace gauss::test {
 
 inline msg::HeadPose head_pose_of(const Camera& camera) { return head_pose_from_camera(camera); }
+
+// The last lines the host and the clients logged, each with its time and source: a test
+// that fails prints them, so a flake that cannot be reproduced still says what happened.
+class LogTail {
+ public:
+  // A log function for `source`; it keeps the tail alive as long as its thread may call it.
+  static std::function<void(const std::string&)> sink(std::shared_ptr<LogTail> tail, std::string source) {
+    return [tail = std::move(tail), source = std::move(source)](const std::string& line) { tail->add(source, line); };
+  }
+  void add(const std::string& source, const std::string& line) {
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    char at[32];
+    std::snprintf(at, sizeof at, "%8.3f s ", t);
+    std::lock_guard lock(mu_);
+    lines_.push_back(at + source + ": " + line);
+    if (lines_.size() > kKept) lines_.pop_front();
+  }
+  std::string text() const {
+    std::lock_guard lock(mu_);
+    std::string out;
+    for (const std::string& l : lines_) out += "\n    " + l;
+    return out;
+  }
+
+ private:
+  static constexpr std::size_t kKept = 60;
+  const std::chrono::steady_clock::time_point start_{std::chrono::steady_clock::now()};
+  mutable std::mutex mu_;
+  std::deque<std::string> lines_;
+};
 
 struct StreamClient {
   std::string name;
@@ -69,7 +102,7 @@ class StreamHarness {
     hc.net.encrypt_stream = opt_.encrypt_stream;
     hc.net.peer_timeout_min = std::chrono::milliseconds(500);
     hc.net.peer_timeout_max = std::chrono::milliseconds(2000);
-    hc.net.log = [](const std::string&) {};
+    hc.net.log = LogTail::sink(logs_, "host");
     hc.session.access_token = opt_.access_token;
     auto h = net::SessionHost::start(hc, params);
     EXPECT_TRUE(h.ok()) << (h.ok() ? "" : h.message());
@@ -114,7 +147,7 @@ class StreamHarness {
     nc.peer_timeout_min = std::chrono::milliseconds(500);
     nc.peer_timeout_max = std::chrono::milliseconds(2000);
     nc.connect_timeout = std::chrono::milliseconds(1000);
-    nc.log = [](const std::string&) {};
+    nc.log = LogTail::sink(logs_, name);
     auto n = net::NetClient::start(nc, *c->sink);
     EXPECT_TRUE(n.ok()) << (n.ok() ? "" : n.message());
     if (!n.ok()) return nullptr;
@@ -171,6 +204,9 @@ class StreamHarness {
     return false;
   }
 
+  // The host's and clients' last log lines, oldest first.
+  std::string log_tail() const { return "\n  last log lines:" + logs_->text(); }
+
   std::string describe(StreamClient& c) {
     const std::uint32_t id = c.sink->client_id();
     HostSession* hs = host_->session(id);
@@ -192,7 +228,12 @@ class StreamHarness {
              " turned away, " + std::to_string(k.disconnects) +
              " disconnects" + (k.last_rejection.empty() ? "" : ", last rejection '" + k.last_rejection + "'");
     }
-    out += "; host counters: " + std::to_string(host_->net().counters().refused()) + " refused, " +
+    const net::HostCounters hk = host_->net().counters();
+    out += "; host counters: " + std::to_string(hk.connections) + " connections, " + std::to_string(hk.accepted) +
+           " accepted, " + std::to_string(hk.refused()) + " refused, " + std::to_string(hk.handshake_timeouts) +
+           "+" + std::to_string(hk.handshake_evicted) + " handshakes timed out/evicted, " +
+           std::to_string(hk.pending_timeouts) + "+" + std::to_string(hk.pending_evicted) +
+           " connect requests timed out/evicted, " + std::to_string(hk.disconnects) + " disconnects, " +
            std::to_string(host_->stats().sessions_opened) + " sessions opened, " +
            std::to_string(host_->stats().sessions_closed) + " closed";
     c.sink->with_state([&](ClientState& s) {
@@ -213,6 +254,7 @@ class StreamHarness {
 
   Options opt_;
   std::chrono::steady_clock::time_point start_;
+  std::shared_ptr<LogTail> logs_{std::make_shared<LogTail>()};
   std::unique_ptr<SyntheticScene> scene_;
   SceneStore store_;
   std::unique_ptr<net::SessionHost> host_;

@@ -19,7 +19,7 @@ TEST(StreamLoopback, TwoClientsWithDifferentBudgetsConvergeExactly) {
   ASSERT_TRUE(small && large);
   const bool ok = h.run_until_converged({small.get(), large.get()}, std::chrono::seconds(25));
   ASSERT_FALSE(::testing::Test::HasFatalFailure());
-  EXPECT_TRUE(ok) << h.describe(*small) << "\n" << h.describe(*large);
+  EXPECT_TRUE(ok) << h.describe(*small) << "\n" << h.describe(*large) << h.log_tail();
   EXPECT_LE(small->max_published, 3000u);
   EXPECT_LE(large->max_published, 9000u);
   // The budgets bind: the scene is larger than either, so each holds exactly M.
@@ -49,7 +49,7 @@ TEST(StreamLoopback, WithLodTheHierarchyIsUpdatedInTheBackgroundAndClientsConver
   ASSERT_TRUE(small && large);
   const bool ok = h.run_until_converged({small.get(), large.get()}, std::chrono::seconds(25));
   ASSERT_FALSE(::testing::Test::HasFatalFailure());
-  EXPECT_TRUE(ok) << h.describe(*small) << "\n" << h.describe(*large);
+  EXPECT_TRUE(ok) << h.describe(*small) << "\n" << h.describe(*large) << h.log_tail();
   for (test::StreamClient* c : {small.get(), large.get()}) {
     EXPECT_LE(c->max_published, c->capacity) << c->name;
     EXPECT_EQ(c->sink->rejected(), 0u) << c->name;
@@ -108,7 +108,7 @@ TEST(StreamLoopback, MalformedMessagesMidStreamAreRejectedAndHarmless) {
   ASSERT_NE(session, nullptr) << "the connection was dropped";
   EXPECT_EQ(session->stats().rejected_messages, before.rejected_messages);
   EXPECT_EQ(c->net->status(), net::ClientStatus::Connected);
-  EXPECT_TRUE(h.run_until_converged({c.get()}, std::chrono::seconds(25))) << h.describe(*c);
+  EXPECT_TRUE(h.run_until_converged({c.get()}, std::chrono::seconds(25))) << h.describe(*c) << h.log_tail();
 }
 
 TEST(StreamLoopback, AccessTokenRefusesAClientWithoutIt) {
@@ -141,7 +141,7 @@ TEST(StreamLoopback, AccessTokenRefusesAClientWithoutIt) {
   // The right token streams.
   auto good = h.connect("good", 2000, h.port());
   ASSERT_TRUE(good);
-  EXPECT_TRUE(h.run_until_converged({good.get()}, std::chrono::seconds(25))) << h.describe(*good);
+  EXPECT_TRUE(h.run_until_converged({good.get()}, std::chrono::seconds(25))) << h.describe(*good) << h.log_tail();
 }
 
 // A sealed stream carries the same content: two hosts on the same scene, one plain and
@@ -159,7 +159,7 @@ TEST(StreamLoopback, ASealedStreamEndsInTheSameStateAsAPlainOne) {
     ASSERT_TRUE(c);
     const bool ok = h.run_until_converged({c.get()}, std::chrono::seconds(25));
     ASSERT_FALSE(::testing::Test::HasFatalFailure());
-    ASSERT_TRUE(ok) << (sealed ? "sealed: " : "plain: ") << h.describe(*c);
+    ASSERT_TRUE(ok) << (sealed ? "sealed: " : "plain: ") << h.describe(*c) << h.log_tail();
     EXPECT_EQ(c->sink->rejected(), 0u);
     const auto hc = h.host().net().counters();
     EXPECT_EQ(hc.malformed + hc.wrong_direction, 0u) << hc.last_rejection;

@@ -33,7 +33,7 @@ TEST(StreamLossy, LossDelayReorderAndDuplicationGiveTheSameExactState) {
   ASSERT_TRUE(a && b);
   const bool ok = h.run_until_converged({a.get(), b.get()}, std::chrono::seconds(28));
   ASSERT_FALSE(::testing::Test::HasFatalFailure());
-  EXPECT_TRUE(ok) << h.describe(*a) << "\n" << h.describe(*b);
+  EXPECT_TRUE(ok) << h.describe(*a) << "\n" << h.describe(*b) << h.log_tail();
   const auto rc = relay->counters();
   // The link really was hostile (counts from the seeded policy, not timing).
   EXPECT_GT(rc.dropped, 0u);
@@ -66,7 +66,7 @@ TEST(StreamLossy, AKilledClientRestartsAndResynchronises) {
   ASSERT_TRUE(reborn);
   const bool ok = h.run_until_converged({steady.get(), reborn.get()}, std::chrono::seconds(25));
   ASSERT_FALSE(::testing::Test::HasFatalFailure());
-  EXPECT_TRUE(ok) << h.describe(*steady) << "\n" << h.describe(*reborn);
+  EXPECT_TRUE(ok) << h.describe(*steady) << "\n" << h.describe(*reborn) << h.log_tail();
   EXPECT_NE(reborn->sink->client_id(), old_id);
   // The dead connection is noticed by peer timeout and its session freed.
   const auto gone = std::chrono::steady_clock::now() + std::chrono::seconds(15);
@@ -105,7 +105,7 @@ TEST(StreamLossy, ALinkOutageReconnectsAndReconcilesWithoutHostRestart) {
   // The client kept its state; the new Welcome's resync reconciles it.
   const bool ok = h.run_until_converged({c.get()}, std::chrono::seconds(25));
   ASSERT_FALSE(::testing::Test::HasFatalFailure());
-  EXPECT_TRUE(ok) << h.describe(*c);
+  EXPECT_TRUE(ok) << h.describe(*c) << h.log_tail();
   EXPECT_NE(c->sink->client_id(), first_id);
   EXPECT_GE(c->net->counters().welcomes, 2u);
   EXPECT_GE(c->sink->with_state([](ClientState& s) { return s.stats().resyncs; }), 2u);
