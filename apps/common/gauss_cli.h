@@ -19,6 +19,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "gauss/engine/scene_up.h"
 #include "status_line.h"
 
 namespace gauss::apps {
@@ -99,6 +100,19 @@ inline CLI::Option* add_on_off(CLI::App& app, const std::string& name, bool& val
       .add_option_function<std::string>(name, [&value](const std::string& v) { value = v == "on"; },
                                         what + " (on|off; default " + (value ? "on" : "off") + ")")
       ->check(CLI::IsMember({"on", "off"}));
+}
+
+// An "--up AXIS" option (+x -x +y -y +z -z, parse_up_axis) into `value`, unset when not given.
+inline CLI::Option* add_up_option(CLI::App& app, std::optional<glm::dvec3>& value, const std::string& what) {
+  return app
+      .add_option_function<std::string>("--up", [&value](const std::string& v) { value = *parse_up_axis(v); }, what)
+      ->check(CLI::Validator(
+          [](std::string& in) {
+            auto r = parse_up_axis(in);
+            return r ? std::string() : r.message();
+          },
+          ""))
+      ->type_name("AXIS");
 }
 
 // Validator for parse_size.

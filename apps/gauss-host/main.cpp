@@ -104,6 +104,7 @@ int main(int argc, char** argv) {
   hc.net.admission.pending_timeout = hc.net.handshake_timeout;
   if (o.max_budget > 0) hc.session.max_capacity = o.max_budget;
   hc.session.default_rho = o.rho;
+  hc.session.view = (*feed)->view();
   if (o.lod) hc.session.lod = gauss::LodConfig{};
   if (o.min_opacity > 0.0f || o.max_scale > 0.0f || o.min_support > 0) {
     gauss::EligibilityConfig ec;

@@ -77,6 +77,10 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
                  "an RGB-D capture as the scene: one Gaussian per STRIDE x STRIDE pixel block with depth that "
                  "the earlier frames' Gaussians do not already show")
       ->check(apps::in_range(1u, 64u));
+  apps::add_up_option(app, o.up,
+                      "a scene file's or folder's up axis, announced to clients so that they show it upright: +x -x "
+                      "+y -y +z -z (default: the trainer's cameras.json beside it gives the capture's up, else -y, "
+                      "the 3DGS/COLMAP convention; an RGB-D capture: its cameras' up; synthetic: +y)");
   app.add_option("--mesh", o.mesh, "a fixed surface mesh (PLY) instead of the meshes beside the snapshots")
       ->check(CLI::ExistingFile)
       ->type_name("FILE");

@@ -6,6 +6,8 @@
 #include <optional>
 #include <string>
 
+#include <glm/vec3.hpp>
+
 #include "gauss/net/address.h"
 
 namespace gauss::host_app {
@@ -21,6 +23,7 @@ struct Options {
   std::optional<std::filesystem::path> objects;     // objects JSON (class labels)
   std::optional<std::filesystem::path> rgbd;        // RGB-D capture fused into the surface
   std::optional<std::filesystem::path> mesh;        // fixed surface mesh PLY
+  std::optional<glm::dvec3> up;                     // --up: the scene's up axis (else measured or the convention's)
   std::uint32_t rgbd_stride{4};  // a capture as the scene: a Gaussian per stride x stride pixels
   std::uint32_t max_budget{0};  // largest budget M granted to a client; 0 = the engine's maximum
   double rho{0.9};              // a query's share when the client asks for the host's default

@@ -9,6 +9,8 @@
 #include "gauss/engine/ply_mesh.h"
 #include "gauss/engine/rgbd_scene.h"
 #include "gauss/engine/rgbd_source.h"
+#include "gauss/engine/scene_up.h"
+#include "gauss/engine/scene_view.h"
 #include "gauss/engine/system_memory.h"
 #include "status_line.h"
 
@@ -43,9 +45,9 @@ Expected<std::unique_ptr<SceneFeed>> SceneFeed::open(const Options& o, SceneStor
   std::unique_ptr<SceneFeed> feed(new SceneFeed());
   feed->period_s_ = o.epoch_period_s;
   if (!o.scene_path) {
-    if (o.labels || o.objects || o.rgbd || o.mesh)
-      return Error{"--labels, --objects, --rgbd and --mesh apply to scene files and folders, not to synthetic:" +
-                   std::to_string(o.variant) + " (it has its own objects and surface)"};
+    if (o.labels || o.objects || o.rgbd || o.mesh || o.up)
+      return Error{"--labels, --objects, --rgbd, --mesh and --up apply to scene files and folders, not to synthetic:" +
+                   std::to_string(o.variant) + " (it has its own objects and surface, and is y up)"};
     SyntheticSceneConfig sc;
     sc.variant = o.variant;
     sc.seed = o.seed;
@@ -64,6 +66,7 @@ Expected<std::unique_ptr<SceneFeed>> SceneFeed::open(const Options& o, SceneStor
     feed->params_.sh_degree = 1;
     feed->params_.box.min = feed->synthetic_->room_min() - glm::vec3(0.5f);
     feed->params_.box.max = feed->synthetic_->room_max() + glm::vec3(0.5f);
+    feed->view_ = room_view(feed->synthetic_->room_min(), feed->synthetic_->room_max());
     if (auto r = feed->step(store, 0.0); !r) return r.error();
     return feed;
   }
@@ -107,6 +110,16 @@ Expected<std::unique_ptr<SceneFeed>> SceneFeed::open(const Options& o, SceneStor
   // A followed folder's later snapshots may reach beyond the first one's bounds.
   feed->params_ = feed->folder_ ? fit_live_codec_params(store.gaussians(), store.sh_degree())
                                 : fit_codec_params(store.gaussians(), store.sh_degree());
+  // Which way is up, as a local viewer of the file would decide (a folder's trainer keeps its
+  // cameras.json at the run folder, which is the folder given).
+  std::error_code ec;
+  const fs::path probe = !feed->folder_                              ? path
+                         : fs::is_directory(path / "point_cloud", ec) ? path / "point_cloud" / "iteration_0" / "point_cloud.ply"
+                                                                      : path / "snapshot.ply";
+  const SceneUp up = choose_scene_up(o.up, probe);
+  if (!up.problem.empty()) std::printf("gauss-host: %s; up is %s, %s\n", up.problem.c_str(), up_label(up.up).c_str(), up.detail.c_str());
+  feed->view_ = capture_view(store.gaussians(), up.up, up.capture_position);
+  feed->view_note_ = "up " + up_label(up.up) + " (" + up.detail + ")";
   if (o.rgbd)
     if (auto s = feed->fuse_rgbd(o, store); !s) return s.error();
   if (o.mesh) feed->surface_note_ = "surface " + o.mesh->string();
@@ -130,9 +143,12 @@ Expected<std::unique_ptr<SceneFeed>> SceneFeed::open_capture(const Options& o, S
   auto first = feed->source_->next_epoch(store);
   if (!first) return first.error();
   if (!*first) return Error{"RGB-D capture " + o.scene_path->string() + " gave no epoch"};
-  auto params = fit_capture_codec_params(*o.scene_path, capture_options(o));
-  if (!params) return params.error();
-  feed->params_ = *params;
+  auto fit = fit_capture(*o.scene_path, capture_options(o));
+  if (!fit) return fit.error();
+  feed->params_ = fit->params;
+  feed->view_ = fit->view;
+  if (o.up) feed->view_.up = glm::vec3(*o.up);
+  feed->view_note_ = "up " + up_label(glm::dvec3(feed->view_.up)) + (o.up ? " (--up)" : " (its cameras' mean)");
   return feed;
 }
 
@@ -226,6 +242,7 @@ std::string SceneFeed::describe() const {
                                    std::to_string(synthetic_->config().epochs) + " epochs)"
                              : source_->describe();
   if (!surface_note_.empty()) d += ", " + surface_note_;
+  if (!view_note_.empty()) d += ", " + view_note_;
   return d;
 }
 

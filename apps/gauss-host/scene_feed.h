@@ -16,6 +16,7 @@
 #include <string>
 
 #include "gauss/engine/codec.h"
+#include "gauss/engine/messages.h"
 #include "gauss/engine/result.h"
 #include "gauss/engine/scene_source.h"
 #include "gauss/engine/scene_store.h"
@@ -35,6 +36,8 @@ class SceneFeed {
   Expected<bool> step(SceneStore& store, double now);
   // Codec parameters fitted to the first epoch (synthetic: the room box, SH degree 1).
   const CodecParams& codec_params() const { return params_; }
+  // How clients first look at it (SceneInfo::view): up, the subject's box, the capture's side.
+  const msg::SceneView& view() const { return view_; }
   std::string describe() const;
   // Whether more epochs may still come (a followed folder always may).
   bool live() const;
@@ -58,7 +61,9 @@ class SceneFeed {
   double next_epoch_{0.0};
   std::size_t messages_taken_{0};
   CodecParams params_;
+  msg::SceneView view_;
   std::string surface_note_;
+  std::string view_note_;  // where the up came from, for describe()
 };
 
 }  // namespace gauss::host_app

@@ -7,6 +7,7 @@
 
 #include <glm/vec3.hpp>
 
+#include "gauss/engine/messages.h"
 #include "gauss/engine/scene_framing.h"
 #include "view_source.h"
 
@@ -22,5 +23,12 @@ FramingLens view_lens(double hfov_deg, std::uint32_t width, std::uint32_t height
 std::optional<Framing> default_framing(const ViewSource& source, const glm::dvec3& up, double hfov_deg,
                                        std::uint32_t width, std::uint32_t height,
                                        ViewPreset preset = ViewPreset::Front);
+
+// The first view of a stream, from the view its host announced (SceneInfo::view), upright for
+// `up`: a room (kViewInside) seen with `up` as +y from above a corner inside it, toward a point
+// below its middle (a person entering it; the Front preset only); anything else, and the other
+// presets, from outside its subject as a local scene's default camera (frame_scene_view).
+Framing stream_framing(const msg::SceneView& view, const glm::dvec3& up, double hfov_deg, std::uint32_t width,
+                       std::uint32_t height, ViewPreset preset = ViewPreset::Front);
 
 }  // namespace gauss::view

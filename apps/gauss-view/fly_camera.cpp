@@ -101,17 +101,6 @@ void FlyCamera::set_from_camera(const Camera& camera) {
   look(glm::dvec3(c2w[3]), glm::dvec3(c2w[2]));
 }
 
-void FlyCamera::frame_room(const glm::dvec3& lo, const glm::dvec3& hi) {
-  const glm::dvec3 size = hi - lo;
-  const glm::dvec3 eye(lo.x + 0.12 * size.x, lo.y + 0.8 * size.y, lo.z + 0.12 * size.z);
-  const glm::dvec3 target(lo.x + 0.5 * size.x, lo.y + 0.25 * size.y, lo.z + 0.5 * size.z);
-  const glm::dvec3 d = target - eye;
-  if (glm::dot(d, d) <= 0.0) return;  // a degenerate box: keep the pose
-  look(eye, d);
-  // About 4 s to cross the box.
-  set_speed(std::max({size.x, size.z, 1.0}) / 4.0);
-}
-
 void FlyCamera::frame(const Framing& fr) {
   up_ = fr.up;
   look(fr.eye, fr.target - fr.eye);

@@ -59,10 +59,6 @@ class FlyCamera {
   void look(const glm::dvec3& position, const glm::dvec3& direction);
   // Takes the position and view direction of `camera` (its roll is dropped).
   void set_from_camera(const Camera& camera);
-  // The overview of a room-like box [lo, hi] (up +y): from inside, high above one corner,
-  // looking at the far lower centre (as SyntheticScene::overview_camera does): a stream's
-  // first view.
-  void frame_room(const glm::dvec3& lo, const glm::dvec3& hi);
   // Takes a framing (scene_framing.h): its up, eye and view of its target; the speed
   // crosses the framed box in about 4 s; the far plane reaches past it.
   void frame(const Framing& framing);

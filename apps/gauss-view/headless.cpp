@@ -17,7 +17,6 @@
 #include "gauss/engine/image_io.h"
 #include "gauss/render/splat_math.h"
 #include "default_view.h"
-#include "fly_camera.h"
 #include "status_line.h"
 #include "percentile.h"
 #include "headless_report.h"
@@ -61,14 +60,11 @@ json vec_json(const glm::dvec3& v) { return json::array({v.x, v.y, v.z}); }
 
 // The scene box a host describes its scene with (the codec's), once its SceneInfo has come;
 // an error when the host refuses the client or sends nothing within `limit_s`.
-Expected<CodecBox> wait_for_stream_box(client::ClientRuntime& rt, const std::string& host, double limit_s) {
+Expected<msg::SceneView> wait_for_host_view(ViewSource& src, client::ClientRuntime& rt, const std::string& host,
+                                            double limit_s) {
   const auto t0 = std::chrono::steady_clock::now();
   for (;;) {
-    const auto box = rt.with_state([](const ClientState& s) -> std::optional<CodecBox> {
-      if (!s.codec()) return std::nullopt;
-      return s.codec()->box;
-    });
-    if (box) return *box;
+    if (auto view = src.take_host_view()) return *view;
     const client::ConnectionInfo conn = rt.connection();
     if (conn.status == net::ClientStatus::Refused) return Error{conn.counters.last_rejection};
     if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > limit_s) {
@@ -209,24 +205,20 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
   client::ClientRuntime* rt = src.runtime();
   json default_camera = nullptr;
   if (!path && rt) {
-    // A stream has no bounds until the host describes its scene: the camera is the window's
-    // first view of the scene box the host sends (FlyCamera::frame_room), held still.
-    auto box = wait_for_stream_box(*rt, src.describe(), opts.settle_timeout_s);
-    if (!box) {
-      std::fprintf(stderr, "gauss-view: %s\n", box.message().c_str());
+    // A stream has no bounds until the host describes its scene: the camera is the first
+    // view of the host's announced view (stream_framing), held still.
+    auto view = wait_for_host_view(src, *rt, src.describe(), opts.settle_timeout_s);
+    if (!view) {
+      std::fprintf(stderr, "gauss-view: %s\n", view.message().c_str());
       return 1;
     }
-    FlyCamera camera;
-    camera.frame_room(glm::dvec3(box->min), glm::dvec3(box->max));
-    Framing framing;
-    framing.eye = camera.pose().position;
-    framing.target = framing.eye + camera.forward();
-    framing.up = camera.up();
+    const Framing framing = stream_framing(*view, src.up().up, opts.fov_deg, in.width, in.height, opts.view);
     path = default_camera_path(framing, in);
-    default_camera = json{{"bounds", {{"lo", vec_json(glm::dvec3(box->min))}, {"hi", vec_json(glm::dvec3(box->max))}}},
-                          {"stream_box", true},
+    default_camera = json{{"bounds", {{"lo", vec_json(glm::dvec3(view->subject_min))}, {"hi", vec_json(glm::dvec3(view->subject_max))}}},
+                          {"host_view", true},
+                          {"inside", (view->flags & msg::kViewInside) != 0},
                           {"up", vec_json(framing.up)},
-                          {"up_from", "the window's first view of a stream"},
+                          {"up_from", src.up().detail},
                           {"eye", vec_json(framing.eye)},
                           {"target", vec_json(framing.target)}};
   } else if (!path) {
@@ -262,7 +254,8 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
   FrameLog log(jsonl);
   char flown[512];
   if (opts.path.empty() && rt)
-    std::snprintf(flown, sizeof flown, "the window's first view of the host's scene box, held");
+    std::snprintf(flown, sizeof flown, "the host's view of its scene (up %s, %s), held", up_label(src.up().up).c_str(),
+                  src.up().detail.c_str());
   else if (opts.path.empty())
     std::snprintf(flown, sizeof flown, "its default camera (up %s, %s) for %u frames", up_label(src.up().up).c_str(),
                   src.up().detail.c_str(), kDefaultCameraFrames);

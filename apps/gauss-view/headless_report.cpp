@@ -72,11 +72,11 @@ Status write_report(const fs::path& out, const nlohmann::json& s) {
      << (s.value("settled", false) ? "the stream had settled at the end (nothing pending, no edits for the quiet time)"
                                    : "the stream had NOT settled within the settle time")
      << "\n";
-  if (const auto it = s.find("default_camera"); it != s.end() && it->is_object() && it->value("stream_box", false)) {
+  if (const auto it = s.find("default_camera"); it != s.end() && it->is_object() && it->value("host_view", false)) {
     const auto& c = *it;
-    md << "- camera: the window's first view of the host's scene box " << c["bounds"]["lo"].dump() << " .. "
-       << c["bounds"]["hi"].dump() << ", from " << c["eye"].dump() << " toward " << c["target"].dump() << ", up "
-       << c["up"].dump() << "\n";
+    md << "- camera: the host's view of its scene, " << (c.value("inside", false) ? "inside" : "outside") << " the box "
+       << c["bounds"]["lo"].dump() << " .. " << c["bounds"]["hi"].dump() << ", from " << c["eye"].dump() << " toward "
+       << c["target"].dump() << ", up " << c["up"].dump() << " (" << c.value("up_from", "") << ")\n";
   } else if (it != s.end() && it->is_object()) {
     const auto& c = *it;
     md << "- camera: the scene's default camera, framing the box " << c["bounds"]["lo"].dump() << " .. "

@@ -39,8 +39,8 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
       "flies a camera path file and writes PNG frames plus one JSON line per frame instead (a\n"
       "scene without --path: a few frames from its default camera, which frames the scene's\n"
       "opacity-weighted 2nd..98th percentile box from outside, upright for --up; a host without\n"
-      "--path: the window's first view of the scene box the host sends, held until the stream\n"
-      "settles).",
+      "--path: the view the host announces for its scene, upright for its up, held until the\n"
+      "stream settles).",
       "gauss-view"};
   apps::configure(app);
   std::string host, mode = o.mode == PublishMode::Immediate ? "immediate" : "progressive", size;
@@ -70,17 +70,10 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
   app.add_option("--size", size, "view size (headless: unless the path file gives a camera); windowed: the window's size")->check(apps::image_size());
   app.add_option("--fov", o.fov_deg, "horizontal field of view in degrees of the default camera")
       ->check(apps::in_range(10.0, 150.0));
-  std::string up;
-  app.add_option("--up", up,
-                 "the scene's up axis: +x -x +y -y +z -z (default: a local scene's trainer cameras.json beside it "
-                 "gives the capture's up, else -y, the 3DGS/COLMAP convention; a stream: +y)")
-      ->check(CLI::Validator(
-          [](std::string& in) {
-            auto r = parse_up_axis(in);
-            return r ? std::string() : r.message();
-          },
-          ""))
-      ->type_name("AXIS");
+  apps::add_up_option(app, o.up,
+                      "the scene's up axis: +x -x +y -y +z -z (default: a local scene's trainer cameras.json beside "
+                      "it gives the capture's up, else -y, the 3DGS/COLMAP convention; a stream: the up its host "
+                      "announces)");
   std::string view = "front";
   app.add_option("--view", view,
                  "the default camera's view of a local scene: front (the capture's side), side (its right), top "
@@ -130,7 +123,6 @@ std::optional<int> parse_options(int argc, char** argv, ViewOptions& o) {
   if (!host.empty()) o.host = *net::parse_endpoint(host);
   o.mode = mode == "immediate" ? PublishMode::Immediate : PublishMode::Progressive;
   o.highlight = !no_highlight;
-  if (!up.empty()) o.up = *parse_up_axis(up);
   o.press_key = key_from_name(press);
   o.view = view == "side" ? ViewPreset::Side : view == "top" ? ViewPreset::Top : ViewPreset::Front;
   const auto wh = apps::parse_size(size);

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "gauss/engine/ply_mesh.h"
+#include "gauss/engine/scene_view.h"
 #include "gauss/render/vk_frame_ring.h"
 
 namespace gauss::view {
@@ -30,6 +31,18 @@ class StreamSource final : public ViewSource {
   render::SplatRenderer& renderer() override { return rt_->renderer(); }
   client::ClientRuntime* runtime() noexcept override { return rt_.get(); }
   std::string describe() const override { return "host " + server_; }
+
+  std::optional<msg::SceneView> take_host_view() override {
+    const auto taken =
+        rt_->try_with_state([](const ClientState& s) -> std::optional<msg::SceneView> { return s.view(); });
+    if (!taken || !*taken) return std::nullopt;
+    const msg::SceneView& v = **taken;
+    if (up_.source != UpSource::Option) {
+      up_.up = view_up(v);
+      up_.detail = "announced by the host";
+    }
+    return v;
+  }
 
   // From the last frame's figures (the state as its publication step left it), not under
   // the state lock: a running step holds that for its length.
@@ -168,7 +181,7 @@ Expected<std::unique_ptr<ViewSource>> make_view_source(vk::Context& context, con
   if (auto st = (*rt)->connect(net); !st) return st.error();
   SceneUp up;
   up.up = glm::dvec3(0.0, 1.0, 0.0);
-  up.detail = "default for a stream (+y)";
+  up.detail = "+y until the host announces its scene's up";
   if (o.up) {
     up.up = *o.up;
     up.source = UpSource::Option;

@@ -17,6 +17,7 @@
 #include "gauss/engine/result.h"
 #include "gauss/engine/scene_framing.h"
 #include "gauss/engine/scene_load.h"
+#include "gauss/engine/messages.h"
 #include "gauss/engine/scene_up.h"
 #include "options.h"
 
@@ -64,9 +65,13 @@ class ViewSource {
   // nullopt for a stream (its SceneInfo's box arrives later).
   virtual std::optional<RobustBounds> bounds() const { return std::nullopt; }
   // The scene's up and where it came from: --up; for a local scene else its trainer's
-  // cameras.json or the 3DGS default -y (gauss/engine/scene_up.h); for a stream else +y, the
-  // up of the host's synthetic rooms and RGB-D fusion.
+  // cameras.json or the 3DGS default -y (gauss/engine/scene_up.h); for a stream else the up
+  // its host announces (take_host_view), +y until then.
   const SceneUp& up() const noexcept { return up_; }
+  // A stream's view as its host announced it (SceneInfo::view), once its SceneInfo has
+  // arrived, and the source's up becomes the host's unless --up set it. Never waits (a
+  // publication step may hold the state). nullopt for a local scene, or before SceneInfo.
+  virtual std::optional<msg::SceneView> take_host_view() { return std::nullopt; }
   // "host 127.0.0.1:7000" or "scene room.ply (10000 Gaussians)".
   virtual std::string describe() const = 0;
   // A local scene's figures (the scene panel); nullptr for a stream.

@@ -60,7 +60,9 @@ class FrameLoop {
   // `preset`'s side for the window's current size; a stream's box once it is known (a
   // stream has one view of it).
   void reframe(ViewPreset preset = ViewPreset::Front);
-  void frame_stream_box();
+  // A stream: frames the view its host announced once it is known (stream_framing), from
+  // stream_preset_'s side; the host's up becomes the camera's the first time (unless --up).
+  void frame_stream();
   // Waits until frame slot `slot`'s previous frame finished (its acquire semaphore and the
   // UI's buffers are free again; vk_swapchain.h step 1).
   Status wait_slot(std::uint32_t& out_slot);
@@ -88,7 +90,9 @@ class FrameLoop {
   OrbitControl orbit_;
   bool orbit_mode_{false};
   glm::dvec3 framed_centre_{0.0};  // the last framing's target: where entering orbit aims
-  bool auto_frame_{false};  // a stream: frame the scene's box once it is known, until the user moves
+  bool auto_frame_{false};  // a stream: frame the host's view once it is known, until the user moves
+  ViewPreset stream_preset_{ViewPreset::Front};
+  bool stream_up_taken_{false};  // the host's up has been given to the camera
   std::vector<std::uint64_t> slot_serial_;  // renderer serial that last used each slot
   render::SplatRenderer* renderer_;
   std::unique_ptr<SceneLoadJob> load_;
@@ -112,6 +116,7 @@ Status FrameLoop::start_pose() {
 void FrameLoop::reframe(ViewPreset preset) {
   if (source_->runtime() != nullptr) {
     auto_frame_ = true;
+    stream_preset_ = preset;
     return;
   }
   // The mono view's size and focal length (run() keeps the pixel scale in stereo).
@@ -123,17 +128,19 @@ void FrameLoop::reframe(ViewPreset preset) {
   }
 }
 
-void FrameLoop::frame_stream_box() {
-  // Tried every frame until the box is known: never waits for a publication step.
-  const auto taken = source_->runtime()->try_with_state([](const ClientState& s) -> std::optional<CodecBox> {
-    if (!s.codec()) return std::nullopt;
-    return s.codec()->box;
-  });
-  if (!taken || !*taken) return;
-  const CodecBox* box = &**taken;
-  camera_.frame_room(glm::dvec3(box->min), glm::dvec3(box->max));
-  framed_centre_ = 0.5 * (glm::dvec3(box->min) + glm::dvec3(box->max));
-  orbit_.frame_at(glm::length(framed_centre_ - camera_.pose().position));
+void FrameLoop::frame_stream() {
+  // Tried every frame until the view is known: never waits for a publication step.
+  const auto view = source_->take_host_view();
+  if (!view) return;
+  if (!stream_up_taken_) {
+    camera_.set_up(source_->up().up);
+    stream_up_taken_ = true;
+  }
+  const VkExtent2D ve = view_extent(window_.framebuffer_extent());
+  const Framing fr = stream_framing(*view, camera_.up(), opts_.fov_deg, ve.width, ve.height, stream_preset_);
+  camera_.frame(fr);
+  orbit_.frame(fr);
+  framed_centre_ = fr.target;
   auto_frame_ = false;
 }
 
@@ -318,7 +325,7 @@ int FrameLoop::run() {
       camera_.set_up(*up);
       reframe();
     }
-    if (auto_frame_) frame_stream_box();
+    if (auto_frame_) frame_stream();
 
     std::uint32_t slot = 0;
     if (auto st = wait_slot(slot); !st) {

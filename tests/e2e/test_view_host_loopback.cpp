@@ -5,6 +5,7 @@
 // client (gauss-host --dump-sent: the decoded, quantised records and the surface), for
 // the client's final camera; and the query's targets must hold min(|G_obj|, floor(rho M))
 // of the client's M slots.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -41,16 +42,20 @@ constexpr std::uint32_t kBudget = 3000;
 constexpr double kRho = 0.5;
 
 // gauss-host on a free loopback port (retried if another process took it meanwhile), dumping
-// what it sent each client into out/dump; its endpoint, empty when it could not start.
-std::string start_host(gauss::test::ChildProcess& host, const fs::path& out) {
+// what it sent each client into out/dump; its endpoint, empty when it could not start. It
+// serves `scene` (a small synthetic room by default).
+std::string start_host(gauss::test::ChildProcess& host, const fs::path& out,
+                       const std::vector<std::string>& scene = {"--gaussians", "10000", "--epochs", "6",
+                                                                "--epoch-period", "0.2"}) {
   for (int attempt = 0; attempt < 3; ++attempt) {
     const std::uint16_t port = gauss::test::free_udp_port();
     if (port == 0) continue;
     const std::string ep = "127.0.0.1:" + std::to_string(port);
-    if (!host.start({GAUSS_HOST_EXE, "--bind", ep, "--gaussians", "10000", "--epochs", "6", "--epoch-period", "0.2",
-                     "--duration", "400", "--dump-sent", (out / "dump").string(), "--quiet"},
-                    out / "host.log"))
-      return {};
+    std::vector<std::string> args = {GAUSS_HOST_EXE, "--bind", ep};
+    args.insert(args.end(), scene.begin(), scene.end());
+    for (const char* a : {"--duration", "400", "--quiet"}) args.emplace_back(a);
+    args.insert(args.end(), {"--dump-sent", (out / "dump").string()});
+    if (!host.start(args, out / "host.log")) return {};
     if (!host.wait(700ms)) return ep;  // still running: it bound the port
   }
   return {};
@@ -98,10 +103,10 @@ TEST(ViewHostLoopback, ClientImageEqualsHostRenderOfTheSentSetAndTheQueryGetsIts
   EXPECT_EQ(q["target_resident"].get<std::uint64_t>(), expected) << summary.dump(2);
 }
 
-// Without --path the client holds the window's first view of the scene box the host sent
-// (FlyCamera::frame_room), settles there, and its final frame is again the host's render of
+// Without --path the client holds the view the host announced (the synthetic room: from
+// inside, above a corner), settles there, and its final frame is again the host's render of
 // what it sent.
-TEST(ViewHostLoopback, WithoutAPathTheClientHoldsTheWindowsFirstViewOfTheHostsBox) {
+TEST(ViewHostLoopback, WithoutAPathTheClientHoldsTheViewTheHostAnnounced) {
   const fs::path out = gauss::test::fresh_output_dir("e2e_view_host_loopback_no_path");
   gauss::test::ChildProcess host;
   const std::string endpoint = start_host(host, out);
@@ -112,7 +117,8 @@ TEST(ViewHostLoopback, WithoutAPathTheClientHoldsTheWindowsFirstViewOfTheHostsBo
                                            std::to_string(kBudget), "--every", "0", "--settle-timeout", "120",
                                            "--quiet-time", "5"},
                                           out));
-  EXPECT_NE(read_text(out / "view.log").find("the window's first view of the host's scene box"), std::string::npos)
+  EXPECT_NE(read_text(out / "view.log").find("the host's view of its scene (up +y, announced by the host)"),
+            std::string::npos)
       << read_text(out / "view.log");
 
   const auto summary = nlohmann::json::parse(read_text(out / "view" / "summary.json"));
@@ -120,8 +126,9 @@ TEST(ViewHostLoopback, WithoutAPathTheClientHoldsTheWindowsFirstViewOfTheHostsBo
   EXPECT_EQ(summary["resident"].get<std::uint64_t>(), kBudget);
   const auto& cam = summary["default_camera"];
   ASSERT_TRUE(cam.is_object()) << summary.dump(2);
-  EXPECT_TRUE(cam["stream_box"].get<bool>());
-  // frame_room: from above a corner of the box, toward a point inside it.
+  EXPECT_TRUE(cam["host_view"].get<bool>());
+  EXPECT_TRUE(cam["inside"].get<bool>());
+  // A room: from above a corner of the box, toward a point inside it.
   const auto lo = cam["bounds"]["lo"].get<std::vector<double>>(), hi = cam["bounds"]["hi"].get<std::vector<double>>();
   const auto eye = cam["eye"].get<std::vector<double>>(), target = cam["target"].get<std::vector<double>>();
   for (int a = 0; a < 3; ++a) {
@@ -132,6 +139,44 @@ TEST(ViewHostLoopback, WithoutAPathTheClientHoldsTheWindowsFirstViewOfTheHostsBo
   EXPECT_LT(target[1], eye[1]) << "it looks down into the room";
 
   ASSERT_NO_FATAL_FAILURE(gauss::test::expect_client_frame_equals_host_render(host, out, out / "dump", "host.log"));
+}
+
+// A scene file served by a host reaches the client upright and framed as a local viewer
+// frames the file: the host announces the file's up (-y, the 3DGS convention) and its robust
+// box, and the client's default camera is the one gauss-view --scene makes (to the float
+// rounding of the box on the wire). Before, a stream was taken as +y and framed by its raw
+// box: a capture arrived upside down, seen from inside its floaters.
+TEST(ViewHostLoopback, AServedSceneFileIsFramedAsALocalViewerFramesIt) {
+  const char* rel = "splats/fruit_drops_sh3.v4.spz";
+  GAUSS_REQUIRE_DATA(scene, rel);
+  const fs::path out = gauss::test::fresh_output_dir("e2e_view_host_loopback_scene_file");
+  gauss::test::ChildProcess host;
+  const std::string endpoint = start_host(host, out, {"--scene", scene.string()});
+  ASSERT_FALSE(endpoint.empty()) << read_text(out / "host.log");
+  EXPECT_NE(read_text(out / "host.log").find("up -y (default (3DGS/COLMAP: y down))"), std::string::npos)
+      << read_text(out / "host.log");
+
+  ASSERT_NO_FATAL_FAILURE(run_view_to_end({GAUSS_VIEW_EXE, "--headless", "--host", endpoint, "--out",
+                                           (out / "view").string(), "--size", "320x240", "--every", "0",
+                                           "--settle-timeout", "120", "--quiet-time", "2"},
+                                          out));
+  const auto streamed = nlohmann::json::parse(read_text(out / "view" / "summary.json"))["default_camera"];
+  // The same file opened locally (--scene) at the same size.
+  ASSERT_NO_FATAL_FAILURE(run_view_to_end({GAUSS_VIEW_EXE, "--headless", "--scene", scene.string(), "--out",
+                                           (out / "local").string(), "--size", "320x240", "--every", "0"},
+                                          out));
+  const auto local = nlohmann::json::parse(read_text(out / "local" / "summary.json"))["default_camera"];
+  ASSERT_TRUE(streamed.is_object() && local.is_object()) << streamed.dump(2) << local.dump(2);
+  EXPECT_TRUE(streamed["host_view"].get<bool>());
+  EXPECT_FALSE(streamed["inside"].get<bool>());
+  const auto lo = local["bounds"]["lo"].get<std::vector<double>>(), hi = local["bounds"]["hi"].get<std::vector<double>>();
+  double size = 0.0;
+  for (int a = 0; a < 3; ++a) size = std::max(size, hi[a] - lo[a]);
+  for (const char* key : {"eye", "target", "up"}) {
+    const auto s = streamed[key].get<std::vector<double>>(), l = local[key].get<std::vector<double>>();
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(s[a], l[a], 1e-3 * size) << key << "[" << a << "]";
+  }
+  EXPECT_EQ(streamed["up"].get<std::vector<double>>(), (std::vector<double>{0.0, -1.0, 0.0}));
 }
 
 }  // namespace

@@ -252,3 +252,40 @@ TEST(ClientState, ResyncDropsSurfaceChunksTheSceneLostMeanwhile) {
   EXPECT_EQ(client->surface().committed().size(), 1u);
   EXPECT_EQ(client->surface().committed().count(1), 1u);
 }
+
+// The view a host announces reaches the client with the codec: the config's when set, else a
+// room standing inside the scene's bounds (the synthetic scene's, and today's clients' view).
+TEST(ClientState, TakesTheViewTheHostAnnounces) {
+  World w;
+  auto view_after_welcome = [&](const HostSessionConfig& hc) {
+    HostSession host(1, 9, w.params, hc);
+    ClientConfig cfg;
+    cfg.capacity = 100;
+    auto client = ClientState::create(0, cfg);
+    EXPECT_TRUE(client.ok());
+    EXPECT_FALSE(client->view().has_value());
+    for (const auto& m : host.on_message(client->hello(), w.store, 0.0)) EXPECT_TRUE(client->on_message(m, 0.0).ok());
+    auto out = host.tick(w.store, 0.0);
+    EXPECT_TRUE(out.ok());
+    for (const auto& m : *out) EXPECT_TRUE(client->on_message(m, 0.0).ok());
+    return client->view();
+  };
+  const auto room = view_after_welcome({});
+  ASSERT_TRUE(room.has_value());
+  EXPECT_EQ(room->flags, msg::kViewInside);
+  EXPECT_EQ(room->up, glm::vec3(0.0f, 1.0f, 0.0f));
+  EXPECT_EQ(room->subject_min, w.store.bounds().min);
+  EXPECT_EQ(room->subject_max, w.store.bounds().max);
+
+  HostSessionConfig hc;
+  msg::SceneView capture;
+  capture.up = {0.0f, -1.0f, 0.0f};
+  capture.subject_min = {-1.0f, -2.0f, 3.0f};
+  capture.subject_max = {1.0f, 0.5f, 4.0f};
+  capture.flags = msg::kViewSeenFrom;
+  capture.seen_from = {0.0f, 0.0f, 0.0f};
+  hc.view = capture;
+  const auto told = view_after_welcome(hc);
+  ASSERT_TRUE(told.has_value());
+  EXPECT_EQ(*told, capture);
+}

@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <glm/geometric.hpp>
+
 #include "gauss/engine/codec.h"
 #include "gauss/engine/wire.h"
 #include "wire_samples.h"
@@ -210,6 +212,50 @@ TEST(Wire, NonFiniteAndOutOfRangeFieldsAreRejected) {
   cs.capacity = 10;
   cs.resident = 11;
   EXPECT_FALSE(wire::encode(cs).ok());
+}
+
+TEST(Wire, SceneInfoViewIsChecked) {
+  auto refused = [](msg::SceneView v, const char* field) {
+    msg::SceneInfo s = test::sample_scene_info();
+    s.view = v;
+    auto e = wire::encode(s);
+    ASSERT_FALSE(e.ok()) << field;
+    EXPECT_NE(e.message().find(field), std::string::npos) << e.message();
+  };
+  const msg::SceneView good = test::sample_scene_info().view;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  msg::SceneView v = good;
+  v.up = {0.0f, 0.0f, 0.0f};
+  refused(v, "view.up");
+  v.up = {0.0f, 2.0f, 0.0f};
+  refused(v, "view.up");
+  v.up = {nan, 1.0f, 0.0f};
+  refused(v, "view.up");
+  v = good;
+  v.subject_max.z = std::numeric_limits<float>::infinity();
+  refused(v, "view.subject");
+  v = good;
+  v.subject_min.x = 2.0f;  // above subject_max.x
+  refused(v, "view.subject_min");
+  v = good;
+  v.flags = 0x80;
+  refused(v, "view.flags");
+  v = good;
+  v.seen_from.y = nan;
+  refused(v, "view.seen_from");
+  // A unit up within rounding passes: a host normalises in double and sends floats.
+  v = good;
+  v.up = glm::normalize(glm::vec3(0.1f, -0.99f, 0.05f));
+  msg::SceneInfo ok = test::sample_scene_info();
+  ok.view = v;
+  EXPECT_TRUE(wire::encode(ok).ok());
+
+  // The decoder checks what arrives: the flags byte (13th from the end) with an unknown bit.
+  auto b = frame_of(test::sample_scene_info());
+  b[b.size() - 13] |= 0x40;
+  auto d = wire::decode(b);
+  ASSERT_FALSE(d.ok());
+  EXPECT_NE(d.message().find("view.flags"), std::string::npos) << d.message();
 }
 
 TEST(Wire, SurfacePatchChecksMeshAndCompressedFrame) {

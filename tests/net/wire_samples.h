@@ -44,6 +44,11 @@ inline msg::SceneInfo sample_scene_info() {
   s.codec.sh_degree = 1;
   s.total_gaussians = 100000;
   s.objects = {sample_object(0, "chair"), sample_object(1, "table"), sample_object(7, "")};
+  s.view.up = {0.0f, -1.0f, 0.0f};
+  s.view.subject_min = {-1.5f, 0.25f, -2.0f};
+  s.view.subject_max = {1.5f, 2.0f, 2.5f};
+  s.view.flags = msg::kViewSeenFrom;
+  s.view.seen_from = {0.0f, 1.5f, -4.0f};
   return s;
 }
 

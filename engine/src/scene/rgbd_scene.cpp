@@ -12,6 +12,7 @@
 #include <glm/mat3x3.hpp>
 
 #include "gauss/engine/rgbd_source.h"
+#include "gauss/engine/scene_view.h"
 
 namespace gauss {
 
@@ -312,6 +313,12 @@ Expected<std::unique_ptr<SceneSource>> open_rgbd_capture(const fs::path& folder,
 }
 
 Expected<CodecParams> fit_capture_codec_params(const fs::path& folder, const RgbdSceneOptions& options) {
+  auto fit = fit_capture(folder, options);
+  if (!fit) return fit.error();
+  return fit->params;
+}
+
+Expected<CaptureFit> fit_capture(const fs::path& folder, const RgbdSceneOptions& options) {
   RgbdSceneOptions dry = options;
   dry.surface.reset();  // the seeding alone decides the Gaussians
   auto source = open_rgbd_capture(folder, dry, [](const std::string&) {});
@@ -323,7 +330,27 @@ Expected<CodecParams> fit_capture_codec_params(const fs::path& folder, const Rgb
     if (!*committed) break;
   }
   if (store.size() == 0) return Error{"RGB-D capture " + folder.string() + ": no frame seeds a Gaussian"};
-  return fit_codec_params(store.gaussians(), store.sh_degree());
+  CaptureFit fit;
+  fit.params = fit_codec_params(store.gaussians(), store.sh_degree());
+  // The cameras: their image-up (-y of an OpenCV camera in the world) and where they stood.
+  auto frames = RgbdFolderSource::open(folder);
+  if (!frames) return frames.error();
+  glm::dvec3 up_sum(0.0), position_sum(0.0);
+  std::size_t posed = 0;
+  for (std::size_t i = 0; i < frames->frame_count(); ++i) {
+    auto pose = frames->frame_pose(i);
+    if (!pose) continue;
+    const glm::dvec3 down(pose->operator[](1)), at(pose->operator[](3));
+    if (!std::isfinite(down.x + down.y + down.z + at.x + at.y + at.z)) continue;
+    up_sum -= down;
+    position_sum += at;
+    ++posed;
+  }
+  std::optional<glm::dvec3> seen_from;
+  if (posed > 0) seen_from = position_sum / double(posed);
+  // capture_view takes a zero sum (cameras whose ups cancel) as +y.
+  fit.view = capture_view(store.gaussians(), up_sum, seen_from);
+  return fit;
 }
 
 }  // namespace gauss

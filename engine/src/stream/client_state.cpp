@@ -136,6 +136,7 @@ Status ClientState::on_message(const wire::Message& m, double now) {
     Status v = validate_codec_params(info->codec);
     if (!v) return reject("SceneInfo: " + v.message());
     codec_ = info->codec;
+    view_ = info->view;
     objects_.clear();
     for (const auto& o : info->objects) objects_[to_underlying(o.id)] = o;
     return Ok{};

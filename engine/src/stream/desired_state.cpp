@@ -19,6 +19,7 @@
 #include <new>
 
 #include "gauss/engine/slot_table.h"
+#include "stream/id_text.h"
 
 namespace gauss {
 
@@ -52,8 +53,6 @@ void free_table(void* p, std::size_t bytes, std::size_t align) noexcept {
 }  // namespace detail
 
 namespace {
-
-std::string id_str(GaussianId id) { return std::to_string(to_underlying(id)); }
 
 bool same_record(const Gaussian& a, const Gaussian& b) { return a.id == b.id && same_value(a, b); }
 

@@ -3,15 +3,10 @@
 #include <algorithm>
 #include <bit>
 
+#include "stream/id_text.h"
 #include "stream/splitmix.h"
 
 namespace gauss {
-
-namespace {
-
-std::string id_str(GaussianId id) { return std::to_string(to_underlying(id)); }
-
-}  // namespace
 
 // A well-mixed 64-bit value per field (splitmix64), so the sum over a set (order
 // independent) still separates sets that differ in one bit of one record.

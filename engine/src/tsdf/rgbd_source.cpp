@@ -235,6 +235,16 @@ Expected<RgbdFolderSource> RgbdFolderSource::open(const fs::path& folder) {
   return src;
 }
 
+Expected<glm::dmat4> RgbdFolderSource::frame_pose(std::size_t i) const {
+  if (i >= frames_.size()) return Error{"RGB-D frame index " + std::to_string(i) + " out of range"};
+  const FrameFiles& ff = frames_[i];
+  if (!ff.pose_error.empty()) return Error{"RGB-D frame '" + ff.name + "': " + ff.pose_error};
+  if (ff.pose_file.empty()) return ff.pose;
+  auto pose = read_pose_4x4(ff.pose_file);
+  if (!pose) return Error{"RGB-D frame '" + ff.name + "': " + pose.message()};
+  return *pose;
+}
+
 Expected<RgbdFrame> RgbdFolderSource::load(std::size_t i, Epoch epoch) const {
   if (i >= frames_.size()) return Error{"RGB-D frame index " + std::to_string(i) + " out of range"};
   const FrameFiles& ff = frames_[i];

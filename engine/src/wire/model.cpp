@@ -1,8 +1,11 @@
 // Model-stream messages: SceneInfo, EditBatch, ObjectTableUpdate (and the
 // ObjectInfo record they share).
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
+
+#include <glm/geometric.hpp>
 
 #include "codecs.h"
 #include "gauss/engine/codec.h"
@@ -85,6 +88,15 @@ Status check(const msg::SceneInfo& m) {
   if (!finite3(m.bounds_min) || !finite3(m.bounds_max)) return field_error("SceneInfo", "bounds", "not finite");
   if (m.bounds_min.x > m.bounds_max.x || m.bounds_min.y > m.bounds_max.y || m.bounds_min.z > m.bounds_max.z)
     return field_error("SceneInfo", "bounds_min", "greater than bounds_max");
+  const msg::SceneView& v = m.view;
+  if (!finite3(v.up) || std::abs(glm::length(v.up) - 1.0f) > 1e-3f)
+    return field_error("SceneInfo", "view.up", "not a unit vector");
+  if (!finite3(v.subject_min) || !finite3(v.subject_max)) return field_error("SceneInfo", "view.subject", "not finite");
+  if (v.subject_min.x > v.subject_max.x || v.subject_min.y > v.subject_max.y || v.subject_min.z > v.subject_max.z)
+    return field_error("SceneInfo", "view.subject_min", "greater than view.subject_max");
+  if ((v.flags & ~msg::kViewKnownFlags) != 0)
+    return field_error("SceneInfo", "view.flags", "unknown bits " + std::to_string(v.flags & ~msg::kViewKnownFlags));
+  if (!finite3(v.seen_from)) return field_error("SceneInfo", "view.seen_from", "not finite");
   return check_objects("SceneInfo", "objects", m.objects);
 }
 
@@ -131,6 +143,11 @@ void write(const msg::SceneInfo& m, Writer& w) {
   w.u64(m.total_gaussians);
   w.u32(static_cast<std::uint32_t>(m.objects.size()));
   for (const auto& o : m.objects) write_object(o, w);
+  w.vec3(m.view.up);
+  w.vec3(m.view.subject_min);
+  w.vec3(m.view.subject_max);
+  w.u8(m.view.flags);
+  w.vec3(m.view.seen_from);
 }
 
 void write(const msg::EditBatchMsg& m, Writer& w) {
@@ -171,6 +188,11 @@ Expected<msg::SceneInfo> decode_scene_info(std::span<const std::uint8_t> body) {
   r.f32("codec.sh_rest_abs_max", m.codec.sh_rest_abs_max);
   r.u64("total_gaussians", m.total_gaussians);
   if (r.ok()) detail::read_objects(r, "objects", m.objects);
+  r.vec3("view.up", m.view.up);
+  r.vec3("view.subject_min", m.view.subject_min);
+  r.vec3("view.subject_max", m.view.subject_max);
+  r.u8("view.flags", m.view.flags);
+  r.vec3("view.seen_from", m.view.seen_from);
   if (!r.finish()) return r.error();
   return detail::checked(std::move(m));
 }
@@ -213,7 +235,7 @@ bool operator==(const SceneInfo& a, const SceneInfo& b) {
          p.box.min == q.box.min && p.box.max == q.box.max && p.sh_degree == q.sh_degree &&
          p.log_scale_min == q.log_scale_min && p.log_scale_max == q.log_scale_max && p.dc_min == q.dc_min &&
          p.dc_max == q.dc_max && p.sh_rest_abs_max == q.sh_rest_abs_max && a.total_gaussians == b.total_gaussians &&
-         a.objects == b.objects;
+         a.objects == b.objects && a.view == b.view;
 }
 
 }  // namespace gauss::msg

@@ -114,6 +114,8 @@ class ClientState {
   const std::map<std::int32_t, msg::ObjectInfo>& objects() const noexcept { return objects_; }
   // The stream's codec parameters (SH degree, box) once a SceneInfo arrived.
   const std::optional<CodecParams>& codec() const noexcept { return codec_; }
+  // How the host says to look at its scene first (SceneInfo::view); set with the codec.
+  const std::optional<msg::SceneView>& view() const noexcept { return view_; }
   // Objects the current resolved query targets (sorted; empty without one): what the
   // renderer highlights.
   std::vector<ObjectId> query_targets() const {
@@ -154,6 +156,7 @@ class ClientState {
   bool welcomed_{false};
   std::optional<std::uint64_t> host_session_;  // of the last Welcome: another one = the host restarted
   std::optional<CodecParams> codec_;
+  std::optional<msg::SceneView> view_;
   std::uint64_t last_batch_id_{0};
   std::map<std::int32_t, msg::ObjectInfo> objects_;
   std::vector<wire::Message> outgoing_;

@@ -106,6 +106,10 @@ struct HostSessionConfig {
   // The selection's per-Gaussian terms, shared with the other sessions reading the same
   // scene (SessionHost shares one set between all its sessions). Null: the session's own.
   std::shared_ptr<SelectorTerms> shared_selector_terms;
+  // How a viewer first looks at the scene (SceneInfo::view; scene_view.h makes one for a
+  // file, a folder or a capture). Unset: +y up, standing inside the scene's bounds, the
+  // view of a room such as the synthetic scene's.
+  std::optional<msg::SceneView> view;
 };
 
 struct HostSessionStats {

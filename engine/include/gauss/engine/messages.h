@@ -37,8 +37,9 @@ namespace gauss::msg {
 // Bumped whenever a message type is added or retired. A host refuses a Hello with a
 // different version (RefuseReason::VersionMismatch) instead of guessing.
 // 2: Challenge / AuthProof. 3: the handshake is CPace (a PAKE): Challenge and AuthProof
-// carry CPace messages, AuthConfirm is new.
-inline constexpr std::uint32_t kProtocolVersion = 3;
+// carry CPace messages, AuthConfirm is new. 4: SceneInfo carries the scene's view (up,
+// the subject's box, where the capture stood).
+inline constexpr std::uint32_t kProtocolVersion = 4;
 
 // ---- Bounds (each enforced by the decoder) ----------------------------------
 // Largest encoded message, header included. The host sends one edit batch per
@@ -246,6 +247,26 @@ struct ObjectInfo {
   bool operator==(const ObjectInfo&) const = default;
 };
 
+// How a viewer first looks at the scene, from the host, which knows where it came from (a
+// splat file is y down by the 3DGS convention, a trainer's cameras say their own up, the
+// synthetic room is y up): without it a client guesses +y and shows a capture upside down,
+// and frames the raw bounds, which a real capture's floaters make many times its size.
+// A desktop viewer keeps `up` upright and frames `subject_*`; a headset turns the scene so
+// that `up` points up in the room.
+inline constexpr std::uint8_t kViewInside = 1u << 0;      // stand inside the box (a room), not outside it
+inline constexpr std::uint8_t kViewSeenFrom = 1u << 1;    // seen_from holds where the capture stood
+inline constexpr std::uint8_t kViewKnownFlags = kViewInside | kViewSeenFrom;
+struct SceneView {
+  glm::vec3 up{0.0f, 1.0f, 0.0f};  // unit (within 1e-3)
+  // The box a first view frames: the opacity-weighted 2nd..98th percentiles of the centres
+  // for a capture (faint floaters left out), the room for the synthetic scene. min <= max.
+  glm::vec3 subject_min{0.0f};
+  glm::vec3 subject_max{0.0f};
+  std::uint8_t flags{0};
+  glm::vec3 seen_from{0.0f};  // with kViewSeenFrom: the capture cameras' mean position
+  bool operator==(const SceneView&) const = default;
+};
+
 // Sent after Welcome (before any EditBatch) and whenever the scene's frame
 // changes. Replaces the client's whole object table. `codec` holds the
 // quantisation ranges every later EditBatch payload is decoded with; its
@@ -257,6 +278,7 @@ struct SceneInfo {
   CodecParams codec{};                // must pass validate_codec_params()
   std::uint64_t total_gaussians{0};   // host scene size (informational)
   std::vector<ObjectInfo> objects;    // ids unique; at most kMaxObjects
+  SceneView view{};
 };
 bool operator==(const SceneInfo& a, const SceneInfo& b);
 

@@ -25,6 +25,7 @@
 
 #include "gauss/engine/codec.h"
 #include "gauss/engine/gaussian.h"
+#include "gauss/engine/messages.h"
 #include "gauss/engine/scene_source.h"
 #include "gauss/engine/tsdf.h"
 
@@ -83,5 +84,15 @@ Expected<std::unique_ptr<SceneSource>> open_rgbd_capture(const std::filesystem::
 // found by seeding the frames once without a surface. gauss-host and gauss-eval both use it.
 // Errors: as open_rgbd_capture, or no frame seeds anything.
 Expected<CodecParams> fit_capture_codec_params(const std::filesystem::path& folder, const RgbdSceneOptions& options);
+
+// The codec above and the view a host announces for the capture (scene_view.h), from the same
+// seeding: up is the mean image-up of the frames' cameras (OpenCV cameras: -y of each
+// camera-to-world), seen from their mean position; the subject, the seeded Gaussians' robust
+// bounds. Frames without a usable pose are left out of the mean; none left: +y.
+struct CaptureFit {
+  CodecParams params;
+  msg::SceneView view;
+};
+Expected<CaptureFit> fit_capture(const std::filesystem::path& folder, const RgbdSceneOptions& options);
 
 }  // namespace gauss

@@ -45,6 +45,8 @@ class RgbdFolderSource {
   RgbdLayout layout() const { return layout_; }
   std::size_t frame_count() const { return frames_.size(); }
   const std::string& frame_name(std::size_t i) const { return frames_[i].name; }
+  // Frame i's camera-to-world pose alone (read from its file in the 3DMatch layout).
+  Expected<glm::dmat4> frame_pose(std::size_t i) const;
   // Loads frame i (depth in metres, colour, intrinsics, pose) tagged with `epoch`.
   Expected<RgbdFrame> load(std::size_t i, Epoch epoch) const;
 
