@@ -18,6 +18,8 @@
 #include "eye_copy.h"
 #include "gauss/client/client_runtime.h"
 #include "gauss/client/ray_pick.h"
+#include "gauss/engine/scene_up.h"
+#include "gauss/engine/scene_view.h"
 #include "gauss/engine/camera_io.h"
 #include "gauss/xr/xr_controls.h"
 #include "gauss/xr/xr_session.h"
@@ -39,7 +41,7 @@ class QueryControl {
 
   // Acts on one frame's input. A thumbstick push steps rho by 0.05 (kept on the 0.05 grid, so
   // a share is exactly what the user saw) and re-sends the active query with it.
-  void apply(const xr::ControllerInput& in) {
+  void apply(const xr::ControllerInput& in, const glm::dmat4& scene_from_space) {
     if (in.stick_steps != 0) {
       rho_ = std::clamp(std::round(rho_ * 20.0 + in.stick_steps) / 20.0, 0.0, 1.0);
       if (active_) send(*active_, Json{{"kind", "rho"}});
@@ -52,7 +54,10 @@ class QueryControl {
     // The class list and the pick read ClientState, whose lock a publication step holds for
     // its length: they wait for a frame where it is free instead of stalling this one.
     if (in.next_class) class_pending_ = true;
-    if (in.trigger_pulled && in.aim_valid) pick_pending_ = in.aim;
+    if (in.trigger_pulled && in.aim_valid) {
+      pick_pending_ = in.aim;
+      pick_transform_ = scene_from_space;
+    }
     if (class_pending_ && next_class()) class_pending_ = false;
     if (pick_pending_ && pick(*pick_pending_)) pick_pending_.reset();
   }
@@ -92,7 +97,7 @@ class QueryControl {
   // False: the state was busy, try again next frame.
   bool pick(const xr::XrPose& aim) {
     glm::dvec3 origin, direction;
-    xr::aim_ray(aim, origin, direction);
+    xr::aim_ray(aim, pick_transform_, origin, direction);
     const auto taken =
         runtime_.try_with_state([&](const ClientState& s) { return client::pick(s.slots(), origin, direction); });
     if (!taken) return false;
@@ -113,6 +118,7 @@ class QueryControl {
   std::optional<msg::Query> active_;  // the last query sent, until cleared
   bool class_pending_{false};          // asked for, the state busy so far
   std::optional<xr::XrPose> pick_pending_;
+  glm::dmat4 pick_transform_{1.0};  // the scene's placement when the trigger was pulled
   std::string last_class_;
   Json sent_ = Json::array();
 };
@@ -120,7 +126,7 @@ class QueryControl {
 // --out: what a test or a user checks afterwards.
 Status write_outputs(const XrOptions& o, client::ClientRuntime& rt, const xr::HeadsetSession& session,
                      const std::vector<std::string>& phases, const xr::FrameTarget* last, const QueryControl& queries,
-                     std::uint64_t banner_frames) {
+                     std::uint64_t banner_frames, const Json& scene_up) {
   std::error_code ec;
   std::filesystem::create_directories(o.out, ec);
   if (ec) return Error{"gauss-xr: --out " + o.out.string() + ": " + ec.message()};
@@ -153,6 +159,7 @@ Status write_outputs(const XrOptions& o, client::ClientRuntime& rt, const xr::He
                {"phases", phases},
                {"session_states", session.states_seen()},
                {"banner_frames", banner_frames},
+               {"scene_up", scene_up},
                {"connection",
                 Json{{"connects", rt.connection().counters.connects},
                      {"disconnects", rt.connection().counters.disconnects},
@@ -214,6 +221,24 @@ int run_headset(const XrOptions& o) {
   auto controls = xr::Controls::create(s.instance(), s.handle(), s.space());
   if (!controls) return fail(controls.message());
   QueryControl queries(rt, o.rho);
+  // The scene stands upright in the room: its up (--up, else the host's) turned to the room's
+  // +y about the reference space's origin, and a subject seen from outside (a capture, not a
+  // room one stands in) turned to lie straight ahead. Once the host's SceneInfo has come.
+  Json scene_up = nullptr;
+  auto turn_scene = [&] {
+    if (!scene_up.is_null()) return;
+    const auto view = rt.try_with_state([](const ClientState& st) { return st.view(); });
+    if (!view || !*view) return;  // busy, or no SceneInfo yet: next frame
+    const msg::SceneView& v = **view;
+    const glm::dvec3 up = o.up ? *o.up : view_up(v);
+    std::optional<glm::dvec3> face;
+    if (!(v.flags & msg::kViewInside)) face = 0.5 * (glm::dvec3(v.subject_min) + glm::dvec3(v.subject_max));
+    s.set_scene_from_space(xr::scene_from_space(up, face));
+    const char* from = o.up ? "--up" : "announced by the host";
+    scene_up = Json{{"up", {up.x, up.y, up.z}}, {"from", from}, {"facing_subject", face.has_value()}};
+    std::fprintf(stderr, "gauss-xr: the scene's up is %s (%s): it stands upright in the room%s\n",
+                 up_label(up).c_str(), from, face ? ", its subject ahead" : "");
+  };
 
   std::vector<std::string> phases;
   std::optional<xr::FrameTarget> last;
@@ -229,7 +254,7 @@ int run_headset(const XrOptions& o) {
       // The runtime is taking the session away (the headset was removed from use, the
       // runtime restarts): leave cleanly rather than render into a dead session.
       (void)rt.wait_frames();
-      if (!o.out.empty()) (void)write_outputs(o, rt, s, phases, last ? &*last : nullptr, queries, banner_frames);
+      if (!o.out.empty()) (void)write_outputs(o, rt, s, phases, last ? &*last : nullptr, queries, banner_frames, scene_up);
       return fail("the OpenXR session was lost; exiting");
     }
     if (*phase != xr::SessionPhase::Running) {
@@ -240,11 +265,12 @@ int run_headset(const XrOptions& o) {
     if (input_time != 0) {
       auto in = (*controls)->read(input_time);
       if (!in) return fail(in.message());
-      queries.apply(*in);
+      queries.apply(*in, s.scene_from_space());
     }
     // No window to print to in a headset: while the host is unreachable (not yet welcomed,
     // gone, refusing us) the last published scene stays drawn and a banner says so.
     s.show_banner(rt.connection().status != net::ClientStatus::Connected);
+    turn_scene();
     std::optional<xr::FrameTarget> shown;
     auto rendered = s.frame([&](const xr::FrameTarget& t) -> Status {
       const Camera cams[2] = {t.eyes[0].camera, t.eyes[1].camera};
@@ -270,7 +296,7 @@ int run_headset(const XrOptions& o) {
   }
   if (auto st = rt.wait_frames(); !st) return fail(st.message());
   if (!o.out.empty())
-    if (auto st = write_outputs(o, rt, s, phases, last ? &*last : nullptr, queries, banner_frames); !st)
+    if (auto st = write_outputs(o, rt, s, phases, last ? &*last : nullptr, queries, banner_frames, scene_up); !st)
       return fail(st.message());
   std::fprintf(stderr, "gauss-xr: session ended after %llu frames\n",
                static_cast<unsigned long long>(s.frames_ended()));

@@ -31,6 +31,9 @@ std::optional<int> parse_options(int argc, char** argv, XrOptions& o) {
                    "hands them over");
   app.add_option("--rho", o.rho, "a query's share of the budget at start")->check(apps::in_range(0.0, 1.0));
   app.add_flag("--stage", o.stage, "use the STAGE reference space (floor origin) instead of LOCAL");
+  apps::add_up_option(app, o.up,
+                      "the scene's up axis (+x -x +y -y +z -z), turned to point up in the room, instead of the "
+                      "up the host announces");
   bool no_highlight = false;
   app.add_flag("--no-highlight", no_highlight, "do not tint the objects of the active query");
   app.add_option("--max-frames", o.max_frames, "ask the runtime to end the session after this many frames");

@@ -7,6 +7,8 @@
 #include <optional>
 #include <string>
 
+#include <glm/vec3.hpp>
+
 #include "gauss/engine/publisher.h"
 #include "gauss/net/address.h"
 
@@ -20,6 +22,7 @@ struct XrOptions {
   PublishMode mode{PublishMode::Progressive};
   double rho{0.9};                     // a query's share of the budget (the thumbstick moves it)
   bool stage{false};                   // STAGE reference space (floor origin) instead of LOCAL
+  std::optional<glm::dvec3> up;        // --up: the scene's up instead of the one its host announces
   bool highlight{true};                // tint the active query's objects
   bool publication_thread{true};       // publication off the display thread
   std::uint64_t max_frames{0};         // ask the runtime to exit after this many frames (0: never)

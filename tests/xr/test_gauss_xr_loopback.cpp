@@ -23,6 +23,7 @@
 #include <nlohmann/json.hpp>
 
 #include "child_process.h"
+#include "test_data.h"
 #include "text_file.h"
 #include "gauss/engine/camera_io.h"
 #include "gauss/engine/image_io.h"
@@ -103,17 +104,19 @@ Aim aim_at_robot_arm(const gauss::SyntheticScene& scene) {
   return a;
 }
 
-std::uint16_t start_host(gauss::test::ChildProcess& host, const fs::path& out) {
+// No fused surface by default: the scene is final after its four epochs, so the client's last
+// frame is of the final scene. `scene` replaces the synthetic room's options.
+std::uint16_t start_host(gauss::test::ChildProcess& host, const fs::path& out,
+                         const std::vector<std::string>& scene = {"--gaussians", "10000", "--epochs", "4",
+                                                                  "--epoch-period", "0.05", "--surface-voxel", "0"}) {
   for (int attempt = 0; attempt < 3; ++attempt) {
     const std::uint16_t port = gauss::test::free_udp_port();
     if (port == 0) return 0;
     const std::string ep = "127.0.0.1:" + std::to_string(port);
-    // No fused surface: the scene is final after its four epochs, so the client's last
-    // frame is of the final scene.
-    if (!host.start({GAUSS_HOST_EXE, "--bind", ep, "--gaussians", "10000", "--epochs", "4", "--epoch-period", "0.05",
-                     "--surface-voxel", "0", "--duration", "400", "--dump-sent", (out / "dump").string(), "--quiet"},
-                    out / "host.log"))
-      return 0;
+    std::vector<std::string> args = {GAUSS_HOST_EXE, "--bind", ep};
+    args.insert(args.end(), scene.begin(), scene.end());
+    args.insert(args.end(), {"--duration", "400", "--dump-sent", (out / "dump").string(), "--quiet"});
+    if (!host.start(args, out / "host.log")) return 0;
     if (!host.wait(700ms)) return port;  // still running: it bound the port
   }
   return 0;
@@ -193,6 +196,10 @@ TEST(GaussXrLoopback, TheHeadsetShowsTheHostsRenderOfTheSentSetAndThePullQueries
   const std::vector<std::string> lifecycle{"IDLE",    "READY",        "SYNCHRONIZED", "VISIBLE", "FOCUSED",
                                            "VISIBLE", "SYNCHRONIZED", "STOPPING",     "IDLE",    "EXITING"};
   EXPECT_EQ(states, lifecycle) << summary["session_states"].dump();
+  // The synthetic room is y up, as the headset's room: the host said so, and nothing turned.
+  EXPECT_EQ(summary["scene_up"],
+            (Json{{"up", {0.0, 1.0, 0.0}}, {"from", "announced by the host"}, {"facing_subject", false}}))
+      << summary.dump(2);
   // The pull queried the object under the ray, and it got its share of the budget.
   const Json& queries = summary["queries"];
   ASSERT_EQ(queries.size(), 4u) << summary.dump(2);
@@ -257,6 +264,37 @@ TEST(GaussXrLoopback, TheHeadsetShowsTheHostsRenderOfTheSentSetAndThePullQueries
     EXPECT_EQ(differ, 0u) << "eye " << eye << ": pixels differing between the headset's layer and the host's render";
     EXPECT_GT(lit, shown.size() / 16) << "eye " << eye << ": the scene is in view";
   }
+}
+
+// A 3DGS capture is y down: the host says so, and gauss-xr turns the scene so that its up is
+// the room's. A level head then sees the scene's -y as image-up (its camera's down is the
+// scene's +y); before, the capture stood on its head.
+TEST(GaussXrLoopback, ACaptureStandsUprightInTheRoom) {
+  GAUSS_REQUIRE_DATA(scene, "splats/fruit_drops_sh3.v4.spz");
+  const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "xr_gauss_xr_upright";
+  fs::remove_all(out);
+  fs::create_directories(out);
+  gauss::test::ChildProcess host;
+  const std::uint16_t port = start_host(host, out, {"--scene", scene.string()});
+  ASSERT_NE(port, 0) << read_text(out / "host.log");
+  // Frames come as fast as they render (a virtual clock): enough of them for the Welcome.
+  const Json script{{"width", 32}, {"height", 24}, {"events", {{{"frame", 800}, {"type", "exit"}}}}, {"capture", Json::array()}};
+  ASSERT_EQ(run_xr(out, script, port), 0) << read_text(out / "xr.log");
+  EXPECT_EQ(host.stop(SIGINT).value_or(-1), 0);
+  const Json summary = Json::parse(read_text(out / "xr" / "summary.json"));
+  EXPECT_EQ(summary["scene_up"],
+            (Json{{"up", {0.0, -1.0, 0.0}}, {"from", "announced by the host"}, {"facing_subject", true}}))
+      << summary.dump(2);
+  EXPECT_NE(read_text(out / "xr.log").find("the scene's up is -y (announced by the host)"), std::string::npos)
+      << read_text(out / "xr.log");
+  auto cam = gauss::read_camera_json(out / "xr" / "eye0.camera.json");
+  ASSERT_TRUE(cam.ok()) << cam.message();
+  // The camera's +y (image down) in the scene: row 1 of world_to_camera's rotation.
+  const glm::dvec3 down(cam->world_to_camera[0][1], cam->world_to_camera[1][1], cam->world_to_camera[2][1]);
+  EXPECT_LT(glm::length(down - glm::dvec3(0.0, 1.0, 0.0)), 1e-9) << down.x << " " << down.y << " " << down.z;
+  // And the subject (the label, 2 m from the origin) is ahead: the headset's last frame shows it.
+  const glm::dvec3 ahead(cam->world_to_camera[0][2], cam->world_to_camera[1][2], cam->world_to_camera[2][2]);
+  EXPECT_LT(ahead.z, -0.9) << "the subject lies toward the scene's -z from its origin";
 }
 
 TEST(GaussXrLoopback, ALostSessionEndsTheProgramWithAMessage) {

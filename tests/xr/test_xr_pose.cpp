@@ -1,8 +1,13 @@
 #include "gauss/xr/xr_pose.h"
 
-#include <cmath>
+#include "gauss/xr/xr_controls.h"
 
+#include <cmath>
+#include <limits>
+
+#include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
+#include <glm/matrix.hpp>
 #include <gtest/gtest.h>
 
 namespace gauss::xr {
@@ -32,6 +37,63 @@ TEST(XrPose, IdentityPoseLooksDownMinusZWithYUp) {
   // OpenXR up (+y) is image up (smaller v); OpenXR right (+x) is image right.
   EXPECT_LT(project(cam, {0, 0.5, -2}).y, 50.0);
   EXPECT_GT(project(cam, {0.5, 0, -2}).x, 100.0);
+}
+
+// A scene whose up is not the room's (a 3DGS capture is y down) is turned so that its up is
+// the headset's: what is "up" in the scene is image-up for a level head, and straight ahead
+// stays ahead (the turn is about the room's horizontal).
+TEST(XrPose, SceneFromSpaceTurnsTheScenesUpToTheRoomsUp) {
+  const XrFov fov{-kPi / 4, kPi / 4, kPi / 4, -kPi / 4};
+  for (const glm::dvec3 up : {glm::dvec3(0, -1, 0), glm::dvec3(0, 0, 1), glm::dvec3(1, 0, 0), glm::dvec3(0, 1, 0),
+                              glm::normalize(glm::dvec3(0.1, -0.98, 0.2))}) {
+    const glm::dmat4 t = scene_from_space(up);
+    // A proper rotation about the origin taking the room's +y to the scene's up.
+    EXPECT_NEAR(glm::determinant(glm::dmat3(t)), 1.0, 1e-12);
+    EXPECT_EQ(glm::dvec3(t[3]), glm::dvec3(0.0));
+    EXPECT_LT(glm::length(glm::dmat3(t) * glm::dvec3(0, 1, 0) - up), 1e-12) << up.x << " " << up.y << " " << up.z;
+    // A level head: the scene's up projects above the principal point.
+    Camera cam;
+    ASSERT_TRUE(eye_camera(XrPose{}, fov, 200, 100, t, cam));
+    const glm::dvec3 ahead = glm::dmat3(t) * glm::dvec3(0, 0, -2);
+    EXPECT_NEAR(project(cam, ahead).y, 50.0, 1e-9);
+    EXPECT_LT(project(cam, ahead + 0.5 * up).y, 50.0);
+  }
+  // -y is the half turn about x exactly (the turn half_turn_about_x makes of a capture).
+  const glm::dmat4 half = scene_from_space({0, -1, 0});
+  EXPECT_EQ(glm::dmat3(half), glm::dmat3(glm::dvec3(1, 0, 0), glm::dvec3(0, -1, 0), glm::dvec3(0, 0, -1)));
+  // Facing a subject: turned about the room's up only, the subject straight ahead of a level head.
+  for (const glm::dvec3 up : {glm::dvec3(0, -1, 0), glm::dvec3(0, 1, 0), glm::dvec3(0, 0, 1)}) {
+    const glm::dvec3 subject(0.7, 0.4, -2.1);
+    const glm::dmat4 t = scene_from_space(up, subject);
+    EXPECT_LT(glm::length(glm::dmat3(t) * glm::dvec3(0, 1, 0) - up), 1e-12);
+    EXPECT_NEAR(glm::determinant(glm::dmat3(t)), 1.0, 1e-12);
+    Camera cam;
+    ASSERT_TRUE(eye_camera(XrPose{}, fov, 200, 100, t, cam));
+    EXPECT_GT((cam.world_to_camera * glm::dvec4(subject, 1.0)).z, 0.0) << "in front";
+    EXPECT_NEAR(project(cam, subject).x, 100.0, 1e-9) << "straight ahead";
+  }
+  // A subject right above the origin, or not finite, keeps the heading.
+  EXPECT_EQ(scene_from_space({0, -1, 0}, glm::dvec3(0, -3, 0)), half);
+  EXPECT_EQ(scene_from_space({0, -1, 0}, glm::dvec3(std::numeric_limits<double>::infinity(), 0, 0)), half);
+  // No usable up: the identity.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(scene_from_space({0, 0, 0}), glm::dmat4(1.0));
+  EXPECT_EQ(scene_from_space({nan, 1, 0}), glm::dmat4(1.0));
+  EXPECT_EQ(scene_from_space({0, 5, 0}), glm::dmat4(1.0));
+}
+
+// The controller's ray is in the scene the eyes see: turned and moved with it.
+TEST(XrPose, TheAimRayFollowsTheScenesPlacement) {
+  XrPose aim;
+  aim.position = {0.1, 1.2, -0.3};
+  glm::dvec3 origin, direction;
+  aim_ray(aim, glm::dmat4(1.0), origin, direction);
+  EXPECT_EQ(origin, aim.position);
+  EXPECT_LT(glm::length(direction - glm::dvec3(0, 0, -1)), 1e-12);
+  const glm::dmat4 t = glm::translate(glm::dmat4(1.0), {2.0, 0.0, 0.0}) * scene_from_space({0, -1, 0});
+  aim_ray(aim, t, origin, direction);
+  EXPECT_LT(glm::length(origin - glm::dvec3(2.1, -1.2, 0.3)), 1e-12);
+  EXPECT_LT(glm::length(direction - glm::dvec3(0, 0, 1)), 1e-12);
 }
 
 TEST(XrPose, AsymmetricFovMovesPrincipalPoint) {

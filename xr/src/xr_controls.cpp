@@ -156,9 +156,9 @@ Expected<ControllerInput> Controls::read(XrTime time) {
   return in;
 }
 
-void aim_ray(const XrPose& aim, glm::dvec3& origin, glm::dvec3& direction) {
-  origin = aim.position;
-  direction = glm::normalize(aim.orientation) * glm::dvec3(0.0, 0.0, -1.0);
+void aim_ray(const XrPose& aim, const glm::dmat4& T_scene_space, glm::dvec3& origin, glm::dvec3& direction) {
+  origin = glm::dvec3(T_scene_space * glm::dvec4(aim.position, 1.0));
+  direction = glm::dmat3(T_scene_space) * (glm::normalize(aim.orientation) * glm::dvec3(0.0, 0.0, -1.0));
 }
 
 }  // namespace gauss::xr

@@ -1,7 +1,9 @@
 #include "gauss/xr/xr_pose.h"
 
+#include <algorithm>
 #include <cmath>
 
+#include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "gauss/engine/gaussian.h"
@@ -41,6 +43,33 @@ bool eye_camera(const XrPose& pose, const XrFov& fov, std::uint32_t width, std::
   cam.world_to_camera = glm::inverse(T_scene_cvcam);
   out_camera = cam;
   return true;
+}
+
+namespace {
+// The rotation taking +y to the unit vector u.
+glm::dmat4 up_turn(const glm::dvec3& u) {
+  const glm::dvec3 y(0.0, 1.0, 0.0);
+  const glm::dmat4 half_turn_x = glm::scale(glm::dmat4(1.0), glm::dvec3(1.0, -1.0, -1.0));
+  if (u == y) return glm::dmat4(1.0);
+  if (u == -y) return half_turn_x;
+  const glm::dvec3 axis = glm::cross(y, u);
+  const double s = glm::length(axis);
+  if (s < 1e-12) return u.y > 0.0 ? glm::dmat4(1.0) : half_turn_x;
+  return glm::rotate(glm::dmat4(1.0), std::atan2(s, glm::dot(y, u)), axis / s);
+}
+}  // namespace
+
+glm::dmat4 scene_from_space(const glm::dvec3& scene_up, const std::optional<glm::dvec3>& face) {
+  const double len = glm::length(scene_up);
+  if (!std::isfinite(len) || len <= 0.0) return glm::dmat4(1.0);
+  const glm::dmat4 turn = up_turn(scene_up / len);
+  if (!face || !std::isfinite(face->x + face->y + face->z)) return turn;
+  // The point in the turned room, and its heading about the room's up.
+  const glm::dvec3 p = glm::transpose(glm::dmat3(turn)) * *face;
+  const double h = std::hypot(p.x, p.z);
+  if (!(h > 1e-9 * std::max(1.0, glm::length(p)))) return turn;
+  // R_y(a) takes -z to (-sin a, 0, -cos a): equal to (p.x, 0, p.z) / h.
+  return turn * glm::rotate(glm::dmat4(1.0), std::atan2(-p.x, -p.z), glm::dvec3(0.0, 1.0, 0.0));
 }
 
 XrPose pose_of_camera(const Camera& camera, const glm::dmat4& T_scene_space) {

@@ -395,7 +395,7 @@ Expected<bool> HeadsetSession::frame(const std::function<Status(const FrameTarge
     XrFov fov{views[eye].fov.angleLeft, views[eye].fov.angleRight, views[eye].fov.angleUp, views[eye].fov.angleDown};
     target.eyes[eye].pose = views[eye].pose;
     target.eyes[eye].fov = views[eye].fov;
-    usable = eye_camera(pose_of(views[eye].pose), fov, width_, height_, glm::dmat4(1.0), target.eyes[eye].camera);
+    usable = eye_camera(pose_of(views[eye].pose), fov, width_, height_, scene_from_space_, target.eyes[eye].camera);
     target.eyes[eye].camera.near_plane = config_.near_plane;
     target.eyes[eye].camera.far_plane = config_.far_plane;
   }

@@ -50,8 +50,8 @@ class Controls {
   float last_stick_y_{0.0f};
 };
 
-// The ray of an aim pose in the engine's world (the reference space: T_scene_space is the
-// identity here): origin at the pose, along its -z.
-void aim_ray(const XrPose& aim, glm::dvec3& origin, glm::dvec3& direction);
+// The ray of an aim pose in the scene (T_scene_space maps the reference space into it, as for
+// eye_camera): origin at the pose, along its -z.
+void aim_ray(const XrPose& aim, const glm::dmat4& T_scene_space, glm::dvec3& origin, glm::dvec3& direction);
 
 }  // namespace gauss::xr

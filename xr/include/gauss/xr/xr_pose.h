@@ -3,6 +3,7 @@
 // angles become the engine's OpenCV cameras (x right, y down, z forward) here, once.
 // Nothing past this header sees an OpenXR convention.
 #include <cstdint>
+#include <optional>
 
 #include <glm/gtc/quaternion.hpp>
 #include <glm/mat4x4.hpp>
@@ -31,6 +32,16 @@ struct XrFov {
 // or a degenerate field of view (right <= left, up <= down, or a half-angle >= 90 deg).
 bool eye_camera(const XrPose& pose, const XrFov& fov, std::uint32_t width, std::uint32_t height,
                 const glm::dmat4& T_scene_space, Camera& out_camera);
+
+// T_scene_space for a scene whose up is `scene_up` (SceneInfo::view): a rotation about the
+// reference space's origin that takes its +y (the room's up) to scene_up, so the scene stands
+// upright in the room and the user starts where the scene's origin is (a 3DGS capture's first
+// camera). With `face`, a scene point (the subject's centre), it is also turned about the
+// room's up so that the point lies straight ahead (the reference space's -z) of the origin;
+// a point above or below the origin leaves the heading as it is. -y (the 3DGS convention)
+// without `face` is the half turn about x, exactly; +y, or a zero or non-finite up, the
+// identity (a non-finite `face` is ignored).
+glm::dmat4 scene_from_space(const glm::dvec3& scene_up, const std::optional<glm::dvec3>& face = std::nullopt);
 
 // The inverse direction for a rendered camera: the OpenXR pose of an OpenCV camera
 // (used to send the coarse head pose and to test the round trip).

@@ -18,6 +18,8 @@
 #include <openxr/openxr.h>
 #include <volk.h>
 
+#include <glm/mat4x4.hpp>
+
 #include "gauss/engine/camera.h"
 #include "gauss/engine/result.h"
 #include "gauss/render/vk_context.h"
@@ -103,6 +105,10 @@ class HeadsetSession {
   // every rendered frame from now on, or none: what the headset shows while the host is
   // unreachable, since there is no window to print to.
   void show_banner(bool on) noexcept { banner_on_ = on; }
+  // Maps the reference space into the scene for the eye cameras (eye_camera's T_scene_space;
+  // scene_from_space turns a scene upright): identity until set.
+  void set_scene_from_space(const glm::dmat4& t) noexcept { scene_from_space_ = t; }
+  const glm::dmat4& scene_from_space() const noexcept { return scene_from_space_; }
   bool banner_shown() const noexcept { return banner_on_; }
   std::uint64_t frames_ended() const noexcept { return frames_ended_; }
 
@@ -136,6 +142,7 @@ class HeadsetSession {
   std::vector<std::string> states_seen_;
   XrSwapchain banner_{XR_NULL_HANDLE};
   XrSpace view_space_{XR_NULL_HANDLE};
+  glm::dmat4 scene_from_space_{1.0};
   bool banner_on_{false};
   bool banner_ready_{false};  // its one image was filled and released
 };
