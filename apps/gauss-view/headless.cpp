@@ -254,8 +254,8 @@ int run_headless(const ViewOptions& opts_in, vk::Context& context) {
   FrameLog log(jsonl);
   char flown[512];
   if (opts.path.empty() && rt)
-    std::snprintf(flown, sizeof flown, "the host's view of its scene (up %s, %s), held", up_label(src.up().up).c_str(),
-                  src.up().detail.c_str());
+    std::snprintf(flown, sizeof flown, "the host's view of its scene (up %s, from %s), held",
+                  up_label(src.up().up).c_str(), src.up().detail.c_str());
   else if (opts.path.empty())
     std::snprintf(flown, sizeof flown, "its default camera (up %s, %s) for %u frames", up_label(src.up().up).c_str(),
                   src.up().detail.c_str(), kDefaultCameraFrames);

@@ -166,8 +166,12 @@ void Panels::draw_framing(FlyCamera& camera) {
     for (int a = 0; a < 3; ++a)
       ImGui::Text("  %c %9.3f .. %9.3f", "xyz"[a], box->lo[a], box->hi[a]);
     if (box->finite == 0) ImGui::TextColored(ImVec4(1.0f, 0.6f, 0.3f, 1.0f), "  no finite centre: a unit box");
+  } else if (const auto view = source_->host_view()) {
+    ImGui::Text("host's subject (%s view):", view->flags & msg::kViewInside ? "inside" : "outside");
+    for (int a = 0; a < 3; ++a)
+      ImGui::Text("  %c %9.3f .. %9.3f", "xyz"[a], view->subject_min[a], view->subject_max[a]);
   } else {
-    ImGui::TextDisabled("bounds: the stream's box, once known");
+    ImGui::TextDisabled("subject: the host's, once its scene is described");
   }
   // Up: the six axes, and the detected vector when it is none of them (a trainer's cameras).
   static constexpr const char* kAxes[] = {"+x", "-x", "+y", "-y", "+z", "-z"};

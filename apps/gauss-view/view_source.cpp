@@ -36,13 +36,14 @@ class StreamSource final : public ViewSource {
     const auto taken =
         rt_->try_with_state([](const ClientState& s) -> std::optional<msg::SceneView> { return s.view(); });
     if (!taken || !*taken) return std::nullopt;
-    const msg::SceneView& v = **taken;
+    view_ = **taken;
     if (up_.source != UpSource::Option) {
-      up_.up = view_up(v);
-      up_.detail = "announced by the host";
+      up_.up = view_up(*view_);
+      up_.detail = "the host";
     }
-    return v;
+    return view_;
   }
+  std::optional<msg::SceneView> host_view() const override { return view_; }
 
   // From the last frame's figures (the state as its publication step left it), not under
   // the state lock: a running step holds that for its length.
@@ -62,6 +63,7 @@ class StreamSource final : public ViewSource {
   std::unique_ptr<client::ClientRuntime> rt_;
   std::string server_;
   client::DisplayFrameStats last_;  // of the last frame that succeeded
+  std::optional<msg::SceneView> view_;  // the host's, once taken
   std::uint64_t last_edits_{~std::uint64_t{0}};
   std::uint64_t last_batches_{0};
   double last_change_{0.0};

@@ -72,6 +72,8 @@ class ViewSource {
   // arrived, and the source's up becomes the host's unless --up set it. Never waits (a
   // publication step may hold the state). nullopt for a local scene, or before SceneInfo.
   virtual std::optional<msg::SceneView> take_host_view() { return std::nullopt; }
+  // The view take_host_view() last returned (for the panels); nullopt before it did.
+  virtual std::optional<msg::SceneView> host_view() const { return std::nullopt; }
   // "host 127.0.0.1:7000" or "scene room.ply (10000 Gaussians)".
   virtual std::string describe() const = 0;
   // A local scene's figures (the scene panel); nullptr for a stream.

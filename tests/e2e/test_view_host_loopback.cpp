@@ -117,7 +117,7 @@ TEST(ViewHostLoopback, WithoutAPathTheClientHoldsTheViewTheHostAnnounced) {
                                            std::to_string(kBudget), "--every", "0", "--settle-timeout", "120",
                                            "--quiet-time", "5"},
                                           out));
-  EXPECT_NE(read_text(out / "view.log").find("the host's view of its scene (up +y, announced by the host)"),
+  EXPECT_NE(read_text(out / "view.log").find("the host's view of its scene (up +y, from the host)"),
             std::string::npos)
       << read_text(out / "view.log");
 
