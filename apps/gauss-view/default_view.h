@@ -24,10 +24,9 @@ std::optional<Framing> default_framing(const ViewSource& source, const glm::dvec
                                        std::uint32_t width, std::uint32_t height,
                                        ViewPreset preset = ViewPreset::Front);
 
-// The first view of a stream, from the view its host announced (SceneInfo::view), upright for
-// `up`: a room (kViewInside) seen with `up` as +y from above a corner inside it, toward a point
-// below its middle (a person entering it; the Front preset only); anything else, and the other
-// presets, from outside its subject as a local scene's default camera (frame_scene_view).
+// The first view of a stream: frame_scene_view of the view its host announced
+// (SceneInfo::view) with `up` instead of the view's (the host's, or --up, or the panel's
+// choice), through view_lens().
 Framing stream_framing(const msg::SceneView& view, const glm::dvec3& up, double hfov_deg, std::uint32_t width,
                        std::uint32_t height, ViewPreset preset = ViewPreset::Front);
 

@@ -91,6 +91,35 @@ TEST(SceneView, TheSyntheticRoomIsSeenFromInside) {
   EXPECT_EQ(v.flags, msg::kViewInside);
   EXPECT_EQ(v.up, glm::vec3(0.0f, 1.0f, 0.0f));
   EXPECT_EQ(v.subject_min, glm::vec3(-3.0f, 0.0f, -4.0f));
+  // Its first view stands inside, high above a corner, looking down into the room.
+  const Framing f = frame_scene_view(v, FramingLens{});
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_GT(f.eye[a], double(v.subject_min[a]));
+    EXPECT_LT(f.eye[a], double(v.subject_max[a]));
+  }
+  EXPECT_LT(f.target.y, f.eye.y);
+  EXPECT_EQ(f.up, glm::dvec3(0.0, 1.0, 0.0));
+  // The other presets, another up, or a room without floor area: from outside, as frame_preset.
+  auto outside = [&](const msg::SceneView& w, ViewPreset preset) {
+    const Framing g = frame_scene_view(w, FramingLens{}, preset);
+    const Framing want = frame_preset(glm::dvec3(w.subject_min), glm::dvec3(w.subject_max), view_up(w), FramingLens{},
+                                      preset);
+    EXPECT_LT(glm::length(g.eye - want.eye), 1e-9);
+    EXPECT_TRUE(std::isfinite(g.eye.x + g.eye.y + g.eye.z));
+  };
+  outside(v, ViewPreset::Top);
+  msg::SceneView turned = v;
+  turned.up = {0.0f, 0.0f, 1.0f};
+  outside(turned, ViewPreset::Front);
+  msg::SceneView flat = v;
+  flat.subject_max.x = flat.subject_min.x;
+  outside(flat, ViewPreset::Front);
+  // The widest box the wire accepts still frames to a finite camera.
+  msg::SceneView huge = v;
+  huge.flags = 0;
+  huge.subject_min = glm::vec3(-3e38f);
+  huge.subject_max = glm::vec3(3e38f);
+  outside(huge, ViewPreset::Front);
 }
 
 TEST(SceneView, AnRgbdCapturesUpIsItsCamerasUp) {

@@ -46,10 +46,22 @@ glm::dvec3 view_up(const msg::SceneView& view) {
 }
 
 Framing frame_scene_view(const msg::SceneView& view, const FramingLens& lens, ViewPreset preset) {
+  const glm::dvec3 up = view_up(view);
+  const glm::dvec3 lo(view.subject_min), hi(view.subject_max), size = hi - lo;
+  if ((view.flags & msg::kViewInside) && preset == ViewPreset::Front && up == glm::dvec3(0.0, 1.0, 0.0) &&
+      size.x > 0.0 && size.z > 0.0) {
+    Framing f;
+    f.eye = glm::dvec3(lo.x + 0.12 * size.x, lo.y + 0.8 * size.y, lo.z + 0.12 * size.z);
+    f.target = glm::dvec3(lo.x + 0.5 * size.x, lo.y + 0.25 * size.y, lo.z + 0.5 * size.z);
+    f.up = up;
+    f.distance = glm::length(f.target - f.eye);
+    f.lo = lo;
+    f.hi = hi;
+    return f;
+  }
   std::optional<glm::dvec3> seen_from;
   if (view.flags & msg::kViewSeenFrom) seen_from = glm::dvec3(view.seen_from);
-  return frame_preset(glm::dvec3(view.subject_min), glm::dvec3(view.subject_max), view_up(view), lens, preset,
-                      seen_from);
+  return frame_preset(lo, hi, up, lens, preset, seen_from);
 }
 
 }  // namespace gauss

@@ -29,7 +29,12 @@ msg::SceneView room_view(const glm::vec3& lo, const glm::vec3& hi);
 // The up a viewer keeps upright: the view's, normalised in double.
 glm::dvec3 view_up(const msg::SceneView& view);
 
-// The framing of a view seen from outside (frame_preset of its subject, up and seen_from).
+// The first view of a scene as its view says, upright for its up: a room (kViewInside, y up,
+// the Front preset) from above a corner inside it (12 % in from the low x and z walls, at
+// 80 % of its height) toward a point below its middle (a quarter of its height), as a person
+// entering it looks; anything else, and a room's other presets, from outside its subject as a
+// local scene's default camera (frame_preset of the subject, up and seen_from). Finite for any
+// view the wire accepts.
 Framing frame_scene_view(const msg::SceneView& view, const FramingLens& lens, ViewPreset preset = ViewPreset::Front);
 
 }  // namespace gauss
