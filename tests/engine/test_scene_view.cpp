@@ -2,6 +2,7 @@
 // box, the synthetic room's inside view, degenerate input kept finite, and the framing a
 // client makes of it equal to a local viewer's of the same Gaussians. The RGB-D capture's view
 // from its cameras uses the shared SUN3D frames (../shared/data/rgbd, skipped when absent).
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -12,6 +13,7 @@
 
 #include "gauss/engine/rgbd_scene.h"
 #include "gauss/engine/rgbd_source.h"
+#include "gauss/engine/scene_up.h"
 #include "gauss/engine/scene_view.h"
 #include "test_data.h"
 
@@ -122,6 +124,65 @@ TEST(SceneView, TheSyntheticRoomIsSeenFromInside) {
   outside(huge, ViewPreset::Front);
 }
 
+// OpenCV camera axes for a heading (radians about `up`, 0 looking along `front`), a pitch
+// (down positive) and a roll, in a world whose up is `up`.
+CameraAxes camera_axes(const glm::dvec3& up, const glm::dvec3& front, double heading, double pitch, double roll) {
+  const glm::dvec3 side = glm::cross(front, up);  // right of a camera looking along front
+  const glm::dvec3 f = std::cos(heading) * front + std::sin(heading) * side;
+  const glm::dvec3 r0 = glm::cross(f, up);
+  const glm::dvec3 fwd = std::cos(pitch) * f - std::sin(pitch) * up;
+  const glm::dvec3 down0 = glm::cross(fwd, r0);  // OpenCV: down = forward x right
+  const glm::dvec3 right = std::cos(roll) * r0 + std::sin(roll) * down0;
+  const glm::dvec3 down = glm::cross(fwd, right);
+  return {right, down};
+}
+
+double degrees_between(const glm::dvec3& a, const glm::dvec3& b) {
+  return std::acos(std::clamp(glm::dot(glm::normalize(a), glm::normalize(b)), -1.0, 1.0)) * 180.0 / 3.14159265358979;
+}
+
+TEST(SceneUp, ACapturesUpIsLevelWithItsCamerasRightAxesNotTiltedByTheirPitch) {
+  const glm::dvec3 up(0.0, 0.0, 1.0), front(1.0, 0.0, 0.0);
+  // A 60 degree arc of cameras, all looking 30 degrees down: the mean image-up leans 15
+  // degrees toward the arc's middle; the right axes' plane is level.
+  std::vector<CameraAxes> arc;
+  glm::dvec3 mean(0.0);
+  for (int i = 0; i <= 6; ++i) {
+    arc.push_back(camera_axes(up, front, (i - 3) * 10.0 * 3.14159265358979 / 180.0, 0.52, 0.0));
+    mean -= arc.back().down;
+  }
+  EXPECT_GT(degrees_between(mean, up), 10.0);
+  auto u = capture_up(arc);
+  ASSERT_TRUE(u.has_value());
+  EXPECT_LT(degrees_between(*u, up), 1e-6);
+  // One heading, rolled 4 degrees and pitched 20: level with the right axis (the roll goes),
+  // the pitch's lean cannot be told from one heading and stays.
+  const std::vector<CameraAxes> one = {camera_axes(up, front, 0.0, 0.35, 0.07), camera_axes(up, front, 0.0, 0.35, 0.07)};
+  u = capture_up(one);
+  ASSERT_TRUE(u.has_value());
+  EXPECT_LT(std::abs(glm::dot(*u, glm::normalize(one[0].right))), 1e-9);
+  EXPECT_LT(degrees_between(*u, -one[0].down), 5.0);
+  // Portrait and landscape shots mixed: the right axes span a vertical plane, whose normal is
+  // level; the mean image-up stands.
+  std::vector<CameraAxes> mixed;
+  for (int i = 0; i < 4; ++i) mixed.push_back(camera_axes(up, front, 0.3 * i, 0.0, i % 2 ? 1.5707963 : 0.0));
+  glm::dvec3 mixed_mean(0.0);
+  for (const auto& c : mixed) mixed_mean -= c.down;
+  u = capture_up(mixed);
+  ASSERT_TRUE(u.has_value());
+  EXPECT_LT(degrees_between(*u, mixed_mean), 1e-6);
+  // Ups that cancel, or nothing finite: no up.
+  EXPECT_FALSE(capture_up(std::vector<CameraAxes>{{{1, 0, 0}, {0, 1, 0}}, {{1, 0, 0}, {0, -1, 0}}}).has_value());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(capture_up(std::vector<CameraAxes>{{{nan, 0, 0}, {0, 1, 0}}}).has_value());
+  EXPECT_FALSE(capture_up(std::vector<CameraAxes>{}).has_value());
+  // A non-finite camera among good ones is left out.
+  arc.push_back({{nan, 0, 0}, {0, 0, 1}});
+  u = capture_up(arc);
+  ASSERT_TRUE(u.has_value());
+  EXPECT_LT(degrees_between(*u, up), 1e-6);
+}
+
 TEST(SceneView, AnRgbdCapturesUpIsItsCamerasUp) {
   const auto dir = test::data_file("rgbd/sun3d_studyroom");
   if (!dir) GTEST_SKIP() << "../shared/data/rgbd/sun3d_studyroom absent (set GAUSS_DATA_DIR)";
@@ -131,16 +192,23 @@ TEST(SceneView, AnRgbdCapturesUpIsItsCamerasUp) {
   o.surface.reset();
   auto fit = fit_capture(folder, o);
   ASSERT_TRUE(fit.ok()) << fit.message();
-  // The cameras' mean image-up, from their poses.
+  // The cameras' up from their poses, level with each camera's right axis: the frames look
+  // down at a desk, which tilts their mean image-up.
   auto frames = RgbdFolderSource::open(folder);
   ASSERT_TRUE(frames.ok()) << frames.message();
-  glm::dvec3 sum(0.0);
+  std::vector<CameraAxes> axes;
+  glm::dvec3 mean(0.0);
   for (std::size_t i = 0; i < frames->frame_count(); ++i) {
     auto p = frames->frame_pose(i);
     ASSERT_TRUE(p.ok()) << p.message();
-    sum -= glm::dvec3((*p)[1]);
+    axes.push_back({glm::dvec3((*p)[0]), glm::dvec3((*p)[1])});
+    mean -= glm::dvec3((*p)[1]);
   }
-  EXPECT_LT(glm::length(glm::dvec3(fit->view.up) - glm::normalize(sum)), 1e-6);
+  const auto up = capture_up(axes);
+  ASSERT_TRUE(up.has_value());
+  EXPECT_LT(glm::length(glm::dvec3(fit->view.up) - *up), 1e-6);
+  for (const CameraAxes& a : axes) EXPECT_LT(std::abs(glm::dot(*up, a.right)), 0.08) << "level with every right axis";
+  EXPECT_GT(degrees_between(*up, mean), 5.0) << "the frames' pitch tilts their mean image-up (10.4 degrees here)";
   EXPECT_EQ(fit->view.flags, msg::kViewSeenFrom);
   // The subject lies within the codec's box (both from the same seeded Gaussians).
   for (int a = 0; a < 3; ++a) {

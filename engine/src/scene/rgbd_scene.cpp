@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <optional>
 #include <system_error>
+#include <vector>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_inverse.hpp>
@@ -12,6 +14,7 @@
 #include <glm/mat3x3.hpp>
 
 #include "gauss/engine/rgbd_source.h"
+#include "gauss/engine/scene_up.h"
 #include "gauss/engine/scene_view.h"
 
 namespace gauss {
@@ -332,24 +335,23 @@ Expected<CaptureFit> fit_capture(const fs::path& folder, const RgbdSceneOptions&
   if (store.size() == 0) return Error{"RGB-D capture " + folder.string() + ": no frame seeds a Gaussian"};
   CaptureFit fit;
   fit.params = fit_codec_params(store.gaussians(), store.sh_degree());
-  // The cameras: their image-up (-y of an OpenCV camera in the world) and where they stood.
+  // The cameras: their axes give the capture's up (capture_up), their centres its side.
   auto frames = RgbdFolderSource::open(folder);
   if (!frames) return frames.error();
-  glm::dvec3 up_sum(0.0), position_sum(0.0);
-  std::size_t posed = 0;
+  std::vector<CameraAxes> axes;
+  glm::dvec3 position_sum(0.0);
   for (std::size_t i = 0; i < frames->frame_count(); ++i) {
     auto pose = frames->frame_pose(i);
     if (!pose) continue;
-    const glm::dvec3 down(pose->operator[](1)), at(pose->operator[](3));
-    if (!std::isfinite(down.x + down.y + down.z + at.x + at.y + at.z)) continue;
-    up_sum -= down;
+    const glm::dvec3 right((*pose)[0]), down((*pose)[1]), at((*pose)[3]);
+    if (!std::isfinite(right.x + right.y + right.z + down.x + down.y + down.z + at.x + at.y + at.z)) continue;
+    axes.push_back(CameraAxes{right, down});
     position_sum += at;
-    ++posed;
   }
   std::optional<glm::dvec3> seen_from;
-  if (posed > 0) seen_from = position_sum / double(posed);
-  // capture_view takes a zero sum (cameras whose ups cancel) as +y.
-  fit.view = capture_view(store.gaussians(), up_sum, seen_from);
+  if (!axes.empty()) seen_from = position_sum / double(axes.size());
+  // No agreed up (no usable pose, or ups that cancel): capture_view takes zero as +y.
+  fit.view = capture_view(store.gaussians(), capture_up(axes).value_or(glm::dvec3(0.0)), seen_from);
   return fit;
 }
 

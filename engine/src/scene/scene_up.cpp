@@ -8,9 +8,13 @@
 #include <cstdio>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
 #include <nlohmann/json.hpp>
+
+#include "gauss/engine/sym_eigen3.h"
 
 #include "io/file_bytes.h"
 
@@ -96,6 +100,7 @@ Expected<TrainerCapture> read_trainer_capture(const std::filesystem::path& file)
   if (!j.is_array()) return up_error(file, std::string("expected an array of cameras, got ") + j.type_name());
   if (j.empty()) return up_error(file, "no cameras");
   glm::dvec3 sum(0.0), position_sum(0.0);
+  std::vector<CameraAxes> axes;
   bool positions = true;  // every camera so far had a finite position
   for (std::size_t i = 0; i < j.size(); ++i) {
     const std::string at = "camera " + std::to_string(i) + ": ";
@@ -103,7 +108,7 @@ Expected<TrainerCapture> read_trainer_capture(const std::filesystem::path& file)
     const auto rot = cam.is_object() ? cam.find("rotation") : cam.end();
     if (!cam.is_object() || rot == cam.end()) return up_error(file, at + "no 'rotation'");
     if (!rot->is_array() || rot->size() != 3) return up_error(file, at + "'rotation' must be 3 rows of 3 numbers");
-    glm::dvec3 down(0.0);  // the camera's y axis (image down) in the world: the matrix's second column
+    glm::dvec3 down(0.0), right(0.0);  // the camera's y (image down) and x axes in the world: columns 1, 0
     for (std::size_t r = 0; r < 3; ++r) {
       const json& row = (*rot)[r];
       if (!row.is_array() || row.size() != 3) return up_error(file, at + "'rotation' must be 3 rows of 3 numbers");
@@ -111,10 +116,11 @@ Expected<TrainerCapture> read_trainer_capture(const std::filesystem::path& file)
         if (!row[c].is_number() || !std::isfinite(row[c].get<double>()))
           return up_error(file, at + "rotation[" + std::to_string(r) + "][" + std::to_string(c) + "] is not a finite number");
       down[static_cast<int>(r)] = row[1].get<double>();
+      right[static_cast<int>(r)] = row[0].get<double>();
     }
-    const double len = glm::length(down);
-    if (!(len > 1e-6)) return up_error(file, at + "the rotation's second column is zero");
-    sum -= down / len;
+    if (!(glm::length(down) > 1e-6)) return up_error(file, at + "the rotation's second column is zero");
+    axes.push_back(CameraAxes{right, down});
+    sum -= glm::normalize(down);
     // Positions are optional: one camera without a usable one drops the mean, not the up.
     const auto pos = finite_vec3(cam, "position");
     if (pos) position_sum += *pos;
@@ -127,7 +133,7 @@ Expected<TrainerCapture> read_trainer_capture(const std::filesystem::path& file)
     return up_error(file, "the cameras' up directions do not agree (mean length " +
                               std::to_string(len / static_cast<double>(j.size())) + ")");
   TrainerCapture out;
-  out.up = sum / len;
+  out.up = capture_up(axes).value_or(sum / len);
   out.cameras = j.size();
   if (positions) out.mean_position = position_sum / static_cast<double>(j.size());
   return out;
@@ -153,6 +159,34 @@ SceneUp choose_scene_up(const std::optional<glm::dvec3>& option, const std::file
   out.detail = cams->string() + " (" + std::to_string(capture->cameras) + " capture cameras)";
   out.capture_position = capture->mean_position;
   return out;
+}
+
+std::optional<glm::dvec3> capture_up(std::span<const CameraAxes> cameras) {
+  glm::dvec3 sum(0.0);
+  glm::dmat3 scatter(0.0);  // sum of r r^T over the unit right axes
+  double n = 0.0;
+  for (const CameraAxes& c : cameras) {
+    const double dl = glm::length(c.down), rl = glm::length(c.right);
+    if (!std::isfinite(dl + rl) || !(dl > 0.0)) continue;
+    sum -= c.down / dl;
+    n += 1.0;
+    if (rl > 0.0) scatter += glm::outerProduct(c.right / rl, c.right / rl);
+  }
+  const double len = glm::length(sum);
+  if (n == 0.0 || !(len > 0.1 * n)) return std::nullopt;
+  const glm::dvec3 mean = sum / len;
+  const SymEigen3 e = sym_eigen3(scatter);
+  glm::dvec3 up = mean;
+  if (e.values[1] >= 0.05 * n) {
+    up = e.vectors[2];  // the normal of the plane the right axes span
+  } else if (e.values[0] > 0.0) {
+    up = mean - glm::dot(mean, e.vectors[0]) * e.vectors[0];  // level with the common right axis
+  }
+  const double ul = glm::length(up);
+  if (!(ul > 1e-9)) return mean;
+  up /= ul;
+  if (glm::dot(up, mean) < 0.0) up = -up;
+  return glm::dot(up, mean) >= std::sqrt(0.5) ? up : mean;
 }
 
 void half_turn_about_x(std::span<Gaussian> gaussians) {

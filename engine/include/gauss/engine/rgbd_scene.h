@@ -86,9 +86,9 @@ Expected<std::unique_ptr<SceneSource>> open_rgbd_capture(const std::filesystem::
 Expected<CodecParams> fit_capture_codec_params(const std::filesystem::path& folder, const RgbdSceneOptions& options);
 
 // The codec above and the view a host announces for the capture (scene_view.h), from the same
-// seeding: up is the mean image-up of the frames' cameras (OpenCV cameras: -y of each
-// camera-to-world), seen from their mean position; the subject, the seeded Gaussians' robust
-// bounds. Frames without a usable pose are left out of the mean; none left: +y.
+// seeding: up is capture_up of the frames' cameras (scene_up.h: level with their right axes),
+// seen from their mean position; the subject, the seeded Gaussians' robust bounds. Frames
+// without a usable pose are left out; none left, or no agreed up: +y.
 struct CaptureFit {
   CodecParams params;
   msg::SceneView view;

@@ -58,6 +58,23 @@ struct SceneUp {
   std::optional<glm::dvec3> capture_position;
 };
 
+// The up of a capture from its cameras' axes in the world (OpenCV cameras: `right` = +x,
+// `down` = +y of each camera, any length > 0). The mean image-up (-down) leans toward the
+// cameras' view direction wherever they all pitch the same way (a partial arc, a forward-
+// facing capture, an RGB-D walk looking down at desks: the shared SUN3D frames' mean is 10
+// degrees from the up below). People rarely roll a camera, so its right axis is level: where
+// the right axes span a plane (the smaller of its two spreads at least 5 % of the cameras:
+// headings some 30 degrees apart or more), up is that plane's normal, on the mean image-up's
+// side; with one heading, the mean image-up made perpendicular to the common right axis. A
+// result more than 45 degrees from the mean image-up (portrait and landscape shots mixed:
+// rolled cameras) gives way to the mean. nullopt when the image-ups cancel (mean length at
+// most 0.1: no agreed up) or no camera is finite.
+struct CameraAxes {
+  glm::dvec3 right{1.0, 0.0, 0.0};
+  glm::dvec3 down{0.0, 1.0, 0.0};
+};
+std::optional<glm::dvec3> capture_up(std::span<const CameraAxes> cameras);
+
 // The trainer's cameras.json for a scene file: beside it, or at the run folder of the
 // trainer's layout RUN/point_cloud/iteration_N/point_cloud.ply. nullopt when neither exists.
 std::optional<std::filesystem::path> find_trainer_cameras(const std::filesystem::path& scene);
@@ -69,8 +86,8 @@ struct TrainerCapture {
 };
 
 // The capture's up from a trainer cameras.json (a JSON array of {"rotation": 3x3 rows
-// camera-to-world, "position": [x, y, z], ...}, as 3DGS writes it): the normalised mean of
-// -rotation's second column over the cameras, and the cameras' mean position. Errors name
+// camera-to-world, "position": [x, y, z], ...}, as 3DGS writes it): capture_up of the
+// rotations' first (right) and second (down) columns, and the cameras' mean position. Errors name
 // the file and the first bad camera (not an array, no cameras, a rotation that is not 3 rows
 // of 3 finite numbers) or say the cameras' up directions cancel out.
 Expected<TrainerCapture> read_trainer_capture(const std::filesystem::path& cameras_json);
