@@ -13,6 +13,7 @@
 #include <thread>
 #include <vector>
 
+#include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
 #include "eye_copy.h"
@@ -29,6 +30,9 @@ namespace gauss::xr_app {
 namespace {
 
 using Json = nlohmann::json;
+
+// Metres above a STAGE space's floor where a capture's origin goes (scene placement below).
+constexpr double kStandingEyeHeight = 1.6;
 
 // SIGINT / SIGTERM: leave as the runtime would end the session (outputs written).
 std::atomic<bool> g_stop{false};
@@ -233,9 +237,14 @@ int run_headset(const XrOptions& o) {
     const glm::dvec3 up = o.up ? *o.up : view_up(v);
     std::optional<glm::dvec3> face;
     if (!(v.flags & msg::kViewInside)) face = 0.5 * (glm::dvec3(v.subject_min) + glm::dvec3(v.subject_max));
-    s.set_scene_from_space(xr::scene_from_space(up, face));
+    glm::dmat4 placement = xr::scene_from_space(up, face);
+    // STAGE's origin is the floor: a capture's origin (where its first camera was held) goes to
+    // a standing person's eye height above it, not under their feet.
+    const double lift = o.stage && face ? kStandingEyeHeight : 0.0;
+    placement = placement * glm::translate(glm::dmat4(1.0), glm::dvec3(0.0, -lift, 0.0));
+    s.set_scene_from_space(placement);
     const char* from = o.up ? "--up" : "announced by the host";
-    scene_up = Json{{"up", {up.x, up.y, up.z}}, {"from", from}, {"facing_subject", face.has_value()}};
+    scene_up = Json{{"up", {up.x, up.y, up.z}}, {"from", from}, {"facing_subject", face.has_value()}, {"origin_height", lift}};
     std::fprintf(stderr, "gauss-xr: the scene's up is %s (%s): it stands upright in the room%s\n",
                  up_label(up).c_str(), from, face ? ", its subject ahead" : "");
   };

@@ -30,7 +30,9 @@ std::optional<int> parse_options(int argc, char** argv, XrOptions& o) {
                    "publish the stream and pack its uploads on a thread of their own, so the display thread only "
                    "hands them over");
   app.add_option("--rho", o.rho, "a query's share of the budget at start")->check(apps::in_range(0.0, 1.0));
-  app.add_flag("--stage", o.stage, "use the STAGE reference space (floor origin) instead of LOCAL");
+  app.add_flag("--stage", o.stage,
+               "use the STAGE reference space (floor origin) instead of LOCAL; a captured scene's origin is "
+               "then placed at a standing eye height, 1.6 m above the floor");
   apps::add_up_option(app, o.up,
                       "the scene's up axis (+x -x +y -y +z -z), turned to point up in the room, instead of the "
                       "up the host announces");

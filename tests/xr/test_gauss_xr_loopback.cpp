@@ -123,15 +123,16 @@ std::uint16_t start_host(gauss::test::ChildProcess& host, const fs::path& out,
 }
 
 // Runs gauss-xr with the runtime's script; returns its exit status (-1: timed out).
-int run_xr(const fs::path& out, const Json& script, std::uint16_t port) {
+int run_xr(const fs::path& out, const Json& script, std::uint16_t port, const std::vector<std::string>& extra = {}) {
   std::ofstream(out / "script.json") << script.dump(2);
   fs::create_directories(out / "capture");
   ::setenv("GAUSS_XR_HEADLESS_SCRIPT", (out / "script.json").c_str(), 1);
   ::setenv("GAUSS_XR_HEADLESS_CAPTURE", (out / "capture").c_str(), 1);
   gauss::test::ChildProcess xr;
-  EXPECT_TRUE(xr.start({GAUSS_XR_EXE, "--host", "127.0.0.1:" + std::to_string(port), "--budget",
-                        std::to_string(kBudget), "--rho", "0.5", "--no-highlight", "--out", (out / "xr").string()},
-                       out / "xr.log"));
+  std::vector<std::string> args = {GAUSS_XR_EXE, "--host", "127.0.0.1:" + std::to_string(port), "--budget",
+                                   std::to_string(kBudget), "--rho", "0.5", "--no-highlight", "--out", (out / "xr").string()};
+  args.insert(args.end(), extra.begin(), extra.end());
+  EXPECT_TRUE(xr.start(args, out / "xr.log"));
   const auto rc = xr.wait(300s);
   if (!rc) xr.stop(SIGKILL);
   ::unsetenv("GAUSS_XR_HEADLESS_SCRIPT");
@@ -197,8 +198,10 @@ TEST(GaussXrLoopback, TheHeadsetShowsTheHostsRenderOfTheSentSetAndThePullQueries
                                            "VISIBLE", "SYNCHRONIZED", "STOPPING",     "IDLE",    "EXITING"};
   EXPECT_EQ(states, lifecycle) << summary["session_states"].dump();
   // The synthetic room is y up, as the headset's room: the host said so, and nothing turned.
-  EXPECT_EQ(summary["scene_up"],
-            (Json{{"up", {0.0, 1.0, 0.0}}, {"from", "announced by the host"}, {"facing_subject", false}}))
+  EXPECT_EQ(summary["scene_up"], (Json{{"up", {0.0, 1.0, 0.0}},
+                                       {"from", "announced by the host"},
+                                       {"facing_subject", false},
+                                       {"origin_height", 0.0}}))
       << summary.dump(2);
   // The pull queried the object under the ray, and it got its share of the budget.
   const Json& queries = summary["queries"];
@@ -268,7 +271,8 @@ TEST(GaussXrLoopback, TheHeadsetShowsTheHostsRenderOfTheSentSetAndThePullQueries
 
 // A 3DGS capture is y down: the host says so, and gauss-xr turns the scene so that its up is
 // the room's. A level head then sees the scene's -y as image-up (its camera's down is the
-// scene's +y); before, the capture stood on its head.
+// scene's +y); before, the capture stood on its head. In STAGE space (origin on the floor) the
+// capture's origin is at a standing head's height: the runtime's head, 1.6 m up, is there.
 TEST(GaussXrLoopback, ACaptureStandsUprightInTheRoom) {
   GAUSS_REQUIRE_DATA(scene, "splats/fruit_drops_sh3.v4.spz");
   const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "xr_gauss_xr_upright";
@@ -279,11 +283,13 @@ TEST(GaussXrLoopback, ACaptureStandsUprightInTheRoom) {
   ASSERT_NE(port, 0) << read_text(out / "host.log");
   // Frames come as fast as they render (a virtual clock): enough of them for the Welcome.
   const Json script{{"width", 32}, {"height", 24}, {"events", {{{"frame", 800}, {"type", "exit"}}}}, {"capture", Json::array()}};
-  ASSERT_EQ(run_xr(out, script, port), 0) << read_text(out / "xr.log");
+  ASSERT_EQ(run_xr(out, script, port, {"--stage"}), 0) << read_text(out / "xr.log");
   EXPECT_EQ(host.stop(SIGINT).value_or(-1), 0);
   const Json summary = Json::parse(read_text(out / "xr" / "summary.json"));
-  EXPECT_EQ(summary["scene_up"],
-            (Json{{"up", {0.0, -1.0, 0.0}}, {"from", "announced by the host"}, {"facing_subject", true}}))
+  EXPECT_EQ(summary["scene_up"], (Json{{"up", {0.0, -1.0, 0.0}},
+                                       {"from", "announced by the host"},
+                                       {"facing_subject", true},
+                                       {"origin_height", 1.6}}))
       << summary.dump(2);
   EXPECT_NE(read_text(out / "xr.log").find("the scene's up is -y (announced by the host)"), std::string::npos)
       << read_text(out / "xr.log");
@@ -295,6 +301,9 @@ TEST(GaussXrLoopback, ACaptureStandsUprightInTheRoom) {
   // And the subject (the label, 2 m from the origin) is ahead: the headset's last frame shows it.
   const glm::dvec3 ahead(cam->world_to_camera[0][2], cam->world_to_camera[1][2], cam->world_to_camera[2][2]);
   EXPECT_LT(ahead.z, -0.9) << "the subject lies toward the scene's -z from its origin";
+  // The eye stands at the scene's origin, half the IPD aside.
+  const glm::dvec3 eye(glm::inverse(cam->world_to_camera)[3]);
+  EXPECT_LT(glm::length(eye), 0.05) << eye.x << " " << eye.y << " " << eye.z;
 }
 
 TEST(GaussXrLoopback, ALostSessionEndsTheProgramWithAMessage) {
