@@ -110,14 +110,10 @@ Expected<std::unique_ptr<SceneFeed>> SceneFeed::open(const Options& o, SceneStor
   // A followed folder's later snapshots may reach beyond the first one's bounds.
   feed->params_ = feed->folder_ ? fit_live_codec_params(store.gaussians(), store.sh_degree())
                                 : fit_codec_params(store.gaussians(), store.sh_degree());
-  // Which way is up, as a local viewer of the file would decide (a folder's trainer keeps its
-  // cameras.json at the run folder, which is the folder given).
-  std::error_code ec;
-  const fs::path probe = !feed->folder_                              ? path
-                         : fs::is_directory(path / "point_cloud", ec) ? path / "point_cloud" / "iteration_0" / "point_cloud.ply"
-                                                                      : path / "snapshot.ply";
-  const SceneUp up = choose_scene_up(o.up, probe);
-  if (!up.problem.empty()) std::printf("gauss-host: %s; up is %s, %s\n", up.problem.c_str(), up_label(up.up).c_str(), up.detail.c_str());
+  // Which way is up, as a local viewer of the file would decide.
+  const SceneUp up = choose_scene_up(o.up, path);
+  if (!up.problem.empty())
+    std::printf("gauss-host: %s; up is %s, %s\n", up.problem.c_str(), up_label(up.up).c_str(), up.detail.c_str());
   feed->view_ = capture_view(store.gaussians(), up.up, up.capture_position);
   feed->view_note_ = "up " + up_label(up.up) + " (" + up.detail + ")";
   if (o.rgbd)
@@ -148,7 +144,7 @@ Expected<std::unique_ptr<SceneFeed>> SceneFeed::open_capture(const Options& o, S
   feed->params_ = fit->params;
   feed->view_ = fit->view;
   if (o.up) feed->view_.up = glm::vec3(*o.up);
-  feed->view_note_ = "up " + up_label(glm::dvec3(feed->view_.up)) + (o.up ? " (--up)" : " (its cameras' mean)");
+  feed->view_note_ = "up " + up_label(glm::dvec3(feed->view_.up)) + (o.up ? " (--up)" : " (its cameras)");
   return feed;
 }
 

@@ -58,8 +58,9 @@ client::CameraPath default_camera_path(const Framing& fr, const client::CameraIn
 
 json vec_json(const glm::dvec3& v) { return json::array({v.x, v.y, v.z}); }
 
-// The scene box a host describes its scene with (the codec's), once its SceneInfo has come;
-// an error when the host refuses the client or sends nothing within `limit_s`.
+// The view a host announces for its scene (SceneInfo::view), once its SceneInfo has come (the
+// source takes the host's up with it); an error when the host refuses the client or sends
+// nothing within `limit_s`.
 Expected<msg::SceneView> wait_for_host_view(ViewSource& src, client::ClientRuntime& rt, const std::string& host,
                                             double limit_s) {
   const auto t0 = std::chrono::steady_clock::now();

@@ -343,6 +343,9 @@ TEST(SceneUp, TrainerCamerasAndOptionDecide) {
   ])");
   const fs::path ply = ply_dir / "point_cloud.ply";
   ASSERT_EQ(find_trainer_cameras(ply), run / "cameras.json");
+  // A host following the run folder finds them in it.
+  EXPECT_EQ(find_trainer_cameras(run), run / "cameras.json");
+  EXPECT_EQ(find_trainer_cameras(ply_dir), std::nullopt);
   const SceneUp up = choose_scene_up(std::nullopt, ply);
   EXPECT_EQ(up.source, UpSource::TrainerCameras) << up.problem;
   EXPECT_TRUE(up.problem.empty());

@@ -49,12 +49,10 @@ namespace {
 // The rotation taking +y to the unit vector u.
 glm::dmat4 up_turn(const glm::dvec3& u) {
   const glm::dvec3 y(0.0, 1.0, 0.0);
-  const glm::dmat4 half_turn_x = glm::scale(glm::dmat4(1.0), glm::dvec3(1.0, -1.0, -1.0));
-  if (u == y) return glm::dmat4(1.0);
-  if (u == -y) return half_turn_x;
   const glm::dvec3 axis = glm::cross(y, u);
   const double s = glm::length(axis);
-  if (s < 1e-12) return u.y > 0.0 ? glm::dmat4(1.0) : half_turn_x;
+  // Along +y: no turn; along -y (the 3DGS convention): the half turn about x, exactly.
+  if (s < 1e-12) return u.y > 0.0 ? glm::dmat4(1.0) : glm::scale(glm::dmat4(1.0), glm::dvec3(1.0, -1.0, -1.0));
   return glm::rotate(glm::dmat4(1.0), std::atan2(s, glm::dot(y, u)), axis / s);
 }
 }  // namespace

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <string>
 
+#include "gauss/engine/log_text.h"
 #include "lod_internal.h"
 #include "lod_leaf_moments.h"
 
@@ -22,13 +23,6 @@ using lod_detail::kObjectsLevels;
 using lod_detail::kObjectsTree;
 using lod_detail::kPendingLeaf;
 using lod_detail::kRootTree;
-
-namespace {
-
-std::string id_text(GaussianId id) { return std::to_string(to_underlying(id)); }
-
-
-}  // namespace
 
 Expected<LodHierarchy> LodHierarchy::create(int sh_degree, const LodConfig& config) {
   if (sh_degree < 0 || sh_degree > kMaxShDegree)

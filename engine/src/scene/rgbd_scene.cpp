@@ -351,7 +351,8 @@ Expected<CaptureFit> fit_capture(const fs::path& folder, const RgbdSceneOptions&
   std::optional<glm::dvec3> seen_from;
   if (!axes.empty()) seen_from = position_sum / double(axes.size());
   // No agreed up (no usable pose, or ups that cancel): capture_view takes zero as +y.
-  fit.view = capture_view(store.gaussians(), capture_up(axes).value_or(glm::dvec3(0.0)), seen_from);
+  const auto up = capture_up(axes);
+  fit.view = capture_view(store.gaussians(), up ? *up : glm::dvec3(0.0), seen_from);
   return fit;
 }
 

@@ -13,8 +13,6 @@
 namespace gauss {
 namespace {
 
-std::string id_text(GaussianId id) { return std::to_string(to_underlying(id)); }
-
 // Names the first non-finite or out-of-contract field, or returns an empty string.
 std::string invalid_field(const Gaussian& g, int sh_degree) {
   if (!finite3(g.position)) return "position is not finite";

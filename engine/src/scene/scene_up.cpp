@@ -78,6 +78,12 @@ std::string up_label(const glm::dvec3& up) {
 
 std::optional<std::filesystem::path> find_trainer_cameras(const std::filesystem::path& scene) {
   std::error_code ec;
+  // A followed folder (a trainer's RUN, or a folder of snapshots): the cameras are in it. A
+  // SOG folder (meta.json) is one scene file, looked beside like the others.
+  if (std::filesystem::is_directory(scene, ec) && !std::filesystem::is_regular_file(scene / "meta.json", ec)) {
+    if (std::filesystem::is_regular_file(scene / "cameras.json", ec)) return scene / "cameras.json";
+    return std::nullopt;
+  }
   const std::filesystem::path dir = scene.parent_path();
   if (std::filesystem::is_regular_file(dir / "cameras.json", ec)) return dir / "cameras.json";
   // RUN/point_cloud/iteration_N/point_cloud.ply: the trainer writes RUN/cameras.json.
@@ -99,7 +105,7 @@ Expected<TrainerCapture> read_trainer_capture(const std::filesystem::path& file)
   }
   if (!j.is_array()) return up_error(file, std::string("expected an array of cameras, got ") + j.type_name());
   if (j.empty()) return up_error(file, "no cameras");
-  glm::dvec3 sum(0.0), position_sum(0.0);
+  glm::dvec3 position_sum(0.0);
   std::vector<CameraAxes> axes;
   bool positions = true;  // every camera so far had a finite position
   for (std::size_t i = 0; i < j.size(); ++i) {
@@ -120,20 +126,15 @@ Expected<TrainerCapture> read_trainer_capture(const std::filesystem::path& file)
     }
     if (!(glm::length(down) > 1e-6)) return up_error(file, at + "the rotation's second column is zero");
     axes.push_back(CameraAxes{right, down});
-    sum -= glm::normalize(down);
     // Positions are optional: one camera without a usable one drops the mean, not the up.
     const auto pos = finite_vec3(cam, "position");
     if (pos) position_sum += *pos;
     positions = positions && pos.has_value();
   }
-  const double len = glm::length(sum);
-  // Cameras looking from every side still agree on up; ups that cancel mean a capture
-  // without one (or a broken file).
-  if (!(len > 0.1 * static_cast<double>(j.size())))
-    return up_error(file, "the cameras' up directions do not agree (mean length " +
-                              std::to_string(len / static_cast<double>(j.size())) + ")");
+  auto up = capture_up(axes);
+  if (!up) return up_error(file, up.message());
   TrainerCapture out;
-  out.up = capture_up(axes).value_or(sum / len);
+  out.up = *up;
   out.cameras = j.size();
   if (positions) out.mean_position = position_sum / static_cast<double>(j.size());
   return out;
@@ -161,7 +162,7 @@ SceneUp choose_scene_up(const std::optional<glm::dvec3>& option, const std::file
   return out;
 }
 
-std::optional<glm::dvec3> capture_up(std::span<const CameraAxes> cameras) {
+Expected<glm::dvec3> capture_up(std::span<const CameraAxes> cameras) {
   glm::dvec3 sum(0.0);
   glm::dmat3 scatter(0.0);  // sum of r r^T over the unit right axes
   double n = 0.0;
@@ -172,8 +173,12 @@ std::optional<glm::dvec3> capture_up(std::span<const CameraAxes> cameras) {
     n += 1.0;
     if (rl > 0.0) scatter += glm::outerProduct(c.right / rl, c.right / rl);
   }
+  if (n == 0.0) return Error{"no camera has finite axes"};
   const double len = glm::length(sum);
-  if (n == 0.0 || !(len > 0.1 * n)) return std::nullopt;
+  // Cameras looking from every side still agree on up; ups that cancel mean a capture
+  // without one (or a broken file).
+  if (!(len > 0.1 * n))
+    return Error{"the cameras' up directions do not agree (mean length " + std::to_string(len / n) + ")"};
   const glm::dvec3 mean = sum / len;
   const SymEigen3 e = sym_eigen3(scatter);
   glm::dvec3 up = mean;

@@ -8,23 +8,28 @@ namespace gauss {
 
 namespace {
 bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+// `v` normalised, or +y where it has no direction (zero, non-finite, or overflowing).
+glm::dvec3 unit_or_y(const glm::dvec3& v) {
+  const double len = finite(v) ? glm::length(v) : 0.0;
+  return len > 0.0 && std::isfinite(len) ? v / len : glm::dvec3(0.0, 1.0, 0.0);
+}
 }  // namespace
 
 msg::SceneView capture_view(std::span<const Gaussian> gaussians, const glm::dvec3& up,
                             const std::optional<glm::dvec3>& seen_from) {
   msg::SceneView v;
-  const double len = finite(up) ? glm::length(up) : 0.0;
-  v.up = len > 0.0 && std::isfinite(len) ? glm::vec3(up / len) : glm::vec3(0.0f, 1.0f, 0.0f);
+  v.up = glm::vec3(unit_or_y(up));
   const RobustBounds box = robust_bounds(gaussians, BoundsWeighting::Opacity);
   v.subject_min = glm::vec3(box.lo);
   v.subject_max = glm::vec3(box.hi);
-  // The float rounding of a huge box may not keep min <= max per axis only if lo > hi,
-  // which robust_bounds never gives; it may overflow to infinity: then the unit box.
+  // A box beyond float's range would reach the wire as infinities: the unit box instead.
   if (!finite(glm::dvec3(v.subject_min)) || !finite(glm::dvec3(v.subject_max))) {
     v.subject_min = glm::vec3(-1.0f);
     v.subject_max = glm::vec3(1.0f);
   }
-  if (seen_from && finite(*seen_from) && finite(glm::dvec3(glm::vec3(*seen_from)))) {
+  // Not finite once in float (NaN, or beyond its range): not announced.
+  if (seen_from && finite(glm::dvec3(glm::vec3(*seen_from)))) {
     v.flags |= msg::kViewSeenFrom;
     v.seen_from = glm::vec3(*seen_from);
   }
@@ -39,11 +44,7 @@ msg::SceneView room_view(const glm::vec3& lo, const glm::vec3& hi) {
   return v;
 }
 
-glm::dvec3 view_up(const msg::SceneView& view) {
-  const glm::dvec3 up(view.up);
-  const double len = finite(up) ? glm::length(up) : 0.0;
-  return len > 0.0 ? up / len : glm::dvec3(0.0, 1.0, 0.0);
-}
+glm::dvec3 view_up(const msg::SceneView& view) { return unit_or_y(glm::dvec3(view.up)); }
 
 Framing frame_scene_view(const msg::SceneView& view, const FramingLens& lens, ViewPreset preset) {
   const glm::dvec3 up = view_up(view);

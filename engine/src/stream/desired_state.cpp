@@ -19,7 +19,7 @@
 #include <new>
 
 #include "gauss/engine/slot_table.h"
-#include "stream/id_text.h"
+#include "gauss/engine/log_text.h"
 
 namespace gauss {
 
@@ -228,26 +228,26 @@ std::string DesiredState::apply_one(Op op, GaussianId id, const Gaussian* value,
                                     ApplyReport& rep) {
   if (value && !gaussian_is_finite(*value)) {
     ++stats_.rejected_bad_value;
-    return "id " + id_str(id) + ": record has a non-finite field";
+    return "id " + id_text(id) + ": record has a non-finite field";
   }
   if (to_underlying(id) == detail::IdIndex::kEmpty) {
     ++stats_.rejected_unknown_id;
-    return "id " + id_str(id) + " is reserved";
+    return "id " + id_text(id) + " is reserved";
   }
   const std::uint32_t* found = index_.find(to_underlying(id));
   std::uint32_t idx = found ? *found : DesiredEntry::kNotPending;
   if (op == Op::Insert) {
     if (found && entries_[idx].desired) {
       ++stats_.rejected_duplicate;
-      return "insert of id " + id_str(id) + " that is already desired";
+      return "insert of id " + id_text(id) + " that is already desired";
     }
     if (desired_count_ >= capacity_) {
       ++stats_.rejected_capacity;
-      return "insert of id " + id_str(id) + " beyond the capacity " + std::to_string(capacity_);
+      return "insert of id " + id_text(id) + " beyond the capacity " + std::to_string(capacity_);
     }
   } else if (!found || !entries_[idx].desired) {
     ++stats_.rejected_unknown_id;
-    return std::string(op == Op::Update ? "update" : "remove") + " of id " + id_str(id) + " that is not desired";
+    return std::string(op == Op::Update ? "update" : "remove") + " of id " + id_text(id) + " that is not desired";
   }
 
   bool was_pending = false;
@@ -341,13 +341,13 @@ Expected<ApplyReport> DesiredState::apply(const EditBatch& batch, double now) {
         std::string reason;
         if (!gaussian_is_finite(ed.value)) {
           ++stats_.rejected_bad_value;
-          reason = "replace into id " + id_str(ed.id) + ": record has a non-finite field";
+          reason = "replace into id " + id_text(ed.id) + ": record has a non-finite field";
         } else if (!leaving || !leaving->desired) {
           ++stats_.rejected_unknown_id;
-          reason = "replace of id " + id_str(ed.leaving) + " that is not desired";
+          reason = "replace of id " + id_text(ed.leaving) + " that is not desired";
         } else if (ed.leaving != ed.id && entering && entering->desired) {
           ++stats_.rejected_duplicate;
-          reason = "replace into id " + id_str(ed.id) + " that is already desired";
+          reason = "replace into id " + id_text(ed.id) + " that is already desired";
         }
         if (!reason.empty()) {
           note(rep, std::move(reason));
@@ -366,7 +366,7 @@ Expected<ApplyReport> DesiredState::apply(const EditBatch& batch, double now) {
       }
       default:
         ++stats_.rejected_unknown_id;
-        note(rep, "edit of id " + id_str(ed.id) + " has an unknown kind " + std::to_string(static_cast<int>(ed.kind)));
+        note(rep, "edit of id " + id_text(ed.id) + " has an unknown kind " + std::to_string(static_cast<int>(ed.kind)));
     }
   }
   received_ = batch.epoch;
@@ -400,12 +400,12 @@ Expected<ApplyReport> DesiredState::apply_resync(const EditBatch& snapshot, doub
   for (const Edit& ed : snapshot.edits) {
     if (ed.kind != EditKind::Insert) {
       ++stats_.rejected_unknown_id;
-      note(rep, "resync snapshot holds a non-insert edit for id " + id_str(ed.id));
+      note(rep, "resync snapshot holds a non-insert edit for id " + id_text(ed.id));
       continue;
     }
     if (!seen.insert(ed.id).second) {
       ++stats_.rejected_duplicate;
-      note(rep, "resync snapshot names id " + id_str(ed.id) + " twice");
+      note(rep, "resync snapshot names id " + id_text(ed.id) + " twice");
       continue;
     }
     const DesiredEntry* cur = find(ed.id);
@@ -489,9 +489,9 @@ Status DesiredState::check() const {
     const GaussianId id{raw};
     const DesiredEntry& e = entries_[idx];
     if (e.id != id) {
-      err = "desired state: index of id " + id_str(id) + " points at another entry";
+      err = "desired state: index of id " + id_text(id) + " points at another entry";
     } else if (!e.desired && !e.published) {
-      err = "desired state: id " + id_str(id) + " kept though neither desired nor published";
+      err = "desired state: id " + id_text(id) + " kept though neither desired nor published";
     }
     desired += e.desired;
     published += e.published;
@@ -500,9 +500,9 @@ Status DesiredState::check() const {
       ++pending;
       ++counts[to_underlying(e.epoch)];
       if (e.pending_pos >= pending_.size() || pending_[e.pending_pos] != idx)
-        err = "desired state: pending id " + id_str(id) + " missing from the pending list";
+        err = "desired state: pending id " + id_text(id) + " missing from the pending list";
     } else if (e.pending_pos != DesiredEntry::kNotPending) {
-      err = "desired state: id " + id_str(id) + " listed pending but has nothing pending";
+      err = "desired state: id " + id_text(id) + " listed pending but has nothing pending";
     }
   });
   if (!err.empty()) return Error{err};

@@ -7,6 +7,7 @@
 #include <glm/gtc/quaternion.hpp>
 
 #include "gauss/engine/query.h"
+#include "gauss/engine/scene_view.h"
 
 namespace gauss {
 
@@ -245,13 +246,7 @@ msg::SceneInfo HostSession::scene_info(const SceneStore& scene) const {
   }
   info.codec = params_;
   info.total_gaussians = scene.appearance_count();
-  if (config_.view) {
-    info.view = *config_.view;
-  } else {
-    info.view.subject_min = info.bounds_min;
-    info.view.subject_max = info.bounds_max;
-    info.view.flags = msg::kViewInside;
-  }
+  info.view = config_.view.value_or(room_view(info.bounds_min, info.bounds_max));
   for (const auto& o : scene.objects())
     if (to_underlying(o.id) >= 0 && info.objects.size() < msg::kMaxObjects) info.objects.push_back(object_info(o));
   return info;

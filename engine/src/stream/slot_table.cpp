@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <bit>
 
-#include "stream/id_text.h"
+#include "gauss/engine/log_text.h"
 #include "stream/splitmix.h"
 
 namespace gauss {
@@ -53,10 +53,10 @@ void SlotTable::mark_dirty(std::uint32_t slot) {
 }
 
 Expected<SlotIndex> SlotTable::insert(GaussianId id, const Gaussian& value) {
-  if (to_underlying(id) == kEmpty) return Error{"slot table: id " + id_str(id) + " is reserved"};
-  if (free_.empty()) return Error{"slot table: full (" + std::to_string(capacity()) + " slots) inserting id " + id_str(id)};
+  if (to_underlying(id) == kEmpty) return Error{"slot table: id " + id_text(id) + " is reserved"};
+  if (free_.empty()) return Error{"slot table: full (" + std::to_string(capacity()) + " slots) inserting id " + id_text(id)};
   if (const std::uint32_t* held = index_.find(to_underlying(id)))
-    return Error{"slot table: id " + id_str(id) + " already holds slot " + std::to_string(*held)};
+    return Error{"slot table: id " + id_text(id) + " already holds slot " + std::to_string(*held)};
   const std::uint32_t slot = free_.back();
   free_.pop_back();
   index_.set(to_underlying(id), slot);
@@ -68,7 +68,7 @@ Expected<SlotIndex> SlotTable::insert(GaussianId id, const Gaussian& value) {
 
 Status SlotTable::update(GaussianId id, const Gaussian& value) {
   const std::uint32_t* slot = index_.find(to_underlying(id));
-  if (!slot) return Error{"slot table: update of non-resident id " + id_str(id)};
+  if (!slot) return Error{"slot table: update of non-resident id " + id_text(id)};
   records_[*slot] = value;
   mark_dirty(*slot);
   return Ok{};
@@ -76,7 +76,7 @@ Status SlotTable::update(GaussianId id, const Gaussian& value) {
 
 Status SlotTable::remove(GaussianId id) {
   const std::uint32_t* found = index_.find(to_underlying(id));
-  if (!found) return Error{"slot table: remove of non-resident id " + id_str(id)};
+  if (!found) return Error{"slot table: remove of non-resident id " + id_text(id)};
   const std::uint32_t slot = *found;
   index_.erase(to_underlying(id));
   slot_ids_[slot] = kEmpty;
@@ -92,10 +92,10 @@ Status SlotTable::remove(GaussianId id) {
 
 Expected<SlotIndex> SlotTable::replace(GaussianId leaving, GaussianId entering, const Gaussian& value) {
   const std::uint32_t* found = index_.find(to_underlying(leaving));
-  if (!found) return Error{"slot table: replace of non-resident id " + id_str(leaving)};
-  if (to_underlying(entering) == kEmpty) return Error{"slot table: id " + id_str(entering) + " is reserved"};
+  if (!found) return Error{"slot table: replace of non-resident id " + id_text(leaving)};
+  if (to_underlying(entering) == kEmpty) return Error{"slot table: id " + id_text(entering) + " is reserved"};
   if (leaving != entering && index_.find(to_underlying(entering)) != nullptr)
-    return Error{"slot table: replace into id " + id_str(entering) + " that is already resident"};
+    return Error{"slot table: replace into id " + id_text(entering) + " that is already resident"};
   const std::uint32_t slot = *found;
   index_.erase(to_underlying(leaving));
   index_.set(to_underlying(entering), slot);
@@ -151,11 +151,11 @@ Status SlotTable::check() const {
     if (!problem.empty()) return;
     const GaussianId id{key};
     if (slot >= capacity()) {
-      problem = "slot table: id " + id_str(id) + " maps to slot " + std::to_string(slot) + " beyond capacity";
+      problem = "slot table: id " + id_text(id) + " maps to slot " + std::to_string(slot) + " beyond capacity";
     } else if (seen[slot]) {
       problem = "slot table: slot " + std::to_string(slot) + " used twice";
     } else if (slot_ids_[slot] != key) {
-      problem = "slot table: slot " + std::to_string(slot) + " records a different id than id " + id_str(id);
+      problem = "slot table: slot " + std::to_string(slot) + " records a different id than id " + id_text(id);
     }
     if (slot < capacity()) seen[slot] = 1;
   });

@@ -106,6 +106,8 @@ std::string escape_for_log(std::string_view text, std::size_t max_bytes) {
   return out;
 }
 
+std::string id_text(GaussianId id) { return std::to_string(to_underlying(id)); }
+
 std::string format_bytes(std::uint64_t bytes) {
   char buf[64];
   if (bytes >= (std::uint64_t{1} << 20))

@@ -20,6 +20,8 @@
 #include <string>
 #include <string_view>
 
+#include "gauss/engine/ids.h"
+
 namespace gauss {
 
 std::string escape_for_log(std::string_view text, std::size_t max_bytes = 0);
@@ -27,5 +29,8 @@ std::string escape_for_log(std::string_view text, std::size_t max_bytes = 0);
 // A byte count for a message that names a limit: "123 bytes", and from 1 MiB on with the
 // MiB beside it, "1468006 bytes (1.4 MiB)" (the exact figure stays for whoever compares it).
 std::string format_bytes(std::uint64_t bytes);
+
+// A Gaussian id as decimal text, for messages that name one.
+std::string id_text(GaussianId id);
 
 }  // namespace gauss

@@ -67,16 +67,17 @@ struct SceneUp {
 // headings some 30 degrees apart or more), up is that plane's normal, on the mean image-up's
 // side; with one heading, the mean image-up made perpendicular to the common right axis. A
 // result more than 45 degrees from the mean image-up (portrait and landscape shots mixed:
-// rolled cameras) gives way to the mean. nullopt when the image-ups cancel (mean length at
-// most 0.1: no agreed up) or no camera is finite.
+// rolled cameras) gives way to the mean. Errors: the image-ups cancel (mean length at most
+// 0.1: no agreed up), or no camera is finite.
 struct CameraAxes {
   glm::dvec3 right{1.0, 0.0, 0.0};
   glm::dvec3 down{0.0, 1.0, 0.0};
 };
-std::optional<glm::dvec3> capture_up(std::span<const CameraAxes> cameras);
+Expected<glm::dvec3> capture_up(std::span<const CameraAxes> cameras);
 
 // The trainer's cameras.json for a scene file: beside it, or at the run folder of the
-// trainer's layout RUN/point_cloud/iteration_N/point_cloud.ply. nullopt when neither exists.
+// trainer's layout RUN/point_cloud/iteration_N/point_cloud.ply; for a snapshot folder (a RUN
+// followed live, or any folder of snapshots), in it. nullopt when there is none.
 std::optional<std::filesystem::path> find_trainer_cameras(const std::filesystem::path& scene);
 
 struct TrainerCapture {
