@@ -75,9 +75,11 @@ Expected<EvalScene> make_capture_scene(const Options& o) {
     if (!*committed) break;
     ++s.snapshots;
   }
-  auto codec = fit_capture_codec_params(o.scene_file, capture_options(o));  // as gauss-host fits it
-  if (!codec) return Error{s.source + ": " + codec.message()};
-  s.codec = *codec;
+  auto fit = fit_capture(o.scene_file, capture_options(o));  // the codec and view gauss-host announces
+  if (!fit) return Error{s.source + ": " + fit.message()};
+  s.codec = fit->params;
+  s.up = fit->view.up;
+  s.up_from = "the capture's cameras";
   s.appearance = s.store->size() - s.store->carrier_count();
   std::tie(s.region_min, s.region_max) = apps::central_box(appearance_gaussians(*s.store));
 
@@ -88,7 +90,6 @@ Expected<EvalScene> make_capture_scene(const Options& o) {
   for (std::size_t i = 0; i < capture->frame_count(); ++i)
     if (capture->load(i, Epoch(0))) usable.push_back(i);
   const std::size_t count = std::min<std::size_t>(o.cameras, usable.size());
-  glm::dvec3 down(0.0);
   for (std::size_t k = 0; k < count; ++k) {
     const std::size_t i = usable[static_cast<std::size_t>((k + 0.5) * usable.size() / count)];
     auto frame = capture->load(i, Epoch(0));
@@ -104,10 +105,8 @@ Expected<EvalScene> make_capture_scene(const Options& o) {
     s.cameras.push_back(resized_camera(frame_camera(*frame), o.width, o.height));
     s.capture_truth.push_back(downsampled_truth(*frame, factor));
     s.capture_frames.push_back(frame->name);
-    down += glm::dvec3(frame->camera_to_world[1]);  // the camera's y axis: image down
   }
   if (s.cameras.empty()) return Error{s.source + ": no frame of the capture loads"};
-  s.up = glm::length(down) > 1e-9 ? -glm::normalize(down) : glm::dvec3(0.0, 1.0, 0.0);
   return s;
 }
 

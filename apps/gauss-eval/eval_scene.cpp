@@ -11,6 +11,7 @@
 #include "central_box.h"
 #include "gauss/engine/lod_selector.h"
 #include "gauss/engine/scene_source.h"
+#include "gauss/engine/scene_up.h"
 
 namespace gauss::eval_app {
 
@@ -74,16 +75,6 @@ Expected<EvalScene> make_scene(const Options& o, int variant) {
 
 namespace {
 
-// "+y", "-z", ... as a unit vector.
-Expected<glm::dvec3> parse_up(const std::string& up) {
-  if (up.size() == 2 && (up[0] == '+' || up[0] == '-') && up[1] >= 'x' && up[1] <= 'z') {
-    glm::dvec3 v(0.0);
-    v[up[1] - 'x'] = up[0] == '+' ? 1.0 : -1.0;
-    return v;
-  }
-  return Error{"--up " + up + ": expected one of +x -x +y -y +z -z"};
-}
-
 // Two unit vectors spanning the plane perpendicular to `up` (the scene's horizon).
 std::pair<glm::dvec3, glm::dvec3> horizon_basis(const glm::dvec3& up) {
   const glm::dvec3 ref = std::abs(up.x) < 0.9 ? glm::dvec3(1.0, 0.0, 0.0) : glm::dvec3(0.0, 0.0, 1.0);
@@ -95,12 +86,13 @@ std::pair<glm::dvec3, glm::dvec3> horizon_basis(const glm::dvec3& up) {
 
 Expected<EvalScene> make_file_scene(const Options& o) {
   if (is_rgbd_capture(o.scene_file)) return make_capture_scene(o);
-  auto up = parse_up(o.up);
-  if (!up) return up.error();
   EvalScene s;
   s.source = o.scene_file.string();
   s.name = o.scene_file.filename().string();
-  s.up = *up;
+  // As gauss-host decides it, so the orbit cameras stand upright where a served scene does.
+  const SceneUp up = choose_scene_up(o.up, o.scene_file);
+  s.up = up.up;
+  s.up_from = up.problem.empty() ? up.detail : up.detail + " (" + up.problem + ")";
   const SnapshotOptions so = snapshot_options(o);
   std::vector<std::string> log;
   auto keep = [&](const std::string& line) { log.push_back(line); };

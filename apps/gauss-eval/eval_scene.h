@@ -40,7 +40,8 @@ struct EvalScene {
   // Where viewpoints may go: the room's interior, or for a scene file the box of its
   // central 96 % (per axis), whose centre the orbit cameras look at.
   glm::dvec3 region_min{0.0}, region_max{0.0};
-  glm::dvec3 up{0.0, 1.0, 0.0};  // the scene's up direction (a scene file's --up)
+  glm::dvec3 up{0.0, 1.0, 0.0};  // the scene's up direction (a room's +y; a file's as gauss-host decides it)
+  std::string up_from;            // where a file's or capture's up came from, for the report (empty: a room)
   std::unique_ptr<SceneStore> store;  // held still during the evaluation
   CodecParams codec;
   std::size_t appearance{0};          // Gaussians that can be resident (carriers excluded)
@@ -60,15 +61,16 @@ Expected<EvalScene> make_scene(const Options& options, int variant);
 // Reads options.scene_file (with options.labels / options.objects) as the host would serve
 // it: one epoch, the codec fitted to it. Cameras: options.cameras on a circle around the
 // central box's centre, 20 degrees above its horizon (options.up), at 1.8 times the box's
-// half diagonal, so the box fills most of the view. Errors: the file, labels or objects
-// (named), an empty scene, a bad --up.
+// half diagonal, so the box fills most of the view; up as gauss-host takes it (choose_scene_up:
+// --up, else a trainer cameras.json beside the scene, else -y). Errors: the file, labels or
+// objects (named), an empty scene.
 // A snapshot folder: every snapshot committed in order (identity tracked as the host
 // does), the codec fitted to the first as the host fits it (fit_live_codec_params), the
 // cameras to the last; errors name the folder or snapshot.
 // An RGB-D capture: every frame committed as the host does, the codec as the host fits it
-// (fit_capture_codec_params); cameras: options.cameras of its
-// frames evenly spread (those that load), at the evaluation size, which must divide the
-// frames' size by one whole factor; up: against the cameras' mean image-down axis (--up is
+// (fit_capture); cameras: options.cameras of its frames evenly spread (those that load), at
+// the evaluation size, which must divide the frames' size by one whole factor; up: the one
+// gauss-host announces for it (fit_capture: level with every frame's right axis; --up is
 // ignored). Errors: the capture, a size it does not divide, a frame without colour.
 Expected<EvalScene> make_file_scene(const Options& options);
 Expected<EvalScene> make_capture_scene(const Options& options);  // the capture case of make_file_scene

@@ -19,6 +19,7 @@
 #include "eval_scene.h"
 #include "eval_session.h"
 #include "gauss/engine/rgbd_scene.h"
+#include "gauss/engine/scene_up.h"
 #include "gauss/render/vk_context.h"
 #include "status_line.h"
 #include "measure.h"
@@ -178,6 +179,7 @@ Status run_scene(vk::Context& ctx, const Options& o, int variant, const PanelWri
   if (scene->snapshots > 0) scene_json["snapshots"] = scene->snapshots;
   scene_json["ground_truth"] = scene->synthetic != nullptr || scene->capture;
   if (scene->capture) scene_json["capture_frames"] = scene->capture_frames;
+  if (!scene->up_from.empty()) scene_json["up"] = Json{{"axis", up_label(scene->up)}, {"from", scene->up_from}};
   scene_json["gaussians"] = scene->store->size();
   scene_json["appearance_gaussians"] = scene->appearance;
   scene_json["objects"] = scene->store->objects().size();

@@ -66,8 +66,10 @@ std::optional<int> parse_options(int argc, char** argv, Options& o) {
                     ->type_name("PATH");
   app.add_option("--labels", o.labels, "per-Gaussian labels of --scene")->check(CLI::ExistingFile)->needs(scene);
   app.add_option("--objects", o.objects, "objects JSON of --scene")->check(CLI::ExistingFile)->needs(scene);
-  app.add_option("--up", o.up, "the up axis of --scene (an RGB-D capture's comes from its cameras)")
-      ->check(CLI::IsMember({"+x", "-x", "+y", "-y", "+z", "-z"}))
+  apps::add_up_option(app, o.up,
+                      "the up axis of --scene: +x -x +y -y +z -z (default: as gauss-host decides it, a trainer "
+                      "cameras.json beside the scene, else -y, the 3DGS/COLMAP convention; an RGB-D capture's "
+                      "comes from its cameras)")
       ->needs(scene);
   app.add_option("--rgbd-stride", o.rgbd_stride,
                  "--scene is an RGB-D capture: one Gaussian per STRIDE x STRIDE pixel block (as gauss-host)")
@@ -191,8 +193,8 @@ std::string canonical_command(const Options& o) {
     c << " --scene '" << o.scene_file.string() << "'";
     if (is_rgbd_capture(o.scene_file))  // its up comes from its cameras
       c << " --rgbd-stride " << o.rgbd_stride;
-    else
-      c << " --up " << o.up;
+    else if (o.up)
+      c << " --up " << up_label(*o.up);
     if (!o.labels.empty()) c << " --labels '" << o.labels.string() << "'";
     if (!o.objects.empty()) c << " --objects '" << o.objects.string() << "'";
   }

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include <glm/vec3.hpp>
+
 namespace gauss::eval_app {
 
 struct Options {
@@ -17,7 +19,9 @@ struct Options {
   std::filesystem::path scene_file;
   std::filesystem::path labels;           // per-Gaussian labels of --scene (labels file)
   std::filesystem::path objects;          // objects JSON of --scene (names the labels)
-  std::string up{"+y"};                   // --scene's up axis (+x -x +y -y +z -z): its orbit cameras
+  // --scene's up axis as given (--up); unset: the rule gauss-host follows (choose_scene_up:
+  // a trainer's cameras.json beside it, else -y). Its orbit cameras stand upright for it.
+  std::optional<glm::dvec3> up;
   std::uint32_t rgbd_stride{4};           // an RGB-D capture: a Gaussian per stride x stride pixels (as gauss-host)
   std::size_t gaussians{20000};           // appearance Gaussians of each fully observed room
   int epochs{12};                         // epochs produced before the evaluation (the room then stays)

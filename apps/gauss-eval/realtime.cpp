@@ -30,6 +30,7 @@
 #include "gauss/engine/lod_hierarchy.h"
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/ply_mesh.h"
+#include "gauss/engine/scene_up.h"
 #include "gauss/engine/slot_table.h"
 #include "host_process.h"
 #include "measurements.h"
@@ -78,6 +79,8 @@ std::vector<std::string> host_args(const Options& o, const EvalScene& scene, con
   if (scene.capture)  // every frame at once, seeded and fused as this evaluation's copy
     a.insert(a.end(), {"--epoch-period", "0", "--rgbd-stride", std::to_string(o.rgbd_stride), "--surface-voxel",
                        o.surface == "fused" ? shortest(kCaptureSurfaceVoxel) : std::string("0")});
+  else if (o.up)  // the up it announces is the one these cameras stand upright for
+    a.insert(a.end(), {"--up", up_label(*o.up)});
   if (!o.labels.empty()) a.insert(a.end(), {"--labels", o.labels.string()});
   if (!o.objects.empty()) a.insert(a.end(), {"--objects", o.objects.string()});
   return a;

@@ -522,6 +522,18 @@ void realtime_host_section(std::ostream& md, const Json& report) {
   md << "\n";
 }
 
+// Which way is up in each scene file or capture, and where that came from (a room is +y).
+void scene_up_lines(std::ostringstream& md, const Json& report) {
+  bool any = false;
+  for (const Json& scene : report["scenes"]) {
+    if (!scene.contains("up")) continue;
+    md << "**Up** of " << scene["name"].get<std::string>() << ": " << scene["up"]["axis"].get<std::string>() << ", from "
+       << scene["up"]["from"].get<std::string>() << "; its cameras stand upright for it.\n";
+    any = true;
+  }
+  if (any) md << "\n";
+}
+
 // report.md of a realtime run: wall-clock figures throughout, said at the top.
 std::string realtime_markdown(const Json& report, bool images) {
   std::ostringstream md;
@@ -539,6 +551,7 @@ std::string realtime_markdown(const Json& report, bool images) {
      << "; every semantic share equals min(|G_obj|, ⌊ρM⌋)/M: " << yes("semantic_shares_match")
      << "; every view converged: " << yes("all_converged")
      << "; Vulkan validation errors: " << integer(report["validation_errors"]) << ".\n\n";
+  scene_up_lines(md, report);
   realtime_fidelity_section(md, report, images);
   realtime_teleport_section(md, report);
   realtime_semantic_section(md, report);
@@ -572,6 +585,7 @@ Status write_markdown(const std::filesystem::path& path, const Json& report, boo
      << (checks["semantic_shares_match"].get<bool>() ? "yes" : "**NO**")
      << "; every view converged: " << (checks["all_converged"].get<bool>() ? "yes" : "**NO**")
      << "; Vulkan validation errors: " << integer(report["validation_errors"]) << ".\n\n";
+  scene_up_lines(md, report);
   fidelity_section(md, report, images);
   semantic_section(md, report, images);
   temporal_section(md, report);

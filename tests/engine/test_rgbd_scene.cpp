@@ -245,8 +245,9 @@ TEST(RgbdCaptureSource, EachFrameIsAnEpochAndABadFrameIsSkippedWithALine) {
 TEST(RgbdCaptureSource, ItsCodecCoversEveryFrameNotJustTheFirst) {
   const fs::path dir = write_capture("rgbd_scene_codec");
   RgbdSceneOptions o;
-  auto params = fit_capture_codec_params(dir, o);
-  ASSERT_TRUE(params) << params.message();
+  auto fit = fit_capture(dir, o);
+  ASSERT_TRUE(fit) << fit.message();
+  const CodecParams* params = &fit->params;
   auto src = open_rgbd_capture(dir, o, [](const std::string&) {});
   ASSERT_TRUE(src);
   SceneStore store;

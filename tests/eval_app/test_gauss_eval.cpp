@@ -243,8 +243,9 @@ TEST(GaussEval, ASceneFileHasNoGroundTruthAndKeepsEveryOtherCheck) {
   fs::create_directories(base);
   ASSERT_NO_FATAL_FAILURE(write_room_file(base / "room1.ply", base / "room1_objects.json"));
   const fs::path out = base / "report";
-  ASSERT_NO_FATAL_FAILURE(run_eval(out, {GAUSS_EVAL_EXE, "--scene", (base / "room1.ply").string(), "--objects",
-                                         (base / "room1_objects.json").string(), "--budget", "2000", "--size", "96x72",
+  // A room is y up; a scene file's default would be the 3DGS -y.
+  ASSERT_NO_FATAL_FAILURE(run_eval(out, {GAUSS_EVAL_EXE, "--scene", (base / "room1.ply").string(), "--up", "+y",
+                                         "--objects", (base / "room1_objects.json").string(), "--budget", "2000", "--size", "96x72",
                                          "--cameras", "2", "--quiet", "0.25", "--flicker-window", "0.3",
                                          "--class-query", "chair", "--no-timing", "--name", "ctest-file", "--out",
                                          out.string()}));
@@ -252,6 +253,9 @@ TEST(GaussEval, ASceneFileHasNoGroundTruthAndKeepsEveryOtherCheck) {
   ASSERT_EQ(r["scenes"].size(), 1u) << "--scene alone evaluates no room";
   const nlohmann::json& scene = r["scenes"][0];
   EXPECT_EQ(scene["name"], "room1.ply");
+  EXPECT_EQ(scene["up"]["axis"], "+y");
+  EXPECT_EQ(scene["up"]["from"], "--up +y");
+  EXPECT_NE(r["command"].get<std::string>().find("--up +y"), std::string::npos) << r["command"];
   EXPECT_FALSE(scene["ground_truth"].get<bool>());
   ASSERT_EQ(scene["fidelity"]["cameras"].size(), 2u);
   for (const auto& c : scene["fidelity"]["cameras"]) {
@@ -304,6 +308,18 @@ void write_snapshot_folder(const fs::path& folder) {
                     .ok());
   }
   write_objects_json(store, folder / "objects.json");
+  // The trainer's cameras beside its snapshots (3DGS cameras.json: camera-to-world rotation
+  // rows, OpenCV axes): three headings about the room's +y, image down -y, so the capture's
+  // up is +y where the 3DGS default would be -y.
+  std::string cams = "[";
+  for (int k = 0; k < 3; ++k) {
+    const double a = 0.7 * k, c = std::cos(a), s = std::sin(a);
+    // Columns: right (-c, 0, s), down (0, -1, 0), forward (s, 0, c) = right x down.
+    cams += std::string(k ? "," : "") + "{\"id\": " + std::to_string(k) + ", \"position\": [0, 1.5, 0], \"rotation\": [[" +
+            std::to_string(-c) + ", 0, " + std::to_string(s) + "], [0, -1, 0], [" + std::to_string(s) + ", 0, " +
+            std::to_string(c) + "]]}";
+  }
+  std::ofstream(folder / "cameras.json") << cams << "]";
 }
 
 TEST(GaussEval, ASnapshotFolderIsEvaluatedAtItsLastSnapshotAndReplayedForTheEditLatencies) {
@@ -319,6 +335,10 @@ TEST(GaussEval, ASnapshotFolderIsEvaluatedAtItsLastSnapshotAndReplayedForTheEdit
   ASSERT_EQ(r["scenes"].size(), 1u);
   const nlohmann::json& scene = r["scenes"][0];
   EXPECT_EQ(scene["name"], "snapshots");
+  EXPECT_EQ(scene["up"]["axis"], "+y") << "the trainer's cameras.json in the folder decides the up: " << scene["up"];
+  EXPECT_NE(scene["up"]["from"].get<std::string>().find("cameras.json (3 capture cameras)"), std::string::npos)
+      << scene["up"];
+  EXPECT_EQ(r["command"].get<std::string>().find("--up"), std::string::npos) << "no --up given, none written";
   EXPECT_EQ(scene["snapshots"].get<int>(), 3);
   EXPECT_FALSE(scene["ground_truth"].get<bool>());
   EXPECT_GT(scene["objects"].get<std::uint64_t>(), 0u) << "objects.json in the folder names the objects";

@@ -315,12 +315,6 @@ Expected<std::unique_ptr<SceneSource>> open_rgbd_capture(const fs::path& folder,
                                                                           std::move(surface), std::move(log)));
 }
 
-Expected<CodecParams> fit_capture_codec_params(const fs::path& folder, const RgbdSceneOptions& options) {
-  auto fit = fit_capture(folder, options);
-  if (!fit) return fit.error();
-  return fit->params;
-}
-
 Expected<CaptureFit> fit_capture(const fs::path& folder, const RgbdSceneOptions& options) {
   RgbdSceneOptions dry = options;
   dry.surface.reset();  // the seeding alone decides the Gaussians

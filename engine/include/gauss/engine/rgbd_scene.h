@@ -79,16 +79,14 @@ struct RgbdSceneOptions {
 Expected<std::unique_ptr<SceneSource>> open_rgbd_capture(const std::filesystem::path& folder,
                                                          const RgbdSceneOptions& options = {}, SourceLog log = {});
 
-// The codec for a capture served as a scene: fitted to every Gaussian its frames seed (all of
-// them are known at the start, unlike a followed folder's snapshots, so nothing need clamp),
-// found by seeding the frames once without a surface. gauss-host and gauss-eval both use it.
-// Errors: as open_rgbd_capture, or no frame seeds anything.
-Expected<CodecParams> fit_capture_codec_params(const std::filesystem::path& folder, const RgbdSceneOptions& options);
-
-// The codec above and the view a host announces for the capture (scene_view.h), from the same
-// seeding: up is capture_up of the frames' cameras (scene_up.h: level with their right axes),
-// seen from their mean position; the subject, the seeded Gaussians' robust bounds. Frames
-// without a usable pose are left out; none left, or no agreed up: +y.
+// How a capture is served as a scene, found by seeding its frames once without a surface
+// (gauss-host and gauss-eval both use it). The codec: fitted to every Gaussian its frames seed
+// (all of them are known at the start, unlike a followed folder's snapshots, so nothing need
+// clamp). The view a host announces for the capture (scene_view.h): up is capture_up of the
+// frames' cameras (scene_up.h: level with their right axes), seen from their mean position;
+// the subject, the seeded Gaussians' robust bounds. Frames without a usable pose are left
+// out; none left, or no agreed up: +y. Errors: as open_rgbd_capture, or no frame seeds
+// anything.
 struct CaptureFit {
   CodecParams params;
   msg::SceneView view;
