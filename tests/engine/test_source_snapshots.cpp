@@ -411,6 +411,7 @@ TEST(SourceSnapshots, LabelsLengthMismatchIsAClearError) {
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.message().find("3 labels"), std::string::npos) << r.message();
   EXPECT_NE(r.message().find("10 Gaussians"), std::string::npos) << r.message();
+  EXPECT_EQ(r.message().find("no usable snapshot"), std::string::npos) << "a scene file alone is no snapshot: " << r.message();
   EXPECT_EQ(store.epoch(), Epoch{0});
   // A matching file works; one PLY is one epoch.
   write_text(root / "labels.txt", "0\n1\n1\n2\n2\n2\n-1\n0\n3\n3\n");

@@ -134,12 +134,15 @@ class SnapshotSource final : public SceneSource {
         return false;
       }
       consumed_ = e;
-      report("skipped snapshot " + e.ply.string() + ": " + r.message() + " (the store keeps epoch " +
-             std::to_string(to_underlying(store.epoch())) + ")");
+      if (!single_)  // a scene file alone is not skipped: its error is the source's
+        report("skipped snapshot " + e.ply.string() + ": " + r.message() + " (the store keeps epoch " +
+               std::to_string(to_underlying(store.epoch())) + ")");
       last_failure = r.error();
     }
-    if (produced_ == 0 && last_failure) return Error{"snapshot source: no usable snapshot; last error: " +
-                                                     last_failure->message};
+    if (produced_ == 0 && last_failure) {
+      if (single_) return *last_failure;  // the file's own error names it
+      return Error{"snapshot folder " + root_.string() + ": no usable snapshot; last error: " + last_failure->message};
+    }
     return false;
   }
   double epoch_period_s() const override { return 1.0 / options_.rate_hz; }
