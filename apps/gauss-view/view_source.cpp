@@ -142,7 +142,7 @@ Expected<std::unique_ptr<ViewSource>> make_local_source(vk::Context& context, co
   summary.path = scene.path;
   summary.format = scene.scene.report.format;
   summary.gaussians = gs.size();
-  summary.skipped = (*r)->rejected_nonfinite();
+  summary.skipped = scene.scene.report.dropped.size() + (*r)->rejected_nonfinite();
   summary.sh_degree = scene.scene.cloud.sh_degree;
   summary.robust = scene.robust;
   summary.full = scene.full;
@@ -154,6 +154,8 @@ Expected<std::unique_ptr<ViewSource>> make_local_source(vk::Context& context, co
   std::string what = "scene " + name + " (" + std::to_string(gs.size()) + " Gaussians, SH " +
                      std::to_string(summary.sh_degree) + ")";
   if (summary.skipped > 0) what += ", " + std::to_string(summary.skipped) + " non-finite Gaussians skipped";
+  for (const std::string& note : splat_load_notes(scene.scene.report))
+    std::fprintf(stderr, "gauss-view: %s: %s\n", scene.path.string().c_str(), note.c_str());
   if (!scene.up.problem.empty())
     std::fprintf(stderr, "gauss-view: %s; up is %s, %s\n", scene.up.problem.c_str(), up_label(scene.up.up).c_str(),
                  scene.up.detail.c_str());

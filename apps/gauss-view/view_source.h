@@ -32,7 +32,7 @@ struct SceneSummary {
   std::filesystem::path path;
   SplatFormat format{SplatFormat::InriaPly};
   std::size_t gaussians{0};       // in the file
-  std::uint64_t skipped{0};       // non-finite Gaussians the renderer refused
+  std::uint64_t skipped{0};       // non-finite Gaussians not drawn (left out by the reader, or refused by the renderer)
   int sh_degree{0};
   RobustBounds robust;            // the box the default camera frames
   FullBounds full;                // every finite centre

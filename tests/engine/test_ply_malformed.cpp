@@ -111,12 +111,15 @@ std::vector<Case> cases() {
   }
   c.push_back({"count_not_integer", test::bytes_of("ply\nformat ascii 1.0\nelement vertex 12abc\nend_header\n"),
                {"count '12abc' is not a non-negative integer"}});
-  c.push_back({"nan_opacity", binary_file(5, "", [](std::size_t v, int k) {
-                 return v == 3 && k == 6 ? std::numeric_limits<float>::quiet_NaN() : (k == 10 ? 1.0f : 0.0f);
+  // A vertex with a NaN or Inf is left out (NonFiniteVerticesAreLeftOut below); a file with
+  // nothing else is an error that names the first.
+  c.push_back({"every_vertex_nan", binary_file(5, "", [](std::size_t v, int k) {
+                 return (v == 0 && k == 6) || (v > 0 && k == 8) ? std::numeric_limits<float>::quiet_NaN() : (k == 10 ? 1.0f : 0.0f);
                }),
-               {"vertex 3, property 'opacity'", "byte offset " + std::to_string(header("binary_little_endian", 5, props(required())).size() + 3 * 56 + 6 * 4), "NaN"}});
-  c.push_back({"inf_ascii", test::bytes_of(header("ascii", 2, props(required())) + ascii_line() + ascii_line("inf 0 0 0 0 0 0 0 0 0 1 0 0 0")),
-               {"vertex 1, property 'x' (line 20)", "+Inf"}});
+               {"every one of its 5 vertices has a non-finite value", "the first: vertex 0, property 'opacity'",
+                "byte offset " + std::to_string(header("binary_little_endian", 5, props(required())).size() + 6 * 4), "NaN"}});
+  c.push_back({"every_vertex_inf_ascii", test::bytes_of(header("ascii", 2, props(required())) + ascii_line("0 -inf 0 0 0 0 0 0 0 0 1 0 0 0") + ascii_line("inf 0 0 0 0 0 0 0 0 0 1 0 0 0")),
+               {"every one of its 2 vertices", "vertex 0, property 'y' (line 19)", "-Inf"}});
   c.push_back({"ascii_not_a_number", test::bytes_of(header("ascii", 1, props(required())) + ascii_line("0 0 0 0 0 0 zero 0 0 0 1 0 0 0")),
                {"vertex 0, property 'opacity' (line 19)", "'zero' is not a valid float"}});
   c.push_back({"ascii_too_few", test::bytes_of(header("ascii", 1, props(required())) + ascii_line("0.5 0.5 0.5 0.5 0.5 0.5 0.5 0.5 0.5 0.5 1 0 0")),
@@ -199,6 +202,58 @@ TEST_P(PlyMalformed, FailsWithSpecificMessage) {
 
 INSTANTIATE_TEST_SUITE_P(Cases, PlyMalformed, ::testing::ValuesIn(cases()),
                          [](const ::testing::TestParamInfo<Case>& param_info) { return std::string(param_info.param.label); });
+
+TEST(PlyNonFinite, NonFiniteVerticesAreLeftOutAndListedTheRestKeepTheirIds) {
+  // Six vertices: 1 has a NaN x, 3 an infinite scale_1, 4 and 5 infinite opacity logits
+  // (saturated opacities: clamped, kept), 2 a NaN f_dc_2 in the ASCII copy.
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN(), kInf = std::numeric_limits<float>::infinity();
+  const auto bytes = binary_file(6, "", [](std::size_t v, int k) {
+    if (v == 1 && k == 0) return kNaN;
+    if (v == 3 && k == 8) return kInf;
+    if (v == 4 && k == 6) return -kInf;
+    if (v == 5 && k == 6) return kInf;
+    return k == 10 ? 1.0f : 0.1f * float(v);
+  });
+  auto r = parse_gaussian_ply(bytes, "six.ply");
+  ASSERT_TRUE(r.ok()) << r.message();
+  EXPECT_EQ(r->report.vertex_count, 6u);
+  EXPECT_EQ(r->report.dropped_vertices, (std::vector<std::size_t>{1, 3}));
+  const std::size_t data = header("binary_little_endian", 6, props(required())).size();
+  EXPECT_EQ(r->report.first_dropped,
+            "vertex 1, property 'x' (byte offset " + std::to_string(data + 56) + "): value is NaN");
+  EXPECT_EQ(r->report.saturated_opacities, 2u);
+  ASSERT_EQ(r->cloud.gaussians.size(), 4u);
+  const std::uint64_t kept[] = {0, 2, 4, 5};
+  for (std::size_t i = 0; i < 4; ++i) {
+    const Gaussian& g = r->cloud.gaussians[i];
+    EXPECT_EQ(to_underlying(g.id), kept[i]) << "ids stay the vertex index";
+    EXPECT_FLOAT_EQ(g.position.y, 0.1f * float(kept[i])) << i;
+  }
+  const float ln509 = float(std::log(509.0));
+  EXPECT_NEAR(r->cloud.gaussians[2].opacity_logit, -ln509, 1e-5);
+  EXPECT_NEAR(r->cloud.gaussians[3].opacity_logit, ln509, 1e-5);
+
+  // ASCII: the first value left out is named by its line; a NaN in any float counts.
+  const std::string ascii = header("ascii", 3, props(required())) + ascii_line() +
+                            ascii_line("0 0 0 0 0 nan 0 0 0 0 1 0 0 0") + ascii_line("0 0 1 0 0 0 0 0 0 0 1 0 0 0");
+  auto a = parse_gaussian_ply(test::bytes_of(ascii), "three.ply");
+  ASSERT_TRUE(a.ok()) << a.message();
+  EXPECT_EQ(a->report.dropped_vertices, (std::vector<std::size_t>{1}));
+  EXPECT_EQ(a->report.first_dropped, "vertex 1, property 'f_dc_2' (line 20): value is NaN");
+  ASSERT_EQ(a->cloud.gaussians.size(), 2u);
+  EXPECT_EQ(a->cloud.gaussians[1].id, GaussianId{2});
+  EXPECT_EQ(a->cloud.gaussians[1].position.z, 1.0f);
+}
+
+TEST(PlyNonFinite, ARepeatedIdIsNamedByItsVertexInTheFile) {
+  // gaussian_id 7 at vertices 0 and 3, vertex 1 left out: the message counts file vertices.
+  std::string text = header("ascii", 4, props(required()) + "property uint gaussian_id\n");
+  text += "0 0 0 0 0 0 0 0 0 0 1 0 0 0 7\n0 nan 0 0 0 0 0 0 0 0 1 0 0 0 8\n0 0 0 0 0 0 0 0 0 0 1 0 0 0 9\n"
+          "0 0 0 0 0 0 0 0 0 0 1 0 0 0 7\n";
+  auto r = parse_gaussian_ply(test::bytes_of(text), "ids.ply");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.message().find("gaussian_id 7 appears at vertex 0 and vertex 3"), std::string::npos) << r.message();
+}
 
 TEST(PlyMalformedCount, AtLeastFifteenCases) { EXPECT_GE(cases().size(), 15u); }
 

@@ -112,7 +112,8 @@ TEST(SourceSnapshots, BadSnapshotsAreLoggedAndSkippedKeepingTheLastGoodEpoch) {
   write(root / "snap_1.ply", grid_cloud(100));
   write(root / "snap_2.ply", grid_cloud(110));
   write_text(root / "snap_3.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 5\nend_header\nxx");
-  // NaN: an ASCII snapshot with one value replaced by nan.
+  // NaN: an ASCII snapshot with one value replaced by nan (its Gaussian is left out, the
+  // rest applied, and the log says so).
   {
     PlyGaussianWriteOptions o;
     o.format = PlyFormat::Ascii;
@@ -135,15 +136,18 @@ TEST(SourceSnapshots, BadSnapshotsAreLoggedAndSkippedKeepingTheLastGoodEpoch) {
   SceneStore store;
   std::vector<std::size_t> sizes;
   ASSERT_NO_FATAL_FAILURE(replay_all(**src, store, sizes));
-  // The third call met snap_3 (corrupt) and snap_4 (NaN), skipped both and applied snap_10.
-  EXPECT_EQ(sizes, (std::vector<std::size_t>{100, 110, 130}));
+  // The third call met snap_3 (corrupt), skipped it and applied snap_4 without its NaN
+  // Gaussian; the fourth applied snap_10.
+  EXPECT_EQ(sizes, (std::vector<std::size_t>{100, 110, 119, 130}));
   ASSERT_GE(log.lines.size(), 2u);
   const auto mentions = [&](const std::string& what) {
     return std::any_of(log.lines.begin(), log.lines.end(),
                        [&](const std::string& l) { return l.find(what) != std::string::npos; });
   };
   EXPECT_TRUE(mentions("snap_3.ply")) << "corrupt file not logged";
-  EXPECT_TRUE(mentions("snap_4.ply")) << "NaN snapshot not logged";
+  EXPECT_TRUE(mentions("snap_4.ply: left out 1 of 120 Gaussians with a non-finite value (the first: vertex 0, "
+                       "property 'x' (line "))
+      << "NaN Gaussian not logged";
   EXPECT_EQ((*src)->messages().size(), log.lines.size());
 
   // A trainer still writing: a later file appears and is picked up by the next call.
@@ -422,6 +426,48 @@ TEST(SourceSnapshots, LabelsLengthMismatchIsAClearError) {
   ASSERT_EQ(store.objects().size(), 3u);
   EXPECT_EQ(store.find_object(ObjectId{2})->members.size(), 3u);
   EXPECT_EQ(store.find_object(ObjectId{0}), nullptr) << "label 0 means unlabelled";
+}
+
+TEST(SourceSnapshots, ALabelsFileStaysAlignedWhenTheReaderLeavesAGaussianOut) {
+  // Vertex 3 of ten has a NaN: the reader leaves it out, and the labels (one per vertex of
+  // the file) skip its line, so every other Gaussian keeps its own label.
+  const fs::path root = test::fresh_output_dir("source_snapshots/labels_dropped");
+  PlyGaussianWriteOptions ascii;
+  ascii.format = PlyFormat::Ascii;
+  auto bytes = encode_gaussian_ply(grid_cloud(10), ascii);
+  ASSERT_TRUE(bytes.ok());
+  std::string text(bytes->begin(), bytes->end());
+  std::size_t line = text.find("end_header\n") + 11;
+  for (int v = 0; v < 3; ++v) line = text.find('\n', line) + 1;
+  text.replace(line, text.find(' ', line) - line, "nan");
+  write_text(root / "scene.ply", text);
+  write_text(root / "labels.txt", "0\n1\n1\n2\n2\n2\n-1\n0\n3\n3\n");
+  SnapshotOptions o;
+  o.labels = root / "labels.txt";
+  Collect log;
+  auto src = open_scene_file(root / "scene.ply", o, log.log());
+  ASSERT_TRUE(src.ok()) << src.message();
+  SceneStore store;
+  auto r = (*src)->next_epoch(store);
+  ASSERT_TRUE(r.ok()) << r.message();
+  ASSERT_TRUE(*r);
+  EXPECT_EQ(store.size(), 9u);
+  EXPECT_EQ(store.find_object(ObjectId{1})->members.size(), 2u);
+  EXPECT_EQ(store.find_object(ObjectId{2})->members.size(), 2u) << "vertex 3 (label 2) is the one left out";
+  EXPECT_EQ(store.find_object(ObjectId{3})->members.size(), 2u);
+  ASSERT_EQ(log.lines.size(), 1u);
+  EXPECT_NE(log.lines[0].find("left out 1 of 10 Gaussians with a non-finite value (the first: vertex 3"),
+            std::string::npos)
+      << log.lines[0];
+  // A labels file one short is still a mismatch, counted against the file's vertices.
+  write_text(root / "labels.txt", "0\n1\n1\n2\n2\n2\n-1\n0\n3\n");
+  auto src2 = open_scene_file(root / "scene.ply", o, [](const std::string&) {});
+  ASSERT_TRUE(src2.ok());
+  SceneStore store2;
+  auto r2 = (*src2)->next_epoch(store2);
+  ASSERT_FALSE(r2.ok());
+  EXPECT_NE(r2.message().find("has 9 labels but"), std::string::npos) << r2.message();
+  EXPECT_NE(r2.message().find("has 10 Gaussians"), std::string::npos) << r2.message();
 }
 
 TEST(SourceSnapshots, OpenErrors) {

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -320,18 +321,53 @@ TEST(AntimatterSplat, MalformedInputsNameTheByteOffset) {
   std::vector<Case> cases = {
       {"empty", {}, {"bad.splat: ", "empty file", "byte offset 0"}},
       {"partial_record", Bytes(70, 0), {"truncated record at byte offset 64", "6 of 32 bytes"}},
-      {"nan_position", with([](auto& r) { r[1].position[2] = std::nanf(""); }),
-       {"splat 1", "non-finite position at byte offset 40"}},
-      {"inf_position", with([](auto& r) { r[2].position[0] = INFINITY; }), {"splat 2", "byte offset 64"}},
-      {"zero_scale", with([](auto& r) { r[0].scale[1] = 0.0f; }), {"splat 0", "byte offset 16", "not positive"}},
-      {"negative_scale", with([](auto& r) { r[2].scale[2] = -1.0f; }), {"splat 2", "scale -1 at byte offset 84"}},
-      {"nan_scale", with([](auto& r) { r[1].scale[0] = std::nanf(""); }), {"splat 1", "byte offset 44"}},
-      {"inf_scale", with([](auto& r) { r[1].scale[0] = INFINITY; }), {"byte offset 44"}},
+      {"every_record_unusable", with([](auto& r) {
+         r[0].position[1] = std::nanf("");
+         r[1].scale[2] = 0.0f;
+         r[2].position[0] = INFINITY;
+       }),
+       {"every one of its 3 records is unusable", "the first: splat 0: non-finite position at byte offset 4"}},
   };
   for (const auto& c : cases) {
     auto s = parse_antimatter_splat(c.bytes, "bad.splat");
     ASSERT_FALSE(s.ok()) << c.label;
     for (const auto& f : c.fragments) EXPECT_TRUE(has(s.message(), f)) << c.label << ": " << s.message();
+  }
+  // A record that cannot be a Gaussian is left out, named by its byte offset; the others keep
+  // their record index as id (a labels file stays aligned through report.dropped).
+  struct Bad {
+    const char* label;
+    std::size_t record;
+    std::function<void(SplatRecord&)> edit;
+    std::string fragment;
+  };
+  const std::vector<Bad> bad = {
+      {"nan_position", 1, [](SplatRecord& r) { r.position[2] = std::nanf(""); }, "splat 1: non-finite position at byte offset 40"},
+      {"inf_position", 2, [](SplatRecord& r) { r.position[0] = INFINITY; }, "splat 2: non-finite position at byte offset 64"},
+      {"zero_scale", 0, [](SplatRecord& r) { r.scale[1] = 0.0f; }, "splat 0: scale 0 at byte offset 16 is not positive"},
+      {"negative_scale", 2, [](SplatRecord& r) { r.scale[2] = -1.0f; }, "splat 2: scale -1 at byte offset 84"},
+      {"nan_scale", 1, [](SplatRecord& r) { r.scale[0] = std::nanf(""); }, "splat 1: scale nan at byte offset 44"},
+      {"inf_scale", 1, [](SplatRecord& r) { r.scale[0] = INFINITY; }, "byte offset 44"},
+  };
+  for (const Bad& b : bad) {
+    auto records = three_splats();
+    b.edit(records[b.record]);
+    auto s = parse_antimatter_splat(encode_splat(records), "bad.splat");
+    ASSERT_TRUE(s.ok()) << b.label << ": " << s.message();
+    EXPECT_EQ(s->report.count, 2u) << b.label;
+    ASSERT_EQ(s->report.dropped, std::vector<std::size_t>{b.record}) << b.label;
+    EXPECT_TRUE(has(s->report.first_dropped, b.fragment)) << b.label << ": " << s->report.first_dropped;
+    ASSERT_EQ(s->cloud.gaussians.size(), 2u);
+    std::vector<GaussianId> ids;
+    for (const Gaussian& g : s->cloud.gaussians) {
+      ids.push_back(g.id);
+      const SplatRecord& r = records[to_underlying(g.id)];
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(g.position[k], r.position[k]) << b.label;
+    }
+    std::vector<GaussianId> want;
+    for (std::size_t i = 0; i < 3; ++i)
+      if (i != b.record) want.push_back(GaussianId{i});
+    EXPECT_EQ(ids, want) << b.label;
   }
   // Through the dispatcher, a .splat whose size is not whole records is refused by detection.
   auto s = parse_splat_file(Bytes(33, 0), "bad.splat");

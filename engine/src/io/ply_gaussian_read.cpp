@@ -12,6 +12,7 @@
 #include "io/file_bytes.h"
 #include "io/memory_room.h"
 #include "io/ply_core.h"
+#include "io/splat_quantized.h"  // alpha_to_logit: the saturated opacity logit
 
 namespace gauss {
 namespace {
@@ -133,19 +134,31 @@ std::string describe(float f) {
 
 template <class Reader>
 Status decode_vertices(Reader& r, const Element& v, const Plan& plan, std::string_view name,
-                       std::vector<Gaussian>& out) {
+                       std::vector<Gaussian>& out, PlyGaussianReport& report) {
   const std::size_t count = static_cast<std::size_t>(v.count);
   if (auto s = io::resize_cloud(out, count, name); !s) return s;
   const int coefs = plan.rest_props / 3;
   std::array<float, kFloatSlots> vals{};
   Scalar s;
   std::string why;
-  auto fail = [&](std::size_t vertex, const Property& p, const std::string& what) {
-    return ply::make_error(name, "vertex " + std::to_string(vertex) + ", property '" + p.name + "' (" + r.where() +
-                                     "): " + what);
+  auto where = [&](std::size_t vertex, const Property& p) {
+    return "vertex " + std::to_string(vertex) + ", property '" + p.name + "' (" + r.where() + ")";
   };
+  auto fail = [&](std::size_t vertex, const Property& p, const std::string& what) {
+    return ply::make_error(name, where(vertex, p) + ": " + what);
+  };
+  // Vertices with a non-finite value are left out (a trainer that diverged, a converter's
+  // overflow), the rest kept in file order at out[0, kept); an infinite opacity logit is a
+  // saturated opacity, clamped as the 8-bit formats clamp theirs.
+  const float saturated = io::alpha_to_logit(1.0);
+  std::size_t kept = 0;
+  bool slot_dirty = false;  // out[kept] holds fields of a vertex that was left out
   for (std::size_t i = 0; i < count; ++i) {
-    Gaussian& g = out[i];
+    if (slot_dirty) out[kept] = Gaussian{};
+    Gaussian& g = out[kept];
+    g.id = GaussianId{i};  // the file index, unless a gaussian_id property says otherwise
+    bool non_finite = false;
+    std::size_t clamped = 0;
     if (!r.begin_item())
       return ply::make_error(name, "vertex " + std::to_string(i) + " (" + r.where() + "): " + r.error());
     for (std::size_t k = 0; k < plan.steps.size(); ++k) {
@@ -165,7 +178,14 @@ Status decode_vertices(Reader& r, const Element& v, const Plan& plan, std::strin
         case Kind::Float: {
           float f = 0.0f;
           if (!ply::to_float(s, f, why)) return fail(i, p, why);
-          if (!std::isfinite(f)) return fail(i, p, "value is " + describe(f) + " (must be finite)");
+          if (std::isinf(f) && step.slot == kSlotOpacity) {
+            f = f > 0 ? saturated : -saturated;
+            ++clamped;
+          } else if (!std::isfinite(f)) {
+            if (!non_finite && report.first_dropped.empty())
+              report.first_dropped = where(i, p) + ": value is " + describe(f);
+            non_finite = true;
+          }
           vals[step.slot] = f;
           break;
         }
@@ -194,6 +214,13 @@ Status decode_vertices(Reader& r, const Element& v, const Plan& plan, std::strin
       }
     }
     if (!r.end_item()) return ply::make_error(name, "vertex " + std::to_string(i) + ": " + r.error());
+    slot_dirty = non_finite;
+    if (non_finite) {
+      report.dropped_vertices.push_back(i);
+      continue;
+    }
+    report.saturated_opacities += clamped;
+    ++kept;
     g.position = glm::vec3(vals[kSlotPos], vals[kSlotPos + 1], vals[kSlotPos + 2]);
     g.sh_dc = glm::vec3(vals[kSlotDc], vals[kSlotDc + 1], vals[kSlotDc + 2]);
     g.opacity_logit = vals[kSlotOpacity];
@@ -204,14 +231,18 @@ Status decode_vertices(Reader& r, const Element& v, const Plan& plan, std::strin
       for (int k = 0; k < coefs; ++k)
         g.sh_rest[static_cast<std::size_t>(k)][c] = vals[static_cast<std::size_t>(kSlotRest + c * coefs + k)];
   }
+  if (count > 0 && kept == 0)
+    return ply::make_error(name, "every one of its " + std::to_string(count) +
+                                     " vertices has a non-finite value (the first: " + report.first_dropped + ")");
+  out.resize(kept);
   return Ok{};
 }
 
 template <class Reader>
 Status read_elements(Reader& r, const Header& h, const Element& vertex, const Plan& plan, std::string_view name,
-                     std::vector<Gaussian>& out) {
+                     std::vector<Gaussian>& out, PlyGaussianReport& report) {
   for (const auto& e : h.elements) {
-    const Status st = &e == &vertex ? decode_vertices(r, e, plan, name, out) : ply::skip_element(r, e, name);
+    const Status st = &e == &vertex ? decode_vertices(r, e, plan, name, out, report) : ply::skip_element(r, e, name);
     if (!st) return st;
   }
   if (!r.at_end()) return ply::make_error(name, r.trailing());
@@ -232,9 +263,13 @@ void normalize_rotations(std::vector<Gaussian>& gs, PlyGaussianReport& report) {
   }
 }
 
-Status check_unique_ids(const std::vector<Gaussian>& gs, std::string_view name) {
+Status check_unique_ids(const std::vector<Gaussian>& gs, std::span<const std::size_t> dropped, std::string_view name) {
   std::vector<std::pair<std::uint64_t, std::size_t>> ids(gs.size());
-  for (std::size_t i = 0; i < gs.size(); ++i) ids[i] = {to_underlying(gs[i].id), i};
+  std::size_t vertex = 0, d = 0;  // the file's vertex of each kept Gaussian (dropped ones skipped)
+  for (std::size_t i = 0; i < gs.size(); ++i, ++vertex) {
+    while (d < dropped.size() && dropped[d] == vertex) ++vertex, ++d;
+    ids[i] = {to_underlying(gs[i].id), vertex};
+  }
   std::sort(ids.begin(), ids.end());
   for (std::size_t i = 1; i < ids.size(); ++i)
     if (ids[i].first == ids[i - 1].first)
@@ -267,18 +302,15 @@ Expected<PlyGaussianScene> parse_gaussian_ply(std::span<const std::uint8_t> byte
   Status st = Ok{};
   if (h.format == PlyFormat::Ascii) {
     ply::AsciiReader r(bytes, h.data_offset, h.data_line);
-    st = read_elements(r, h, *vertex, *plan, name, gs);
+    st = read_elements(r, h, *vertex, *plan, name, gs, report);
   } else {
     ply::BinaryReader r(bytes, h.data_offset, h.format == PlyFormat::BinaryBigEndian);
-    st = read_elements(r, h, *vertex, *plan, name, gs);
+    st = read_elements(r, h, *vertex, *plan, name, gs, report);
   }
   if (!st) return st.error();
 
-  if (report.has_gaussian_id) {
-    if (Status u = check_unique_ids(gs, name); !u) return u.error();
-  } else {
-    for (std::size_t i = 0; i < gs.size(); ++i) gs[i].id = GaussianId{i};
-  }
+  if (report.has_gaussian_id)  // else each id is its vertex's index in the file (decode_vertices)
+    if (Status u = check_unique_ids(gs, report.dropped_vertices, name); !u) return u.error();
   normalize_rotations(gs, report);
   scene.cloud.sh_degree = plan->degree;
   return scene;

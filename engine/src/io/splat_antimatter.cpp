@@ -24,9 +24,11 @@
 // are counted; every other decoded quaternion that is not unit within kQuaternionUnitTolerance is
 // normalised and counted, as the PLY reader does.
 //
-// Errors name the input and the byte offset: an empty file, a size that is not a whole number
-// of records, a non-finite position, or a scale that is not positive and finite (its log would
-// be -Inf or NaN). Never a partial cloud.
+// A record with a non-finite position, or a scale that is not positive and finite (its log
+// would be -Inf or NaN), is left out and listed (report.dropped: its record index, the first
+// named); the others keep their order and their record index as id. Errors name the input
+// and the byte offset: an empty file, a size that is not a whole number of records, every
+// record left out. Never a partial cloud.
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -66,27 +68,39 @@ Expected<SplatScene> parse_antimatter_splat(std::span<const std::uint8_t> bytes,
   scene.cloud.sh_degree = 0;
   std::vector<Gaussian>& gs = scene.cloud.gaussians;
   if (auto s = io::resize_cloud(gs, count, name); !s) return s.error();
+  std::size_t kept = 0;
   for (std::size_t i = 0; i < count; ++i) {
     const std::size_t at = i * kRecordBytes;
     const std::uint8_t* r = bytes.data() + at;
-    Gaussian& g = gs[i];
-    for (int k = 0; k < 3; ++k) {
-      const float p = read_f32(r + 4 * k);
+    // Why the record cannot be a Gaussian, or empty.
+    std::string bad;
+    for (int k = 0; k < 3 && bad.empty(); ++k) {
+      const float p = read_f32(r + 4 * k), s = read_f32(r + 12 + 4 * k);
       if (!std::isfinite(p))
-        return fail(name, "splat " + std::to_string(i) + ": non-finite position at byte offset " +
-                              std::to_string(at + 4 * std::size_t(k)));
-      g.position[k] = p;
-      const float s = read_f32(r + 12 + 4 * k);
-      if (!(s > 0.0f) || !std::isfinite(s))
-        return fail(name, "splat " + std::to_string(i) + ": scale " + ply::format_double(s) + " at byte offset " +
-                              std::to_string(at + 12 + 4 * std::size_t(k)) + " is not positive and finite");
-      g.log_scale[k] = static_cast<float>(std::log(double(s)));
+        bad = "splat " + std::to_string(i) + ": non-finite position at byte offset " + std::to_string(at + 4 * std::size_t(k));
+      else if (!(s > 0.0f) || !std::isfinite(s))
+        bad = "splat " + std::to_string(i) + ": scale " + ply::format_double(s) + " at byte offset " +
+              std::to_string(at + 12 + 4 * std::size_t(k)) + " is not positive and finite";
+    }
+    if (!bad.empty()) {
+      if (scene.report.dropped.empty()) scene.report.first_dropped = bad;
+      scene.report.dropped.push_back(i);
+      continue;
+    }
+    Gaussian& g = gs[kept++];
+    for (int k = 0; k < 3; ++k) {
+      g.position[k] = read_f32(r + 4 * k);
+      g.log_scale[k] = static_cast<float>(std::log(double(read_f32(r + 12 + 4 * k))));
       g.sh_dc[k] = static_cast<float>((double(r[24 + k]) / 255.0 - 0.5) / kShC0);
     }
     g.opacity_logit = io::alpha_to_logit(double(r[27]) / 255.0);
     g.rotation = glm::vec4((float(r[28]) - 128.0f) / 128.0f, (float(r[29]) - 128.0f) / 128.0f,
                            (float(r[30]) - 128.0f) / 128.0f, (float(r[31]) - 128.0f) / 128.0f);
   }
+  if (kept == 0)
+    return fail(name, "every one of its " + std::to_string(count) + " records is unusable (the first: " +
+                          scene.report.first_dropped + ")");
+  gs.resize(kept);
   io::finish_quantized_scene(scene);
   return scene;
 }

@@ -50,11 +50,26 @@ SplatScene from_ply(PlyGaussianScene scene) {
   out.report.has_gaussian_id = scene.report.has_gaussian_id;
   out.report.renormalized_quaternions = scene.report.renormalized_quaternions;
   out.report.zero_quaternions = scene.report.zero_quaternions;
+  out.report.saturated_opacities = scene.report.saturated_opacities;
+  out.report.dropped = std::move(scene.report.dropped_vertices);
+  out.report.first_dropped = std::move(scene.report.first_dropped);
   out.cloud = std::move(scene.cloud);
   return out;
 }
 
 }  // namespace
+
+std::vector<std::string> splat_load_notes(const SplatFileReport& report) {
+  std::vector<std::string> notes;
+  if (!report.dropped.empty())
+    notes.push_back("left out " + std::to_string(report.dropped.size()) + " of " +
+                    std::to_string(report.count + report.dropped.size()) +
+                    " Gaussians with a non-finite value (the first: " + report.first_dropped + ")");
+  if (report.saturated_opacities > 0)
+    notes.push_back(std::to_string(report.saturated_opacities) +
+                    " opacity logits of +-Inf taken as +-6.23 (opacity 1 or 0 within half an 8-bit step)");
+  return notes;
+}
 
 std::string_view to_string(SplatFormat format) {
   switch (format) {

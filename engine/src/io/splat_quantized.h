@@ -44,9 +44,11 @@ inline glm::vec4 rebuild_quaternion(int largest, double a, double b, double c) {
 inline void finish_quantized_scene(SplatScene& scene) {
   SplatFileReport& report = scene.report;
   std::vector<Gaussian>& gs = scene.cloud.gaussians;
-  for (std::size_t i = 0; i < gs.size(); ++i) {
+  std::size_t index = 0, d = 0;  // each Gaussian's index in the file (the records left out skipped)
+  for (std::size_t i = 0; i < gs.size(); ++i, ++index) {
+    while (d < report.dropped.size() && report.dropped[d] == index) ++index, ++d;
     Gaussian& g = gs[i];
-    g.id = GaussianId{i};
+    g.id = GaussianId{index};
     g.object = kNoObject;
     const glm::vec4 q = g.rotation;
     const double n2 = double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] + double(q[3]) * q[3];

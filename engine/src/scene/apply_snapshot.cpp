@@ -53,11 +53,17 @@ Status match_ids(SceneStore& store, GaussianCloud& cloud, bool ids_given, const 
 }  // namespace
 
 Status apply_labels(GaussianCloud& cloud, const std::vector<std::int32_t>& labels, bool zero_is_unlabelled,
-                    const std::string& labels_name, const std::string& scene_name) {
-  if (auto s = check_label_count(labels, cloud.gaussians.size(), labels_name, scene_name); !s) return s;
-  for (std::size_t i = 0; i < labels.size(); ++i) {
-    const std::int32_t l = labels[i];
-    cloud.gaussians[i].object = (l < 0 || (zero_is_unlabelled && l == 0)) ? kNoObject : ObjectId{l};
+                    const std::string& labels_name, const std::string& scene_name, std::span<const std::size_t> dropped) {
+  if (auto s = check_label_count(labels, cloud.gaussians.size() + dropped.size(), labels_name, scene_name); !s)
+    return s;
+  std::size_t i = 0, d = 0;  // the cloud's Gaussian, the next left-out index
+  for (std::size_t f = 0; f < labels.size(); ++f) {
+    if (d < dropped.size() && dropped[d] == f) {
+      ++d;
+      continue;
+    }
+    const std::int32_t l = labels[f];
+    cloud.gaussians[i++].object = (l < 0 || (zero_is_unlabelled && l == 0)) ? kNoObject : ObjectId{l};
   }
   return Ok{};
 }

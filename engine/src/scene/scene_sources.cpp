@@ -229,7 +229,7 @@ class SnapshotSource final : public SceneSource {
       auto labels = read_labels(*labels_path);
       if (!labels) return labels.error();
       if (auto s = apply_labels(cloud, *labels, options_.label_zero_is_unlabelled, labels_path->string(),
-                                e.ply.string());
+                                e.ply.string(), scene->report.dropped);
           !s)
         return s;
       if (scene->report.has_object_id)
@@ -253,6 +253,7 @@ class SnapshotSource final : public SceneSource {
     if (!applied) return applied.error();
     if (mesh) last_mesh_ = *mesh_path;
     last_report_ = *applied;
+    for (const std::string& note : splat_load_notes(scene->report)) report(e.ply.string() + ": " + note);
     return Ok{};
   }
 

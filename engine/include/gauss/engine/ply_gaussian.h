@@ -23,9 +23,15 @@
 // - a quaternion whose length differs from 1 by more than kQuaternionUnitTolerance is scaled to
 //   unit length; one within the tolerance is kept bit for bit, so loading is idempotent and
 //   write -> read of a loaded cloud round-trips bit-exactly;
-// - a zero-length quaternion (no rotation defined) becomes the identity (1, 0, 0, 0).
+// - a zero-length quaternion (no rotation defined) becomes the identity (1, 0, 0, 0);
+// - an opacity logit of +-Inf (a saturated opacity, as a decoder of 8-bit alphas writes 0
+//   and 255) becomes +-ln 509, the logit the 8-bit formats' readers clamp to;
+// - a vertex with any other NaN or Inf (a trainer that diverged, a converter's overflow) is
+//   left out: its index is listed and the first such value named, and the others keep
+//   their file order and ids (the vertex index). A file whose vertices are all left out is
+//   an error.
 // Everything else wrong is an error naming the input and the element/vertex/property/byte
-// offset or line: NaN/Inf in any value, a missing/duplicated property, a wrong f_rest count,
+// offset or line: a missing/duplicated property, a wrong f_rest count,
 // a count that disagrees with the data (short or trailing bytes), absurd counts or header
 // lines, an out-of-range integer, a repeated gaussian_id. Never a partial cloud.
 #include <cstddef>
@@ -58,6 +64,9 @@ struct PlyGaussianReport {
   bool has_support{false};      // false: support is 0
   std::size_t renormalized_quaternions{0};  // non-unit quaternions scaled to unit length
   std::size_t zero_quaternions{0};          // zero-length quaternions replaced by identity
+  std::size_t saturated_opacities{0};       // +-Inf opacity logits clamped to +-ln 509
+  std::vector<std::size_t> dropped_vertices;  // vertices left out for a non-finite value, ascending
+  std::string first_dropped;  // the first such value: "vertex 3, property 'x' (byte offset 580): value is NaN"
   std::vector<std::string> ignored_properties;  // vertex properties skipped (not normals)
   std::vector<std::string> ignored_elements;    // other elements skipped
 };

@@ -17,6 +17,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -117,8 +118,11 @@ Expected<SnapshotApplyReport> apply_snapshot(SceneStore& store, GaussianCloud cl
                                              const std::vector<ObjectLabel>& objects = {},
                                              const TriangleMesh* mesh = nullptr);
 
-// Sets Gaussian objects from per-Gaussian labels (error on a length mismatch, naming both).
+// Sets Gaussian objects from per-Gaussian labels, one per Gaussian of the file in its order:
+// `dropped` are the file indices its reader left out (SplatFileReport::dropped, ascending),
+// whose labels are skipped. Error on a length mismatch, naming both.
 Status apply_labels(GaussianCloud& cloud, const std::vector<std::int32_t>& labels, bool zero_is_unlabelled,
-                    const std::string& labels_name, const std::string& scene_name);
+                    const std::string& labels_name, const std::string& scene_name,
+                    std::span<const std::size_t> dropped = {});
 
 }  // namespace gauss

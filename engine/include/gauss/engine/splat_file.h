@@ -4,7 +4,9 @@
 // Each reader turns its file into the trainer's own parameterisation (log-scales, opacity
 // logit, SH coefficients, unit quaternion w x y z), so everything downstream is format-blind.
 // The formats that quantise say how in their reader's comment; a reader never returns a
-// partial cloud. Errors name the input and, for truncations and impossible counts, the byte
+// partial cloud, and NaN/Inf never leave it: where a format stores floats per Gaussian (the
+// INRIA PLY, .splat), a Gaussian with a non-finite value is left out and listed in the report
+// (its file index; the others keep theirs as ids), an infinite opacity logit is clamped. Errors name the input and, for truncations and impossible counts, the byte
 // offset where the data stops making sense.
 //
 //   InriaPly       the 3DGS trainer's PLY (ply_gaussian.h)
@@ -23,6 +25,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "gauss/engine/gaussian.h"
 #include "gauss/engine/result.h"
@@ -43,6 +46,11 @@ struct SplatFileReport {
   bool has_gaussian_id{false};  // persistent ids came from the file; otherwise ids are the index
   std::size_t renormalized_quaternions{0};
   std::size_t zero_quaternions{0};
+  std::size_t saturated_opacities{0};  // +-Inf opacity logits clamped to +-ln 509 (INRIA PLY)
+  // Gaussians left out for a non-finite value: their indices in the file, ascending, and the
+  // first such value as text. `count` is what was kept.
+  std::vector<std::size_t> dropped;
+  std::string first_dropped;
   bool antialiased{false};  // trained with antialiasing (SPZ's flag; render with the matching filter)
 };
 
@@ -50,6 +58,11 @@ struct SplatScene {
   GaussianCloud cloud;
   SplatFileReport report;
 };
+
+// What a person should hear about a load beyond its count: Gaussians left out, opacities
+// clamped ("left out 3 of 90857 Gaussians with a non-finite value (the first: vertex 0,
+// ...)"), one line each; none when the file was clean.
+std::vector<std::string> splat_load_notes(const SplatFileReport& report);
 
 // Which format a file image is, from its content (`name` supplies the extension the
 // headerless .splat needs, and the error message). An unknown file's error says what was
