@@ -17,7 +17,9 @@
 //               mouse binding (help)
 // A local scene (no stream) shows "local scene (no stream)" where a panel needs one.
 // Below kSmallWindowWidth every panel starts collapsed (title bars stacked in two columns),
-// so that a small window shows the scene.
+// so that a small window shows the scene; above it, the panel with nothing to show starts
+// collapsed (a stream's scene panel, a local scene's objects panel) and the other takes
+// the rest of the left column.
 // Over the scene, bottom centre (panels_scene.cpp): a dropped file's load progress, a
 // failed load's error (until dismissed or the next load), the last screenshot's path.
 //

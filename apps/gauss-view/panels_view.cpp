@@ -60,9 +60,14 @@ void Panels::draw(FlyCamera& camera, bool orbit, std::uint32_t width, std::uint3
   draw_connection(now_s);
   place(kMargin, top(1, 161.0f), kPanelW, 218.0f, small_window_);
   draw_stream();
-  place(kMargin, top(2, 387.0f), kPanelW, 270.0f, small_window_);
+  // A stream's scene panel holds one hint and a local scene has no objects to query: the one
+  // without content starts collapsed and the other takes the column's rest (at 1200x760 the
+  // objects panel of a stream ended below the window, its query buttons cut off).
+  const bool streamed = source_->summary() == nullptr;
+  place(kMargin, top(2, 387.0f), kPanelW, 270.0f, small_window_ || streamed);
   draw_scene();
-  place(kMargin, top(3, 665.0f), kPanelW, std::max(120.0f, h - 673.0f), small_window_);
+  const float objects_y = streamed ? 387.0f + kTitleStep : 665.0f;
+  place(kMargin, top(3, objects_y), kPanelW, std::max(120.0f, h - objects_y - kMargin), small_window_ || !streamed);
   draw_objects(now_s);
   place(right, top(0, kMargin), kPanelW, 370.0f, small_window_);
   draw_timing();
