@@ -271,6 +271,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "gauss-render: %s\n", scene.message().c_str());
     return 1;
   }
+  for (const std::string& note : splat_load_notes(scene->report))
+    std::fprintf(stderr, "gauss-render: %s: %s\n", args.scene.string().c_str(), note.c_str());
   if (!args.order.empty())
     if (auto st = apply_slot_order(args.order, scene->cloud); !st) {
       std::fprintf(stderr, "gauss-render: %s\n", st.message().c_str());
