@@ -216,6 +216,26 @@ TEST(ViewDefaultCamera, DegenerateScenesGetAFiniteCamera) {
   EXPECT_NE(nan.log.find("nan.splat: every one of its 2 records is unusable (the first: splat 0: non-finite position"),
             std::string::npos)
       << nan.log;
+
+  // One NaN among 123 Gaussians (a trainer that diverged once): the scene opens without it,
+  // and the viewer says which one it left out.
+  gauss::PlyGaussianWriteOptions ascii;
+  ascii.format = gauss::PlyFormat::Ascii;
+  auto bytes = gauss::encode_gaussian_ply(y_down_column(), ascii);
+  ASSERT_TRUE(bytes.ok());
+  std::string text(bytes->begin(), bytes->end());
+  std::size_t line = text.find("end_header\n") + 11;
+  for (int v = 0; v < 5; ++v) line = text.find('\n', line) + 1;
+  text.replace(line, text.find(' ', line) - line, "nan");
+  std::ofstream(out / "one_nan.ply") << text;
+  const ViewRun one_nan = run_view(out, "one_nan", {"--scene", (out / "one_nan.ply").string(), "--headless", "--size",
+                                                   "96x64", "--out", (out / "one_nan").string()});
+  ASSERT_EQ(one_nan.rc, 0) << one_nan.log;
+  EXPECT_NE(one_nan.log.find("one_nan.ply: left out 1 of 123 Gaussians with a non-finite value (the first: vertex 5, "
+                             "property 'x' (line "),
+            std::string::npos)
+      << one_nan.log;
+  EXPECT_NE(one_nan.log.find("(122 Gaussians, SH 0), 1 non-finite Gaussians skipped"), std::string::npos) << one_nan.log;
 }
 
 TEST(ViewDefaultCamera, BadCommandLinesSayWhy) {
