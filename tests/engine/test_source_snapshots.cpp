@@ -125,6 +125,21 @@ TEST(SourceSnapshots, BadSnapshotsAreLoggedAndSkippedKeepingTheLastGoodEpoch) {
     text.replace(header_end, space - header_end, "nan");
     write_text(root / "snap_4.ply", text);
   }
+  // A trainer that diverged: a third of snap_5's Gaussians are NaN. With snap_4 in the store,
+  // it is skipped like a broken one (the store keeps what was good).
+  {
+    PlyGaussianWriteOptions o;
+    o.format = PlyFormat::Ascii;
+    auto bytes = encode_gaussian_ply(grid_cloud(125), o);
+    ASSERT_TRUE(bytes.ok());
+    std::string text(bytes->begin(), bytes->end());
+    std::size_t line = text.find("end_header\n") + 11;
+    for (int v = 0; v < 125; ++v) {
+      if (v % 3 == 0) text.replace(line, text.find(' ', line) - line, "nan");
+      line = text.find('\n', line) + 1;
+    }
+    write_text(root / "snap_5.ply", text);
+  }
   write(root / "snap_10.ply", grid_cloud(130));  // 10 after 4: numeric, not name order
   write(root / "snap_1_mesh.ply", {});  // a mesh by its name, never replayed as a snapshot
 
@@ -137,7 +152,7 @@ TEST(SourceSnapshots, BadSnapshotsAreLoggedAndSkippedKeepingTheLastGoodEpoch) {
   std::vector<std::size_t> sizes;
   ASSERT_NO_FATAL_FAILURE(replay_all(**src, store, sizes));
   // The third call met snap_3 (corrupt), skipped it and applied snap_4 without its NaN
-  // Gaussian; the fourth applied snap_10.
+  // Gaussian; the fourth skipped snap_5 (diverged) and applied snap_10.
   EXPECT_EQ(sizes, (std::vector<std::size_t>{100, 110, 119, 130}));
   ASSERT_GE(log.lines.size(), 2u);
   const auto mentions = [&](const std::string& what) {
@@ -148,6 +163,9 @@ TEST(SourceSnapshots, BadSnapshotsAreLoggedAndSkippedKeepingTheLastGoodEpoch) {
   EXPECT_TRUE(mentions("snap_4.ply: left out 1 of 120 Gaussians with a non-finite value (the first: vertex 0, "
                        "property 'x' (line "))
       << "NaN Gaussian not logged";
+  EXPECT_TRUE(mentions("skipped snapshot " + (root / "snap_5.ply").string() + ": 42 of its 125 Gaussians hold a NaN or "
+                       "Inf (the trainer diverged?), the first: vertex 0, property 'x' (line "))
+      << "a diverged snapshot is not skipped";
   EXPECT_EQ((*src)->messages().size(), log.lines.size());
 
   // A trainer still writing: a later file appears and is picked up by the next call.
@@ -468,6 +486,36 @@ TEST(SourceSnapshots, ALabelsFileStaysAlignedWhenTheReaderLeavesAGaussianOut) {
   ASSERT_FALSE(r2.ok());
   EXPECT_NE(r2.message().find("has 9 labels but"), std::string::npos) << r2.message();
   EXPECT_NE(r2.message().find("has 10 Gaussians"), std::string::npos) << r2.message();
+}
+
+TEST(SourceSnapshots, AFirstSnapshotWithManyNaNsIsAppliedWithoutThemHavingNothingToKeep) {
+  const fs::path root = test::fresh_output_dir("source_snapshots/first_nan");
+  PlyGaussianWriteOptions ascii;
+  ascii.format = PlyFormat::Ascii;
+  auto bytes = encode_gaussian_ply(grid_cloud(30), ascii);
+  ASSERT_TRUE(bytes.ok());
+  std::string text(bytes->begin(), bytes->end());
+  std::size_t line = text.find("end_header\n") + 11;
+  for (int v = 0; v < 30; ++v) {
+    if (v % 2 == 0) text.replace(line, text.find(' ', line) - line, "nan");
+    line = text.find('\n', line) + 1;
+  }
+  write_text(root / "snap_1.ply", text);
+  SnapshotOptions settled;
+  settled.settle_s = 0.0;
+  Collect log;
+  auto src = open_snapshot_folder(root, settled, log.log());
+  ASSERT_TRUE(src.ok()) << src.message();
+  SceneStore store;
+  auto r = (*src)->next_epoch(store);
+  ASSERT_TRUE(r.ok()) << r.message();
+  EXPECT_TRUE(*r);
+  EXPECT_EQ(store.size(), 15u) << "half of them NaN, the other half applied";
+  ASSERT_EQ(log.lines.size(), 1u);
+  EXPECT_NE(log.lines[0].find("left out 15 of 30 Gaussians"), std::string::npos) << log.lines[0];
+  SnapshotOptions bad;
+  bad.max_non_finite_fraction = 1.5;
+  EXPECT_FALSE(open_snapshot_folder(root, bad).ok());
 }
 
 TEST(SourceSnapshots, OpenErrors) {

@@ -222,6 +222,10 @@ class SnapshotSource final : public SceneSource {
   Status read_and_apply(const Entry& e, SceneStore& store) {
     auto scene = read_splat_file(e.ply);
     if (!scene) return scene.error();
+    const std::size_t dropped = scene->report.dropped.size(), total = scene->report.count + dropped;
+    if (!single_ && store.size() > 0 && double(dropped) > options_.max_non_finite_fraction * double(total))
+      return Error{std::to_string(dropped) + " of its " + std::to_string(total) +
+                   " Gaussians hold a NaN or Inf (the trainer diverged?), the first: " + scene->report.first_dropped};
     format_ = std::string(to_string(scene->report.format));
     GaussianCloud cloud = std::move(scene->cloud);
     const std::optional<fs::path> labels_path = options_.labels ? options_.labels : e.labels;
@@ -297,6 +301,9 @@ Expected<std::unique_ptr<SceneSource>> open_synthetic_source(const SyntheticSour
 Expected<std::unique_ptr<SceneSource>> open_snapshot_folder(const fs::path& folder, const SnapshotOptions& options,
                                                             SourceLog log) {
   if (auto s = check_rate(options.rate_hz); !s) return s.error();
+  if (!(options.max_non_finite_fraction >= 0.0 && options.max_non_finite_fraction <= 1.0))
+    return Error{"snapshot folder: max_non_finite_fraction " + std::to_string(options.max_non_finite_fraction) +
+                 " is outside 0..1"};
   std::error_code ec;
   if (!fs::is_directory(folder, ec)) return Error{"snapshot folder " + folder.string() + " is not a directory"};
   auto objects = load_objects(folder, options);

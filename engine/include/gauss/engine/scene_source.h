@@ -81,6 +81,11 @@ struct SnapshotOptions {
   std::optional<std::filesystem::path> mesh;
   bool snapshot_meshes{true};
   IdentityTrackerConfig identity;       // for snapshots without gaussian_id
+  // A followed folder's snapshot in which more than this fraction of the Gaussians hold a
+  // NaN or Inf (a trainer that diverged) is skipped like a broken one while the store holds
+  // an earlier snapshot: what was good is kept. Below it, or with nothing to keep (the first
+  // snapshot, a scene file), the snapshot is applied without them (splat_file.h).
+  double max_non_finite_fraction{0.01};
 };
 
 // A folder of snapshots (to open with open_snapshot_folder), as opposed to a scene file or a
