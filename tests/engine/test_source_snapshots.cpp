@@ -49,6 +49,22 @@ void write_text(const fs::path& p, const std::string& text) {
   std::ofstream(p, std::ios::binary) << text;
 }
 
+// `cloud` as an ASCII PLY whose vertices v with nan_at(v) have x = nan (a trainer's NaN).
+template <class NanAt>
+void write_with_nans(const fs::path& p, const GaussianCloud& cloud, NanAt nan_at) {
+  PlyGaussianWriteOptions o;
+  o.format = PlyFormat::Ascii;
+  auto bytes = encode_gaussian_ply(cloud, o);
+  ASSERT_TRUE(bytes.ok()) << bytes.message();
+  std::string text(bytes->begin(), bytes->end());
+  std::size_t line = text.find("end_header\n") + 11;
+  for (std::size_t v = 0; v < cloud.gaussians.size(); ++v) {
+    if (nan_at(v)) text.replace(line, text.find(' ', line) - line, "nan");
+    line = text.find('\n', line) + 1;
+  }
+  write_text(p, text);
+}
+
 struct Collect {
   std::vector<std::string> lines;
   SourceLog log() {
@@ -114,32 +130,10 @@ TEST(SourceSnapshots, BadSnapshotsAreLoggedAndSkippedKeepingTheLastGoodEpoch) {
   write_text(root / "snap_3.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 5\nend_header\nxx");
   // NaN: an ASCII snapshot with one value replaced by nan (its Gaussian is left out, the
   // rest applied, and the log says so).
-  {
-    PlyGaussianWriteOptions o;
-    o.format = PlyFormat::Ascii;
-    auto bytes = encode_gaussian_ply(grid_cloud(120), o);
-    ASSERT_TRUE(bytes.ok());
-    std::string text(bytes->begin(), bytes->end());
-    const auto header_end = text.find("end_header\n") + 11;
-    const auto space = text.find(' ', header_end);
-    text.replace(header_end, space - header_end, "nan");
-    write_text(root / "snap_4.ply", text);
-  }
+  write_with_nans(root / "snap_4.ply", grid_cloud(120), [](std::size_t v) { return v == 0; });
   // A trainer that diverged: a third of snap_5's Gaussians are NaN. With snap_4 in the store,
   // it is skipped like a broken one (the store keeps what was good).
-  {
-    PlyGaussianWriteOptions o;
-    o.format = PlyFormat::Ascii;
-    auto bytes = encode_gaussian_ply(grid_cloud(125), o);
-    ASSERT_TRUE(bytes.ok());
-    std::string text(bytes->begin(), bytes->end());
-    std::size_t line = text.find("end_header\n") + 11;
-    for (int v = 0; v < 125; ++v) {
-      if (v % 3 == 0) text.replace(line, text.find(' ', line) - line, "nan");
-      line = text.find('\n', line) + 1;
-    }
-    write_text(root / "snap_5.ply", text);
-  }
+  write_with_nans(root / "snap_5.ply", grid_cloud(125), [](std::size_t v) { return v % 3 == 0; });
   write(root / "snap_10.ply", grid_cloud(130));  // 10 after 4: numeric, not name order
   write(root / "snap_1_mesh.ply", {});  // a mesh by its name, never replayed as a snapshot
 
@@ -450,15 +444,7 @@ TEST(SourceSnapshots, ALabelsFileStaysAlignedWhenTheReaderLeavesAGaussianOut) {
   // Vertex 3 of ten has a NaN: the reader leaves it out, and the labels (one per vertex of
   // the file) skip its line, so every other Gaussian keeps its own label.
   const fs::path root = test::fresh_output_dir("source_snapshots/labels_dropped");
-  PlyGaussianWriteOptions ascii;
-  ascii.format = PlyFormat::Ascii;
-  auto bytes = encode_gaussian_ply(grid_cloud(10), ascii);
-  ASSERT_TRUE(bytes.ok());
-  std::string text(bytes->begin(), bytes->end());
-  std::size_t line = text.find("end_header\n") + 11;
-  for (int v = 0; v < 3; ++v) line = text.find('\n', line) + 1;
-  text.replace(line, text.find(' ', line) - line, "nan");
-  write_text(root / "scene.ply", text);
+  write_with_nans(root / "scene.ply", grid_cloud(10), [](std::size_t v) { return v == 3; });
   write_text(root / "labels.txt", "0\n1\n1\n2\n2\n2\n-1\n0\n3\n3\n");
   SnapshotOptions o;
   o.labels = root / "labels.txt";
@@ -490,17 +476,7 @@ TEST(SourceSnapshots, ALabelsFileStaysAlignedWhenTheReaderLeavesAGaussianOut) {
 
 TEST(SourceSnapshots, AFirstSnapshotWithManyNaNsIsAppliedWithoutThemHavingNothingToKeep) {
   const fs::path root = test::fresh_output_dir("source_snapshots/first_nan");
-  PlyGaussianWriteOptions ascii;
-  ascii.format = PlyFormat::Ascii;
-  auto bytes = encode_gaussian_ply(grid_cloud(30), ascii);
-  ASSERT_TRUE(bytes.ok());
-  std::string text(bytes->begin(), bytes->end());
-  std::size_t line = text.find("end_header\n") + 11;
-  for (int v = 0; v < 30; ++v) {
-    if (v % 2 == 0) text.replace(line, text.find(' ', line) - line, "nan");
-    line = text.find('\n', line) + 1;
-  }
-  write_text(root / "snap_1.ply", text);
+  write_with_nans(root / "snap_1.ply", grid_cloud(30), [](std::size_t v) { return v % 2 == 0; });
   SnapshotOptions settled;
   settled.settle_s = 0.0;
   Collect log;
