@@ -127,9 +127,8 @@ Status write_report(const fs::path& out, const nlohmann::json& s) {
         md << "\n";
       }
   }
-  // cpu_ms is the display thread's wall time per frame, its wait for frame k - N's fence
-  // included: where the device is the CPU (lavapipe), that wait is the rendering itself (the
-  // demo's p95 of 105 ms against a p50 of 2.4 ms read as display-thread spikes).
+  // Said in the report: on lavapipe the fence wait inside cpu_ms is the rendering itself, and
+  // its high percentiles otherwise read as display-thread spikes.
   md << "\n## Frame time (ms)\n\ncpu_ms: the display thread's wall time per frame, including its wait for "
         "frame k - N (N frames in flight) to finish on the device; on a CPU Vulkan device such as lavapipe that "
         "wait is the rendering itself. gpu_ms: the device's time for the frame.\n\n| | p50 | p95 | p99 |\n|---|---|---|---|\n";

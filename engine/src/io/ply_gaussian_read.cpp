@@ -7,6 +7,7 @@
 #include <string>
 #include <utility>
 
+#include "gauss/engine/kept_file_indices.h"
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/quaternion.h"
 #include "io/file_bytes.h"
@@ -265,11 +266,8 @@ void normalize_rotations(std::vector<Gaussian>& gs, PlyGaussianReport& report) {
 
 Status check_unique_ids(const std::vector<Gaussian>& gs, std::span<const std::size_t> dropped, std::string_view name) {
   std::vector<std::pair<std::uint64_t, std::size_t>> ids(gs.size());
-  std::size_t vertex = 0, d = 0;  // the file's vertex of each kept Gaussian (dropped ones skipped)
-  for (std::size_t i = 0; i < gs.size(); ++i, ++vertex) {
-    while (d < dropped.size() && dropped[d] == vertex) ++vertex, ++d;
-    ids[i] = {to_underlying(gs[i].id), vertex};
-  }
+  KeptFileIndices vertex(dropped);  // messages name the file's vertex
+  for (std::size_t i = 0; i < gs.size(); ++i) ids[i] = {to_underlying(gs[i].id), vertex.next()};
   std::sort(ids.begin(), ids.end());
   for (std::size_t i = 1; i < ids.size(); ++i)
     if (ids[i].first == ids[i - 1].first)

@@ -5,6 +5,7 @@
 #include <cstddef>
 
 #include "gauss/engine/gaussian.h"
+#include "gauss/engine/kept_file_indices.h"
 #include "gauss/engine/ply_gaussian.h"  // kQuaternionUnitTolerance
 #include "gauss/engine/quaternion.h"
 #include "gauss/engine/splat_file.h"
@@ -44,11 +45,10 @@ inline glm::vec4 rebuild_quaternion(int largest, double a, double b, double c) {
 inline void finish_quantized_scene(SplatScene& scene) {
   SplatFileReport& report = scene.report;
   std::vector<Gaussian>& gs = scene.cloud.gaussians;
-  std::size_t index = 0, d = 0;  // each Gaussian's index in the file (the records left out skipped)
-  for (std::size_t i = 0; i < gs.size(); ++i, ++index) {
-    while (d < report.dropped.size() && report.dropped[d] == index) ++index, ++d;
+  KeptFileIndices file_index(report.dropped);
+  for (std::size_t i = 0; i < gs.size(); ++i) {
     Gaussian& g = gs[i];
-    g.id = GaussianId{index};
+    g.id = GaussianId{file_index.next()};
     g.object = kNoObject;
     const glm::vec4 q = g.rotation;
     const double n2 = double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] + double(q[3]) * q[3];

@@ -4,6 +4,7 @@
 #include <string>
 #include <unordered_set>
 
+#include "gauss/engine/kept_file_indices.h"
 #include "gauss/engine/labels_io.h"
 #include "gauss/engine/scene_source.h"
 
@@ -56,14 +57,10 @@ Status apply_labels(GaussianCloud& cloud, const std::vector<std::int32_t>& label
                     const std::string& labels_name, const std::string& scene_name, std::span<const std::size_t> dropped) {
   if (auto s = check_label_count(labels, cloud.gaussians.size() + dropped.size(), labels_name, scene_name); !s)
     return s;
-  std::size_t i = 0, d = 0;  // the cloud's Gaussian, the next left-out index
-  for (std::size_t f = 0; f < labels.size(); ++f) {
-    if (d < dropped.size() && dropped[d] == f) {
-      ++d;
-      continue;
-    }
-    const std::int32_t l = labels[f];
-    cloud.gaussians[i++].object = (l < 0 || (zero_is_unlabelled && l == 0)) ? kNoObject : ObjectId{l};
+  KeptFileIndices file_index(dropped);
+  for (Gaussian& g : cloud.gaussians) {
+    const std::int32_t l = labels[file_index.next()];
+    g.object = (l < 0 || (zero_is_unlabelled && l == 0)) ? kNoObject : ObjectId{l};
   }
   return Ok{};
 }

@@ -6,8 +6,9 @@
 // The formats that quantise say how in their reader's comment; a reader never returns a
 // partial cloud, and NaN/Inf never leave it: where a format stores floats per Gaussian (the
 // INRIA PLY, .splat), a Gaussian with a non-finite value is left out and listed in the report
-// (its file index; the others keep theirs as ids), an infinite opacity logit is clamped. Errors name the input and, for truncations and impossible counts, the byte
-// offset where the data stops making sense.
+// (its file index; the others keep theirs as ids, kept_file_indices.h), an infinite opacity
+// logit is clamped. Errors name the input and, for truncations and impossible counts, the
+// byte offset where the data stops making sense.
 //
 //   InriaPly       the 3DGS trainer's PLY (ply_gaussian.h)
 //   CompressedPly  PlayCanvas compressed PLY: 256-splat chunks with min/max bounds, packed
