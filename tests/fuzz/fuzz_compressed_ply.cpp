@@ -16,9 +16,12 @@
 #include <span>
 #include <string>
 
+#include "fuzz_target.h"
 #include "gauss/engine/splat_file.h"
 
-namespace {
+// A named namespace, not an anonymous one: fuzz_replay compiles the targets in unity
+// batches, where two files' helpers of the same name would clash.
+namespace fuzz_compressed_ply {
 
 using gauss::finite3;
 
@@ -55,11 +58,11 @@ void check(const gauss::Expected<gauss::SplatScene>& scene, const std::string& n
   }
 }
 
-}  // namespace
-
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+GAUSS_FUZZ_TARGET(compressed_ply) {
   const std::span<const std::uint8_t> bytes(data, size);
   check(gauss::parse_compressed_ply(bytes, "fuzz.ply"), "fuzz.ply");
   check(gauss::parse_sog_zip(bytes, "fuzz.sog"), "fuzz.sog");
   return 0;
 }
+
+}  // namespace fuzz_compressed_ply

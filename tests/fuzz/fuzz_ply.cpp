@@ -11,10 +11,13 @@
 #include <cstring>
 #include <span>
 
+#include "fuzz_target.h"
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/ply_mesh.h"
 
-namespace {
+// A named namespace, not an anonymous one: fuzz_replay compiles the targets in unity
+// batches, where two files' helpers of the same name would clash.
+namespace fuzz_ply {
 
 [[noreturn]] void fail(const char* what) {
   std::fprintf(stderr, "fuzz_ply invariant violated: %s\n", what);
@@ -81,11 +84,11 @@ void fuzz_mesh(std::span<const std::uint8_t> bytes) {
     fail("mesh changed in the round trip");
 }
 
-}  // namespace
-
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+GAUSS_FUZZ_TARGET(ply) {
   const std::span<const std::uint8_t> bytes(data, size);
   fuzz_gaussians(bytes);
   fuzz_mesh(bytes);
   return 0;
 }
+
+}  // namespace fuzz_ply

@@ -12,10 +12,13 @@
 #include <cstdlib>
 #include <span>
 
+#include "fuzz_target.h"
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/splat_file.h"
 
-namespace {
+// A named namespace, not an anonymous one: fuzz_replay compiles the targets in unity
+// batches, where two files' helpers of the same name would clash.
+namespace fuzz_splat_file {
 
 using gauss::finite3;
 
@@ -51,9 +54,7 @@ void check_scene(const gauss::SplatScene& s) {
   if (!back.ok() || back->cloud.gaussians.size() != c.gaussians.size()) fail("the written PLY does not read back");
 }
 
-}  // namespace
-
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+GAUSS_FUZZ_TARGET(splat_file) {
   const std::span<const std::uint8_t> bytes(data, size);
   auto scene = gauss::parse_splat_file(bytes, "fuzz.splat");
   if (!scene.ok()) {
@@ -63,3 +64,5 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   check_scene(*scene);
   return 0;
 }
+
+}  // namespace fuzz_splat_file

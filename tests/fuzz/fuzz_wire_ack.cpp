@@ -1,6 +1,6 @@
 // Fuzz target: the Ack body decoder (see fuzz_wire_common.h for the invariants).
 #include "fuzz_wire_common.h"
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+GAUSS_FUZZ_TARGET(wire_ack) {
   return gauss::fuzz::fuzz_body<gauss::msg::Ack>(data, size, gauss::wire::decode_ack);
 }

@@ -13,6 +13,7 @@
 #include <span>
 #include <type_traits>
 
+#include "fuzz_target.h"
 #include "gauss/engine/wire.h"
 
 namespace gauss::fuzz {

@@ -10,7 +10,9 @@
 #include "fuzz_wire_common.h"
 #include "gauss/engine/codec.h"
 
-namespace {
+// A named namespace, not an anonymous one: fuzz_replay compiles the targets in unity
+// batches, where two files' helpers of the same name would clash.
+namespace fuzz_wire_edit_batch {
 
 void check_codec(const std::vector<std::uint8_t>& payload) {
   for (int degree = 0; degree <= gauss::kMaxShDegree; ++degree) {
@@ -40,10 +42,10 @@ void check_codec(const std::vector<std::uint8_t>& payload) {
   }
 }
 
-}  // namespace
-
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+GAUSS_FUZZ_TARGET(wire_edit_batch) {
   if (auto m = gauss::fuzz::fuzz_decode<gauss::msg::EditBatchMsg>(data, size, gauss::wire::decode_edit_batch_msg))
     check_codec(m->payload);
   return 0;
 }
+
+}  // namespace fuzz_wire_edit_batch

@@ -2,7 +2,7 @@
 // An accepted frame must re-encode to the same bytes (SurfacePatch: same content).
 #include "fuzz_wire_common.h"
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+GAUSS_FUZZ_TARGET(wire_frame) {
   const std::span<const std::uint8_t> frame(data, size);
   auto decoded = gauss::wire::decode(frame);
   if (!gauss::fuzz::accepted(decoded)) return 0;

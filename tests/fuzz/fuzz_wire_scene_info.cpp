@@ -1,6 +1,6 @@
 // Fuzz target: the SceneInfo body decoder (see fuzz_wire_common.h for the invariants).
 #include "fuzz_wire_common.h"
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+GAUSS_FUZZ_TARGET(wire_scene_info) {
   return gauss::fuzz::fuzz_body<gauss::msg::SceneInfo>(data, size, gauss::wire::decode_scene_info);
 }
