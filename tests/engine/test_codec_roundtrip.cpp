@@ -387,6 +387,59 @@ TEST(CodecRoundtrip, FitParamsCoverTheScene) {
   EXPECT_FALSE(validate_codec_params(bad).ok());
 }
 
+TEST(CodecRoundtrip, FitParamsTakeTheExactQuantiles) {
+  // fit_codec_params finds the SH rest quantile by counting float bits and the log-scale
+  // range by a scan; both must be what selecting over the collected values gives. Zeros,
+  // -0, ties, NaN and Inf (left out), tiny and huge values, at every SH degree.
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (int degree = 1; degree <= 3; ++degree) {
+    for (int round = 0; round < 3; ++round) {
+      std::vector<Gaussian> scene(round == 0 ? 1 : 3000);
+      for (Gaussian& g : scene) {
+        g.log_scale = {u(rng) * 4.0f, u(rng) * 4.0f, u(rng) * 4.0f};
+        for (int k = 0; k < sh_rest_count(degree); ++k)
+          for (int c = 0; c < 3; ++c) {
+            float x = u(rng) * (round == 2 ? 1e-30f : 0.5f);
+            switch (rng() % 16) {
+              case 0: x = 0.0f; break;
+              case 1: x = -0.0f; break;
+              case 2: x = 0.25f; break;  // ties
+              case 3: x = std::numeric_limits<float>::quiet_NaN(); break;
+              case 4: x = -std::numeric_limits<float>::infinity(); break;
+              case 5: x = 3e38f; break;
+              default: break;
+            }
+            g.sh_rest[static_cast<std::size_t>(k)][c] = x;
+          }
+      }
+      scene[0].log_scale.y = std::numeric_limits<float>::quiet_NaN();
+      std::vector<float> abs_rest, scales;
+      for (const Gaussian& g : scene) {
+        for (int k = 0; k < sh_rest_count(degree); ++k)
+          for (int c = 0; c < 3; ++c)
+            if (std::isfinite(g.sh_rest[static_cast<std::size_t>(k)][c]))
+              abs_rest.push_back(std::fabs(g.sh_rest[static_cast<std::size_t>(k)][c]));
+        for (int a = 0; a < 3; ++a)
+          if (std::isfinite(g.log_scale[a])) scales.push_back(g.log_scale[a]);
+      }
+      const CodecParams p = fit_codec_params(scene, degree);
+      if (abs_rest.empty()) {
+        EXPECT_EQ(p.sh_rest_abs_max, CodecParams{}.sh_rest_abs_max);
+      } else {
+        const auto k = static_cast<std::size_t>(0.9995 * static_cast<double>(abs_rest.size() - 1));
+        std::nth_element(abs_rest.begin(), abs_rest.begin() + static_cast<std::ptrdiff_t>(k), abs_rest.end());
+        EXPECT_EQ(p.sh_rest_abs_max, std::max(abs_rest[k], 1e-3f)) << "degree " << degree << ", round " << round;
+      }
+      const auto [lo, hi] = std::minmax_element(scales.begin(), scales.end());
+      const bool narrow = !(*hi - *lo >= 1.0f);
+      const float mid = 0.5f * (*lo + *hi);
+      EXPECT_EQ(p.log_scale_min, narrow ? mid - 0.5f : *lo);
+      EXPECT_EQ(p.log_scale_max, narrow ? mid + 0.5f : *hi);
+    }
+  }
+}
+
 TEST(CodecHostile, TruncatedAndCorruptPayloadsAreRejected) {
   std::mt19937_64 rng(13);
   const CodecParams p = test_params(1);
