@@ -1,5 +1,6 @@
 #include "gauss/engine/system_memory.h"
 
+#include <sys/mman.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -190,6 +191,20 @@ std::optional<std::size_t> cgroup_headroom_below(const std::filesystem::path& mo
 
 std::string MemoryHeadroom::text() const {
   return "this process can have " + format_bytes(bytes) + " more (" + std::string(bound) + ")";
+}
+
+void advise_huge_pages(void* p, std::size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
+  if (p == nullptr || bytes < (std::size_t{4} << 20)) return;
+  const auto begin = reinterpret_cast<std::uintptr_t>(p);
+  const std::uintptr_t first = (begin + kHuge - 1) & ~(kHuge - 1);
+  const std::uintptr_t last = (begin + bytes) & ~(kHuge - 1);
+  if (last > first) (void)madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
+#else
+  (void)p;
+  (void)bytes;
+#endif
 }
 
 std::optional<MemoryHeadroom> memory_headroom() {

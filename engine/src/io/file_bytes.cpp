@@ -9,6 +9,7 @@
 #include <string>
 #include <system_error>
 
+#include "gauss/engine/system_memory.h"
 #include "io/memory_room.h"
 
 namespace gauss::io {
@@ -38,6 +39,8 @@ Expected<std::vector<std::uint8_t>> read_file_bytes(const std::filesystem::path&
   if (auto s = check_memory_room(static_cast<std::size_t>(size), path.string(), "its bytes"); !s) return s.error();
   std::vector<std::uint8_t> bytes;
   try {
+    bytes.reserve(static_cast<std::size_t>(size));
+    advise_huge_pages(bytes.data(), bytes.capacity());  // see resize_cloud
     bytes.resize(static_cast<std::size_t>(size));
   } catch (const std::bad_alloc&) {
     return file_error(path, "not enough memory: its " + std::to_string(size) + " bytes could not be allocated");
