@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <random>
 #include <span>
 #include <string>
 #include <vector>
@@ -125,6 +126,52 @@ TEST(RobustBounds, CountIsTheOrderStatistic) {
   const RobustBounds c = robust_bounds(gs, BoundsWeighting::Count);
   EXPECT_EQ(c.lo, glm::dvec3(2.0, 4.0, 5.0));
   EXPECT_EQ(c.hi, glm::dvec3(97.0, 194.0, 5.0));
+}
+
+TEST(RobustBounds, WeightedIsTheFullSortsWalk) {
+  // robust_bounds orders only the 2 % tails it walks; its box must be the one a walk over
+  // each axis sorted whole gives. Distinct coordinates (ties would fall in either order),
+  // weights from ~0 to 1, including scenes whose tails hold most of the weight in few
+  // centres far from their count's 2 % (the partial order has to grow), and tiny scenes.
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (int round = 0; round < 12; ++round) {
+    const int n = round < 3 ? round + 1 : 500 + 3000 * round;
+    std::vector<Gaussian> gs;
+    for (int i = 0; i < n; ++i) {
+      // Centres on a grid of distinct values per axis (a shuffled index), logits -12..6;
+      // in odd rounds the high-index centres are nearly transparent, so the weight sits
+      // in a few hundred opaque ones at the low end.
+      const float x = float(i), y = float((i * 7919) % n), z = float((i * 104729) % n);
+      float logit = -12.0f + 18.0f * u(rng);
+      if (round % 2 == 1) logit = i < 200 ? 6.0f : -20.0f;
+      gs.push_back(at({x, y, z}, logit));
+    }
+    std::shuffle(gs.begin(), gs.end(), rng);
+    const RobustBounds b = robust_bounds(gs);
+    ASSERT_TRUE(b.opacity_weighted);
+    double total = 0.0;
+    for (const Gaussian& g : gs) total += 1.0 / (1.0 + std::exp(-double(g.opacity_logit)));
+    for (int a = 0; a < 3; ++a) {
+      std::vector<std::pair<float, double>> axis;
+      for (const Gaussian& g : gs) axis.push_back({g.position[a], 1.0 / (1.0 + std::exp(-double(g.opacity_logit)))});
+      std::sort(axis.begin(), axis.end());
+      double cum = 0.0;
+      std::size_t lo = 0;
+      for (; lo + 1 < axis.size(); ++lo) {
+        cum += axis[lo].second;
+        if (cum > kRobustLowQuantile * total) break;
+      }
+      cum = 0.0;
+      std::size_t hi = axis.size() - 1;
+      for (; hi > lo; --hi) {
+        cum += axis[hi].second;
+        if (cum > (1.0 - kRobustHighQuantile) * total) break;
+      }
+      EXPECT_EQ(b.lo[a], axis[lo].first) << "round " << round << ", axis " << a;
+      EXPECT_EQ(b.hi[a], axis[hi].first) << "round " << round << ", axis " << a;
+    }
+  }
 }
 
 TEST(RobustBounds, NonFiniteCentresAreLeftOut) {
