@@ -239,6 +239,11 @@ Status LodEpochHierarchy::prepare_job(const SceneStore& scene, const Filter& fil
   // The whole span, not the eligible ones alone: the hierarchy remembers where each leaf was
   // in it (leaf_source), which the cut hands on as the leaf's place in the scene.
   if (copy_span) {
+    if (gaussians.size() > job.gaussians.capacity()) {  // fresh room: on huge pages (system_memory.h)
+      job.gaussians.clear();
+      job.gaussians.reserve(gaussians.size());
+      advise_huge_pages(job.gaussians.data(), job.gaussians.capacity() * sizeof(Gaussian));
+    }
     job.gaussians.assign(gaussians.begin(), gaussians.end());
     job.span = job.gaussians;
   } else {
