@@ -5,6 +5,7 @@
 // must each put at least 60 % of their opacity-weighted centres in view.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -142,7 +143,7 @@ TEST(RobustBounds, WeightedIsTheFullSortsWalk) {
       // Centres on a grid of distinct values per axis (a shuffled index), logits -12..6;
       // in odd rounds the high-index centres are nearly transparent, so the weight sits
       // in a few hundred opaque ones at the low end.
-      const float x = float(i), y = float((i * 7919) % n), z = float((i * 104729) % n);
+      const float x = float(i), y = float(std::int64_t{i} * 7919 % n), z = float(std::int64_t{i} * 104729 % n);
       float logit = -12.0f + 18.0f * u(rng);
       if (round % 2 == 1) logit = i < 200 ? 6.0f : -20.0f;
       gs.push_back(at({x, y, z}, logit));
