@@ -29,6 +29,7 @@
 #include "gauss/engine/ply_gaussian.h"
 #include "gauss/engine/scene_framing.h"
 #include "gauss/engine/scene_up.h"
+#include "nan_ply.h"
 #include "test_data.h"
 #include "text_file.h"
 
@@ -219,14 +220,8 @@ TEST(ViewDefaultCamera, DegenerateScenesGetAFiniteCamera) {
 
   // One NaN among 123 Gaussians (a trainer that diverged once): the scene opens without it,
   // and the viewer says which one it left out.
-  gauss::PlyGaussianWriteOptions ascii;
-  ascii.format = gauss::PlyFormat::Ascii;
-  auto bytes = gauss::encode_gaussian_ply(y_down_column(), ascii);
-  ASSERT_TRUE(bytes.ok());
-  std::string text(bytes->begin(), bytes->end());
-  std::size_t line = text.find("end_header\n") + 11;
-  for (int v = 0; v < 5; ++v) line = text.find('\n', line) + 1;
-  text.replace(line, text.find(' ', line) - line, "nan");
+  const std::string text = gauss::test::ascii_ply_with_nans(y_down_column(), [](std::size_t v) { return v == 5; });
+  ASSERT_FALSE(text.empty());
   std::ofstream(out / "one_nan.ply") << text;
   const ViewRun one_nan = run_view(out, "one_nan", {"--scene", (out / "one_nan.ply").string(), "--headless", "--size",
                                                    "96x64", "--out", (out / "one_nan").string()});

@@ -17,6 +17,7 @@
 #include "gauss/engine/ply_mesh.h"
 #include "gauss/engine/scene_source.h"
 #include "address_space_limit.h"
+#include "nan_ply.h"
 #include "test_data.h"
 
 namespace gauss {
@@ -52,16 +53,8 @@ void write_text(const fs::path& p, const std::string& text) {
 // `cloud` as an ASCII PLY whose vertices v with nan_at(v) have x = nan (a trainer's NaN).
 template <class NanAt>
 void write_with_nans(const fs::path& p, const GaussianCloud& cloud, NanAt nan_at) {
-  PlyGaussianWriteOptions o;
-  o.format = PlyFormat::Ascii;
-  auto bytes = encode_gaussian_ply(cloud, o);
-  ASSERT_TRUE(bytes.ok()) << bytes.message();
-  std::string text(bytes->begin(), bytes->end());
-  std::size_t line = text.find("end_header\n") + 11;
-  for (std::size_t v = 0; v < cloud.gaussians.size(); ++v) {
-    if (nan_at(v)) text.replace(line, text.find(' ', line) - line, "nan");
-    line = text.find('\n', line) + 1;
-  }
+  const std::string text = test::ascii_ply_with_nans(cloud, nan_at);
+  ASSERT_FALSE(text.empty());
   write_text(p, text);
 }
 
