@@ -414,12 +414,8 @@ CodecParams fit_codec_params(std::span<const Gaussian> gaussians, int sh_degree)
     p.box.min = lo - pad;
     p.box.max = hi + pad;
   }
-  auto fit = [&](auto&& extract, float& out_lo, float& out_hi, float min_span, double q_lo, double q_hi) {
-    v.clear();
-    for (const Gaussian& g : gaussians) extract(g, v);
-    if (v.empty()) return;
-    float a = quantile(v, q_lo, out_lo);
-    float b = quantile(v, q_hi, out_hi);
+  // [a, b] widened about its middle to at least min_span.
+  auto set_range = [](float a, float b, float min_span, float& out_lo, float& out_hi) {
     if (!(b - a >= min_span)) {
       const float mid = 0.5f * (a + b);
       a = mid - 0.5f * min_span;
@@ -429,7 +425,7 @@ CodecParams fit_codec_params(std::span<const Gaussian> gaussians, int sh_degree)
     out_hi = b;
   };
   {
-    // The exact range (quantiles 0 and 1), widened to 1 like fit()'s ranges.
+    // The exact range (quantiles 0 and 1): a min/max scan.
     float a = std::numeric_limits<float>::max(), b = std::numeric_limits<float>::lowest();
     for (const Gaussian& g : gaussians)
       for (int i = 0; i < 3; ++i)
@@ -437,22 +433,12 @@ CodecParams fit_codec_params(std::span<const Gaussian> gaussians, int sh_degree)
           a = std::min(a, g.log_scale[i]);
           b = std::max(b, g.log_scale[i]);
         }
-    if (a <= b) {
-      if (!(b - a >= 1.0f)) {
-        const float mid = 0.5f * (a + b);
-        a = mid - 0.5f;
-        b = mid + 0.5f;
-      }
-      p.log_scale_min = a;
-      p.log_scale_max = b;
-    }
+    if (a <= b) set_range(a, b, 1.0f, p.log_scale_min, p.log_scale_max);
   }
-  fit(
-      [](const Gaussian& g, std::vector<float>& out) {
-        for (int c = 0; c < 3; ++c)
-          if (std::isfinite(g.sh_dc[c])) out.push_back(g.sh_dc[c]);
-      },
-      p.dc_min, p.dc_max, 0.5f, kLo, kHi);
+  for (const Gaussian& g : gaussians)
+    for (int c = 0; c < 3; ++c)
+      if (std::isfinite(g.sh_dc[c])) v.push_back(g.sh_dc[c]);
+  if (!v.empty()) set_range(quantile(v, kLo, p.dc_min), quantile(v, kHi, p.dc_max), 0.5f, p.dc_min, p.dc_max);
   if (p.sh_degree > 0)
     p.sh_rest_abs_max =
         std::max(sh_rest_abs_quantile(gaussians, sh_rest_count(p.sh_degree), kHi, p.sh_rest_abs_max), 1e-3f);

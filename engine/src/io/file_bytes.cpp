@@ -40,7 +40,7 @@ Expected<std::vector<std::uint8_t>> read_file_bytes(const std::filesystem::path&
   std::vector<std::uint8_t> bytes;
   try {
     bytes.reserve(static_cast<std::size_t>(size));
-    advise_huge_pages(bytes.data(), bytes.capacity());  // see resize_cloud
+    advise_huge_pages_for_room(bytes);  // see resize_cloud
     bytes.resize(static_cast<std::size_t>(size));
   } catch (const std::bad_alloc&) {
     return file_error(path, "not enough memory: its " + std::to_string(size) + " bytes could not be allocated");

@@ -24,7 +24,7 @@ Status resize_cloud(std::vector<Gaussian>& gs, std::size_t count, std::string_vi
       // Reserved first and advised onto huge pages before resize() writes it: at 1M
       // Gaussians (264 MB) most of a PLY's load was the page faults of this first write.
       gs.reserve(count);
-      advise_huge_pages(gs.data() + gs.size(), (count - gs.size()) * sizeof(Gaussian));
+      advise_huge_pages_for_room(gs);
     }
     gs.resize(count);
   } catch (const std::bad_alloc&) {

@@ -242,7 +242,7 @@ Status LodEpochHierarchy::prepare_job(const SceneStore& scene, const Filter& fil
     if (gaussians.size() > job.gaussians.capacity()) {  // fresh room: on huge pages (system_memory.h)
       job.gaussians.clear();
       job.gaussians.reserve(gaussians.size());
-      advise_huge_pages(job.gaussians.data(), job.gaussians.capacity() * sizeof(Gaussian));
+      advise_huge_pages_for_room(job.gaussians);
     }
     job.gaussians.assign(gaussians.begin(), gaussians.end());
     job.span = job.gaussians;

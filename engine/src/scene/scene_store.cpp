@@ -300,6 +300,7 @@ Status SceneStore::reserve(std::size_t span) {
   }
   // Each reserve leaves its container as it was when it throws; those that succeeded only
   // hold spare capacity.
+  const Gaussian* before = gaussians_.data();
   try {
     gaussians_.reserve(room);
     pending_.reserve(room);
@@ -308,9 +309,9 @@ Status SceneStore::reserve(std::size_t span) {
   } catch (const std::bad_alloc&) {
     return refuse("and allocating it failed");
   }
-  // The room not written yet goes on huge pages where it is fresh (a first snapshot's whole
-  // span): most of a 1M-Gaussian scene's insertion was page faults (system_memory.h).
-  advise_huge_pages(gaussians_.data() + gaussians_.size(), (gaussians_.capacity() - gaussians_.size()) * sizeof(Gaussian));
+  // Fresh room (the span moved: a first snapshot's whole span) goes on huge pages: most of a
+  // 1M-Gaussian scene's insertion was page faults (system_memory.h).
+  if (gaussians_.data() != before) advise_huge_pages_for_room(gaussians_);
   return Ok{};
 }
 

@@ -12,14 +12,12 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
 #include <cstdlib>
 #include <new>
 
 #include "gauss/engine/slot_table.h"
 #include "gauss/engine/log_text.h"
+#include "gauss/engine/system_memory.h"
 
 namespace gauss {
 
@@ -35,9 +33,7 @@ void* alloc_table(std::size_t bytes, std::size_t align) {
   const std::size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;
   void* p = std::aligned_alloc(kHugePage, rounded);
   if (!p) throw std::bad_alloc();
-#if defined(__linux__)
-  (void)madvise(p, rounded, MADV_HUGEPAGE);  // advice only: ordinary pages if refused
-#endif
+  advise_huge_pages(p, rounded);  // advice only: ordinary pages if refused
   return p;
 }
 

@@ -13,6 +13,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace gauss {
 
@@ -38,6 +39,12 @@ std::optional<MemoryHeadroom> memory_headroom();
 // 4 KiB pages took 1.05-1.23 s and on huge pages 37 ms, and a 1M-Gaussian PLY spent most of
 // its load in page faults. Advice only: ordinary pages where the kernel declines.
 void advise_huge_pages(void* p, std::size_t bytes);
+// advise_huge_pages for the room `v` has reserved past its size (what a resize or the
+// appends after a reserve() will write first).
+template <class T, class Alloc>
+void advise_huge_pages_for_room(std::vector<T, Alloc>& v) {
+  advise_huge_pages(v.data() + v.size(), (v.capacity() - v.size()) * sizeof(T));
+}
 
 // The pieces memory_headroom() reads, apart so that a test can give them any text.
 //
