@@ -109,23 +109,33 @@ Status write_report(const fs::path& out, const nlohmann::json& s) {
     } else {
       md << "- no query active at the end\n";
     }
-    if (s.contains("query_latency_s"))
+    if (s.contains("query_latency_s") && !s["query_latency_s"].empty()) {
+      // What each stage is: "converged" is the published set, "highlight" a drawn frame, so
+      // with frames in flight the second can come after the first.
+      md << "- seconds from sending a query to: targets known (the host's answer), highlight (the "
+            "first frame drawn with the tint), first additional content (more of the targets published), "
+            "converged (every target Gaussian the budget wants published; drawn a frame or two later)\n";
+      const std::pair<const char*, const char*> labels[] = {{"target", "targets known"},
+                                                            {"highlight", "highlight"},
+                                                            {"first_additional", "first additional content"},
+                                                            {"converged", "converged"}};
       for (const auto& [id, stages] : s["query_latency_s"].items()) {
         md << "- query " << id << ":";
-        // In the order they happen (a JSON object lists its keys alphabetically).
-        const std::pair<const char*, const char*> order[] = {{"target", "targets known"},
-                                                             {"highlight", "highlight"},
-                                                             {"first_additional", "first additional content"},
-                                                             {"converged", "converged"}};
+        // In the order they happened (a JSON object lists its keys alphabetically).
+        std::vector<std::pair<double, const char*>> happened;
+        for (const auto& [key, label] : labels)
+          if (stages.contains(key) && stages[key].is_number()) happened.emplace_back(stages[key].get<double>(), label);
+        std::stable_sort(happened.begin(), happened.end(),
+                         [](const auto& a, const auto& b) { return a.first < b.first; });
         const char* sep = " ";
-        for (const auto& [key, label] : order)
-          if (stages.contains(key)) {
-            md << sep << label << " " << num(stages[key], 2) << " s";
-            sep = "; ";
-          }
+        for (const auto& [t, label] : happened) {
+          md << sep << label << " " << num(t, 2) << " s";
+          sep = "; ";
+        }
         if (stages.empty()) md << " no stage recorded under this id (a query re-sent after a reconnect takes a new id)";
         md << "\n";
       }
+    }
   }
   // Said in the report: on lavapipe the fence wait inside cpu_ms is the rendering itself, and
   // its high percentiles otherwise read as display-thread spikes.
