@@ -25,6 +25,7 @@ void LodHierarchy::clear_pools() {
   nodes_.clear();
   free_nodes_.clear();
   children_.clear();
+  children_spare_.clear();
   children_garbage_ = 0;
   leaf_fields_.clear();
   leaf_rest_.clear();

@@ -531,8 +531,8 @@ void LodHierarchy::fix_cube(const glm::dvec3& lo, const glm::dvec3& hi) {
 
 std::size_t LodHierarchy::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(typename std::decay_t<decltype(v)>::value_type); };
-  return bytes(nodes_) + bytes(free_nodes_) + bytes(children_) + bytes(leaf_fields_) + bytes(leaf_rest_) +
-         bytes(leaf_source_) + bytes(input_nodes_) + bytes(free_leaf_slots_) + leaf_index_.bytes() + bytes(records_) +
+  return bytes(nodes_) + bytes(free_nodes_) + bytes(children_) + bytes(children_spare_) + bytes(leaf_fields_) +
+         bytes(leaf_rest_) + bytes(leaf_source_) + bytes(input_nodes_) + bytes(free_leaf_slots_) + leaf_index_.bytes() + bytes(records_) +
          bytes(moments_) + bytes(moments_rest_) + bytes(keys_) + bytes(free_interior_slots_) + bytes(order_) +
          bytes(order_scratch_) + bytes(touch_stamp_) + bytes(group_roots_);
 }
@@ -541,13 +541,14 @@ std::size_t LodHierarchy::bytes_for(std::size_t leaves, int sh_degree) {
   const std::size_t rc = std::size_t(sh_rest_count(std::clamp(sh_degree, 0, kMaxShDegree)));
   // A leaf: its node and stamp, fields and SH rest, source and input place, the id index's
   // cells (at most 4 per id: the table doubles past half full), two order entries and its
-  // place in a children run (with garbage); while building, the sort's scratch and pointers.
+  // place in a children run (with garbage, and the compaction's spare buffer); while
+  // building, the sort's scratch and pointers.
   const std::size_t leaf = sizeof(LodNode) + 4 + sizeof(LeafFields) + rc * sizeof(glm::vec3) + 4 + 4 +
-                           4 * detail::IdIndex::kCellBytes + 2 * sizeof(Entry) + 8 + 60;
+                           4 * detail::IdIndex::kCellBytes + 2 * sizeof(Entry) + 16 + 60;
   // An interior node: its node and stamp, record, moments and their SH rest, key and place
-  // in a children run.
+  // in a children run (as a leaf's).
   const std::size_t interior = sizeof(LodNode) + 4 + sizeof(Gaussian) + sizeof(LodMoments) +
-                               rc * sizeof(glm::dvec3) + sizeof(InteriorKey) + 8;
+                               rc * sizeof(glm::dvec3) + sizeof(InteriorKey) + 16;
   return leaves * leaf + leaves / 2 * interior;
 }
 
@@ -565,15 +566,19 @@ void LodHierarchy::next_generation() {
 }
 
 void LodHierarchy::compact_children() {
-  Pool<std::uint32_t> packed;
-  packed.reserve(children_.size() - children_garbage_);
+  // Into the spare buffer, with room for as many runs again as stay live: the updates until
+  // the next compaction (at garbage > half) then append without reallocating.
+  const std::size_t live = children_.size() - children_garbage_;
+  children_spare_.clear();
+  children_spare_.reserve(2 * live + 4096);
   for (LodNode& n : nodes_) {
     if (!n.live || n.leaf) continue;
-    const std::uint32_t first = std::uint32_t(packed.size());
-    packed.insert(packed.end(), children_.begin() + n.first_child, children_.begin() + n.first_child + n.child_count);
+    const std::uint32_t first = std::uint32_t(children_spare_.size());
+    children_spare_.insert(children_spare_.end(), children_.begin() + n.first_child,
+                           children_.begin() + n.first_child + n.child_count);
     n.first_child = first;
   }
-  children_.swap(packed);
+  children_.swap(children_spare_);
   children_garbage_ = 0;
 }
 

@@ -307,6 +307,10 @@ class LodHierarchy {
   std::vector<std::uint32_t> free_nodes_;
   Pool<std::uint32_t> children_;
   std::size_t children_garbage_{0};
+  // compact_children()'s other buffer, kept with its capacity: every update appends its
+  // nodes' runs to children_, so without it each compaction's exact-size copy grew again
+  // (a reallocation onto fresh, zeroed pages) within a few updates.
+  Pool<std::uint32_t> children_spare_;
   // Leaf slots (node.data of a leaf): fields and SH rest (rest_count_ triples per slot).
   Pool<LeafFields> leaf_fields_;
   Pool<glm::vec3> leaf_rest_;
