@@ -34,7 +34,6 @@ void LodHierarchy::clear_pools() {
   leaf_index_ = detail::IdIndex{};
   records_.clear();
   moments_.clear();
-  moments_rest_.clear();
   keys_.clear();
   free_interior_slots_.clear();
   interior_live_ = 0;
@@ -177,7 +176,6 @@ Expected<LodUpdateReport> LodHierarchy::build_from_empty(std::span<const Gaussia
   records_.reserve(leaves / 2);
   moments_.reserve(leaves / 2);
   keys_.reserve(leaves / 2);
-  moments_rest_.reserve(leaves / 2 * rc);
   children_.reserve(leaves + leaves / 2);
   std::vector<std::pair<std::uint32_t, std::uint64_t>> dirty;  // one (tree, any code) per tree
   for (std::uint32_t t : tree_at) dirty.emplace_back(t, 0);

@@ -533,7 +533,7 @@ std::size_t LodHierarchy::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(typename std::decay_t<decltype(v)>::value_type); };
   return bytes(nodes_) + bytes(free_nodes_) + bytes(children_) + bytes(children_spare_) + bytes(leaf_fields_) +
          bytes(leaf_rest_) + bytes(leaf_source_) + bytes(input_nodes_) + bytes(free_leaf_slots_) + leaf_index_.bytes() + bytes(records_) +
-         bytes(moments_) + bytes(moments_rest_) + bytes(keys_) + bytes(free_interior_slots_) + bytes(order_) +
+         bytes(moments_) + bytes(keys_) + bytes(free_interior_slots_) + bytes(order_) +
          bytes(order_scratch_) + bytes(touch_stamp_) + bytes(group_roots_);
 }
 
@@ -545,10 +545,9 @@ std::size_t LodHierarchy::bytes_for(std::size_t leaves, int sh_degree) {
   // building, the sort's scratch and pointers.
   const std::size_t leaf = sizeof(LodNode) + 4 + sizeof(LeafFields) + rc * sizeof(glm::vec3) + 4 + 4 +
                            4 * detail::IdIndex::kCellBytes + 2 * sizeof(Entry) + 16 + 60;
-  // An interior node: its node and stamp, record, moments and their SH rest, key and place
-  // in a children run (as a leaf's).
-  const std::size_t interior = sizeof(LodNode) + 4 + sizeof(Gaussian) + sizeof(LodMoments) +
-                               rc * sizeof(glm::dvec3) + sizeof(InteriorKey) + 16;
+  // An interior node: its node and stamp, record, moments, key and place in a children run
+  // (as a leaf's).
+  const std::size_t interior = sizeof(LodNode) + 4 + sizeof(Gaussian) + sizeof(LodMoments) + sizeof(InteriorKey) + 16;
   return leaves * leaf + leaves / 2 * interior;
 }
 

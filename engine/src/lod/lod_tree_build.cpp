@@ -205,7 +205,7 @@ void LodHierarchy::warm_leaves(std::span<const Entry> items) const {
   for (const Entry& e : items) {
     const std::uint32_t slot = nodes_[e.node].data;
     acc += leaf_fields_[slot].support;
-    if (rc > 0) acc += std::bit_cast<std::uint32_t>(leaf_rest_[std::size_t(slot) * rc].x);
+    if (rc > 0) touch_lines(leaf_rest_.data() + std::size_t(slot) * rc, rc * sizeof(glm::vec3), acc);
   }
   lod_detail::keep(acc);
 }
@@ -230,14 +230,12 @@ void LodHierarchy::warm_merges(std::span<const std::uint32_t> nodes) const {
   const std::size_t rc = std::size_t(rest_count_);
   for (std::uint32_t n : nodes) {
     const LodNode& w = nodes_[n];
-    if (rc > 0)
-      touch_lines(moments_rest_.data() + std::size_t(w.data) * rc, rc * sizeof(glm::dvec3), acc);
     for (std::uint32_t i = 0; i < w.child_count; ++i) {
       const LodNode& k = nodes_[children_[w.first_child + i]];
       if (!k.leaf) {
         acc += keys_[k.data].level;
         touch_lines(&moments_[k.data], sizeof(LodMoments), acc);
-        if (rc > 0) touch_lines(moments_rest_.data() + std::size_t(k.data) * rc, rc * sizeof(glm::dvec3), acc);
+        if (rc > 0) touch_lines(records_[k.data].sh_rest.data(), std::size_t(rc) * sizeof(glm::vec3), acc);
         continue;
       }
       acc += leaf_fields_[k.data].support;
@@ -286,9 +284,11 @@ void LodHierarchy::warm_descent(std::span<const Entry> leaving) {
 void LodHierarchy::node_moments(std::uint32_t node, LodMoments& m, std::span<glm::dvec3> rest) const {
   const LodNode& n = nodes_[node];
   if (!n.leaf) {
+    // Its SH rest as its record holds it (floats): the record is what a parent's appearance
+    // averages, in a full build and in an update alike.
     m = moments_[n.data];
-    std::copy_n(moments_rest_.begin() + std::ptrdiff_t(std::size_t(n.data) * std::size_t(rest_count_)),
-                rest_count_, rest.begin());
+    const Gaussian& r = records_[n.data];
+    for (int k = 0; k < rest_count_; ++k) rest[std::size_t(k)] = glm::dvec3(r.sh_rest[std::size_t(k)]);
     return;
   }
   leaf_slot_moments(n.data, m, rest.data());
@@ -320,7 +320,6 @@ std::uint32_t LodHierarchy::make_interior(TreeBuild& b, int level, std::uint64_t
       records_.emplace_back();
       moments_.emplace_back();
       keys_.emplace_back();
-      moments_rest_.resize(moments_rest_.size() + std::size_t(rest_count_));
     }
     keys_[slot] = InteriorKey{b.tree, std::uint8_t(level), 0, prefix};
     nodes_[node].id = GaussianId{kLodInteriorIdBit | next_serial_++};
@@ -388,9 +387,9 @@ void LodHierarchy::merge_kids(TreeBuild& b, std::uint32_t node, bool kept, const
     hi = glm::max(hi, k.centre + k.radius);
   }
   const LodMoments before = moments_[slot];
-  combine_moments(*b.moments, *b.rest, rest_count_, moments_[slot],
-                  std::span<glm::dvec3>(moments_rest_).subspan(std::size_t(slot) * rc, rc));
-  const auto rest = std::span<const glm::dvec3>(moments_rest_).subspan(std::size_t(slot) * rc, rc);
+  std::array<glm::dvec3, kMaxShRest> rest_moments;
+  const auto rest = std::span<glm::dvec3>(rest_moments).first(rc);
+  combine_moments(*b.moments, *b.rest, rest_count_, moments_[slot], rest);
   Gaussian rec;
   if (kept && same_geometry(before, moments_[slot])) {
     rec = old_record;  // a recolouring: the eigen decomposition would give what it gave
