@@ -532,9 +532,9 @@ void LodHierarchy::fix_cube(const glm::dvec3& lo, const glm::dvec3& hi) {
 std::size_t LodHierarchy::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(typename std::decay_t<decltype(v)>::value_type); };
   return bytes(nodes_) + bytes(free_nodes_) + bytes(children_) + bytes(children_spare_) + bytes(leaf_fields_) +
-         bytes(leaf_rest_) + bytes(leaf_source_) + bytes(input_nodes_) + bytes(free_leaf_slots_) + leaf_index_.bytes() + bytes(records_) +
-         bytes(moments_) + bytes(keys_) + bytes(free_interior_slots_) + bytes(order_) +
-         bytes(order_scratch_) + bytes(touch_stamp_) + bytes(group_roots_);
+         bytes(leaf_rest_) + bytes(leaf_source_) + bytes(input_nodes_) + bytes(free_leaf_slots_) +
+         leaf_index_.bytes() + bytes(records_) + bytes(moments_) + bytes(keys_) + bytes(free_interior_slots_) +
+         bytes(order_) + bytes(order_scratch_) + bytes(touch_stamp_) + bytes(group_roots_);
 }
 
 std::size_t LodHierarchy::bytes_for(std::size_t leaves, int sh_degree) {

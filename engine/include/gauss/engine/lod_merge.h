@@ -24,10 +24,13 @@
 // object: the children's common object, else kNoObject; support: the sum (saturating);
 // carrier: false.
 //
-// Moments are exact and associative: a node keeps (W, m, S, sum t_i A_i, colour) in double, and
-// merging children's moments equals merging all of their leaves at once (up to rounding). So
-// every parent is the moment match of all the leaves under it, whatever the tree's shape, and
-// a parent's record (its opacity above all) never feeds back into its ancestors.
+// Moments are exact and associative: a node keeps (W, m, S, sum t_i A_i, DC colour) in double,
+// and merging children's moments equals merging all of their leaves at once (up to rounding).
+// So every parent is the moment match of all the leaves under it, whatever the tree's shape,
+// and a parent's record (its opacity above all) never feeds back into its ancestors. The one
+// exception is the SH rest: LodHierarchy keeps an interior node's as its record holds it (in
+// floats; a double copy was 360 bytes a node at SH 3), so a parent's is the weighted mean of
+// its children's recorded ones, within float rounding per level of the leaves' mean.
 //
 // Turning moments back into a record: S = V diag(l) V^T by sym_eigen3; log_scale_k = ln(l_k)/2
 // with l_k floored at 1e-12 * l_0 (a parent is at most 10^6 times thinner than wide: merged
