@@ -233,6 +233,51 @@ TEST(LodHierarchy, TwoGaussiansMergeIntoTheRootByTheRule) {
   EXPECT_TRUE(same_value(h->record(root), expect));
 }
 
+TEST(LodHierarchy, EveryRecordIsTheMergeOfAllItsLeaves) {
+  // Moments are associative, so each interior record is merge_gaussians of all the leaves
+  // under it, up to rounding: geometry and DC colour through double moments, the SH rest
+  // through the children's recorded floats (lod_merge.h), a float rounding per level. At SH 3,
+  // every node of a 3000-Gaussian scene, against the direct merge of its leaves.
+  auto scene = random_scene(3000, 4, 23);
+  Rng rng{24};
+  for (Gaussian& g : scene)
+    for (glm::vec3& c : g.sh_rest) c = {rng.uniform(-0.3f, 0.3f), rng.uniform(-0.3f, 0.3f), rng.uniform(-0.3f, 0.3f)};
+  auto h = LodHierarchy::build(scene, 3);
+  ASSERT_TRUE(h.ok());
+  std::size_t checked = 0;
+  for (const LodNode& n : h->nodes()) {
+    if (!n.live || n.leaf) continue;
+    std::vector<Gaussian> leaves;
+    std::vector<std::uint32_t> stack(h->children(n).begin(), h->children(n).end());
+    while (!stack.empty()) {
+      const LodNode& k = h->node(stack.back());
+      stack.pop_back();
+      if (k.leaf)
+        leaves.push_back(h->leaf_gaussian(k));
+      else
+        stack.insert(stack.end(), h->children(k).begin(), h->children(k).end());
+    }
+    ASSERT_EQ(leaves.size(), n.leaf_count);
+    const auto direct = merge_gaussians(leaves, 3, h->config().merge);
+    ASSERT_TRUE(direct.ok()) << direct.message();
+    const Gaussian& r = h->record(n);
+    const float ls_tol = 1e-5f;
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_NEAR(r.position[k], direct->position[k], 1e-5f);
+      EXPECT_NEAR(r.log_scale[k], direct->log_scale[k], ls_tol) << n.leaf_count << " leaves";
+      EXPECT_NEAR(r.sh_dc[k], direct->sh_dc[k], 1e-6f);
+    }
+    EXPECT_NEAR(r.opacity_logit, direct->opacity_logit, 1e-4f);
+    float worst = 0.0f;
+    for (int c = 0; c < kMaxShRest; ++c)
+      worst = std::max(worst, glm::length(r.sh_rest[std::size_t(c)] - direct->sh_rest[std::size_t(c)]));
+    EXPECT_LE(worst, 1e-6f) << "SH rest of a node of " << n.leaf_count << " leaves, height " << n.height;
+    ++checked;
+  }
+  EXPECT_EQ(checked, h->interior_count());
+  EXPECT_GT(checked, 500u);
+}
+
 TEST(LodHierarchy, EveryLeafOnceAndAnUnchangedEpochChangesNothing) {
   const auto scene = random_scene(20000, 12, 3);
   auto h = LodHierarchy::build(scene, 0);
