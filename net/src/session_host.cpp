@@ -61,10 +61,23 @@ void SessionHost::advance_lod(const SceneStore& scene) {
   // The hierarchy applies the eligibility rule itself, to the changed Gaussians alone where
   // it can: a filter over the whole scene here cost this thread 25-38 ms an epoch at 1M.
   const auto& rule = config_.session.eligibility;
-  if (auto p = config_.session.shared_lod->update_in_background(scene, rule ? &*rule : nullptr); !p) {
+  LodEpochHierarchy& lod = *config_.session.shared_lod;
+  if (auto p = lod.update_in_background(scene, rule ? &*rule : nullptr); !p) {
     ++stats_.lod_failures;
     stats_.last_error = p.message();
     log(p.message());
+  }
+  // Taken up: a build, or an update long enough that its clients noticed, is said.
+  if (const std::uint64_t updates = lod.updates(); updates != lod_updates_seen_) {
+    lod_updates_seen_ = updates;
+    const auto last = lod.last_update();
+    if (last && (last->built || last->seconds >= 1.0)) {
+      char line[200];
+      std::snprintf(line, sizeof line, "LoD: hierarchy for epoch %llu %s in %.2f s (%zu leaves, %zu interior nodes)",
+                    static_cast<unsigned long long>(to_underlying(last->epoch)), last->built ? "built" : "updated",
+                    last->seconds, last->leaves, last->interior);
+      log(line);
+    }
   }
 }
 

@@ -396,6 +396,16 @@ TEST(HostSessionLod, SessionsFollowingABackgroundHierarchyStreamWhatASynchronous
   EXPECT_FALSE(background->busy());
   EXPECT_EQ(step(a, w, params, 0.0).payloads, step(b, w, params, 0.0).payloads);
   ASSERT_GT(interior_count(a.host.sent_ids()), 0u);
+  // What a host says of it (SessionHost logs a build): the first update was the build.
+  const auto built = background->last_update();
+  ASSERT_TRUE(built.has_value());
+  EXPECT_TRUE(built->built);
+  EXPECT_FALSE(built->from_change_log);
+  EXPECT_EQ(built->epoch, w.store.epoch());
+  EXPECT_EQ(built->leaves, background->hierarchy()->leaf_count());
+  EXPECT_EQ(built->interior, background->hierarchy()->interior_count());
+  EXPECT_GT(built->leaves, 0u);
+  EXPECT_GT(built->seconds, 0.0);
 
   std::vector<ObjectId> objects;
   for (const auto& o : w.store.objects()) objects.push_back(o.id);
@@ -427,6 +437,12 @@ TEST(HostSessionLod, SessionsFollowingABackgroundHierarchyStreamWhatASynchronous
   }
   EXPECT_GT(interior_updates, 0u) << "the churn must reach the coarse records";
   EXPECT_EQ(background->updates(), inline_h->updates());
+  const auto last = background->last_update();
+  ASSERT_TRUE(last.has_value());
+  EXPECT_FALSE(last->built);
+  EXPECT_TRUE(last->from_change_log);
+  EXPECT_EQ(last->epoch, w.store.epoch());
+  EXPECT_EQ(last->leaves, background->hierarchy()->leaf_count());
   EXPECT_EQ(a.client.published_checksum(), a.client.desired().desired_checksum());
   EXPECT_EQ(a.client.desired().desired_checksum(), a.host.sent_checksum());
 }

@@ -58,6 +58,11 @@ TEST(StreamLoopback, WithLodTheHierarchyIsUpdatedInTheBackgroundAndClientsConver
     EXPECT_GT(std::count_if(hs->sent_ids().begin(), hs->sent_ids().end(), is_lod_interior_id), 0) << c->name;
   }
   EXPECT_FALSE(h.host().lod_busy());
+  // The first epoch's build is said once, with its figures (gauss-host prints it).
+  const std::string logs = h.log_tail();
+  EXPECT_NE(logs.find("host: LoD: hierarchy for epoch 1 built in "), std::string::npos) << logs;
+  EXPECT_NE(logs.find(" leaves, "), std::string::npos) << logs;
+  EXPECT_EQ(logs.find("built in", logs.find("built in") + 1), std::string::npos) << "said once" << logs;
   EXPECT_EQ(h.host().stats().lod_failures, 0u) << h.host().stats().last_error;
   EXPECT_EQ(h.host().stats().tick_errors, 0u) << h.host().stats().last_error;
 }

@@ -3,6 +3,7 @@
 #include "gauss/engine/lod_epoch_hierarchy.h"
 
 #include <algorithm>
+#include <chrono>
 #include <new>
 #include <utility>
 
@@ -276,6 +277,8 @@ std::vector<std::uint32_t> LodEpochHierarchy::own_subset(std::span<const Gaussia
 }
 
 void LodEpochHierarchy::run(Job& job) {
+  const auto start = std::chrono::steady_clock::now();
+  job.built = hierarchy_->leaf_count() == 0;
   try {
     if (job.subset_on_worker) job.subset = own_subset(job.span, job.filter);
     // Removed ids that were never leaves (carriers, unusable ones) are fine: lenient.
@@ -289,6 +292,7 @@ void LodEpochHierarchy::run(Job& job) {
     hierarchy_.reset();
     job.result = Error{std::string(kNoMemory) + "the update ran out (" + std::to_string(given) + " Gaussians given)"};
   }
+  job.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 Status LodEpochHierarchy::finish(Job& job) {
@@ -303,6 +307,8 @@ Status LodEpochHierarchy::finish(Job& job) {
   own_rule_ = job.filter.own_rule;
   change_log_updates_ += job.from_change_log;
   log_changes(*report);
+  last_update_ = LodUpdateSummary{job.epoch, job.built, job.from_change_log, hierarchy_->leaf_count(),
+                                  hierarchy_->interior_count(), job.seconds};
   return Ok{};
 }
 
@@ -341,6 +347,11 @@ std::uint64_t LodEpochHierarchy::change_log_updates() const {
 std::uint64_t LodEpochHierarchy::updates() const {
   std::lock_guard lock(mutex_);
   return updates_;
+}
+
+std::optional<LodUpdateSummary> LodEpochHierarchy::last_update() const {
+  std::lock_guard lock(mutex_);
+  return last_update_;
 }
 
 bool LodEpochHierarchy::changes_since(std::uint64_t seen, std::vector<GaussianId>& out) const {

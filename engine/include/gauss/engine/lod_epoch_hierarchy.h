@@ -51,6 +51,17 @@
 
 namespace gauss {
 
+// What an update did and how long it took, for a host's log: a 1M-Gaussian build takes about
+// a second, during which the LoD clients receive nothing.
+struct LodUpdateSummary {
+  Epoch epoch{0};
+  bool built{false};            // the hierarchy had no leaf before: a full build
+  bool from_change_log{false};  // else it compared every eligible Gaussian
+  std::size_t leaves{0};        // after the update
+  std::size_t interior{0};
+  double seconds{0.0};          // the update itself, on the thread that ran it
+};
+
 class LodEpochHierarchy {
  public:
   LodEpochHierarchy(int sh_degree, LodConfig config = {});
@@ -95,6 +106,8 @@ class LodEpochHierarchy {
   std::optional<Epoch> epoch() const { return epoch_; }
   // Successful updates so far; a reader remembers this to ask changes_since() next time.
   std::uint64_t updates() const;
+  // The last successful update's summary (none before the first).
+  std::optional<LodUpdateSummary> last_update() const;
   // Appends the interior ids that updates after the first `seen` added, removed or modified
   // to `out`. False (appending nothing) when the log no longer reaches back that far: the
   // reader must then treat every interior record it holds as changed.
@@ -127,6 +140,8 @@ class LodEpochHierarchy {
     std::vector<std::uint32_t> subset; //   and the indices of the eligible ones in it
     bool subset_on_worker{false};      //   (computed by run() from filter.own_rule)
     std::optional<Expected<LodUpdateReport>> result;
+    bool built{false};                 // run(): the hierarchy had no leaf before
+    double seconds{0.0};               // run(): how long the update took
   };
   // Fills `job` for the scene's epoch: from the change log when it reaches back to epoch_ and
   // the filter is the last update's own rule (or none), else the whole span (a copy when
@@ -165,6 +180,7 @@ class LodEpochHierarchy {
   std::uint64_t change_log_updates_{0};
   std::uint64_t lineage_{0};
   std::uint64_t updates_{0};
+  std::optional<LodUpdateSummary> last_update_;
   std::deque<std::vector<GaussianId>> log_;  // the last kLogLength updates' ids, oldest first
   std::shared_ptr<LodCutLayouts> layouts_ = std::make_shared<LodCutLayouts>();
 

@@ -95,7 +95,8 @@ class SessionHost {
   void log(const std::string& line);
   // Runs on_session_closed for `it` and erases it.
   void close(std::map<std::uint32_t, HostSession>::iterator it);
-  // Starts the hierarchy's update for the scene's epoch, or takes a finished one up.
+  // Starts the hierarchy's update for the scene's epoch, or takes a finished one up (and
+  // logs a build, or an update of a second or more, once: the LoD clients waited for it).
   void advance_lod(const SceneStore& scene);
 
   SessionHostConfig config_;
@@ -104,6 +105,7 @@ class SessionHost {
   std::map<std::uint32_t, HostSession> sessions_;
   std::map<std::uint32_t, std::string> client_names_;  // from each session's Hello
   SessionHostStats stats_;
+  std::uint64_t lod_updates_seen_{0};  // the shared hierarchy's updates() advance_lod has looked at
   WorkerPool pool_;
 };
 
