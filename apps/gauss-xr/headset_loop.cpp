@@ -31,9 +31,6 @@ namespace {
 
 using Json = nlohmann::json;
 
-// Metres above a STAGE space's floor where a capture's origin goes (scene placement below).
-constexpr double kStandingEyeHeight = 1.6;
-
 // SIGINT / SIGTERM: leave as the runtime would end the session (outputs written).
 std::atomic<bool> g_stop{false};
 void on_signal(int) { g_stop.store(true); }
@@ -239,8 +236,8 @@ int run_headset(const XrOptions& o) {
     if (!(v.flags & msg::kViewInside)) face = 0.5 * (glm::dvec3(v.subject_min) + glm::dvec3(v.subject_max));
     glm::dmat4 placement = xr::scene_from_space(up, face);
     // STAGE's origin is the floor: a capture's origin (where its first camera was held) goes to
-    // a standing person's eye height above it, not under their feet.
-    const double lift = o.stage && face ? kStandingEyeHeight : 0.0;
+    // the user's eye height above it (--eye-height: standing by default), not under their feet.
+    const double lift = o.stage && face ? o.eye_height : 0.0;
     placement = placement * glm::translate(glm::dmat4(1.0), glm::dvec3(0.0, -lift, 0.0));
     s.set_scene_from_space(placement);
     const char* from = o.up ? "--up" : "announced by the host";

@@ -30,9 +30,14 @@ std::optional<int> parse_options(int argc, char** argv, XrOptions& o) {
                    "publish the stream and pack its uploads on a thread of their own, so the display thread only "
                    "hands them over");
   app.add_option("--rho", o.rho, "a query's share of the budget at start")->check(apps::in_range(0.0, 1.0));
-  app.add_flag("--stage", o.stage,
-               "use the STAGE reference space (floor origin) instead of LOCAL; a captured scene's origin is "
-               "then placed at a standing eye height, 1.6 m above the floor");
+  CLI::Option* stage = app.add_flag("--stage", o.stage,
+                                    "use the STAGE reference space (floor origin) instead of LOCAL; a captured "
+                                    "scene's origin is then placed at eye height (--eye-height) above the floor");
+  app.add_option("--eye-height", o.eye_height,
+                 "with --stage: metres above the floor where a captured scene's origin (its first camera) goes; "
+                 "1.6 for a standing user, about 1.2 for a seated one")
+      ->check(apps::in_range(0.0, 3.0))
+      ->needs(stage);
   apps::add_up_option(app, o.up,
                       "the scene's up axis (+x -x +y -y +z -z), turned to point up in the room, instead of the "
                       "up the host announces");

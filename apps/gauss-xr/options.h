@@ -22,6 +22,7 @@ struct XrOptions {
   PublishMode mode{PublishMode::Progressive};
   double rho{0.9};                     // a query's share of the budget (the thumbstick moves it)
   bool stage{false};                   // STAGE reference space (floor origin) instead of LOCAL
+  double eye_height{1.6};              // with stage: metres above the floor where a capture's origin goes
   std::optional<glm::dvec3> up;        // --up: the scene's up instead of the one its host announces
   bool highlight{true};                // tint the active query's objects
   bool publication_thread{true};       // publication off the display thread

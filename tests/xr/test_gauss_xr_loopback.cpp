@@ -272,7 +272,8 @@ TEST(GaussXrLoopback, TheHeadsetShowsTheHostsRenderOfTheSentSetAndThePullQueries
 // A 3DGS capture is y down: the host says so, and gauss-xr turns the scene so that its up is
 // the room's. A level head then sees the scene's -y as image-up (its camera's down is the
 // scene's +y); before, the capture stood on its head. In STAGE space (origin on the floor) the
-// capture's origin is at a standing head's height: the runtime's head, 1.6 m up, is there.
+// capture's origin is at the user's eye height (--eye-height, here a seated 1.25 m): the
+// runtime's head, 1.6 m up, is 0.35 m above it.
 TEST(GaussXrLoopback, ACaptureStandsUprightInTheRoom) {
   GAUSS_REQUIRE_DATA(scene, "splats/fruit_drops_sh3.v4.spz");
   const fs::path out = fs::path(GAUSS_TEST_OUTPUT_DIR) / "xr_gauss_xr_upright";
@@ -283,13 +284,14 @@ TEST(GaussXrLoopback, ACaptureStandsUprightInTheRoom) {
   ASSERT_NE(port, 0) << read_text(out / "host.log");
   // Frames come as fast as they render (a virtual clock): enough of them for the Welcome.
   const Json script{{"width", 32}, {"height", 24}, {"events", {{{"frame", 800}, {"type", "exit"}}}}, {"capture", Json::array()}};
-  ASSERT_EQ(run_xr(out, script, port, {"--stage"}), 0) << read_text(out / "xr.log");
+  // A seated user's eye height: the headless runtime's head stands 1.6 m above the floor.
+  ASSERT_EQ(run_xr(out, script, port, {"--stage", "--eye-height", "1.25"}), 0) << read_text(out / "xr.log");
   EXPECT_EQ(host.stop(SIGINT).value_or(-1), 0);
   const Json summary = Json::parse(read_text(out / "xr" / "summary.json"));
   EXPECT_EQ(summary["scene_up"], (Json{{"up", {0.0, -1.0, 0.0}},
                                        {"from", "announced by the host"},
                                        {"facing_subject", true},
-                                       {"origin_height", 1.6}}))
+                                       {"origin_height", 1.25}}))
       << summary.dump(2);
   EXPECT_NE(read_text(out / "xr.log").find("the scene's up is -y (announced by the host)"), std::string::npos)
       << read_text(out / "xr.log");
@@ -301,9 +303,10 @@ TEST(GaussXrLoopback, ACaptureStandsUprightInTheRoom) {
   // And the subject (the label, 2 m from the origin) is ahead: the headset's last frame shows it.
   const glm::dvec3 ahead(cam->world_to_camera[0][2], cam->world_to_camera[1][2], cam->world_to_camera[2][2]);
   EXPECT_LT(ahead.z, -0.9) << "the subject lies toward the scene's -z from its origin";
-  // The eye stands at the scene's origin, half the IPD aside.
+  // The eye stands 1.6 - 1.25 m above the scene's origin (up is the scene's -y), half the IPD
+  // aside.
   const glm::dvec3 eye(glm::inverse(cam->world_to_camera)[3]);
-  EXPECT_LT(glm::length(eye), 0.05) << eye.x << " " << eye.y << " " << eye.z;
+  EXPECT_LT(glm::length(eye - glm::dvec3(0.0, -0.35, 0.0)), 0.05) << eye.x << " " << eye.y << " " << eye.z;
 }
 
 TEST(GaussXrLoopback, ALostSessionEndsTheProgramWithAMessage) {
@@ -332,6 +335,9 @@ TEST(GaussXrLoopback, NoRuntimeARuntimeWithoutVulkanAndUnusableFormatsAreNamed) 
   ::setenv("XR_RUNTIME_JSON", (out / "no-such-runtime.json").c_str(), 1);
   EXPECT_EQ(run_xr(out, Json::object(), 9), 1);
   EXPECT_NE(read_text(out / "xr.log").find("no OpenXR runtime"), std::string::npos) << read_text(out / "xr.log");
+  // An eye height means nothing without the floor-origin space: refused before anything starts.
+  EXPECT_NE(run_xr(out, Json::object(), 9, {"--eye-height", "1.2"}), 0);
+  EXPECT_NE(read_text(out / "xr.log").find("--eye-height requires --stage"), std::string::npos) << read_text(out / "xr.log");
   ::setenv("XR_RUNTIME_JSON", saved.c_str(), 1);
   ::setenv("GAUSS_XR_HEADLESS_NO_VULKAN", "1", 1);
   EXPECT_EQ(run_xr(out, Json::object(), 9), 1);
