@@ -360,6 +360,21 @@ void settle_background(LodEpochHierarchy& h, const SceneStore& scene) {
   FAIL() << "the background update never became ready";
 }
 
+// The summary a host logs of the update last taken up (SessionHost says a build): for the
+// scene's epoch, with the hierarchy's figures; a build compares the whole span, a later
+// epoch follows the change log.
+void expect_last_update(const LodEpochHierarchy& h, const SceneStore& scene, bool built) {
+  const auto last = h.last_update();
+  ASSERT_TRUE(last.has_value());
+  EXPECT_EQ(last->built, built);
+  EXPECT_EQ(last->from_change_log, !built);
+  EXPECT_EQ(last->epoch, scene.epoch());
+  EXPECT_EQ(last->leaves, h.hierarchy()->leaf_count());
+  EXPECT_EQ(last->interior, h.hierarchy()->interior_count());
+  EXPECT_GT(last->leaves, 0u);
+  EXPECT_GT(last->seconds, 0.0);
+}
+
 }  // namespace
 
 TEST(HostSessionLod, SessionsFollowingABackgroundHierarchyStreamWhatASynchronousOneSends) {
@@ -396,16 +411,7 @@ TEST(HostSessionLod, SessionsFollowingABackgroundHierarchyStreamWhatASynchronous
   EXPECT_FALSE(background->busy());
   EXPECT_EQ(step(a, w, params, 0.0).payloads, step(b, w, params, 0.0).payloads);
   ASSERT_GT(interior_count(a.host.sent_ids()), 0u);
-  // What a host says of it (SessionHost logs a build): the first update was the build.
-  const auto built = background->last_update();
-  ASSERT_TRUE(built.has_value());
-  EXPECT_TRUE(built->built);
-  EXPECT_FALSE(built->from_change_log);
-  EXPECT_EQ(built->epoch, w.store.epoch());
-  EXPECT_EQ(built->leaves, background->hierarchy()->leaf_count());
-  EXPECT_EQ(built->interior, background->hierarchy()->interior_count());
-  EXPECT_GT(built->leaves, 0u);
-  EXPECT_GT(built->seconds, 0.0);
+  expect_last_update(*background, w.store, /*built=*/true);
 
   std::vector<ObjectId> objects;
   for (const auto& o : w.store.objects()) objects.push_back(o.id);
@@ -437,12 +443,7 @@ TEST(HostSessionLod, SessionsFollowingABackgroundHierarchyStreamWhatASynchronous
   }
   EXPECT_GT(interior_updates, 0u) << "the churn must reach the coarse records";
   EXPECT_EQ(background->updates(), inline_h->updates());
-  const auto last = background->last_update();
-  ASSERT_TRUE(last.has_value());
-  EXPECT_FALSE(last->built);
-  EXPECT_TRUE(last->from_change_log);
-  EXPECT_EQ(last->epoch, w.store.epoch());
-  EXPECT_EQ(last->leaves, background->hierarchy()->leaf_count());
+  expect_last_update(*background, w.store, /*built=*/false);
   EXPECT_EQ(a.client.published_checksum(), a.client.desired().desired_checksum());
   EXPECT_EQ(a.client.desired().desired_checksum(), a.host.sent_checksum());
 }
