@@ -1,6 +1,7 @@
 // The LoD merge rule (lod_merge.h) and the symmetric 3x3 eigen solver it rests on: moments exact
 // on hand-made pairs, degenerate children never poison a parent, eigen-decompositions that
 // reconstruct their matrix on diagonal, rotated, repeated and near-singular spectra.
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -116,6 +117,34 @@ TEST(SymEigen3, ZeroMatrix) {
   EXPECT_EQ(e.values, glm::dvec3(0.0));
   EXPECT_EQ(e.sweeps, 0);
   expect_proper_orthonormal(e);
+}
+
+TEST(SymEigen3, LanesGiveTheBitsOfSingleCalls) {
+  // Side by side, every matrix is decomposed as it is alone, whatever its neighbours need:
+  // a zero matrix (no sweep) beside one that takes the most sweeps, spectra from 1e-70 to
+  // 1e300, repeated and flat; and a count that is no multiple of the lanes.
+  std::vector<glm::dmat3> in;
+  const glm::dvec3 spectra[] = {{3.0, 0.5, 1.25},    {2, 2, 1},         {7, 7, 7},         {1e-2, 4e-3, 1e-10},
+                                {1.0, 0.0, 0.0},     {1e-60, 1e-61, 1e-70}, {1e300, 1.0, 1e-3}, {0, 0, 0}};
+  for (int i = 0; i < 4 * kSymEigen3Lanes + 3; ++i) {
+    const glm::dvec3 s = spectra[std::size_t(i) % std::size(spectra)];
+    glm::dmat3 d(0.0);
+    for (int k = 0; k < 3; ++k) d[k][k] = s[k];
+    const glm::dmat3 r = rotation(0.3 + 0.37 * i, {1.0 + i, -0.5, 0.25 * i});
+    in.push_back(i % 5 == 4 ? d : r * d * glm::transpose(r));
+  }
+  std::vector<SymEigen3> out(in.size());
+  sym_eigen3_lanes(in, out);
+  int sweeps_seen = 0;
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    const SymEigen3 alone = sym_eigen3(in[i]);
+    EXPECT_EQ(out[i].values, alone.values) << "matrix " << i;
+    EXPECT_EQ(out[i].vectors, alone.vectors) << "matrix " << i;
+    EXPECT_EQ(out[i].sweeps, alone.sweeps) << "matrix " << i;
+    sweeps_seen |= 1 << std::min(alone.sweeps, 8);
+  }
+  // The batch did hold lanes that stopped at different sweeps.
+  EXPECT_GE(std::popcount(unsigned(sweeps_seen)), 3);
 }
 
 Gaussian make(glm::vec3 position, glm::vec3 scale, float opacity, glm::vec3 dc = glm::vec3(0.0f)) {

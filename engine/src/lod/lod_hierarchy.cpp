@@ -475,6 +475,7 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
     };
     const CellChanges changes{of_tree(fresh), of_tree(leaving)};
     const std::uint32_t root = build_cell(b, items, 0, 0, had ? root_it->second : kNoLodNode, changes);
+    flush_geometry(b);
     if (root == kNoLodNode) {
       if (had) group_roots_.erase(root_it);
     } else if (had) {
@@ -496,6 +497,7 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
       if (tree != kBackgroundTree) items.push_back(Entry{kObjectsTree, node, tree});
     TreeBuild b = make_build(kObjectsTree, kObjectsLevels, changed_objects);
     objects_root_ = build_cell(b, items, 0, 0, objects_root_, CellChanges{});
+    flush_geometry(b);
   }
   if (!changed_objects.empty() || background_changed) {
     const std::uint32_t background =
@@ -506,6 +508,7 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
     if (objects_root_ != kNoLodNode && background != kNoLodNode) {
       const std::uint32_t kids[2] = {objects_root_, background};
       root_ = make_interior(b, 0, 0, had_root_node ? root_ : kNoLodNode, kids, 0);
+      flush_geometry(b);
     } else {
       if (had_root_node) retire_node(b, root_);
       root_ = objects_root_ != kNoLodNode ? objects_root_ : background;

@@ -67,10 +67,12 @@ static_assert(morton3(0x1FFFFF, 0x1FFFFF, 0x1FFFFF) == (std::uint64_t{1} << 63) 
 
 }  // namespace gauss::lod_detail
 
+#include <array>
 #include <span>
 #include <vector>
 
 #include "gauss/engine/lod_hierarchy.h"
+#include "gauss/engine/sym_eigen3.h"
 
 namespace gauss {
 
@@ -98,6 +100,17 @@ struct LodHierarchy::TreeBuild {
   // trees, whose leaf counts are not item counts).
   bool sized{false};
   const Entry* warmed_to{nullptr};
+  // Merged nodes whose records still want their geometry: their covariances are decomposed
+  // kSymEigen3Lanes at a time (flush_geometry), whose divisions and roots then overlap.
+  // Everything else of the merge is done, the record's appearance included (a parent reads
+  // its children's SH rest). `appearance_changed`: a kept node's appearance bits changed.
+  struct PendingGeometry {
+    std::uint32_t node;
+    bool kept;
+    bool appearance_changed;
+  };
+  std::array<PendingGeometry, kSymEigen3Lanes> pending{};
+  std::size_t pending_count{0};
 
   // True when a changed code lies in cell (level, prefix).
   bool dirty_cell(int level, std::uint64_t prefix) const;

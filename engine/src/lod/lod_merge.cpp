@@ -185,7 +185,7 @@ void combine_moments(std::span<const LodMoments> children, std::span<const glm::
   }
 }
 
-Gaussian moments_to_gaussian(const LodMoments& m, std::span<const glm::dvec3> rest, int rest_count, double spread) {
+glm::dmat3 moments_covariance(const LodMoments& m, double spread) {
   // cov = within + spread^2 (total - within): the leaves' own shapes as they are, the layout of
   // their centres widened (spread 1: the exact moment match).
   const double k2 = spread * spread;
@@ -195,14 +195,16 @@ Gaussian moments_to_gaussian(const LodMoments& m, std::span<const glm::dvec3> re
   cov[0] = glm::dvec3(c[0], c[1], c[2]);
   cov[1] = glm::dvec3(c[1], c[3], c[4]);
   cov[2] = glm::dvec3(c[2], c[4], c[5]);
-  const SymEigen3 e = sym_eigen3(cov);
+  return cov;
+}
+
+void moments_geometry(const LodMoments& m, const SymEigen3& e, Gaussian& g) {
   // The floor keeps ln finite for a (numerically) flat or zero covariance; the absolute floor
   // covers an all-zero matrix (impossible from usable leaves, whose scales are > 0).
   const double floor = std::max(e.values[0] * 1e-12, std::numeric_limits<double>::min());
   double log_scale[3];
   for (int k = 0; k < 3; ++k) log_scale[k] = 0.5 * std::log(std::max(e.values[k], floor));
 
-  Gaussian g;
   g.position = glm::vec3(m.mean);
   g.log_scale = glm::vec3(float(log_scale[0]), float(log_scale[1]), float(log_scale[2]));
   g.rotation = glm::vec4(matrix_quaternion(e.vectors));
@@ -212,6 +214,11 @@ Gaussian moments_to_gaussian(const LodMoments& m, std::span<const glm::dvec3> re
   // logit(1 - e^-t) = ln(e^t - 1); for large t that is t + ln(1 - e^-t) (no overflow).
   const double logit = t > 30.0 ? t + std::log1p(-std::exp(-t)) : std::log(std::expm1(t));
   g.opacity_logit = float(std::isnan(logit) ? -60.0 : std::clamp(logit, -60.0, 60.0));
+}
+
+Gaussian moments_to_gaussian(const LodMoments& m, std::span<const glm::dvec3> rest, int rest_count, double spread) {
+  Gaussian g;
+  moments_geometry(m, sym_eigen3(moments_covariance(m, spread)), g);
   moments_appearance(m, rest, rest_count, g);
   return g;
 }

@@ -337,7 +337,7 @@ std::uint32_t LodHierarchy::make_interior(TreeBuild& b, int level, std::uint64_t
     nodes_[node].leaf = false;
     b.deferred->push_back(DeferredMerge{node, reuse != kNoLodNode});
   } else {
-    merge_kids(b, node, reuse != kNoLodNode, records_[nodes_[node].data], kids);
+    merge_kids(b, node, reuse != kNoLodNode, kids);
   }
   LodNode& n = nodes_[node];
   n.first_child = std::uint32_t(children_.size());
@@ -361,14 +361,13 @@ void LodHierarchy::merge_in_batches(TreeBuild& b, std::span<const DeferredMerge>
       warm_merges(std::span<const std::uint32_t>(batch, m));
     }
     const LodNode& n = nodes_[list[k].node];
-    // The node's record is read in place: merge_kids writes it only once done with it.
-    merge_kids(b, list[k].node, list[k].kept, records_[n.data],
+    merge_kids(b, list[k].node, list[k].kept,
                std::span<const std::uint32_t>(children_).subspan(n.first_child, n.child_count));
   }
+  flush_geometry(b);
 }
 
-void LodHierarchy::merge_kids(TreeBuild& b, std::uint32_t node, bool kept, const Gaussian& old_record,
-                              std::span<const std::uint32_t> kids) {
+void LodHierarchy::merge_kids(TreeBuild& b, std::uint32_t node, bool kept, std::span<const std::uint32_t> kids) {
   const std::uint32_t slot = nodes_[node].data;
   // Moments of the children, then of the node (an update's callers have loaded what this
   // reads: merge_in_batches; a full build's leaves are warm_leaves').
@@ -390,16 +389,21 @@ void LodHierarchy::merge_kids(TreeBuild& b, std::uint32_t node, bool kept, const
   std::array<glm::dvec3, kMaxShRest> rest_moments;
   const auto rest = std::span<glm::dvec3>(rest_moments).first(rc);
   combine_moments(*b.moments, *b.rest, rest_count_, moments_[slot], rest);
-  Gaussian rec;
+  // The record's appearance now (its parent's merge reads its SH rest), its geometry now only
+  // for a recolouring (the eigen decomposition would give what it gave), else with the next
+  // kSymEigen3Lanes - 1 merges' (flush_geometry).
+  Gaussian& record = records_[slot];
+  Gaussian looks = record;  // a kept node's record as it was
+  moments_appearance(moments_[slot], rest, rest_count_, looks);
+  looks.id = nodes_[node].id;
+  const bool appearance_changed = kept && !same_value(record, looks);
+  record = looks;
   if (kept && same_geometry(before, moments_[slot])) {
-    rec = old_record;  // a recolouring: the eigen decomposition would give what it gave
-    moments_appearance(moments_[slot], rest, rest_count_, rec);
+    if (appearance_changed) b.report->modified.push_back(looks.id);
   } else {
-    rec = moments_to_gaussian(moments_[slot], rest, rest_count_, config_.merge.spread);
+    b.pending[b.pending_count++] = TreeBuild::PendingGeometry{node, kept, appearance_changed};
+    if (b.pending_count == b.pending.size()) flush_geometry(b);
   }
-  rec.id = nodes_[node].id;
-  if (kept && !(same_value(old_record, rec))) b.report->modified.push_back(rec.id);
-  records_[slot] = rec;
   ++b.report->nodes_merged;
 
   // The bounding sphere around the children's spheres (centre: their box's centre).
@@ -417,6 +421,26 @@ void LodHierarchy::merge_kids(TreeBuild& b, std::uint32_t node, bool kept, const
   n.height = std::uint16_t(height + 1);
   n.live = true;
   n.leaf = false;
+}
+
+void LodHierarchy::flush_geometry(TreeBuild& b) {
+  const std::size_t count = b.pending_count;
+  if (count == 0) return;
+  std::array<glm::dmat3, kSymEigen3Lanes> covariance;
+  std::array<SymEigen3, kSymEigen3Lanes> eigen;
+  for (std::size_t i = 0; i < count; ++i)
+    covariance[i] = moments_covariance(moments_[nodes_[b.pending[i].node].data], config_.merge.spread);
+  sym_eigen3_lanes(std::span<const glm::dmat3>(covariance).first(count), eigen);
+  for (std::size_t i = 0; i < count; ++i) {
+    const TreeBuild::PendingGeometry& p = b.pending[i];
+    const std::uint32_t slot = nodes_[p.node].data;
+    Gaussian& record = records_[slot];
+    Gaussian shaped = record;  // its appearance is written; its geometry, if kept, the old one
+    moments_geometry(moments_[slot], eigen[i], shaped);
+    if (p.kept && (p.appearance_changed || !same_value(record, shaped))) b.report->modified.push_back(shaped.id);
+    record = shaped;
+  }
+  b.pending_count = 0;
 }
 
 void LodHierarchy::remerge_ancestors(std::span<const std::uint32_t> changed, LodUpdateReport& report) {

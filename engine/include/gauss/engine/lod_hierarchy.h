@@ -261,11 +261,12 @@ class LodHierarchy {
   std::uint32_t make_interior(TreeBuild& b, int level, std::uint64_t prefix, std::uint32_t reuse,
                               std::span<const std::uint32_t> kids, std::uint8_t octants);
   // The node's moments, record, sphere, leaf count and height from `kids` (its children,
-  // in order). `kept`: the node stood before this update with `old_record` (the report
-  // lists it as modified if its record's bits change; a recolouring keeps its geometry).
-  // `old_record` may be the node's own record: it is read before the record is written.
-  void merge_kids(TreeBuild& b, std::uint32_t node, bool kept, const Gaussian& old_record,
-                  std::span<const std::uint32_t> kids);
+  // in order). `kept`: the node stood before this update with the record it holds (the
+  // report lists it as modified if its record's bits change; a recolouring keeps its
+  // geometry). The record's geometry may wait in b.pending until flush_geometry(b).
+  void merge_kids(TreeBuild& b, std::uint32_t node, bool kept, std::span<const std::uint32_t> kids);
+  // Gives every record waiting in b.pending its geometry. Due before a TreeBuild is done.
+  void flush_geometry(TreeBuild& b);
   // An update that moved no leaf to another cell, added none and removed none leaves every
   // tree's shape as it was: only the nodes above the `changed` leaves are merged again,
   // bottom-up, each from its children as they stand (what the recursion from the root would

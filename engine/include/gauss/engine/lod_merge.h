@@ -49,6 +49,8 @@
 
 namespace gauss {
 
+struct SymEigen3;
+
 // Why a Gaussian may or may not enter a merge.
 enum class LodLeafStatus : std::uint8_t {
   Usable,
@@ -105,6 +107,12 @@ void combine_moments(std::span<const LodMoments> children, std::span<const glm::
 // the exact moment match).
 Gaussian moments_to_gaussian(const LodMoments& m, std::span<const glm::dvec3> rest, int rest_count,
                              double spread = 1.0);
+// The same in two steps, so that a caller with many records to make can decompose their
+// covariances side by side (sym_eigen3_lanes): the covariance the record stands for (spread
+// applied), then, from its eigen decomposition, the geometry fields (position, scale, rotation,
+// opacity). moments_to_gaussian is these and moments_appearance, bit for bit.
+glm::dmat3 moments_covariance(const LodMoments& m, double spread);
+void moments_geometry(const LodMoments& m, const SymEigen3& eigen, Gaussian& g);
 // Its appearance fields alone (colour, SH rest, object, support) into `g`. Its geometry
 // (position, scale, rotation, opacity) is a function of mean, cov, within and optical_mass
 // only: a remerge that leaves those bit for bit as they were keeps the old geometry and
