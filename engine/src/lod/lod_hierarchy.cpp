@@ -440,11 +440,10 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
   std::vector<LodMoments> scratch_moments;
   std::vector<glm::dvec3> scratch_rest;
   std::vector<DeferredMerge> deferred;
-  auto make_build = [&](std::uint32_t tree, int levels, std::span<const std::uint64_t> changed) {
+  auto make_build = [&](std::uint32_t tree, int levels) {
     TreeBuild b;
     b.tree = tree;
     b.levels = levels;
-    b.dirty = changed;
     b.report = &report;
     b.retired = &retired;
     b.stack = &stack;
@@ -465,7 +464,7 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
     auto root_it = std::lower_bound(group_roots_.begin(), group_roots_.end(), std::pair{tree, 0u},
                                     [](const auto& a, const auto& b) { return a.first < b.first; });
     const bool had = root_it != group_roots_.end() && root_it->first == tree;
-    TreeBuild b = make_build(tree, kGroupLevels, std::span<const std::uint64_t>(codes).subspan(i, j - i));
+    TreeBuild b = make_build(tree, kGroupLevels);
     b.full = all_new;
     b.sized = !all_new;
     auto of_tree = [&](std::span<const Entry> list) {
@@ -473,7 +472,7 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
       const auto hi = std::partition_point(lo, list.end(), [&](const Entry& e) { return e.tree == tree; });
       return list.subspan(std::size_t(lo - list.begin()), std::size_t(hi - lo));
     };
-    const CellChanges changes{of_tree(fresh), of_tree(leaving)};
+    const CellChanges changes{of_tree(fresh), of_tree(leaving), std::span<const std::uint64_t>(codes).subspan(i, j - i)};
     const std::uint32_t root = build_cell(b, items, 0, 0, had ? root_it->second : kNoLodNode, changes);
     flush_geometry(b);
     if (root == kNoLodNode) {
@@ -495,14 +494,14 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
     std::vector<Entry> items;
     for (const auto& [tree, node] : group_roots_)
       if (tree != kBackgroundTree) items.push_back(Entry{kObjectsTree, node, tree});
-    TreeBuild b = make_build(kObjectsTree, kObjectsLevels, changed_objects);
-    objects_root_ = build_cell(b, items, 0, 0, objects_root_, CellChanges{});
+    TreeBuild b = make_build(kObjectsTree, kObjectsLevels);
+    objects_root_ = build_cell(b, items, 0, 0, objects_root_, CellChanges{{}, {}, changed_objects});
     flush_geometry(b);
   }
   if (!changed_objects.empty() || background_changed) {
     const std::uint32_t background =
         !group_roots_.empty() && group_roots_.back().first == kBackgroundTree ? group_roots_.back().second : kNoLodNode;
-    TreeBuild b = make_build(kRootTree, 0, {});
+    TreeBuild b = make_build(kRootTree, 0);
     const bool had_root_node = root_ != kNoLodNode && nodes_[root_].live && !nodes_[root_].leaf &&
                                keys_[nodes_[root_].data].tree == kRootTree;
     if (objects_root_ != kNoLodNode && background != kNoLodNode) {
@@ -516,7 +515,7 @@ void LodHierarchy::update_trees(std::span<const std::pair<std::uint32_t, std::ui
     if (root_ != kNoLodNode) nodes_[root_].parent = kNoLodNode;
   }
   if (!deferred.empty()) {
-    TreeBuild b = make_build(kRootTree, 0, {});
+    TreeBuild b = make_build(kRootTree, 0);
     merge_in_batches(b, deferred);
   }
 }

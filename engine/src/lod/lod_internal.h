@@ -81,7 +81,6 @@ namespace gauss {
 struct LodHierarchy::TreeBuild {
   std::uint32_t tree{0};
   int levels{0};
-  std::span<const std::uint64_t> dirty;  // sorted codes of changed leaves (old and new places)
   LodUpdateReport* report{nullptr};
   std::vector<std::uint32_t>* retired{nullptr};  // interior nodes to free once the update is done
   std::vector<std::uint32_t>* stack{nullptr};    // children under construction
@@ -111,16 +110,18 @@ struct LodHierarchy::TreeBuild {
   };
   std::array<PendingGeometry, kSymEigen3Lanes> pending{};
   std::size_t pending_count{0};
-
-  // True when a changed code lies in cell (level, prefix).
-  bool dirty_cell(int level, std::uint64_t prefix) const;
 };
 
-// The entries entering and leaving the sorted order within one cell of a group tree (each
-// sorted by code): with the old subtree's leaf counts they give the cell's octant sizes.
+// What changed within one cell, carried down the descent and split by octant at each level.
+// `dirty`: the codes of changed leaves (old and new places) in the cell, sorted; a cell
+// without any keeps its old subtree. (Asked of the tree's whole list, each child's answer was
+// a binary search over thousands of codes: a tenth of scattered churn.) `fresh` and
+// `leaving`: the entries entering and leaving the sorted order in the cell of a group tree
+// (sorted by code): with the old subtree's leaf counts they give the cell's octant sizes.
 struct LodHierarchy::CellChanges {
   std::span<const Entry> fresh;
   std::span<const Entry> leaving;
+  std::span<const std::uint64_t> dirty;
 };
 
 }  // namespace gauss

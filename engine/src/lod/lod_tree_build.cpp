@@ -5,6 +5,7 @@
 #include <bit>
 #include <cassert>
 #include <cmath>
+#include <type_traits>
 
 #include "lod_internal.h"
 #include "lod_leaf_moments.h"
@@ -14,14 +15,6 @@ namespace gauss {
 using lod_detail::kRootTree;
 using lod_detail::kSizedFrom;
 using lod_detail::kWarmLeaves;
-
-bool LodHierarchy::TreeBuild::dirty_cell(int level, std::uint64_t prefix) const {
-  const int shift = 3 * (levels - level);
-  const std::uint64_t lo = prefix << shift;
-  const std::uint64_t hi = lo + (std::uint64_t{1} << shift);  // codes < 2^63: never wraps
-  const auto it = std::lower_bound(dirty.begin(), dirty.end(), lo);
-  return it != dirty.end() && *it < hi;
-}
 
 // Candidates: the previous update's node holding exactly the old leaves of the cell being
 // built (see build_cell). Only interior nodes of the tree being built qualify: leaves are
@@ -39,6 +32,15 @@ void touch_lines(const void* p, std::size_t bytes, std::uint32_t& acc) {
   for (std::size_t at = 0; at < bytes; at += 64) acc += c[at];
   acc += c[bytes - 1];
 }
+
+// The code of an order entry or of a changed leaf's place (CellChanges::dirty).
+template <class E>
+std::uint64_t code_of(const E& e) {
+  if constexpr (std::is_same_v<E, std::uint64_t>)
+    return e;
+  else
+    return e.code;
+}
 }  // namespace
 
 std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> items, int level,
@@ -47,7 +49,7 @@ std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> item
   // the old tree's node for the cell (or the leaf, or another tree's root, where the cell
   // held one), or the deeper node a chain collapsed onto.
   // Nothing changed in the cell: the old subtree is the canonical one (returned unread).
-  if (candidate != kNoLodNode && !b.dirty_cell(level, prefix)) return candidate;
+  if (candidate != kNoLodNode && changes.dirty.empty()) return candidate;
   if (!candidate_of(nodes_, candidate) || keys_[nodes_[candidate].data].tree != b.tree) candidate = kNoLodNode;
 
   const std::size_t n = items.size();
@@ -108,11 +110,11 @@ std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> item
   // Split into octants (digits of the next level; items are sorted by code, so each octant is
   // a contiguous run), the changes too.
   const int shift = 3 * (b.levels - level - 1);
-  auto split = [&](std::span<const Entry> list, std::array<std::span<const Entry>, 8>& out, bool gallop) {
+  auto split = [&]<class E>(std::span<const E> list, std::array<std::span<const E>, 8>& out, bool gallop) {
     std::size_t begin = 0;
     for (std::uint64_t d = 0; d < 8; ++d) {
       const std::uint64_t limit = ((prefix << 3) | d) + 1;
-      auto below = [&](const Entry& e) { return (e.code >> shift) < limit; };
+      auto below = [&](const E& e) { return (code_of(e) >> shift) < limit; };
       const auto from = list.begin() + std::ptrdiff_t(begin);
       // The last octant takes the rest: every entry lies in the cell.
       const std::size_t end =
@@ -125,10 +127,12 @@ std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> item
     }
   };
   std::array<std::span<const Entry>, 8> parts, fresh8, leaving8;
+  std::array<std::span<const std::uint64_t>, 8> dirty8;
   if (b.sized) {  // only a group tree's update carries its changes down
     split(changes.fresh, fresh8, false);
     split(changes.leaving, leaving8, false);
   }
+  split(changes.dirty, dirty8, false);
   bool sized = false;
   if (b.sized && old_known && n > kSizedFrom) {
     // Each octant's size is its old leaf count (the old child's, read in parallel) plus what
@@ -172,7 +176,7 @@ std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> item
       if (d != only) retire_subtree(b, cands[d]);
     if (here) retire_node(b, candidate);
     return build_cell(b, parts[only], level + 1, (prefix << 3) | only, cands[only],
-                      CellChanges{fresh8[only], leaving8[only]});
+                      CellChanges{fresh8[only], leaving8[only], dirty8[only]});
   }
   const std::size_t base = b.stack->size();
   std::uint8_t octants = 0;
@@ -182,7 +186,7 @@ std::uint32_t LodHierarchy::build_cell(TreeBuild& b, std::span<const Entry> item
       continue;
     }
     const std::uint32_t child =
-        build_cell(b, parts[d], level + 1, (prefix << 3) | d, cands[d], CellChanges{fresh8[d], leaving8[d]});
+        build_cell(b, parts[d], level + 1, (prefix << 3) | d, cands[d], CellChanges{fresh8[d], leaving8[d], dirty8[d]});
     b.stack->push_back(child);
     octants = std::uint8_t(octants | (1u << d));
   }
@@ -233,7 +237,6 @@ void LodHierarchy::warm_merges(std::span<const std::uint32_t> nodes) const {
     for (std::uint32_t i = 0; i < w.child_count; ++i) {
       const LodNode& k = nodes_[children_[w.first_child + i]];
       if (!k.leaf) {
-        acc += keys_[k.data].level;
         touch_lines(&moments_[k.data], sizeof(LodMoments), acc);
         if (rc > 0) touch_lines(records_[k.data].sh_rest.data(), std::size_t(rc) * sizeof(glm::vec3), acc);
         continue;
