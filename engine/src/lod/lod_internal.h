@@ -115,7 +115,7 @@ struct LodHierarchy::TreeBuild {
 // What changed within one cell, carried down the descent and split by octant at each level.
 // `dirty`: the codes of changed leaves (old and new places) in the cell, sorted; a cell
 // without any keeps its old subtree. (Asked of the tree's whole list, each child's answer was
-// a binary search over thousands of codes: a tenth of scattered churn.) `fresh` and
+// a binary search over thousands of codes: 3 % of scattered churn.) `fresh` and
 // `leaving`: the entries entering and leaving the sorted order in the cell of a group tree
 // (sorted by code): with the old subtree's leaf counts they give the cell's octant sizes.
 struct LodHierarchy::CellChanges {
