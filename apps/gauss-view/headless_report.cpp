@@ -133,6 +133,10 @@ Status write_report(const fs::path& out, const nlohmann::json& s) {
           sep = "; ";
         }
         if (stages.empty()) md << " no stage recorded under this id (a query re-sent after a reconnect takes a new id)";
+        // Converged without more of the targets published (ClientState::track_query): the
+        // stage is not missing, there was nothing to add.
+        if (stages.contains("converged") && !stages.contains("first_additional"))
+          md << "; no additional content: every target Gaussian the budget wanted was resident already";
         md << "\n";
       }
     }
