@@ -68,6 +68,8 @@ static_assert(morton3(0x1FFFFF, 0x1FFFFF, 0x1FFFFF) == (std::uint64_t{1} << 63) 
 }  // namespace gauss::lod_detail
 
 #include <array>
+#include <cassert>
+#include <exception>
 #include <span>
 #include <vector>
 
@@ -110,6 +112,12 @@ struct LodHierarchy::TreeBuild {
   };
   std::array<PendingGeometry, kSymEigen3Lanes> pending{};
   std::size_t pending_count{0};
+
+  TreeBuild() = default;
+  TreeBuild(const TreeBuild&) = default;
+  TreeBuild& operator=(const TreeBuild&) = default;
+  // Every merge's geometry was given (flush_geometry) unless an exception cut the update short.
+  ~TreeBuild() { assert(pending_count == 0 || std::uncaught_exceptions() > 0); }
 };
 
 // What changed within one cell, carried down the descent and split by octant at each level.
