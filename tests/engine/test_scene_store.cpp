@@ -1,6 +1,7 @@
 // SceneStore semantics: epochs, insert/modify/remove, the change log, carriers never
 // counted as appearance, object membership/centroid/extent recomputed at commit, chunks.
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 #include <gtest/gtest.h>
@@ -39,6 +40,28 @@ TEST(SceneStore, MutationsNeedAnOpenEpochAndEpochsIncrease) {
   ASSERT_TRUE(s.begin_next_epoch().ok());
   ASSERT_TRUE(s.commit_epoch().ok());
   EXPECT_EQ(s.epoch(), Epoch{6});
+}
+
+// The serving path reads a large scene's Gaussians at scattered places (a diff's entering
+// records, a cut's leaves): however the store grows, one way or the other, its Gaussians sit
+// on the 2 MiB-aligned blocks the huge-page allocator gives (id_index.h), not where a plain
+// vector's growth would put them (page-aligned plus a header, on 4 KiB pages here).
+TEST(SceneStore, LargeScenesLieOnHugePageBlocksHoweverTheyGrow) {
+  constexpr std::uintptr_t kHugePage = std::uintptr_t{2} << 20;
+  const std::size_t n = (std::size_t{8} << 20) / sizeof(Gaussian);  // 8 MiB of Gaussians
+  SceneStore grown;  // by inserts alone: push_back's doubling
+  ASSERT_TRUE(grown.begin_next_epoch().ok());
+  for (std::uint64_t i = 1; i <= n; ++i) ASSERT_TRUE(grown.insert(make(i, {float(i % 97), 0, 0})).ok());
+  ASSERT_TRUE(grown.commit_epoch().ok());
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(grown.gaussians().data()) % kHugePage, 0u);
+
+  SceneStore reserved;  // room asked for first, as a snapshot's apply does
+  ASSERT_TRUE(reserved.reserve(n).ok());
+  ASSERT_TRUE(reserved.begin_next_epoch().ok());
+  for (std::uint64_t i = 1; i <= n; ++i) ASSERT_TRUE(reserved.insert(make(i, {float(i % 97), 0, 0})).ok());
+  ASSERT_TRUE(reserved.commit_epoch().ok());
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(reserved.gaussians().data()) % kHugePage, 0u);
+  EXPECT_EQ(reserved.gaussians()[n / 2].id, grown.gaussians()[n / 2].id);
 }
 
 TEST(SceneStore, InsertModifyRemoveAndChangeLog) {

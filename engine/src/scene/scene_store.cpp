@@ -300,7 +300,6 @@ Status SceneStore::reserve(std::size_t span) {
   }
   // Each reserve leaves its container as it was when it throws; those that succeeded only
   // hold spare capacity.
-  const Gaussian* before = gaussians_.data();
   try {
     gaussians_.reserve(room);
     pending_.reserve(room);
@@ -309,9 +308,6 @@ Status SceneStore::reserve(std::size_t span) {
   } catch (const std::bad_alloc&) {
     return refuse("and allocating it failed");
   }
-  // Fresh room (the span moved: a first snapshot's whole span) goes on huge pages: most of a
-  // 1M-Gaussian scene's insertion was page faults (system_memory.h).
-  if (gaussians_.data() != before) advise_huge_pages_for_room(gaussians_);
   return Ok{};
 }
 
