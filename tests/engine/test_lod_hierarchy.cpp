@@ -11,12 +11,14 @@
 #include <ctime>
 #include <limits>
 #include <set>
+#include <span>
 #include <unordered_map>
 #include <unordered_set>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "gauss/engine/id_index.h"
 #include "gauss/engine/lod_hierarchy.h"
 #include "gauss/engine/lod_merge.h"
 #include "split_mix_rng.h"
@@ -894,7 +896,14 @@ TEST(LodHierarchy, Timing) {
   std::size_t n = 200000;
   if (const char* env = std::getenv("GAUSS_LOD_BENCH_N")) n = std::size_t(std::strtoull(env, nullptr, 10));
   const int objects = 98;  // objects ~1 % each: 100 shares, 2 of them background
-  auto scene = random_scene(n, objects, 61);
+  // On huge pages, as a host's scene is (SceneStore, the background update's copy): the build
+  // reads every Gaussian, and at SH 3 a scene on 4 KiB pages made it 0.79-0.98 s -> 1.10-1.45 s
+  // (medians of 8, three runs alternating, 2026-11-29).
+  std::vector<Gaussian, detail::TableAllocator<Gaussian>> scene;
+  {
+    const std::vector<Gaussian> drawn = random_scene(n, objects, 61);
+    scene.assign(drawn.begin(), drawn.end());
+  }
   // GAUSS_LOD_BENCH_SH (default 0): the scene's SH degree (real captures have 3), the rest
   // coefficients drawn at random.
   int sh_degree = 0;
@@ -946,7 +955,7 @@ TEST(LodHierarchy, Timing) {
     std::printf("  %-34s wall %7.1f ms, cpu %7.1f ms (%5.2f %% of the build's cpu)  merged %zu, +%zu -%zu ~%zu\n", what,
                 wall, cpu, 100.0 * cpu / build_cpu, r.nodes_merged, r.added.size(), r.removed.size(), r.modified.size());
   };
-  auto time_update = [&](const char* what, std::vector<Gaussian>& next) {
+  auto time_update = [&](const char* what, std::span<const Gaussian> next) {
     const Stamp t = now();
     const auto r = h->update(next);
     double cpu = 0.0;
