@@ -897,8 +897,8 @@ TEST(LodHierarchy, Timing) {
   if (const char* env = std::getenv("GAUSS_LOD_BENCH_N")) n = std::size_t(std::strtoull(env, nullptr, 10));
   const int objects = 98;  // objects ~1 % each: 100 shares, 2 of them background
   // On huge pages, as a host's scene is (SceneStore, the background update's copy): the build
-  // reads every Gaussian, and at SH 3 a scene on 4 KiB pages made it 0.79-0.98 s -> 1.10-1.45 s
-  // (medians of 8, three runs alternating, 2026-11-29).
+  // reads every Gaussian, and at SH 3 it took 1.10-1.45 s from a scene on 4 KiB pages against
+  // 0.79-0.98 s on huge pages (medians of 8, three runs alternating, 2026-11-29).
   std::vector<Gaussian, detail::TableAllocator<Gaussian>> scene;
   {
     const std::vector<Gaussian> drawn = random_scene(n, objects, 61);

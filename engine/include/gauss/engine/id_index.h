@@ -9,11 +9,11 @@ namespace gauss {
 
 namespace detail {
 
-// Allocator for the coalescing tables (id index, entry pool): blocks of 4 MiB and more
-// are 2 MiB aligned and, on Linux, advised onto transparent huge pages. Coalescing
-// touches one random index cell and one random entry per edit; over hundreds of
-// megabytes of 4 KiB pages nearly every touch also misses the TLB, and the page walk
-// costs about as much as the miss itself.
+// Allocator for large tables read at random (the coalescing tables, the LoD pools, the
+// scene store's Gaussians): blocks of 4 MiB and more are 2 MiB aligned and, on Linux,
+// advised onto transparent huge pages. Coalescing touches one random index cell and one
+// random entry per edit; over hundreds of megabytes of 4 KiB pages nearly every touch also
+// misses the TLB, and the page walk costs about as much as the miss itself.
 void* alloc_table(std::size_t bytes, std::size_t align);
 void free_table(void* p, std::size_t bytes, std::size_t align) noexcept;
 
