@@ -1,6 +1,7 @@
 #include "gauss/engine/sym_eigen3.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <utility>
 
@@ -127,6 +128,7 @@ SymEigen3 sym_eigen3(const glm::dmat3& a) {
 }
 
 void sym_eigen3_lanes(std::span<const glm::dmat3> in, std::span<SymEigen3> out) {
+  assert(out.size() >= in.size());
   for (std::size_t i = 0; i < in.size(); i += kLanes)
     jacobi_lanes(in.data() + i, out.data() + i, int(std::min<std::size_t>(kLanes, in.size() - i)));
 }
