@@ -14,9 +14,11 @@ namespace gauss::lod_detail {
 
 using IdPair = std::pair<std::uint64_t, std::uint32_t>;
 
-// Sorts `pairs` by id, equal ids keeping their order (the passes are stable). `scratch` is
-// working memory, kept by the caller so a warm caller does not allocate.
-inline void sort_by_id(std::span<IdPair> pairs, std::vector<IdPair>& scratch) {
+// Sorts `pairs` by id, equal ids keeping their order (the passes are stable). `scratch` (a
+// vector of IdPair, any allocator) is working memory, kept by the caller so a warm caller
+// does not allocate.
+template <class Scratch>
+void sort_by_id(std::span<IdPair> pairs, Scratch& scratch) {
   const std::size_t n = pairs.size();
   if (n < 2) return;
   IdPair* a = pairs.data();

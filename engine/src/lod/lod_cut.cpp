@@ -46,7 +46,10 @@ float sphere_error(const select_detail::ViewParams& vp, const glm::vec3& centre,
 // sequentially instead of chasing pool indices.
 struct LodCutter::Layout {
   // On huge pages (detail::TableAllocator): a cut reads the rank tables at random, a few
-  // entries per page, and at a million leaves they span 20 MB.
+  // entries per page, and at a million leaves they span 20 MB. (The build's short-lived
+  // scratch stays on plain vectors: a host builds a layout every epoch, and the heap keeps
+  // their memory from one build to the next, where huge-page blocks came back fresh each time,
+  // 110-142 against 90-139 ms a layout at a million leaves.)
   template <class T>
   using Table = std::vector<T, detail::TableAllocator<T>>;
   const LodHierarchy* hierarchy{nullptr};
