@@ -448,6 +448,34 @@ TEST(HostSessionLod, SessionsFollowingABackgroundHierarchyStreamWhatASynchronous
   EXPECT_EQ(a.client.desired().desired_checksum(), a.host.sent_checksum());
 }
 
+TEST(HostSessionLod, TheBackgroundUpdateBuildsTheCutLayoutSoTheFirstCutFindsIt) {
+  // The cutters' breadth-first copy of a new tree is built on the worker after its update:
+  // built by the first cut after it, it stalled a host's serving thread 0.1-0.4 s per epoch
+  // at a million leaves. Before any reader has cut there is none to keep up (clients whose
+  // budgets hold every leaf never cut).
+  World w;
+  const CodecParams params = lod_params(w);
+  auto background = std::make_shared<LodEpochHierarchy>(params.sh_degree, LodConfig{});
+  Pair a = connect(w, params, following(background), 250);
+  const auto& layouts = *background->layouts();
+  settle_background(*background, w.store);
+  EXPECT_EQ(layouts.builds(), 0u) << "no reader has cut yet";
+  ASSERT_FALSE(step(a, w, params, 0.0).payloads.empty());
+  ASSERT_EQ(layouts.builds(), 1u) << "the first cut builds the first layout";
+  ASSERT_GT(interior_count(a.host.sent_ids()), 0u) << "the session must cut for this test to mean anything";
+  std::vector<ObjectId> objects;
+  for (const auto& o : w.store.objects()) objects.push_back(o.id);
+  ASSERT_FALSE(objects.empty());
+  for (int e = 0; e < 3; ++e) {
+    churn_epoch(w, objects[std::size_t(e) % objects.size()], e);
+    settle_background(*background, w.store);
+    EXPECT_EQ(layouts.builds(), 2u + std::uint64_t(e)) << "epoch step " << e << ": built with the update";
+    EXPECT_FALSE(step(a, w, params, 1.0 + e).payloads.empty());
+    EXPECT_EQ(layouts.builds(), 2u + std::uint64_t(e)) << "epoch step " << e << ": the cut took the prepared one";
+  }
+  EXPECT_EQ(a.client.desired().desired_checksum(), a.host.sent_checksum());
+}
+
 TEST(HostSessionLod, ASessionsRecordIsWhatItSentHoweverTheSceneAndHierarchyMoveOnAfter) {
   // gauss-host reports a leaving client's set (--sessions, --dump-sent) after its last batch.
   // A new epoch may have arrived by then, and a background update may already have rewritten

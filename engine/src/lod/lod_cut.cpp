@@ -200,6 +200,17 @@ struct LodCutLayouts::Impl {
   std::mutex mutex;
   std::shared_ptr<const LodCutter::Layout> latest;
   std::uint64_t builds{0};
+  // The layout of h's present generation, built under the mutex unless it is the latest.
+  std::shared_ptr<const LodCutter::Layout> latest_for(const LodHierarchy& h) {
+    std::lock_guard lock(mutex);
+    if (!latest || latest->hierarchy != &h || latest->generation != h.generation()) {
+      auto fresh = std::make_shared<LodCutter::Layout>();
+      fresh->build(h);
+      latest = std::move(fresh);
+      ++builds;
+    }
+    return latest;
+  }
 };
 
 LodCutLayouts::LodCutLayouts() : impl_(std::make_unique<Impl>()) {}
@@ -209,6 +220,8 @@ std::uint64_t LodCutLayouts::builds() const {
   std::lock_guard lock(impl_->mutex);
   return impl_->builds;
 }
+
+void LodCutLayouts::prepare(const LodHierarchy& hierarchy) { (void)impl_->latest_for(hierarchy); }
 
 LodCutter::LodCutter(SelectorConfig config) : config_(config), scratch_(std::make_unique<Scratch>()) {}
 
@@ -275,15 +288,7 @@ Status LodCutter::cut_in_place(const LodHierarchy& h, const ClientPose& pose, st
       for (std::uint32_t k = 0; k < S.was_refined.size(); ++k)
         if (S.was_refined[k]) refined_prev_.emplace_back(layout_->pool[k], layout_->id[k]);
     if (layouts_) {
-      std::lock_guard lock(layouts_->impl_->mutex);
-      auto& latest = layouts_->impl_->latest;
-      if (!latest || latest->hierarchy != &h || latest->generation != h.generation()) {
-        auto fresh = std::make_shared<Layout>();
-        fresh->build(h);
-        latest = std::move(fresh);
-        ++layouts_->impl_->builds;
-      }
-      layout_ = latest;
+      layout_ = layouts_->impl_->latest_for(h);
     } else {
       // Its own: the old one's memory is reused (nobody else holds it).
       std::shared_ptr<Layout> own = std::const_pointer_cast<Layout>(std::move(layout_));

@@ -293,6 +293,16 @@ void LodEpochHierarchy::run(Job& job) {
     job.result = Error{std::string(kNoMemory) + "the update ran out (" + std::to_string(given) + " Gaussians given)"};
   }
   job.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  // The readers' cut layout of the new tree, here rather than in the first cut after it (on a
+  // host's serving thread, 0.1-0.4 s at a million leaves). Only once some reader has cut: a
+  // host whose clients' budgets hold every leaf never needs one.
+  if (job.result->ok() && hierarchy_ && layouts_->builds() > 0) {
+    try {
+      layouts_->prepare(*hierarchy_);
+    } catch (const std::bad_alloc&) {
+      // The first cut builds it then, and says so if it cannot either.
+    }
+  }
 }
 
 Status LodEpochHierarchy::finish(Job& job) {

@@ -72,8 +72,14 @@ class LodCutLayouts {
   ~LodCutLayouts();
   LodCutLayouts(const LodCutLayouts&) = delete;
   LodCutLayouts& operator=(const LodCutLayouts&) = delete;
-  // Layouts built so far (one per hierarchy generation some cutter asked for).
+  // Layouts built so far (one per hierarchy generation some cutter asked for or prepare()
+  // was given).
   std::uint64_t builds() const;
+  // Builds the layout of `hierarchy`'s present generation unless it is built already, so the
+  // first cut after an update finds it ready. At a million leaves a layout takes 0.1-0.4 s;
+  // LodEpochHierarchy calls this on its worker after each update, where it costs a host's
+  // serving thread nothing. Call it only while no cutter cuts on `hierarchy`.
+  void prepare(const LodHierarchy& hierarchy);
 
  private:
   friend class LodCutter;

@@ -18,7 +18,9 @@
 // (changes_since), even when it skipped epochs. A hierarchy that cannot be updated for an
 // epoch is dropped (the readers select leaves) and built again from scratch at the next
 // epoch; `lineage()` changes whenever that happens. The readers' cutters share one
-// breadth-first copy of the tree per generation too (layouts()).
+// breadth-first copy of the tree per generation too (layouts()), which each update builds
+// once some reader has cut (on the worker, for an update in the background), so no reader's
+// first cut after an update waits for it.
 //
 // In the background. update() does the work on the caller's thread: at a million Gaussians
 // that is 50-120 ms per 1 % epoch and about a second for the first build, during which a host's
