@@ -448,6 +448,36 @@ TEST(LodCut, CuttersSharingLayoutsCutWhatEachWouldAloneWithOneLayoutPerGeneratio
   EXPECT_EQ(layouts->builds(), 3u);
 }
 
+TEST(LodCut, SharedLayoutsAreBuiltIntoTheSpareOnceNoCutterHoldsIt) {
+  // The layouts keep the one before the latest and build the next into its memory, but not
+  // while a cutter still cuts on it. The cuts are the same either way.
+  World w;
+  g_world = &w;
+  const std::vector<Gaussian> leaves = appearance_leaves(w);
+  LodHierarchy h = build(w);
+  auto layouts = std::make_shared<LodCutLayouts>();
+  LodCutter follows(SelectorConfig{}), lingers(SelectorConfig{});
+  follows.share_layouts(layouts);
+  lingers.share_layouts(layouts);
+  const ClientPose pose = look({0.1, 0.5, 0.1}, {0.9, 0.5, 0.9});
+  ASSERT_TRUE(follows.cut_in_place(h, pose, 300).ok());
+  ASSERT_TRUE(lingers.cut_in_place(h, pose, 300).ok());  // and stays on the first layout
+  for (int generation = 2; generation <= 4; ++generation) {
+    ASSERT_TRUE(h.update(leaves).ok());  // the same leaves: a new generation all the same
+    ASSERT_TRUE(follows.cut_in_place(h, pose, 300).ok());
+  }
+  // Generation 2 had no spare; 3's spare was the first layout, which `lingers` holds; 4's was
+  // the second, which `follows` had left.
+  EXPECT_EQ(layouts->builds(), 4u);
+  EXPECT_EQ(layouts->reuses(), 1u);
+  ASSERT_TRUE(lingers.cut_in_place(h, pose, 300).ok());
+  LodCutter alone(SelectorConfig{});
+  ASSERT_TRUE(alone.cut_in_place(h, pose, 300).ok());
+  EXPECT_EQ(follows.last().nodes, alone.last().nodes);
+  EXPECT_EQ(follows.last().places, alone.last().places);
+  EXPECT_EQ(layouts->builds(), 4u) << "the latest serves every cutter";
+}
+
 TEST(LodCut, BadPoseOrConfigIsAnError) {
   World w;
   g_world = &w;

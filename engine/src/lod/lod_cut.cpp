@@ -203,14 +203,15 @@ struct LodCutLayouts::Impl {
   // holds it: built on an update's worker thread, a layout's tens of megabytes otherwise came
   // fresh from that thread's arena in some epochs (5-15k page faults at a million leaves).
   std::shared_ptr<LodCutter::Layout> spare;
-  std::uint64_t builds{0};
+  std::uint64_t builds{0}, reuses{0};
   // The layout of h's present generation, built under the mutex unless it is the latest.
   std::shared_ptr<const LodCutter::Layout> latest_for(const LodHierarchy& h) {
     std::lock_guard lock(mutex);
     if (!latest || latest->hierarchy != &h || latest->generation != h.generation()) {
       // Only this object can hand the spare out, so a count of one cannot rise meanwhile.
-      std::shared_ptr<LodCutter::Layout> fresh =
-          spare && spare.use_count() == 1 ? std::move(spare) : std::make_shared<LodCutter::Layout>();
+      const bool reuse = spare && spare.use_count() == 1;
+      std::shared_ptr<LodCutter::Layout> fresh = reuse ? std::move(spare) : std::make_shared<LodCutter::Layout>();
+      reuses += reuse;
       fresh->build(h);
       spare = std::const_pointer_cast<LodCutter::Layout>(std::move(latest));
       latest = std::move(fresh);
@@ -226,6 +227,11 @@ LodCutLayouts::~LodCutLayouts() = default;
 std::uint64_t LodCutLayouts::builds() const {
   std::lock_guard lock(impl_->mutex);
   return impl_->builds;
+}
+
+std::uint64_t LodCutLayouts::reuses() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->reuses;
 }
 
 void LodCutLayouts::prepare(const LodHierarchy& hierarchy) { (void)impl_->latest_for(hierarchy); }

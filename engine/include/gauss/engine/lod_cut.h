@@ -75,6 +75,9 @@ class LodCutLayouts {
   // Layouts built so far (one per hierarchy generation some cutter asked for or prepare()
   // was given).
   std::uint64_t builds() const;
+  // Of those, the builds made into the memory of the layout before the latest (kept as a
+  // spare, and reused once no cutter cuts on it any more).
+  std::uint64_t reuses() const;
   // Builds the layout of `hierarchy`'s present generation unless it is built already, so the
   // first cut after an update finds it ready. At a million leaves a layout takes 0.1-0.4 s;
   // LodEpochHierarchy calls this on its worker after each update, where it costs a host's
