@@ -45,13 +45,13 @@ float sphere_error(const select_detail::ViewParams& vp, const glm::vec3& centre,
 // one run of the leaf arrays. Built once per hierarchy generation; a cut then reads the tree
 // sequentially instead of chasing pool indices.
 struct LodCutter::Layout {
-  // On huge pages (detail::TableAllocator): a cut reads the rank tables at random, a few
-  // entries per page, and at a million leaves they span 20 MB. (The build's short-lived
-  // scratch stays on plain vectors: a host builds a layout every epoch, and the heap keeps
-  // their memory from one build to the next, where huge-page blocks came back fresh each time,
-  // 110-142 against 90-139 ms a layout at a million leaves.)
+  // On huge pages (detail::TableVector): a cut reads the rank tables at random, a few entries
+  // per page, and at a million leaves they span 20 MB. (The build's short-lived scratch stays
+  // on plain vectors: a host builds a layout every epoch, and the heap keeps their memory from
+  // one build to the next, where huge-page blocks came back fresh each time; a first cut with
+  // its layout took 110-142 against 90-139 ms at a million leaves.)
   template <class T>
-  using Table = std::vector<T, detail::TableAllocator<T>>;
+  using Table = detail::TableVector<T>;
   const LodHierarchy* hierarchy{nullptr};
   std::uint64_t generation{0};
   std::uint32_t root_leaf{kNone};  // the pool index of the root when it is a leaf

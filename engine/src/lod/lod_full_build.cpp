@@ -18,14 +18,6 @@ namespace gauss {
 
 using lod_detail::kPendingLeaf;
 
-namespace {
-// The build's scratch of tens of megabytes lies on huge pages, as the pools do: from plain
-// vectors its memory came fresh from the kernel on 4 KiB pages wherever the heap had no such
-// room, about 11k page faults a build at a million leaves (LodHierarchy.Timing at SH 3).
-template <class T>
-using BuildScratch = std::vector<T, detail::TableAllocator<T>>;
-}  // namespace
-
 void LodHierarchy::clear_pools() {
   // Without a leaf no node is live (each interior node stands for >= 1 leaf), so every pool
   // entry is dead and the pools start over. Serials and the cube stay: ids are never reused,
@@ -125,7 +117,10 @@ Expected<LodUpdateReport> LodHierarchy::build_from_empty(std::span<const Gaussia
   // tree's codes by radix passes over the bits in which they differ (stable, so equal codes
   // keep input order), then each run of equal codes (coincident leaves) by id: std::sort of
   // the entries was a tenth of the build.
-  BuildScratch<std::uint32_t> tree_rank(leaves);
+  // The scratch of tens of megabytes (TableVector) lies on huge pages, as the pools do: on
+  // plain vectors it came fresh from the kernel on 4 KiB pages wherever the heap had no such
+  // room, about 11k page faults a build at a million leaves (LodHierarchy.Timing at SH 3).
+  detail::TableVector<std::uint32_t> tree_rank(leaves);
   std::vector<std::uint32_t> trees;  // distinct trees, first seen first
   {
     detail::IdIndex seen;
@@ -150,7 +145,7 @@ Expected<LodUpdateReport> LodHierarchy::build_from_empty(std::span<const Gaussia
   std::vector<std::size_t> start(trees.size() + 1, 0);
   for (std::size_t j = 0; j < leaves; ++j) ++start[by_tree[tree_rank[j]] + 1];
   for (std::size_t r = 0; r < trees.size(); ++r) start[r + 1] += start[r];
-  BuildScratch<lod_detail::IdPair> pairs(leaves), scratch;
+  detail::TableVector<lod_detail::IdPair> pairs(leaves), scratch;
   {
     std::vector<std::size_t> at(start.begin(), start.end() - 1);
     for (std::size_t j = 0; j < leaves; ++j)
@@ -158,7 +153,7 @@ Expected<LodUpdateReport> LodHierarchy::build_from_empty(std::span<const Gaussia
   }
   for (std::size_t r = 0; r < trees.size(); ++r)
     lod_detail::sort_by_id(std::span<lod_detail::IdPair>(pairs).subspan(start[r], start[r + 1] - start[r]), scratch);
-  BuildScratch<std::uint64_t> ids(leaves);  // compact: the reads below in tree order hit L3
+  detail::TableVector<std::uint64_t> ids(leaves);  // compact: the reads below in tree order hit L3
   for (std::size_t j = 0; j < leaves; ++j) ids[j] = to_underlying(nodes_[j].id);
   auto id_of = [&](std::uint32_t j) { return ids[j]; };
   for (std::size_t r = 0; r < trees.size(); ++r) {

@@ -172,7 +172,7 @@ Expected<LodUpdateReport> LodHierarchy::update_from(const Gaussian* base, std::s
     // Nothing to compare with: the full build (same tree, records, ids and report as the
     // general path below would give, without its per-leaf diffing; lod_full_build.cpp).
     // On huge pages, as the build's own scratch (lod_full_build.cpp): 8 MB at a million.
-    std::vector<const Gaussian*, detail::TableAllocator<const Gaussian*>> all(count);
+    detail::TableVector<const Gaussian*> all(count);
     for (std::size_t k = 0; k < count; ++k) all[k] = &get(k);
     return build_from_empty(all, base);
   }

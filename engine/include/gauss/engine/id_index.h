@@ -29,6 +29,10 @@ struct TableAllocator {
   bool operator==(const TableAllocator<U>&) const noexcept { return true; }
 };
 
+// A vector on such blocks.
+template <class T>
+using TableVector = std::vector<T, TableAllocator<T>>;
+
 // IdIndex: GaussianId -> entry index, an open-addressing hash table with linear
 // probing and backward-shift deletion. The client's coalescing does one lookup per
 // received edit into a table of up to M ids; std::unordered_map costs a node (a second

@@ -303,7 +303,7 @@ class LodHierarchy {
   // ~110 MB, and on 4 KiB pages nearly every such read also missed the TLB. And a build
   // writes ~400 MB of new pools: on 4 KiB pages a tenth of its time went to page faults.
   template <class T>
-  using Pool = std::vector<T, detail::TableAllocator<T>>;
+  using Pool = detail::TableVector<T>;
   Pool<LodNode> nodes_;
   std::vector<std::uint32_t> free_nodes_;
   Pool<std::uint32_t> children_;
