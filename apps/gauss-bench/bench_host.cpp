@@ -269,6 +269,9 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const HostB
       f(g.opacity_logit);
       mix(std::uint64_t(std::uint32_t(to_underlying(g.object))) << 32 | g.support);
     };
+    // The payload as a host sends it (encode_edit_batch, as HostSession does after the diff):
+    // its bytes in a digest of their own, its time beside the diff's.
+    std::uint64_t payload_digest = 0xcbf29ce484222325ull;
     auto step = [&](const ClientPose& p, double* times) -> Expected<EditBatch> {
       const double t0 = thread_cpu_ms();
       auto sel = lod.select(selector, store, nullptr, p, req);
@@ -277,10 +280,15 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const HostB
       auto b = differ.diff(*sel, store, lod.records(), lod.modified());
       lod.clear_modified();
       const double t2 = thread_cpu_ms();
+      if (!b) return b;
+      const std::vector<std::uint8_t> payload = encode_edit_batch(*b, params);
+      const double t3 = thread_cpu_ms();
       if (times) {
         times[0] = t1 - t0;
         times[1] = t2 - t1;
+        times[2] = t3 - t2;
         for (GaussianId id : sel->ids) mix(to_underlying(id));
+        for (std::uint8_t byte : payload) payload_digest = (payload_digest ^ byte) * 0x100000001b3ull;
       }
       return b;
     };
@@ -290,10 +298,10 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const HostB
         std::fprintf(stderr, "LoD step: %s\n", b.message().c_str());
         return {};
       }
-    std::vector<double> select_ms, diff_ms, total_ms, edit_frac;
+    std::vector<double> select_ms, diff_ms, total_ms, encode_ms, served_ms, edit_frac;
     for (int k = 0; k < o.updates; ++k) {
       pose = small_motion(pose);
-      double t[2];
+      double t[3];
       auto b = step(pose, t);
       if (!b) return {};
       for (const Edit& e : b->edits) {
@@ -304,6 +312,8 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const HostB
       select_ms.push_back(t[0]);
       diff_ms.push_back(t[1]);
       total_ms.push_back(t[0] + t[1]);
+      encode_ms.push_back(t[2]);
+      served_ms.push_back(t[0] + t[1] + t[2]);
       edit_frac.push_back(static_cast<double>(b->edits.size()) / static_cast<double>(o.budget));
     }
     const LodCut& cut = lod.last_cut();
@@ -315,9 +325,12 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const HostB
     print_median_p90_max("select (reservation + cut) ms", select_ms);
     print_median_p90_max("diff ms", diff_ms);
     print_median_p90_max("select + cut + diff ms (<= 10)", total_ms);
+    print_median_p90_max("encode ms (records, columns, zstd)", encode_ms);
+    print_median_p90_max("select + cut + diff + encode ms", served_ms);
     std::printf("  edits per step (walk): median %.3f %%  max %.3f %% of M\n", 100.0 * nearest_rank(edit_frac, 0.5),
                 100.0 * nearest_rank(edit_frac, 1.0));
     std::printf("  walk digest (selected ids + edits + values): %016llx\n", static_cast<unsigned long long>(digest));
+    std::printf("  payload digest (encoded batches):            %016llx\n", static_cast<unsigned long long>(payload_digest));
     out[query ? "query" : "no_query"] = json{
         {"cut_nodes", cut.nodes.size()},
         {"cut_interior", cut.interior},
@@ -325,7 +338,11 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const HostB
         {"diff_ms", {{"median", nearest_rank(diff_ms, 0.5)}, {"p90", nearest_rank(diff_ms, 0.9)}}},
         {"select_cut_diff_ms",
          {{"median", nearest_rank(total_ms, 0.5)}, {"p90", nearest_rank(total_ms, 0.9)}, {"max", nearest_rank(total_ms, 1.0)}}},
-        {"edit_fraction_walk", {{"median", nearest_rank(edit_frac, 0.5)}, {"max", nearest_rank(edit_frac, 1.0)}}}};
+        {"encode_ms", {{"median", nearest_rank(encode_ms, 0.5)}, {"p90", nearest_rank(encode_ms, 0.9)}}},
+        {"select_cut_diff_encode_ms",
+         {{"median", nearest_rank(served_ms, 0.5)}, {"p90", nearest_rank(served_ms, 0.9)}, {"max", nearest_rank(served_ms, 1.0)}}},
+        {"edit_fraction_walk", {{"median", nearest_rank(edit_frac, 0.5)}, {"max", nearest_rank(edit_frac, 1.0)}}},
+        {"payload_digest", payload_digest}};
   }
   return out;
 }
