@@ -269,8 +269,9 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const HostB
       f(g.opacity_logit);
       mix(std::uint64_t(std::uint32_t(to_underlying(g.object))) << 32 | g.support);
     };
-    // The payload as a host sends it (encode_edit_batch, as HostSession does after the diff):
-    // its bytes in a digest of their own, its time beside the diff's.
+    // The payload as a host sends it (encode_edit_batch with the differ's sent records, as
+    // HostSession does after the diff): its bytes in a digest of their own, its time beside
+    // the diff's.
     std::uint64_t payload_digest = 0xcbf29ce484222325ull;
     auto step = [&](const ClientPose& p, double* times) -> Expected<EditBatch> {
       const double t0 = thread_cpu_ms();
@@ -281,7 +282,7 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const HostB
       lod.clear_modified();
       const double t2 = thread_cpu_ms();
       if (!b) return b;
-      const std::vector<std::uint8_t> payload = encode_edit_batch(*b, params);
+      const std::vector<std::uint8_t> payload = encode_edit_batch(*b, params, nullptr, differ.last_sent_records());
       const double t3 = thread_cpu_ms();
       if (times) {
         times[0] = t1 - t0;

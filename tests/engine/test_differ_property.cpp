@@ -232,5 +232,84 @@ TEST(DifferProperty, KeepsEachSentRecordAsSentThroughLaterEpochsAndFailedDiffs) 
   EXPECT_FALSE(differ.sent_record(a.id).has_value());
 }
 
+TEST(DifferProperty, LastSentRecordsAreTheValueEditsAsSentAndTheEncoderCopiesThem) {
+  SceneStore store;
+  test::fill_test_scene(store, 200, 71);
+  const CodecParams params = fit_codec_params(store.gaussians(), store.sh_degree());
+  const std::size_t stride = sent_record_bytes(params.sh_degree);
+  const std::size_t rec = record_bytes(params.sh_degree);
+  Differ differ(params);
+  auto make = [&](std::uint32_t from, std::uint32_t to) { return scene_range(store, from, to); };
+  // Each value edit's sent record, in batch order, as write_sent_record gives it.
+  auto expect_records_of = [&](const EditBatch& b) {
+    std::vector<std::uint8_t> want;
+    for (const Edit& e : b.edits) {
+      if (e.kind == EditKind::Remove) continue;
+      want.resize(want.size() + stride);
+      write_sent_record(e.value, params, want.data() + want.size() - stride);
+    }
+    const auto got = differ.last_sent_records();
+    ASSERT_EQ(got.size(), want.size());
+    EXPECT_TRUE(std::equal(got.begin(), got.end(), want.begin()));
+  };
+  auto first = differ.diff(make(0, 100), store);
+  ASSERT_TRUE(first.ok());
+  expect_records_of(*first);
+  // A batch of every kind: 10 leave and 60 enter (10 replaces, 50 inserts), one update.
+  ASSERT_TRUE(store.begin_next_epoch().ok());
+  Gaussian moved = store.gaussians()[40];
+  moved.sh_dc += glm::vec3(0.5f);
+  ASSERT_TRUE(store.modify(moved).ok());
+  ASSERT_TRUE(store.commit_epoch().ok());
+  auto b = differ.diff(make(10, 160), store);
+  ASSERT_TRUE(b.ok());
+  ASSERT_EQ(differ.last_stats().replaces, 10u);
+  ASSERT_EQ(differ.last_stats().inserts, 50u);
+  ASSERT_EQ(differ.last_stats().updates, 1u);
+  expect_records_of(*b);
+
+  // The encoder copies them: the same payload as quantising again.
+  const std::vector<std::uint8_t> plain = encode_edit_batch_raw(*b, params);
+  const std::vector<std::uint8_t> sent(differ.last_sent_records().begin(), differ.last_sent_records().end());
+  EXPECT_EQ(encode_edit_batch_raw(*b, params, nullptr, sent), plain);
+  EXPECT_EQ(decode_edit_batch(encode_edit_batch(*b, params, nullptr, sent), params)->edits.size(), b->edits.size());
+  // Copied, not quantised: a changed record byte and support code reach the decoded batch.
+  std::vector<std::uint8_t> altered = sent;
+  const std::size_t v = 10;  // the update: after the 10 replaces
+  altered[v * stride + 0] ^= 0x01;        // lowest bit of the position's x code
+  altered[v * stride + rec + 4] ^= 0x01;  // the support code
+  auto decoded = decode_edit_batch_raw(encode_edit_batch_raw(*b, params, nullptr, altered), params);
+  auto decoded_plain = decode_edit_batch_raw(plain, params);
+  ASSERT_TRUE(decoded.ok());
+  ASSERT_TRUE(decoded_plain.ok());
+  ASSERT_EQ(decoded->edits.size(), decoded_plain->edits.size());
+  std::size_t differing = 0;
+  for (std::size_t i = 0; i < decoded->edits.size(); ++i) {
+    if (same_record(decoded->edits[i].value, decoded_plain->edits[i].value)) continue;
+    ++differing;
+    EXPECT_EQ(decoded->edits[i].kind, EditKind::Update);
+    EXPECT_EQ(decoded->edits[i].id, moved.id);
+    EXPECT_NE(decoded->edits[i].value.position.x, decoded_plain->edits[i].value.position.x);
+    EXPECT_NE(decoded->edits[i].value.support, decoded_plain->edits[i].value.support);
+  }
+  EXPECT_EQ(differing, 1u);
+  // Records of another size, or stats to count, and every record is quantised.
+  std::vector<std::uint8_t> short_by_one(altered.begin(), altered.end() - 1);
+  EXPECT_EQ(encode_edit_batch_raw(*b, params, nullptr, short_by_one), plain);
+  CodecStats stats;
+  EXPECT_EQ(encode_edit_batch_raw(*b, params, &stats, altered), plain);
+  EXPECT_EQ(stats.gaussians, 61u);
+
+  // None after a failed diff, or after a reset.
+  Selection wrong = make(20, 170);
+  wrong.ids.back() = GaussianId{to_underlying(wrong.ids.back()) + 100000};
+  EXPECT_FALSE(differ.diff(wrong, store).ok());
+  EXPECT_TRUE(differ.last_sent_records().empty());
+  ASSERT_TRUE(differ.diff(make(20, 170), store).ok());
+  EXPECT_FALSE(differ.last_sent_records().empty());
+  differ.reset();
+  EXPECT_TRUE(differ.last_sent_records().empty());
+}
+
 }  // namespace
 }  // namespace gauss

@@ -137,16 +137,29 @@ Error decode_error(std::size_t offset, const std::string& what) {
 }  // namespace
 
 std::vector<std::uint8_t> encode_edit_batch_raw(const EditBatch& batch, const CodecParams& params,
-                                                CodecStats* stats) {
+                                                CodecStats* stats, std::span<const std::uint8_t> sent_records) {
   Grouped g;
   for (const Edit& e : batch.edits) g.group[wire_group(e.kind)].push_back(&e);
-  for (auto& grp : g.group) {
-    std::sort(grp.begin(), grp.end(),
-              [](const Edit* a, const Edit* b) { return to_underlying(a->id) < to_underlying(b->id); });
-  }
+  auto by_id = [](const Edit* a, const Edit* b) { return to_underlying(a->id) < to_underlying(b->id); };
+  for (auto& grp : g.group)  // a Differ's batch comes sorted
+    if (!std::is_sorted(grp.begin(), grp.end(), by_id)) std::sort(grp.begin(), grp.end(), by_id);
   const int degree = std::clamp(params.sh_degree, 0, kMaxShDegree);
   const std::size_t rec = record_bytes(degree);
   const std::size_t n_values = g.group[1].size() + g.group[2].size() + g.group[3].size();
+  // The value edits' sent records, when given for exactly these edits: record bytes, then
+  // the object id (4 bytes), then the support code (sent_record_bytes).
+  const std::size_t sent_stride = sent_record_bytes(degree);
+  const bool copy_records = !stats && n_values > 0 && sent_records.size() == n_values * sent_stride;
+  std::vector<std::uint32_t> value_index;  // edit -> its place among the value edits
+  if (copy_records) {
+    value_index.resize(batch.edits.size());
+    std::uint32_t v = 0;
+    for (std::size_t i = 0; i < batch.edits.size(); ++i)
+      if (batch.edits[i].kind != EditKind::Remove) value_index[i] = v++;
+  }
+  auto sent_of = [&](const Edit* e) {
+    return sent_records.data() + std::size_t{value_index[std::size_t(e - batch.edits.data())]} * sent_stride;
+  };
 
   std::vector<std::uint8_t> out;
   out.reserve(32 + (g.group[0].size() + 2 * g.group[1].size()) / 2 + n_values * (rec + 2));
@@ -181,7 +194,7 @@ std::vector<std::uint8_t> encode_edit_batch_raw(const EditBatch& batch, const Co
     for (int k = 1; k < 4; ++k) {
       for (const Edit* e : g.group[k]) {
         objects.push_back(to_underlying(e->value.object));
-        support.push_back(codec_detail::support_code(e->value.support, stats));
+        support.push_back(copy_records ? sent_of(e)[rec + 4] : codec_detail::support_code(e->value.support, stats));
       }
     }
     put_runs(w, make_runs(objects));
@@ -203,7 +216,10 @@ std::vector<std::uint8_t> encode_edit_batch_raw(const EditBatch& batch, const Co
   std::uint8_t* r = out.data() + rec_start;
   for (int k = 1; k < 4; ++k) {
     for (const Edit* e : g.group[k]) {
-      codec_detail::write_record(e->value, params, r, stats);
+      if (copy_records)
+        std::memcpy(r, sent_of(e), rec);
+      else
+        codec_detail::write_record(e->value, params, r, stats);
       r += rec;
     }
   }
@@ -391,8 +407,9 @@ Expected<EditBatch> decode_edit_batch_raw(std::span<const std::uint8_t> payload,
   return batch;
 }
 
-std::vector<std::uint8_t> encode_edit_batch(const EditBatch& batch, const CodecParams& params, CodecStats* stats) {
-  const std::vector<std::uint8_t> raw = encode_edit_batch_raw(batch, params, stats);
+std::vector<std::uint8_t> encode_edit_batch(const EditBatch& batch, const CodecParams& params, CodecStats* stats,
+                                            std::span<const std::uint8_t> sent_records) {
+  const std::vector<std::uint8_t> raw = encode_edit_batch_raw(batch, params, stats, sent_records);
   std::vector<std::uint8_t> out(ZSTD_compressBound(raw.size()));
   const std::size_t n = ZSTD_compress(out.data(), out.size(), raw.data(), raw.size(), kZstdLevel);
   // Compressing into a ZSTD_compressBound-sized buffer cannot fail except on allocation

@@ -39,6 +39,7 @@ struct Differ::Impl {
   Error fail(Error e) {
     free_slots.insert(free_slots.end(), taken_slots.begin(), taken_slots.end());
     taken_slots.clear();
+    batch_records.clear();
     return e;
   }
   std::uint8_t* at(std::uint32_t slot) { return records.data() + std::size_t{slot} * stride; }
@@ -53,6 +54,9 @@ struct Differ::Impl {
   std::vector<std::uint32_t> taken_slots;
   std::vector<std::uint32_t> enterers;  // positions in the desired selection
   std::vector<std::uint32_t> updated;   // positions in the desired selection
+  std::vector<std::uint32_t> updated_slots;  // their new slots
+  // The last batch's sent records, one per value edit in batch order (last_sent_records).
+  std::vector<std::uint8_t> batch_records;
   std::vector<std::uint32_t> enterer_slots;  // their entries in `next`
   std::vector<std::uint32_t> order;     // desired positions in id order (when not sorted)
   std::vector<GaussianId> modified_scratch;
@@ -94,8 +98,11 @@ void Differ::for_each_sent(const std::function<void(const Gaussian&)>& visit) co
   for (const Impl::Sent& s : impl_->sent) visit(read_sent_record(impl_->at(s.slot), s.id, impl_->params));
 }
 
+std::span<const std::uint8_t> Differ::last_sent_records() const { return impl_->batch_records; }
+
 void Differ::reset() {
   impl_->sent.clear();
+  impl_->batch_records.clear();
   impl_->records.clear();
   impl_->free_slots.clear();
   impl_->last_epoch.reset();
@@ -131,6 +138,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, const SceneStore& sce
 Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gaussian> gaussians, Epoch epoch,
                                  std::optional<std::span<const GaussianId>> modified, std::span<const Gaussian> extra) {
   Impl& s = *impl_;
+  s.batch_records.clear();
   const std::size_t m = desired.ids.size();
   if (m != desired.indices.size()) return Error{"diff: selection ids and indices differ in length"};
   if (desired.scene_size != gaussians.size()) {
@@ -187,6 +195,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
   s.enterers.clear();
   s.enterer_slots.clear();
   s.updated.clear();
+  s.updated_slots.clear();
   // One entry of the next sent state per desired id, written in id order.
   s.next.resize(m);
   Impl::Sent* next = s.next.data();
@@ -248,6 +257,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
         s.taken_slots.push_back(e.slot);
         std::memcpy(s.at(e.slot), fresh, s.stride);
         s.updated.push_back(k);
+        s.updated_slots.push_back(e.slot);
       }
     }
     next[t++] = e;
@@ -263,6 +273,10 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
   // enterer is checked against the scene there (its record is read anyway), and its sent bytes
   // are taken from its fresh copy rather than from the scene again.
   batch.edits.reserve(s.leavers.size() + s.enterers.size() - replaces + s.updated.size());
+  // The value edits' sent records, in batch order, for the encoder (last_sent_records): each
+  // is written here once and copied to its slot, so a host quantises a record once.
+  s.batch_records.resize((s.enterers.size() + s.updated.size()) * s.stride);
+  std::uint8_t* batch_record = s.batch_records.data();
   auto prefetch = [&](std::uint32_t k) {
     const auto* p = reinterpret_cast<const char*>(&record(desired.indices[k]));
     for (std::size_t line = 0; line < sizeof(Gaussian); line += 64) __builtin_prefetch(p + line);
@@ -282,7 +296,9 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
     Impl::Sent& entry = s.next[s.enterer_slots[j]];
     entry.slot = s.take_slot();
     s.taken_slots.push_back(entry.slot);
-    write_sent_record(e.value, s.params, s.at(entry.slot));
+    write_sent_record(e.value, s.params, batch_record);
+    std::memcpy(s.at(entry.slot), batch_record, s.stride);
+    batch_record += s.stride;
     return std::nullopt;
   };
   // Batch order: removes, replaces, updates, inserts. Leavers and enterers are both in
@@ -290,7 +306,12 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
   for (std::size_t j = replaces; j < s.leavers.size(); ++j) batch.edits.push_back(Edit{EditKind::Remove, s.leavers[j]});
   for (std::size_t j = 0; j < replaces; ++j)
     if (auto err = enter(j)) return s.fail(*err);
-  for (std::uint32_t k : s.updated) emit(EditKind::Update, desired.ids[k], GaussianId{0}, record(desired.indices[k]));
+  for (std::size_t j = 0; j < s.updated.size(); ++j) {
+    const std::uint32_t k = s.updated[j];
+    emit(EditKind::Update, desired.ids[k], GaussianId{0}, record(desired.indices[k]));
+    std::memcpy(batch_record, s.at(s.updated_slots[j]), s.stride);
+    batch_record += s.stride;
+  }
   for (std::size_t j = replaces; j < s.enterers.size(); ++j)
     if (auto err = enter(j)) return s.fail(*err);
   s.sent.swap(s.next);

@@ -331,7 +331,8 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
   bm.edit_count = static_cast<std::uint32_t>(batch->edits.size());
   bm.flags = needs_resync_ ? msg::kBatchResync : 0;
   bm.host_time_us = to_us(now);
-  bm.payload = encode_edit_batch(*batch, params_);
+  // The differ quantised each value edit's record as it sent it: the encoder copies them.
+  bm.payload = encode_edit_batch(*batch, differ_.params(), nullptr, differ_.last_sent_records());
   ++stats_.batches_sent;
   stats_.edits_sent += batch->edits.size();
   stats_.payload_bytes_sent += bm.payload.size();

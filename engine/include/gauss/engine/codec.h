@@ -185,13 +185,21 @@ Gaussian read_sent_record(const std::uint8_t* in, GaussianId id, const CodecPara
 Gaussian quantize_roundtrip(const Gaussian& g, const CodecParams& params);
 
 // Uncompressed payload (the layout above). Stats accumulate when given.
+// `sent_records`, when given and no stats are: the sent record (write_sent_record with these
+// params) of each Replace, Update and Insert edit, in the batch's order (what
+// Differ::last_sent_records holds for the batch it made); the records and support codes are
+// then copied from them instead of quantised again, and the payload is the same. Any other
+// size is ignored. Stats count clamps and non-finite values as they are quantised, so with
+// stats every record is.
 std::vector<std::uint8_t> encode_edit_batch_raw(const EditBatch& batch, const CodecParams& params,
-                                                CodecStats* stats = nullptr);
+                                                CodecStats* stats = nullptr,
+                                                std::span<const std::uint8_t> sent_records = {});
 Expected<EditBatch> decode_edit_batch_raw(std::span<const std::uint8_t> payload, const CodecParams& params);
 
-// zstd-compressed payload: what goes on the wire.
+// zstd-compressed payload: what goes on the wire. `sent_records` as for encode_edit_batch_raw.
 std::vector<std::uint8_t> encode_edit_batch(const EditBatch& batch, const CodecParams& params,
-                                            CodecStats* stats = nullptr);
+                                            CodecStats* stats = nullptr,
+                                            std::span<const std::uint8_t> sent_records = {});
 // Hostile-input safe: never crashes, never allocates more than kMaxPayloadBytes plus the
 // counts the payload can actually hold; errors name the byte offset and what is wrong.
 Expected<EditBatch> decode_edit_batch(std::span<const std::uint8_t> bytes, const CodecParams& params);

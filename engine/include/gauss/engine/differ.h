@@ -75,6 +75,11 @@ class Differ {
   std::optional<Gaussian> sent_record(GaussianId id) const;
   // Each sent record so, in id order.
   void for_each_sent(const std::function<void(const Gaussian&)>& visit) const;
+  // The sent record (write_sent_record with params()) of each Replace, Update and Insert edit
+  // of the last diff's batch, in the batch's order, sent_record_bytes(params().sh_degree)
+  // bytes each: what encode_edit_batch would quantise again (HostSession hands them to it).
+  // Empty after a failed diff and after reset().
+  std::span<const std::uint8_t> last_sent_records() const;
   // Forgets the sent state (e.g. the client reconnected with an empty set).
   void reset();
 
