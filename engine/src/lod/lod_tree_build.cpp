@@ -408,6 +408,7 @@ void LodHierarchy::merge_kids(TreeBuild& b, std::uint32_t node, bool kept, std::
     if (b.pending_count == b.pending.size()) flush_geometry(b);
   }
   ++b.report->nodes_merged;
+  b.report->inputs_merged += kids.size();
 
   // The bounding sphere around the children's spheres (centre: their box's centre).
   const glm::vec3 centre = 0.5f * (lo + hi);

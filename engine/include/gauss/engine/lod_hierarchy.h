@@ -117,6 +117,10 @@ struct LodUpdateReport {
   std::size_t leaves_removed{0};
   std::size_t skipped{0};            // Gaussians left out as unusable (lod_merge.h LodLeafStatus)
   std::size_t nodes_merged{0};       // interior records recomputed (the update's work)
+  // The children those merges read, leaves and interior nodes: the update's work in a full
+  // build's units, since a build reads every node but the root once (leaf_count() +
+  // interior_count() - 1).
+  std::size_t inputs_merged{0};
 };
 
 class LodHierarchy {
