@@ -917,7 +917,7 @@ TEST(LodHierarchy, Timing) {
   // On huge pages, as a host's scene is (SceneStore, the background update's copy): the build
   // reads every Gaussian, and at SH 3 it took 1.10-1.45 s from a scene on 4 KiB pages against
   // 0.79-0.98 s on huge pages (medians of 8, three runs alternating, 2026-11-29).
-  std::vector<Gaussian, detail::TableAllocator<Gaussian>> scene;
+  detail::TableVector<Gaussian> scene;
   {
     const std::vector<Gaussian> drawn = random_scene(n, objects, 61);
     scene.assign(drawn.begin(), drawn.end());
