@@ -121,6 +121,53 @@ TEST(SelectorBudget, WithoutBackgroundLeavesTheReservationIsTheFullSelections) {
   EXPECT_GT(none->background_candidates, 5000u);
 }
 
+// A request without the background's leaves leaves the background's global layer unmade
+// (a LoD cut stands in for those leaves); a request with them on the same partition then
+// makes it: the same selection as a selector asked with them alone (the LoD selector does
+// this where the background fits the budget).
+TEST(SelectorBudget, TheBackgroundLayerIsMadeWhenTheBackgroundIsFirstAskedFor) {
+  SceneStore store;
+  test::fill_test_scene(store, 20000, 3);
+  std::mt19937_64 rng(11);
+  int cases = 0;
+  for (const bool query : {false, true}) {
+    Selector later;  // across budgets: each new partition drops the layer made for the last
+    for (std::size_t m : {std::size_t{777}, std::size_t{5000}, std::size_t{19000}}) {
+      SelectionRequest req;
+      req.budget = m;
+      req.client_capacity = 40000;
+      if (query) {
+        req.query = SemanticQuery::for_class("chair");
+        req.rho = 0.5;
+      }
+      const ClientPose pose = test::random_test_pose(rng);
+      Selector alone;
+      req.background_leaves = false;
+      auto reservation = later.select(store, pose, req);
+      ASSERT_TRUE(reservation.ok());
+      // The same resident set for both, so hysteresis treats them alike.
+      later.set_resident(reservation->ids);
+      alone.set_resident(reservation->ids);
+      req.background_leaves = true;
+      auto a = later.select(store, pose, req);
+      auto b = alone.select(store, pose, req);
+      ASSERT_TRUE(a.ok() && b.ok());
+      EXPECT_GT(a->background_selected, 0u);
+      EXPECT_EQ(a->ids, b->ids) << "query " << query << " M=" << m;
+      EXPECT_EQ(a->global_selected, b->global_selected);
+      EXPECT_EQ(a->background_selected, b->background_selected);
+      // And back: the reservation alone again, as before.
+      req.background_leaves = false;
+      later.set_resident(reservation->ids);
+      auto again = later.select(store, pose, req);
+      ASSERT_TRUE(again.ok());
+      EXPECT_EQ(again->ids, reservation->ids);
+      ++cases;
+    }
+  }
+  EXPECT_EQ(cases, 6);
+}
+
 // The view scores are taken eight at a time with AVX2 where the CPU has it, four at a time
 // with SSE2 otherwise (GAUSS_SIMD=sse2 forces that): the same keys lane for lane, so the same
 // selections, with hysteresis carried along a walk, with and without a query, for a scene

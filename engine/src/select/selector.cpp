@@ -185,6 +185,10 @@ struct Selector::Impl {
   PartitionKey partition_key;
   std::size_t n_obj{0}, n_bg{0}, object_budget{0}, bg_budget{0};
   std::size_t global_obj{0}, global_bg{0};
+  // The background's global layer and view_part are made only for a request with the
+  // background's leaves: with a LoD cut standing in for them, every new scene version cost
+  // each session a ranking of all N for nothing.
+  bool background_layer_valid{false};
   std::vector<std::uint8_t> eligible_mask;  // EligibleSet indices as a mask
   // Hysteresis state: the resident ids, and the same as a flag per position of the cached
   // scene version (the previous selection's flags when the version did not change, so a
@@ -225,7 +229,7 @@ struct Selector::Impl {
     const std::size_t n = t.n;
     ObjectTerms& o = object_terms;
     o.pos.clear();
-    for (std::size_t j = 0; j < n; ++j)
+    for (std::size_t j = 0; j < n && o.pos.size() < n_obj; ++j)
       if (part[j] == kObject) o.pos.push_back(static_cast<std::uint32_t>(j));
     const std::size_t m = o.pos.size();
     for (auto* v : {&o.px, &o.py, &o.pz, &o.radius, &o.weight}) v->resize(m);
@@ -238,7 +242,7 @@ struct Selector::Impl {
       o.radius[i] = t.radius[j];
       o.weight[i] = t.weight[j];
       o.part[i] = part[j];
-      o.view_part[i] = view_part[j];
+      o.view_part[i] = global_flags[j] ? kExcluded : part[j];  // view_part's entry
       o.global[i] = global_flags[j];
     }
     o.valid = true;
@@ -450,6 +454,9 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
   // and the budgets, not on the pose: computed once and reused while those stay the same,
   // so a pose-only update pays for the view layer alone.
   PartitionKey key{s.generation, query_ids, mask_hash(eligible), eligible.size(), request.budget, request.rho};
+  auto global_budget = [&](std::size_t budget) {
+    return static_cast<std::size_t>(std::floor(cfg.global_fraction * static_cast<double>(budget)));
+  };
   if (!s.partition_valid || !(key == s.partition_key)) {
     s.part.resize(n);
     std::size_t n_obj = 0;
@@ -472,20 +479,20 @@ Expected<Selection> Selector::select(std::span<const Gaussian> gaussians, std::s
     }
     s.bg_budget = std::min(n_bg, request.budget - s.object_budget);
     s.global_flags.assign(n, 0);
-    std::size_t global_taken[3] = {0, 0, 0};
-    for (std::uint8_t p : {kObject, kBackground}) {
-      const std::size_t budget = p == kObject ? s.object_budget : s.bg_budget;
-      const auto global_budget = static_cast<std::size_t>(std::floor(cfg.global_fraction * static_cast<double>(budget)));
-      global_taken[p] = s.top.select(T.global_key, s.part, p, global_budget, s.global_flags);
-    }
-    s.global_obj = global_taken[kObject];
-    s.global_bg = global_taken[kBackground];
-    // The view layer ranks what the global layer left.
-    s.view_part.resize(n);
-    for (std::size_t j = 0; j < n; ++j) s.view_part[j] = s.global_flags[j] ? kExcluded : s.part[j];
+    s.global_obj = s.top.select(T.global_key, s.part, kObject, global_budget(s.object_budget), s.global_flags);
+    s.global_bg = 0;
+    s.background_layer_valid = false;
     s.partition_key = std::move(key);
     s.partition_valid = true;
     s.object_terms.valid = false;
+  }
+  if (request.background_leaves && !s.background_layer_valid) {
+    // The background's global layer (its flags are its partition's own, so made after the
+    // object's they are the same), then the view layer's partition: what the global layer left.
+    s.global_bg = s.top.select(T.global_key, s.part, kBackground, global_budget(s.bg_budget), s.global_flags);
+    s.view_part.resize(n);
+    for (std::size_t j = 0; j < n; ++j) s.view_part[j] = s.global_flags[j] ? kExcluded : s.part[j];
+    s.background_layer_valid = true;
   }
   out.object_candidates = s.n_obj;
   out.background_candidates = s.n_bg;
