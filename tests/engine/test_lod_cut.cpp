@@ -9,6 +9,7 @@
 #include <iterator>
 #include <map>
 #include <optional>
+#include <random>
 #include <cmath>
 #include <set>
 #include <thread>
@@ -582,6 +583,72 @@ TEST(LodSelector, TheReservationIsTheSelectorsOwnAndSharesAreExact) {
   EXPECT_EQ(target_leaves(*sel), target_leaves(*plain));
   EXPECT_EQ(target_leaves(*sel).size(), sel->object_selected);
   EXPECT_EQ(sel->ids.size(), sel->object_selected + sel->background_selected);
+}
+
+// Without a query (and without an eligibility filter) there is no reservation, and the cut
+// stands in for the whole background: the Selector is not asked (its per-Gaussian terms were
+// an O(N) pass per epoch for a count the scene keeps). The selections are what asking it
+// gives, through queries coming and going and a new epoch, hysteresis included.
+TEST(LodSelector, WithoutAQueryTheSelectorIsNotAskedAndTheSelectionIsTheSame) {
+  World w;
+  g_world = &w;
+  const ObjectId o = w.store.objects().front().id;
+  LodSelector fast(w.store.sh_degree()), asked(w.store.sh_degree());
+  ASSERT_TRUE(fast.update(w.store, nullptr).ok());
+  ASSERT_TRUE(asked.update(w.store, nullptr).ok());
+  Selector fast_leaves, asked_leaves;
+  auto terms = std::make_shared<SelectorTerms>();
+  fast_leaves.share_terms(terms);
+  std::mt19937_64 rng(23);
+  for (int step = 0; step < 16; ++step) {
+    if (step == 10) {  // a new epoch: some Gaussians recoloured
+      ASSERT_TRUE(w.store.begin_next_epoch().ok());
+      std::vector<Gaussian> edits;
+      for (const Gaussian& g : w.store.gaussians())
+        if (!g.carrier && rng() % 10 == 0) edits.push_back(g);
+      for (Gaussian& g : edits) {
+        g.sh_dc.x = -g.sh_dc.x;
+        ASSERT_TRUE(w.store.modify(g).ok());
+      }
+      ASSERT_TRUE(w.store.commit_epoch().ok());
+      ASSERT_TRUE(fast.update(w.store, nullptr).ok());
+      ASSERT_TRUE(asked.update(w.store, nullptr).ok());
+    }
+    SelectionRequest req;
+    req.budget = req.client_capacity = 400;
+    const bool query = (step >= 4 && step < 7) || step >= 13;
+    if (query) {
+      req.query = SemanticQuery::for_instance(o);
+      req.rho = 0.7;
+    }
+    const double a = 0.3 * step;
+    const ClientPose pose = look({0.5 + 0.3 * std::cos(a), 0.5, 0.5 + 0.3 * std::sin(a)}, {0.5, 0.4, 0.5});
+    auto got = fast.select(fast_leaves, w.store, nullptr, pose, req);
+    SelectionRequest leaf_req = req;
+    leaf_req.background_leaves = false;
+    auto leaves = asked_leaves.select(w.store, pose, leaf_req);
+    ASSERT_TRUE(got.ok() && leaves.ok()) << got.message() << leaves.message();
+    auto want = asked.select(std::move(*leaves), w.store, pose, req);
+    ASSERT_TRUE(want.ok()) << want.message();
+    EXPECT_GT(got->lod_interior, 0u) << "step " << step;
+    EXPECT_EQ(got->ids, want->ids) << "step " << step;
+    EXPECT_EQ(got->indices, want->indices) << "step " << step;
+    EXPECT_EQ(got->epoch, want->epoch);
+    EXPECT_EQ(got->scene_size, want->scene_size);
+    EXPECT_EQ(got->budget, want->budget);
+    EXPECT_EQ(got->object_budget, want->object_budget);
+    EXPECT_EQ(got->object_candidates, want->object_candidates);
+    EXPECT_EQ(got->background_candidates, want->background_candidates) << "step " << step;
+    EXPECT_EQ(got->object_selected, want->object_selected);
+    EXPECT_EQ(got->background_selected, want->background_selected);
+    EXPECT_EQ(got->global_selected, want->global_selected);
+    EXPECT_EQ(got->retained, want->retained) << "step " << step;
+    EXPECT_EQ(got->lod_interior, want->lod_interior);
+    EXPECT_EQ(got->query.has_value(), want->query.has_value());
+    // Terms are built only for the query's steps: the first query, and the query after the
+    // new epoch.
+    EXPECT_EQ(terms->builds(), step < 4 ? 0u : step < 13 ? 1u : 2u) << "step " << step;
+  }
 }
 
 TEST(LodSelector, WhereTheBackgroundFitsTheSelectionIsTheLeafSelection) {
