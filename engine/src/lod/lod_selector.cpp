@@ -86,12 +86,13 @@ Expected<Selection> LodSelector::select(Selector& selector, const SceneStore& sc
   SelectionRequest req = request;
   req.background_leaves = !source_->hierarchy();  // a cut will stand in for the background's leaves
   if (!req.background_leaves && !request.query && !eligible && !scene.in_epoch() &&
-      scene.gaussians().size() == scene.size() && scene.appearance_count() > request.budget) {
+      scene.appearance_count() > request.budget) {
     // No reservation and a cut for the whole background: all the Selector would give is the
     // background's count, and for that it built its per-Gaussian terms at every new epoch
     // (an O(N) pass, 32 ms at 1M on the serving thread). Without an eligibility filter the
-    // count is the scene's appearance Gaussians (a store holds no non-finite position). The
-    // Selector is left as its reservation-only call leaves it: nothing resident.
+    // count is the scene's appearance Gaussians (between epochs the span holds the live ones
+    // alone, and a store no non-finite position). The Selector is left as its reservation-only
+    // call leaves it: nothing resident.
     if (Status st = validate_request(request); !st) return st.error();
     Selection leaves;
     leaves.epoch = scene.epoch();
