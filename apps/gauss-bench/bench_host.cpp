@@ -143,6 +143,19 @@ json bench_select(const SceneStore& store, const SyntheticScene& scene, const Ho
   t0 = Clock::now();
   auto first = differ.diff(*sel, store);
   const double first_diff_ms = ms_since(t0);
+  // The same first batch as a host makes it (edit headers: HostSession encodes from the
+  // differ's sent records), on a differ of its own.
+  double first_headers_ms = 0.0;
+  {
+    Differ host_differ(params);
+    t0 = Clock::now();
+    auto headers = host_differ.diff_headers(*sel, store);
+    first_headers_ms = ms_since(t0);
+    if (!headers || headers->edits.size() != first->edits.size()) {
+      std::fprintf(stderr, "first diff as headers: %s\n", headers ? "a different edit count" : headers.message().c_str());
+      return {};
+    }
+  }
   for (int i = 0; i < 2; ++i) {  // settle at the start pose
     (void)differ.diff(*selector.select(store, pose, req), store);
   }
@@ -157,7 +170,7 @@ json bench_select(const SceneStore& store, const SyntheticScene& scene, const Ho
     const double c0 = thread_cpu_ms();
     auto s = selector.select(store, pose, req);
     const double c1 = thread_cpu_ms();
-    auto b = differ.diff(*s, store);
+    auto b = differ.diff_headers(*s, store);  // as HostSession diffs
     const double c2 = thread_cpu_ms();
     wall_ms.push_back(ms_since(t0));
     select_ms.push_back(c1 - c0);
@@ -165,7 +178,7 @@ json bench_select(const SceneStore& store, const SyntheticScene& scene, const Ho
     total_ms.push_back(c2 - c0);
     edit_frac.push_back(static_cast<double>(b->edits.size()) / static_cast<double>(o.budget));
     for (GaussianId id : s->ids) mix(to_underlying(id));
-    for (const Edit& e : b->edits) {
+    for (const EditHeader& e : b->edits) {
       mix(to_underlying(e.id) * 4 + static_cast<std::uint64_t>(e.kind));
       mix(to_underlying(e.leaving));
     }
@@ -189,8 +202,8 @@ json bench_select(const SceneStore& store, const SyntheticScene& scene, const Ho
   print_median_p90_max("diff ms", diff_ms);
   print_median_p90_max("select + diff ms (target <= 10)", total_ms);
   print_median_p90_max("select + diff wall ms", wall_ms);
-  std::printf("  first call: select %.1f ms (static terms rebuilt), diff %.1f ms (%zu inserts)\n", cold_select_ms,
-              first_diff_ms, first->edits.size());
+  std::printf("  first call: select %.1f ms (static terms rebuilt), diff %.1f ms (%zu inserts), as edit headers %.1f ms\n",
+              cold_select_ms, first_diff_ms, first->edits.size(), first_headers_ms);
   std::printf("  walk digest (selected ids + edits): %016llx\n", static_cast<unsigned long long>(digest));
   // The first diff's batch is the realistic insert batch: M Gaussians chosen by utility
   // out of N, so its ids have gaps (one in N/M is sent). Payload before zstd at SH0.
@@ -216,6 +229,7 @@ json bench_select(const SceneStore& store, const SyntheticScene& scene, const Ho
               {"timing", "thread CPU time unless named wall"},
               {"cold_select_ms", cold_select_ms},
               {"first_diff_ms", first_diff_ms},
+              {"first_diff_headers_ms", first_headers_ms},
               {"walk_digest", digest},
               {"first_batch_sh0_raw_bytes_per_gaussian", first_bpg},
               {"edit_fraction_one_step", {{"median", nearest_rank(one_step, 0.5)}, {"max", nearest_rank(one_step, 1.0)}}},
@@ -269,20 +283,22 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const HostB
       f(g.opacity_logit);
       mix(std::uint64_t(std::uint32_t(to_underlying(g.object))) << 32 | g.support);
     };
-    // The payload as a host sends it (encode_edit_batch with the differ's sent records, as
-    // HostSession does after the diff): its bytes in a digest of their own, its time beside
-    // the diff's.
+    // The batch and payload as a host makes them (edit headers, encoded from the differ's
+    // sent records, as HostSession does): the payload's bytes in a digest of their own, its
+    // time beside the diff's.
     std::uint64_t payload_digest = 0xcbf29ce484222325ull;
-    auto step = [&](const ClientPose& p, double* times) -> Expected<EditBatch> {
+    auto step = [&](const ClientPose& p, double* times) -> Expected<EditHeaderBatch> {
       const double t0 = thread_cpu_ms();
       auto sel = lod.select(selector, store, nullptr, p, req);
       if (!sel) return sel.error();
       const double t1 = thread_cpu_ms();
-      auto b = differ.diff(*sel, store, lod.records(), lod.modified());
+      auto b = differ.diff_headers(*sel, store, lod.records(), lod.modified());
       lod.clear_modified();
       const double t2 = thread_cpu_ms();
       if (!b) return b;
-      const std::vector<std::uint8_t> payload = encode_edit_batch(*b, params, nullptr, differ.last_sent_records());
+      auto encoded = encode_edit_headers(*b, params, differ.last_sent_records());
+      if (!encoded) return encoded.error();
+      const std::vector<std::uint8_t>& payload = *encoded;
       const double t3 = thread_cpu_ms();
       if (times) {
         times[0] = t1 - t0;
@@ -305,10 +321,16 @@ json bench_lod(const SceneStore& store, const SyntheticScene& scene, const HostB
       double t[3];
       auto b = step(pose, t);
       if (!b) return {};
-      for (const Edit& e : b->edits) {
+      // Each value edit as the client decodes it: its sent record (read_sent_record gives
+      // what quantize_roundtrip of its value gives).
+      const std::uint8_t* record = differ.last_sent_records().data();
+      const std::size_t stride = sent_record_bytes(params.sh_degree);
+      for (const EditHeader& e : b->edits) {
         mix(to_underlying(e.id) * 4 + static_cast<std::uint64_t>(e.kind));
         mix(to_underlying(e.leaving));
-        if (e.kind != EditKind::Remove) mix_value(quantize_roundtrip(e.value, params));
+        if (e.kind == EditKind::Remove) continue;
+        mix_value(read_sent_record(record, e.id, params));
+        record += stride;
       }
       select_ms.push_back(t[0]);
       diff_ms.push_back(t[1]);

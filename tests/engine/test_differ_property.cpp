@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <map>
 #include <random>
+#include <set>
 
 #include <gtest/gtest.h>
 
@@ -309,6 +310,68 @@ TEST(DifferProperty, LastSentRecordsAreTheValueEditsAsSentAndTheEncoderCopiesThe
   EXPECT_FALSE(differ.last_sent_records().empty());
   differ.reset();
   EXPECT_TRUE(differ.last_sent_records().empty());
+}
+
+// diff_headers is diff without each value edit's Gaussian: the same edits in the same order,
+// the same sent records and stats, and from them encode_edit_headers writes the payload
+// encode_edit_batch writes for the full batch (object ids and support codes included, read
+// from the sent records), over epochs that insert, modify and remove.
+TEST(DifferProperty, EditHeadersAreTheDiffWithoutItsValuesAndEncodeTheSamePayload) {
+  SceneStore store;
+  test::fill_test_scene(store, 400, 73);
+  const CodecParams params = fit_codec_params(store.gaussians(), store.sh_degree());
+  std::set<std::int32_t> objects;
+  for (const Gaussian& g : store.gaussians()) objects.insert(to_underlying(g.object));
+  ASSERT_GE(objects.size(), 3u);  // the objects column carries something
+  Differ full(params), headers(params);
+  std::mt19937 rng(5);
+  for (int step = 0; step < 12; ++step) {
+    if (step % 3 == 2) {  // a new epoch: a few records change
+      ASSERT_TRUE(store.begin_next_epoch().ok());
+      for (int i = 0; i < 20; ++i) {
+        Gaussian g = store.gaussians()[rng() % store.gaussians().size()];
+        g.sh_dc += glm::vec3(0.3f);
+        g.support += 7;
+        ASSERT_TRUE(store.modify(g).ok());
+      }
+      ASSERT_TRUE(store.commit_epoch().ok());
+    }
+    const std::uint32_t n = std::uint32_t(store.gaussians().size());
+    const std::uint32_t from = rng() % (n / 2), to = from + 1 + rng() % (n - from - 1);
+    const Selection desired = scene_range(store, from, to);
+    auto fb = full.diff(desired, store);
+    auto hb = headers.diff_headers(desired, store);
+    ASSERT_TRUE(fb.ok() && hb.ok());
+    EXPECT_EQ(hb->epoch, fb->epoch);
+    ASSERT_EQ(hb->edits.size(), fb->edits.size());
+    for (std::size_t i = 0; i < fb->edits.size(); ++i) {
+      EXPECT_EQ(hb->edits[i].kind, fb->edits[i].kind);
+      EXPECT_EQ(hb->edits[i].id, fb->edits[i].id);
+      EXPECT_EQ(hb->edits[i].leaving, fb->edits[i].leaving);
+    }
+    const auto fr = full.last_sent_records();
+    const auto hr = headers.last_sent_records();
+    ASSERT_EQ(fr.size(), hr.size());
+    EXPECT_TRUE(std::equal(fr.begin(), fr.end(), hr.begin()));
+    EXPECT_EQ(headers.last_stats().edits(), full.last_stats().edits());
+    EXPECT_EQ(headers.last_stats().replaces, full.last_stats().replaces);
+    EXPECT_EQ(headers.last_stats().updates, full.last_stats().updates);
+    auto payload = encode_edit_headers(*hb, params, hr);
+    ASSERT_TRUE(payload.ok()) << payload.message();
+    EXPECT_EQ(*payload, encode_edit_batch(*fb, params)) << "step " << step;
+  }
+  // The records must be exactly those of the value edits.
+  Selection desired = scene_range(store, 0, 50);
+  auto hb = headers.diff_headers(desired, store);
+  ASSERT_TRUE(hb.ok());
+  std::vector<std::uint8_t> records(headers.last_sent_records().begin(), headers.last_sent_records().end());
+  if (!records.empty()) {
+    records.pop_back();
+    const auto short_one = encode_edit_headers(*hb, params, records);
+    ASSERT_FALSE(short_one.ok());
+    EXPECT_NE(short_one.message().find("sent records"), std::string::npos) << short_one.message();
+  }
+  EXPECT_TRUE(encode_edit_headers(EditHeaderBatch{}, params, {}).ok());
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <type_traits>
 
 #include <zstd.h>
 
@@ -20,9 +21,10 @@ using codec_detail::zigzag;
 
 constexpr std::uint8_t kMagic[4] = {'G', 'A', 'E', 'B'};
 
-// Edits grouped in wire order: removes, replaces, updates, inserts, each by id.
+// Edits (Edit or EditHeader) grouped in wire order: removes, replaces, updates, inserts, each by id.
+template <class E>
 struct Grouped {
-  std::vector<const Edit*> group[4];
+  std::vector<const E*> group[4];
 };
 
 int wire_group(EditKind k) {
@@ -52,7 +54,8 @@ void put_eg_column(BitStreamWriter& w, const std::vector<std::uint64_t>& values)
 
 // Sorted ids as gaps: the first id itself, then id - previous - 1 (0 for consecutive ids,
 // so a run of them costs one bit each at order 0).
-void put_sorted_ids(BitStreamWriter& w, const std::vector<const Edit*>& edits, std::vector<std::uint64_t>& scratch) {
+template <class E>
+void put_sorted_ids(BitStreamWriter& w, const std::vector<const E*>& edits, std::vector<std::uint64_t>& scratch) {
   if (edits.empty()) return;
   scratch.clear();
   std::uint64_t prev = 0;
@@ -136,11 +139,17 @@ Error decode_error(std::size_t offset, const std::string& what) {
 
 }  // namespace
 
-std::vector<std::uint8_t> encode_edit_batch_raw(const EditBatch& batch, const CodecParams& params,
-                                                CodecStats* stats, std::span<const std::uint8_t> sent_records) {
-  Grouped g;
-  for (const Edit& e : batch.edits) g.group[wire_group(e.kind)].push_back(&e);
-  auto by_id = [](const Edit* a, const Edit* b) { return to_underlying(a->id) < to_underlying(b->id); };
+namespace {
+
+// The raw payload of `edits` (Edit or EditHeader). Headers carry no values: their records,
+// object ids and support codes come from `sent_records`, which the caller has checked.
+template <class E>
+std::vector<std::uint8_t> encode_raw(std::span<const E> edits, Epoch epoch, const CodecParams& params,
+                                     CodecStats* stats, std::span<const std::uint8_t> sent_records) {
+  constexpr bool kHeaders = std::is_same_v<E, EditHeader>;
+  Grouped<E> g;
+  for (const E& e : edits) g.group[wire_group(e.kind)].push_back(&e);
+  auto by_id = [](const E* a, const E* b) { return to_underlying(a->id) < to_underlying(b->id); };
   for (auto& grp : g.group)  // a Differ's batch comes sorted
     if (!std::is_sorted(grp.begin(), grp.end(), by_id)) std::sort(grp.begin(), grp.end(), by_id);
   const int degree = std::clamp(params.sh_degree, 0, kMaxShDegree);
@@ -149,16 +158,16 @@ std::vector<std::uint8_t> encode_edit_batch_raw(const EditBatch& batch, const Co
   // The value edits' sent records, when given for exactly these edits: record bytes, then
   // the object id (4 bytes), then the support code (sent_record_bytes).
   const std::size_t sent_stride = sent_record_bytes(degree);
-  const bool copy_records = !stats && n_values > 0 && sent_records.size() == n_values * sent_stride;
+  const bool copy_records = kHeaders || (!stats && n_values > 0 && sent_records.size() == n_values * sent_stride);
   std::vector<std::uint32_t> value_index;  // edit -> its place among the value edits
   if (copy_records) {
-    value_index.resize(batch.edits.size());
+    value_index.resize(edits.size());
     std::uint32_t v = 0;
-    for (std::size_t i = 0; i < batch.edits.size(); ++i)
-      if (batch.edits[i].kind != EditKind::Remove) value_index[i] = v++;
+    for (std::size_t i = 0; i < edits.size(); ++i)
+      if (edits[i].kind != EditKind::Remove) value_index[i] = v++;
   }
-  auto sent_of = [&](const Edit* e) {
-    return sent_records.data() + std::size_t{value_index[std::size_t(e - batch.edits.data())]} * sent_stride;
+  auto sent_of = [&](const E* e) {
+    return sent_records.data() + std::size_t{value_index[std::size_t(e - edits.data())]} * sent_stride;
   };
 
   std::vector<std::uint8_t> out;
@@ -166,7 +175,7 @@ std::vector<std::uint8_t> encode_edit_batch_raw(const EditBatch& batch, const Co
   for (std::uint8_t m : kMagic) out.push_back(m);
   out.push_back(static_cast<std::uint8_t>(kCodecVersion));
   out.push_back(static_cast<std::uint8_t>(degree));
-  put_varint(out, to_underlying(batch.epoch));
+  put_varint(out, to_underlying(epoch));
   for (const auto& grp : g.group) put_varint(out, grp.size());
 
   BitStreamWriter w(out);
@@ -176,7 +185,7 @@ std::vector<std::uint8_t> encode_edit_batch_raw(const EditBatch& batch, const Co
   if (!g.group[1].empty()) {
     scratch.clear();
     std::uint64_t prev_leaving = 0;
-    for (const Edit* e : g.group[1]) {
+    for (const E* e : g.group[1]) {
       const std::uint64_t id = to_underlying(e->leaving);
       scratch.push_back(zigzag(static_cast<std::int64_t>(id - prev_leaving)));  // wraps on purpose: exact inverse
       prev_leaving = id;
@@ -192,9 +201,16 @@ std::vector<std::uint8_t> encode_edit_batch_raw(const EditBatch& batch, const Co
     objects.reserve(n_values);
     support.reserve(n_values);
     for (int k = 1; k < 4; ++k) {
-      for (const Edit* e : g.group[k]) {
-        objects.push_back(to_underlying(e->value.object));
-        support.push_back(copy_records ? sent_of(e)[rec + 4] : codec_detail::support_code(e->value.support, stats));
+      for (const E* e : g.group[k]) {
+        if constexpr (kHeaders) {
+          std::int32_t object;  // the sent record's object id (write_sent_record)
+          std::memcpy(&object, sent_of(e) + rec, 4);
+          objects.push_back(object);
+          support.push_back(sent_of(e)[rec + 4]);
+        } else {
+          objects.push_back(to_underlying(e->value.object));
+          support.push_back(copy_records ? sent_of(e)[rec + 4] : codec_detail::support_code(e->value.support, stats));
+        }
       }
     }
     put_runs(w, make_runs(objects));
@@ -215,8 +231,10 @@ std::vector<std::uint8_t> encode_edit_batch_raw(const EditBatch& batch, const Co
   out.resize(rec_start + n_values * rec);
   std::uint8_t* r = out.data() + rec_start;
   for (int k = 1; k < 4; ++k) {
-    for (const Edit* e : g.group[k]) {
-      if (copy_records)
+    for (const E* e : g.group[k]) {
+      if constexpr (kHeaders)
+        std::memcpy(r, sent_of(e), rec);
+      else if (copy_records)
         std::memcpy(r, sent_of(e), rec);
       else
         codec_detail::write_record(e->value, params, r, stats);
@@ -228,6 +246,34 @@ std::vector<std::uint8_t> encode_edit_batch_raw(const EditBatch& batch, const Co
     stats->raw_bytes += out.size();
   }
   return out;
+}
+
+std::vector<std::uint8_t> compress_payload(const std::vector<std::uint8_t>& raw, CodecStats* stats) {
+  std::vector<std::uint8_t> out(ZSTD_compressBound(raw.size()));
+  const std::size_t n = ZSTD_compress(out.data(), out.size(), raw.data(), raw.size(), kZstdLevel);
+  // Compressing into a ZSTD_compressBound-sized buffer cannot fail except on allocation
+  // failure inside zstd; an empty result then makes the receiver reject the batch.
+  out.resize(ZSTD_isError(n) ? 0 : n);
+  if (stats) stats->compressed_bytes += out.size();
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> encode_edit_batch_raw(const EditBatch& batch, const CodecParams& params,
+                                                CodecStats* stats, std::span<const std::uint8_t> sent_records) {
+  return encode_raw<Edit>(batch.edits, batch.epoch, params, stats, sent_records);
+}
+
+Expected<std::vector<std::uint8_t>> encode_edit_headers(const EditHeaderBatch& batch, const CodecParams& params,
+                                                        std::span<const std::uint8_t> sent_records) {
+  const std::size_t values =
+      std::size_t(std::count_if(batch.edits.begin(), batch.edits.end(), [](const EditHeader& e) { return e.kind != EditKind::Remove; }));
+  const std::size_t stride = sent_record_bytes(std::clamp(params.sh_degree, 0, kMaxShDegree));
+  if (sent_records.size() != values * stride)
+    return Error{"encode_edit_headers: " + std::to_string(sent_records.size()) + " bytes of sent records for " +
+                 std::to_string(values) + " value edits of " + std::to_string(stride) + " bytes each"};
+  return compress_payload(encode_raw<EditHeader>(batch.edits, batch.epoch, params, nullptr, sent_records), nullptr);
 }
 
 Expected<EditBatch> decode_edit_batch_raw(std::span<const std::uint8_t> payload, const CodecParams& params) {
@@ -409,14 +455,7 @@ Expected<EditBatch> decode_edit_batch_raw(std::span<const std::uint8_t> payload,
 
 std::vector<std::uint8_t> encode_edit_batch(const EditBatch& batch, const CodecParams& params, CodecStats* stats,
                                             std::span<const std::uint8_t> sent_records) {
-  const std::vector<std::uint8_t> raw = encode_edit_batch_raw(batch, params, stats, sent_records);
-  std::vector<std::uint8_t> out(ZSTD_compressBound(raw.size()));
-  const std::size_t n = ZSTD_compress(out.data(), out.size(), raw.data(), raw.size(), kZstdLevel);
-  // Compressing into a ZSTD_compressBound-sized buffer cannot fail except on allocation
-  // failure inside zstd; an empty result then makes the receiver reject the batch.
-  out.resize(ZSTD_isError(n) ? 0 : n);
-  if (stats) stats->compressed_bytes += out.size();
-  return out;
+  return compress_payload(encode_edit_batch_raw(batch, params, stats, sent_records), stats);
 }
 
 Expected<EditBatch> decode_edit_batch(std::span<const std::uint8_t> bytes, const CodecParams& params) {

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <optional>
 #include <string>
+#include <type_traits>
 
 namespace gauss {
 
@@ -111,6 +112,19 @@ void Differ::reset() {
 Expected<EditBatch> Differ::diff(const Selection& desired, const SceneStore& scene, std::span<const Gaussian> extra,
                                  std::span<const GaussianId> extra_modified) {
   if (scene.in_epoch()) return Error{"diff: the scene has an open epoch; diff between epochs"};
+  return diff_as<EditBatch>(desired, scene.gaussians(), scene.epoch(), modified_since(scene, extra_modified), extra);
+}
+
+Expected<EditHeaderBatch> Differ::diff_headers(const Selection& desired, const SceneStore& scene,
+                                               std::span<const Gaussian> extra,
+                                               std::span<const GaussianId> extra_modified) {
+  if (scene.in_epoch()) return Error{"diff: the scene has an open epoch; diff between epochs"};
+  return diff_as<EditHeaderBatch>(desired, scene.gaussians(), scene.epoch(), modified_since(scene, extra_modified),
+                                  extra);
+}
+
+std::optional<std::span<const GaussianId>> Differ::modified_since(const SceneStore& scene,
+                                                                   std::span<const GaussianId> extra_modified) {
   Impl& s = *impl_;
   const Epoch now = scene.epoch();
   std::optional<std::span<const GaussianId>> modified;
@@ -132,11 +146,18 @@ Expected<EditBatch> Differ::diff(const Selection& desired, const SceneStore& sce
       modified = std::span<const GaussianId>(s.modified_scratch);
     }
   }
-  return diff(desired, scene.gaussians(), now, modified, extra);
+  return modified;
 }
 
 Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gaussian> gaussians, Epoch epoch,
                                  std::optional<std::span<const GaussianId>> modified, std::span<const Gaussian> extra) {
+  return diff_as<EditBatch>(desired, gaussians, epoch, modified, extra);
+}
+
+template <class Batch>
+Expected<Batch> Differ::diff_as(const Selection& desired, std::span<const Gaussian> gaussians, Epoch epoch,
+                                std::optional<std::span<const GaussianId>> modified, std::span<const Gaussian> extra) {
+  constexpr bool kHeaders = std::is_same_v<Batch, EditHeaderBatch>;
   Impl& s = *impl_;
   s.batch_records.clear();
   const std::size_t m = desired.ids.size();
@@ -263,7 +284,7 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
     next[t++] = e;
   }
 
-  EditBatch batch;
+  Batch batch;
   batch.epoch = epoch;
   const std::size_t replaces = std::min(s.leavers.size(), s.enterers.size());
   // Edits are built in place: a Gaussian is copied once, straight from the scene into its
@@ -283,27 +304,39 @@ Expected<EditBatch> Differ::diff(const Selection& desired, std::span<const Gauss
   };
   constexpr std::size_t kAhead = 8;
   for (std::size_t j = 0; j < std::min(kAhead, s.enterers.size()); ++j) prefetch(s.enterers[j]);
-  auto emit = [&](EditKind kind, GaussianId id, GaussianId leaving, const Gaussian& value) -> const Edit& {
-    return batch.edits.emplace_back(kind, id, leaving, value);
+  // The Gaussian the sent record is written from: the edit's copy (read once from the scene),
+  // or without one the scene's own.
+  auto emit = [&](EditKind kind, GaussianId id, GaussianId leaving, const Gaussian& value) -> const Gaussian& {
+    if constexpr (kHeaders) {
+      batch.edits.push_back(EditHeader{kind, id, leaving});
+      return value;
+    } else {
+      return batch.edits.emplace_back(kind, id, leaving, value).value;
+    }
   };
   auto enter = [&](std::size_t j) -> std::optional<Error> {
     if (j + kAhead < s.enterers.size()) prefetch(s.enterers[j + kAhead]);
     const std::uint32_t k = s.enterers[j];
     if (auto err = mismatch(k)) return err;
     const bool replace = j < replaces;
-    const Edit& e = emit(replace ? EditKind::Replace : EditKind::Insert, desired.ids[k],
-                         replace ? s.leavers[j] : GaussianId{0}, record(desired.indices[k]));
+    const Gaussian& value = emit(replace ? EditKind::Replace : EditKind::Insert, desired.ids[k],
+                                 replace ? s.leavers[j] : GaussianId{0}, record(desired.indices[k]));
     Impl::Sent& entry = s.next[s.enterer_slots[j]];
     entry.slot = s.take_slot();
     s.taken_slots.push_back(entry.slot);
-    write_sent_record(e.value, s.params, batch_record);
+    write_sent_record(value, s.params, batch_record);
     std::memcpy(s.at(entry.slot), batch_record, s.stride);
     batch_record += s.stride;
     return std::nullopt;
   };
   // Batch order: removes, replaces, updates, inserts. Leavers and enterers are both in
   // ascending id order: a replace pairs them in that order.
-  for (std::size_t j = replaces; j < s.leavers.size(); ++j) batch.edits.push_back(Edit{EditKind::Remove, s.leavers[j]});
+  for (std::size_t j = replaces; j < s.leavers.size(); ++j) {
+    if constexpr (kHeaders)
+      batch.edits.push_back(EditHeader{EditKind::Remove, s.leavers[j]});
+    else
+      batch.edits.push_back(Edit{EditKind::Remove, s.leavers[j]});
+  }
   for (std::size_t j = 0; j < replaces; ++j)
     if (auto err = enter(j)) return s.fail(*err);
   for (std::size_t j = 0; j < s.updated.size(); ++j) {

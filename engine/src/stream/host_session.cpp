@@ -303,7 +303,10 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
                         : selector_.select(scene, client_pose, req);
   if (!sel) return Error{"host session " + std::to_string(client_id_) + ": selection failed: " + sel.message()};
   if (needs_resync_) differ_.reset();
-  auto batch = lod_ ? differ_.diff(*sel, scene, lod_->records(), lod_->modified()) : differ_.diff(*sel, scene);
+  // Edit headers: the encoder copies each value edit's record from the differ, so a copy of
+  // its Gaussian would only be written to be dropped (58 MB for a joining client's 200k).
+  auto batch = lod_ ? differ_.diff_headers(*sel, scene, lod_->records(), lod_->modified())
+                    : differ_.diff_headers(*sel, scene);
   if (!batch) return Error{"host session " + std::to_string(client_id_) + ": diff failed: " + batch.message()};
   if (lod_) lod_->clear_modified();
   if (pose_) selected_pose_ = pose;
@@ -332,7 +335,9 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
   bm.flags = needs_resync_ ? msg::kBatchResync : 0;
   bm.host_time_us = to_us(now);
   // The differ quantised each value edit's record as it sent it: the encoder copies them.
-  bm.payload = encode_edit_batch(*batch, differ_.params(), nullptr, differ_.last_sent_records());
+  auto payload = encode_edit_headers(*batch, differ_.params(), differ_.last_sent_records());
+  if (!payload) return Error{"host session " + std::to_string(client_id_) + ": " + payload.message()};
+  bm.payload = std::move(*payload);
   ++stats_.batches_sent;
   stats_.edits_sent += batch->edits.size();
   stats_.payload_bytes_sent += bm.payload.size();

@@ -200,6 +200,12 @@ Expected<EditBatch> decode_edit_batch_raw(std::span<const std::uint8_t> payload,
 std::vector<std::uint8_t> encode_edit_batch(const EditBatch& batch, const CodecParams& params,
                                             CodecStats* stats = nullptr,
                                             std::span<const std::uint8_t> sent_records = {});
+// The same payload from a batch of edit headers and the sent record of each of its Replace,
+// Update and Insert edits, in its order (Differ::diff_headers, last_sent_records): the bytes
+// encode_edit_batch gives for the full batch with those records. Fails when the records are
+// not exactly that many.
+Expected<std::vector<std::uint8_t>> encode_edit_headers(const EditHeaderBatch& batch, const CodecParams& params,
+                                                        std::span<const std::uint8_t> sent_records);
 // Hostile-input safe: never crashes, never allocates more than kMaxPayloadBytes plus the
 // counts the payload can actually hold; errors name the byte offset and what is wrong.
 Expected<EditBatch> decode_edit_batch(std::span<const std::uint8_t> bytes, const CodecParams& params);

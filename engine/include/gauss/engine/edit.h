@@ -28,4 +28,19 @@ struct EditBatch {
   std::vector<Edit> edits;
 };
 
+// An edit without its value, for a sender that holds each value edit's record already
+// (Differ::diff_headers and its last_sent_records, encode_edit_headers): 24 bytes an edit
+// where an Edit takes 288, so a joining client's first batch of 200k inserts is 5 MB of
+// fresh memory instead of 58.
+struct EditHeader {
+  EditKind kind{EditKind::Insert};
+  GaussianId id{0};
+  GaussianId leaving{0};  // Replace only
+};
+
+struct EditHeaderBatch {
+  Epoch epoch{0};
+  std::vector<EditHeader> edits;
+};
+
 }  // namespace gauss
