@@ -331,12 +331,7 @@ Expected<Batch> Differ::diff_as(const Selection& desired, std::span<const Gaussi
   };
   // Batch order: removes, replaces, updates, inserts. Leavers and enterers are both in
   // ascending id order: a replace pairs them in that order.
-  for (std::size_t j = replaces; j < s.leavers.size(); ++j) {
-    if constexpr (kHeaders)
-      batch.edits.push_back(EditHeader{EditKind::Remove, s.leavers[j]});
-    else
-      batch.edits.push_back(Edit{EditKind::Remove, s.leavers[j]});
-  }
+  for (std::size_t j = replaces; j < s.leavers.size(); ++j) batch.edits.push_back({EditKind::Remove, s.leavers[j]});
   for (std::size_t j = 0; j < replaces; ++j)
     if (auto err = enter(j)) return s.fail(*err);
   for (std::size_t j = 0; j < s.updated.size(); ++j) {
