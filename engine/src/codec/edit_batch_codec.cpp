@@ -202,14 +202,14 @@ std::vector<std::uint8_t> encode_raw(std::span<const E> edits, Epoch epoch, cons
     support.reserve(n_values);
     for (int k = 1; k < 4; ++k) {
       for (const E* e : g.group[k]) {
-        if constexpr (kHeaders) {
-          std::int32_t object;  // the sent record's object id (write_sent_record)
+        if (copy_records) {
+          std::int32_t object;  // the sent record's object id, then its support code (write_sent_record)
           std::memcpy(&object, sent_of(e) + rec, 4);
           objects.push_back(object);
           support.push_back(sent_of(e)[rec + 4]);
-        } else {
+        } else if constexpr (!kHeaders) {
           objects.push_back(to_underlying(e->value.object));
-          support.push_back(copy_records ? sent_of(e)[rec + 4] : codec_detail::support_code(e->value.support, stats));
+          support.push_back(codec_detail::support_code(e->value.support, stats));
         }
       }
     }
@@ -232,11 +232,9 @@ std::vector<std::uint8_t> encode_raw(std::span<const E> edits, Epoch epoch, cons
   std::uint8_t* r = out.data() + rec_start;
   for (int k = 1; k < 4; ++k) {
     for (const E* e : g.group[k]) {
-      if constexpr (kHeaders)
+      if (copy_records)
         std::memcpy(r, sent_of(e), rec);
-      else if (copy_records)
-        std::memcpy(r, sent_of(e), rec);
-      else
+      else if constexpr (!kHeaders)
         codec_detail::write_record(e->value, params, r, stats);
       r += rec;
     }

@@ -336,7 +336,11 @@ Expected<std::vector<wire::Message>> HostSession::tick(const SceneStore& scene, 
   bm.host_time_us = to_us(now);
   // The differ quantised each value edit's record as it sent it: the encoder copies them.
   auto payload = encode_edit_headers(*batch, differ_.params(), differ_.last_sent_records());
-  if (!payload) return Error{"host session " + std::to_string(client_id_) + ": " + payload.message()};
+  if (!payload) {
+    // The differ already counts the batch as sent: start over from an empty client.
+    needs_resync_ = true;
+    return Error{"host session " + std::to_string(client_id_) + ": " + payload.message()};
+  }
   bm.payload = std::move(*payload);
   ++stats_.batches_sent;
   stats_.edits_sent += batch->edits.size();

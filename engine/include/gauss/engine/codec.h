@@ -187,8 +187,8 @@ Gaussian quantize_roundtrip(const Gaussian& g, const CodecParams& params);
 // Uncompressed payload (the layout above). Stats accumulate when given.
 // `sent_records`, when given and no stats are: the sent record (write_sent_record with these
 // params) of each Replace, Update and Insert edit, in the batch's order (what
-// Differ::last_sent_records holds for the batch it made); the records and support codes are
-// then copied from them instead of quantised again, and the payload is the same. Any other
+// Differ::last_sent_records holds for the batch it made); the records, object ids and support
+// codes are then copied from them instead of quantised again, and the payload is the same. Any other
 // size is ignored. Stats count clamps and non-finite values as they are quantised, so with
 // stats every record is.
 std::vector<std::uint8_t> encode_edit_batch_raw(const EditBatch& batch, const CodecParams& params,
