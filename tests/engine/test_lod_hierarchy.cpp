@@ -467,6 +467,75 @@ TEST(LodHierarchy, RandomEpochsMatchAFullBuild) {
   }
 }
 
+// Large change sets (a trainer's snapshot moves every leaf) have their entering, leaving and
+// in-place lists sorted by radix passes instead of a comparison sort (LodHierarchy::
+// sort_entries, from 4096 entries). The order must be the same: by tree, code, then id, so
+// leaves sharing a code (coincident, given here in falling id order) are ordered by id. Each
+// epoch is checked against a full build and its report against the records, through update()
+// and apply() alike.
+TEST(LodHierarchy, LargeChangeSetsMatchAFullBuild) {
+  Rng rng{83};
+  auto scene = random_scene_sh1(12000, 85, rng);
+  auto h = LodHierarchy::build(scene, 1);
+  auto by_apply = LodHierarchy::build(scene, 1);
+  ASSERT_TRUE(h.ok() && by_apply.ok());
+  std::uint64_t next_id = 200000;
+  std::unordered_set<std::uint64_t> used;  // Gaussians newcomers were put beside
+  for (int epoch = 0; epoch < 4; ++epoch) {
+    std::vector<Gaussian> next, upserts;
+    std::vector<GaussianId> removed;
+    for (Gaussian g : scene) {
+      const std::uint64_t roll = rng.next() % 100;
+      if (epoch == 3 && roll < 60) {  // most of the scene goes
+        removed.push_back(g.id);
+        continue;
+      }
+      if (epoch == 0 || roll < 40) {
+        g.position += glm::vec3(rng.uniform(-1e-3f, 1e-3f), rng.uniform(-1e-3f, 1e-3f), rng.uniform(-1e-3f, 1e-3f));
+        upserts.push_back(g);
+      } else if (roll < 80) {
+        g.sh_dc.y += 0.05f;  // in place: same cell
+        upserts.push_back(g);
+      } else if (roll < 82) {
+        g.object = g.object == kNoObject ? ObjectId{4} : kNoObject;  // to another tree
+        upserts.push_back(g);
+      }
+      next.push_back(g);
+    }
+    // Coincident newcomers, each group in falling id order: ties the radix passes keep in
+    // input order and the sort must put in id order. Each beside a Gaussian of the first
+    // scene never used before, so no stack outgrows a bottom cell (check_invariants).
+    const std::size_t groups = epoch == 3 ? 1500 : 700;
+    for (std::size_t k = 0; k < groups; ++k) {
+      std::size_t pick = std::size_t(rng.next() % scene.size());
+      while (to_underlying(scene[pick].id) >= 200000 || !used.insert(to_underlying(scene[pick].id)).second)
+        pick = (pick + 1) % scene.size();
+      const Gaussian& at = scene[pick];
+      for (std::uint64_t c = 0; c < 3; ++c) {
+        Gaussian g = random_gaussian(rng, next_id + 2 - c, 6);
+        g.position = at.position;
+        g.object = at.object;
+        upserts.push_back(g);
+        next.push_back(g);
+      }
+      next_id += 3;
+    }
+    ASSERT_GE(upserts.size(), 4096u);
+    LodUpdateReport r;
+    ASSERT_NO_FATAL_FAILURE(update_and_check(*h, next, r));
+    const auto before = interior_records(*by_apply);
+    const auto ra = by_apply->apply(upserts, removed);
+    ASSERT_TRUE(ra.ok()) << ra.message();
+    expect_report_matches(before, interior_records(*by_apply), *ra);
+    check_invariants(*by_apply, next);
+    expect_same_tree(*by_apply, *h);
+    EXPECT_EQ(ra->leaves_inserted, r.leaves_inserted);
+    EXPECT_EQ(ra->leaves_modified, r.leaves_modified);
+    EXPECT_EQ(ra->leaves_removed, r.leaves_removed);
+    scene = next;
+  }
+}
+
 // An epoch that changes values only (colour, opacity, scale, rotation; no leaf moves, enters
 // or leaves) keeps every tree's shape: the nodes above the changed leaves are merged again
 // bottom-up, without the descent from the root, and must come out as the full build has

@@ -10,7 +10,6 @@
 #include <cmath>
 #include <string>
 
-#include "id_sort.h"
 #include "lod_internal.h"
 #include "lod_leaf_moments.h"
 
@@ -113,67 +112,15 @@ Expected<LodUpdateReport> LodHierarchy::build_from_empty(std::span<const Gaussia
   if (leaves == 0) return report;
   fix_cube(lo, hi);
 
-  // 2. The sorted order: (tree, code, id). Trees by a counting sort over their ranks, each
-  // tree's codes by radix passes over the bits in which they differ (stable, so equal codes
-  // keep input order), then each run of equal codes (coincident leaves) by id: std::sort of
-  // the entries was a tenth of the build.
-  // The scratch of tens of megabytes (TableVector) lies on huge pages, as the pools do: on
-  // plain vectors it came fresh from the kernel on 4 KiB pages wherever the heap had no such
-  // room, about 11k page faults a build at a million leaves (LodHierarchy.Timing at SH 3).
-  detail::TableVector<std::uint32_t> tree_rank(leaves);
-  std::vector<std::uint32_t> trees;  // distinct trees, first seen first
-  {
-    detail::IdIndex seen;
-    for (std::size_t j = 0; j < leaves; ++j) {
-      const std::uint32_t t = tree_of(leaf_fields_[j].object);
-      const std::uint32_t* r = seen.find(t);
-      if (!r) {
-        seen.set(t, std::uint32_t(trees.size()));
-        trees.push_back(t);
-        r = seen.find(t);
-      }
-      tree_rank[j] = *r;
-    }
-  }
-  std::vector<std::uint32_t> by_tree(trees.size());  // first-seen index -> rank in tree order
-  {
-    std::vector<std::uint32_t> idx(trees.size());
-    for (std::uint32_t i = 0; i < idx.size(); ++i) idx[i] = i;
-    std::sort(idx.begin(), idx.end(), [&](std::uint32_t a, std::uint32_t b) { return trees[a] < trees[b]; });
-    for (std::uint32_t r = 0; r < idx.size(); ++r) by_tree[idx[r]] = r;
-  }
-  std::vector<std::size_t> start(trees.size() + 1, 0);
-  for (std::size_t j = 0; j < leaves; ++j) ++start[by_tree[tree_rank[j]] + 1];
-  for (std::size_t r = 0; r < trees.size(); ++r) start[r + 1] += start[r];
-  detail::TableVector<lod_detail::IdPair> pairs(leaves), scratch;
-  {
-    std::vector<std::size_t> at(start.begin(), start.end() - 1);
-    for (std::size_t j = 0; j < leaves; ++j)
-      pairs[at[by_tree[tree_rank[j]]]++] = {morton(leaf_fields_[j].position), std::uint32_t(j)};
-  }
-  for (std::size_t r = 0; r < trees.size(); ++r)
-    lod_detail::sort_by_id(std::span<lod_detail::IdPair>(pairs).subspan(start[r], start[r + 1] - start[r]), scratch);
-  detail::TableVector<std::uint64_t> ids(leaves);  // compact: the reads below in tree order hit L3
-  for (std::size_t j = 0; j < leaves; ++j) ids[j] = to_underlying(nodes_[j].id);
-  auto id_of = [&](std::uint32_t j) { return ids[j]; };
-  for (std::size_t r = 0; r < trees.size(); ++r) {
-    for (std::size_t i = start[r]; i < start[r + 1];) {
-      std::size_t e = i + 1;
-      while (e < start[r + 1] && pairs[e].first == pairs[i].first) ++e;
-      if (e - i > 1)
-        std::sort(pairs.begin() + std::ptrdiff_t(i), pairs.begin() + std::ptrdiff_t(e),
-                  [&](const auto& a, const auto& b) { return id_of(a.second) < id_of(b.second); });
-      i = e;
-    }
-  }
-  std::vector<std::uint32_t> tree_at(trees.size());  // rank -> tree
-  for (std::size_t i = 0; i < trees.size(); ++i) tree_at[by_tree[i]] = trees[i];
+  // 2. The sorted order: (tree, code, id), by radix passes (sort_entries; std::sort of the
+  // entries was a tenth of the build).
   order_.resize(leaves);
-  for (std::size_t r = 0; r < trees.size(); ++r)
-    for (std::size_t i = start[r]; i < start[r + 1]; ++i) {
-      const std::uint32_t j = pairs[i].second;
-      order_[i] = Entry{tree_at[r], j, pairs[i].first};
-    }
+  for (std::size_t j = 0; j < leaves; ++j)
+    order_[j] = Entry{tree_of(leaf_fields_[j].object), std::uint32_t(j), morton(leaf_fields_[j].position)};
+  sort_entries(order_);
+  std::vector<std::uint32_t> tree_at;  // the trees, in order
+  for (const Entry& e : order_)
+    if (tree_at.empty() || tree_at.back() != e.tree) tree_at.push_back(e.tree);
 
   // 3. Every tree, all cells new.
   records_.reserve(leaves / 2);

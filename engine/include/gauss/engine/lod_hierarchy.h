@@ -241,8 +241,16 @@ class LodHierarchy {
                     std::span<const Entry> leaving, LodUpdateReport& report, std::vector<std::uint32_t>& retired,
                     bool all_new);
   // Step 3 of an update: `leaving` (entries as they stand) out of order_, `fresh` in, order_
-  // sorted by (tree, code, id) after as before. Sorts both lists.
-  void update_order(std::vector<Entry>& leaving, std::vector<Entry>& fresh);
+  // sorted by (tree, code, id) after as before. Both lists sorted so (sort_entries).
+  void update_order(std::span<const Entry> leaving, std::span<const Entry> fresh);
+  // The order's order: tree, code, then the node's id (sort_entries sorts by it).
+  bool entry_less(const Entry& a, const Entry& b) const;
+  void sort_entries(std::span<Entry> list) const;
+  // (tree, code) of every entry of the three sorted lists, sorted, each once: the cells an
+  // update's descent must visit.
+  static std::vector<std::pair<std::uint32_t, std::uint64_t>> changed_places(std::span<const Entry> leaving,
+                                                                             std::span<const Entry> fresh,
+                                                                             std::span<const Entry> in_place);
   void sort_report(LodUpdateReport& report) const;
   std::uint64_t morton(const glm::vec3& p) const;
   std::uint32_t tree_of(ObjectId o) const;
