@@ -1,7 +1,8 @@
 #pragma once
 // Private to the scene folder: a uniform grid over 3D points or boxes, stored as a vector
 // of (cell key, item) pairs sorted by key plus each occupied cell's range in it. Used by
-// the eligibility filter (triangles) and the identity tracker (previous Gaussians).
+// the eligibility filter (triangles); the identity tracker shares its cell coordinates and
+// keys (previous Gaussians, with the ranges in an IdIndex).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>

@@ -5,7 +5,8 @@
 // densification. track_identity() matches a new snapshot against the previous epoch so
 // unchanged and slightly changed Gaussians keep their ids and the edit stream stays small:
 //  1. exact pass: a Gaussian whose position, scales, rotation, opacity and SH0 are
-//     bit-identical to a previous one takes its id (record hash, sorted, binary search);
+//     bit-identical to a previous one takes its id (the lowest-indexed unused one; records
+//     found by hash through an index);
 //  2. similarity pass for the rest: spatial hashing on position (cells of twice the search
 //     radius, so the 2x2x2 cells around a point hold every candidate), candidates within
 //     max_distance_sigmas of the previous Gaussian's largest sigma and within the scale,
