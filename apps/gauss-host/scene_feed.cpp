@@ -87,6 +87,10 @@ Expected<std::unique_ptr<SceneFeed>> SceneFeed::open(const Options& o, SceneStor
   }
   SourceLog quiet_log = [](const std::string&) {};  // lines are printed by the host loop
   feed->folder_ = is_snapshot_folder(path);
+  // A followed folder's snapshots are read and matched off the serving thread: at a million
+  // Gaussians that took the host 4-6 s a snapshot, in which no client was answered. The
+  // feed is the store's only writer, as the background reading requires.
+  so.prepare_in_background = feed->folder_;
   auto source = feed->folder_ ? open_snapshot_folder(path, so, quiet_log) : open_scene_file(path, so, quiet_log);
   if (!source) return source.error();
   feed->source_ = std::move(*source);
@@ -99,7 +103,7 @@ Expected<std::unique_ptr<SceneFeed>> SceneFeed::open(const Options& o, SceneStor
     if (*r) break;
     if (!feed->folder_) return Error{"scene " + path.string() + " gave no epoch"};
     if (stop.load()) return Error{"stopped while waiting for the first snapshot in " + path.string()};
-    if (!said_waiting) {
+    if (!said_waiting && !feed->source_->busy()) {
       std::printf("gauss-host: waiting for the first snapshot in %s\n", path.string().c_str());
       std::fflush(stdout);
       said_waiting = true;
@@ -214,8 +218,11 @@ Expected<bool> SceneFeed::step(SceneStore& store, double now) {
 }
 
 Expected<bool> SceneFeed::step_epoch(SceneStore& store, double now) {
-  if (now < next_epoch_ || exhausted_) return false;
-  next_epoch_ = now + period_s_;
+  // A snapshot being prepared in the background is asked after at every step, so that it is
+  // served once ready rather than an epoch period later.
+  const bool preparing = source_ && source_->busy();
+  if ((now < next_epoch_ && !preparing) || exhausted_) return false;
+  if (!preparing) next_epoch_ = now + period_s_;
   if (synthetic_) {
     if (synthetic_->finished()) {
       exhausted_ = true;

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 #include <string>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -161,6 +162,86 @@ TEST(SourceSnapshots, BadSnapshotsAreLoggedAndSkippedKeepingTheLastGoodEpoch) {
   ASSERT_TRUE(r.ok());
   EXPECT_TRUE(*r);
   EXPECT_EQ(store.size(), 140u);
+}
+
+// prepare_in_background: the same epochs, ids, values and log lines as reading on the
+// caller's thread, each snapshot taken up by a later call than the one that started it
+// (busy() in between), bad ones skipped the same way, tracking included.
+TEST(SourceSnapshots, PreparedInTheBackgroundTheEpochsAreTheSame) {
+  const fs::path root = test::fresh_output_dir("source_snapshots/background");
+  write(root / "snap_1.ply", grid_cloud(1000));
+  write(root / "snap_2.ply", grid_cloud(1000, 0.004f));  // every Gaussian moved: tracked
+  write_text(root / "snap_3.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 5\nend_header\nxx");
+  write(root / "snap_4.ply", grid_cloud(900, 0.006f));
+  write(root / "snap_5.ply", grid_cloud(950, 0.006f));
+  SnapshotOptions now, background;
+  now.settle_s = background.settle_s = 0.0;
+  background.prepare_in_background = true;
+  Collect now_log, background_log;
+  auto a = open_snapshot_folder(root, now, now_log.log());
+  auto b = open_snapshot_folder(root, background, background_log.log());
+  ASSERT_TRUE(a.ok() && b.ok());
+  SceneStore sa, sb;
+  int epochs = 0;
+  for (;;) {
+    auto ra = (*a)->next_epoch(sa);
+    ASSERT_TRUE(ra.ok()) << ra.message();
+    bool rb = false, waited = false;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    for (;;) {
+      auto r = (*b)->next_epoch(sb);
+      ASSERT_TRUE(r.ok()) << r.message();
+      rb = *r;
+      if (rb || !(*b)->busy()) break;
+      waited = true;
+      ASSERT_LT(std::chrono::steady_clock::now(), deadline);
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    ASSERT_EQ(*ra, rb) << "epoch " << epochs;
+    if (!rb) break;
+    EXPECT_TRUE(waited) << "committed by the call that started it";
+    ++epochs;
+    ASSERT_EQ(sa.epoch(), sb.epoch());
+    ASSERT_EQ(sa.size(), sb.size());
+    for (const Gaussian& g : sa.gaussians()) {
+      const Gaussian* h = sb.find(g.id);
+      ASSERT_NE(h, nullptr) << "id " << to_underlying(g.id) << " epoch " << epochs;
+      EXPECT_TRUE(same_value(g, *h));
+    }
+  }
+  EXPECT_EQ(epochs, 4);
+  EXPECT_EQ(now_log.lines, background_log.lines);
+  EXPECT_FALSE((*b)->busy());
+}
+
+// A prepared snapshot is committed only to the epoch it was matched against: after any other
+// epoch (something else changed the store) the commit is refused and the store is as it was.
+TEST(SourceSnapshots, APreparedSnapshotIsRefusedByAStoreThatMovedOn) {
+  SceneStore store;
+  ASSERT_TRUE(apply_snapshot(store, grid_cloud(100), false).ok());
+  auto prepared = prepare_snapshot(store, grid_cloud(100, 0.004f), false);
+  ASSERT_TRUE(prepared.ok()) << prepared.message();
+  EXPECT_EQ(prepared->against, store.epoch());
+  ASSERT_TRUE(store.begin_next_epoch().ok());
+  Gaussian extra;
+  extra.id = store.allocate_id();
+  extra.position = glm::vec3(5.0f);
+  ASSERT_TRUE(store.insert(extra).ok());
+  ASSERT_TRUE(store.commit_epoch().ok());
+  const Epoch at = store.epoch();
+  auto r = commit_snapshot(store, std::move(*prepared));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.message().find("prepared against epoch 1, the store is at epoch 2"), std::string::npos) << r.message();
+  EXPECT_EQ(store.epoch(), at);
+  EXPECT_EQ(store.size(), 101u);
+  // Prepared again, it goes in: the moved grid keeps its ids, the extra one leaves.
+  auto again = prepare_snapshot(store, grid_cloud(100, 0.004f), false);
+  ASSERT_TRUE(again.ok());
+  auto applied = commit_snapshot(store, std::move(*again));
+  ASSERT_TRUE(applied.ok()) << applied.message();
+  EXPECT_EQ(applied->modified, 100u);
+  EXPECT_EQ(applied->removed, 1u);
+  EXPECT_EQ(store.size(), 100u);
 }
 
 // A trainer's scene that outgrows the process (its densification can multiply it): the

@@ -12,10 +12,15 @@ namespace gauss {
 
 namespace {
 
-// The snapshot's ids (given, or tracked from the scene's), the scene's ids it no longer has
-// and how many of its Gaussians are new to the scene.
-Status match_ids(SceneStore& store, GaussianCloud& cloud, bool ids_given, const IdentityTrackerConfig& identity,
-                 SnapshotApplyReport& report, std::vector<GaussianId>& gone, std::size_t& entering) {
+// Fresh ids tracking hands out before the commit: the placeholder bit and a count. No store
+// id has the top bit (SceneStore refuses it), and the commit replaces every placeholder.
+constexpr std::uint64_t kPlaceholder = std::uint64_t{1} << 63;
+
+// The snapshot's ids (given, or tracked from the scene's, fresh ones as placeholders), the
+// scene's ids it no longer has and how many of its Gaussians are new to the scene.
+Status match_ids(const SceneStore& store, GaussianCloud& cloud, bool ids_given, const IdentityTrackerConfig& identity,
+                 SnapshotApplyReport& report, std::vector<GaussianId>& gone, std::size_t& entering,
+                 std::size_t& fresh) {
   if (ids_given) {
     std::unordered_set<GaussianId> seen;
     seen.reserve(cloud.gaussians.size());
@@ -27,7 +32,8 @@ Status match_ids(SceneStore& store, GaussianCloud& cloud, bool ids_given, const 
                      " was removed in an earlier epoch; ids are never reused"};
     }
   } else {
-    auto r = track_identity(store.gaussians(), cloud.gaussians, identity, [&] { return store.allocate_id(); });
+    auto r = track_identity(store.gaussians(), cloud.gaussians, identity,
+                            [&] { return GaussianId{kPlaceholder | fresh++}; });
     if (!r) return Error{"apply_snapshot: " + r.message()};
     report.tracked = true;
     report.identity = *r;
@@ -65,9 +71,9 @@ Status apply_labels(GaussianCloud& cloud, const std::vector<std::int32_t>& label
   return Ok{};
 }
 
-Expected<SnapshotApplyReport> apply_snapshot(SceneStore& store, GaussianCloud cloud, bool ids_given,
-                                             const IdentityTrackerConfig& identity,
-                                             const std::vector<ObjectLabel>& objects, const TriangleMesh* mesh) {
+Expected<PreparedSnapshot> prepare_snapshot(const SceneStore& store, GaussianCloud cloud, bool ids_given,
+                                            const IdentityTrackerConfig& identity, std::vector<ObjectLabel> objects,
+                                            std::optional<TriangleMesh> mesh) {
   if (store.in_epoch()) return Error{"apply_snapshot: the store has an open epoch"};
   if (cloud.sh_degree < 0 || cloud.sh_degree > kMaxShDegree)
     return Error{"apply_snapshot: SH degree " + std::to_string(cloud.sh_degree) + " is outside 0..3"};
@@ -82,18 +88,39 @@ Expected<SnapshotApplyReport> apply_snapshot(SceneStore& store, GaussianCloud cl
   if (mesh)
     if (auto s = SceneStore::validate(*mesh); !s) return Error{"apply_snapshot: mesh: " + s.message()};
 
-  SnapshotApplyReport report;
-  std::vector<GaussianId> gone;
-  std::size_t entering = 0;
+  PreparedSnapshot p;
+  p.against = store.epoch();
   // The comparison with the scene holds sets of every id: a scene too large for the process
   // is refused here, the store unchanged.
   try {
-    if (auto s = match_ids(store, cloud, ids_given, identity, report, gone, entering); !s) return s.error();
+    if (auto s = match_ids(store, cloud, ids_given, identity, p.report, p.gone, p.entering, p.fresh); !s)
+      return s.error();
   } catch (const std::bad_alloc&) {
     return Error{"apply_snapshot: not enough memory to compare " + std::to_string(cloud.gaussians.size()) +
                  " Gaussians with the scene's " + std::to_string(store.size())};
   }
-  if (auto s = store.reserve(store.gaussians().size() + entering); !s) return Error{"apply_snapshot: " + s.message()};
+  p.cloud = std::move(cloud);
+  p.objects = std::move(objects);
+  p.mesh = std::move(mesh);
+  return p;
+}
+
+Expected<SnapshotApplyReport> commit_snapshot(SceneStore& store, PreparedSnapshot prepared) {
+  if (store.in_epoch()) return Error{"apply_snapshot: the store has an open epoch"};
+  if (store.epoch() != prepared.against)
+    return Error{"apply_snapshot: prepared against epoch " + std::to_string(to_underlying(prepared.against)) +
+                 ", the store is at epoch " + std::to_string(to_underlying(store.epoch()))};
+  if (auto s = store.reserve(store.gaussians().size() + prepared.entering); !s)
+    return Error{"apply_snapshot: " + s.message()};
+  // The fresh ids, in the order tracking handed out their placeholders (snapshot order).
+  if (prepared.fresh > 0) {
+    std::vector<GaussianId> fresh(prepared.fresh);
+    for (GaussianId& id : fresh) id = store.allocate_id();
+    for (Gaussian& g : prepared.cloud.gaussians)
+      if (to_underlying(g.id) & kPlaceholder) g.id = fresh[to_underlying(g.id) & ~kPlaceholder];
+  }
+  const GaussianCloud& cloud = prepared.cloud;
+  SnapshotApplyReport& report = prepared.report;
 
   if (auto s = store.begin_next_epoch(); !s) return s.error();
   // Past validation nothing below should fail; if it does, commit what was applied (the
@@ -103,7 +130,7 @@ Expected<SnapshotApplyReport> apply_snapshot(SceneStore& store, GaussianCloud cl
     if (!s && first_error) first_error = std::move(s);
   };
   if (cloud.sh_degree > store.sh_degree()) check(store.set_sh_degree(cloud.sh_degree));
-  for (GaussianId id : gone) {
+  for (GaussianId id : prepared.gone) {
     check(store.remove(id));
     ++report.removed;
   }
@@ -122,11 +149,20 @@ Expected<SnapshotApplyReport> apply_snapshot(SceneStore& store, GaussianCloud cl
     }
   }
   if (cloud.sh_degree < store.sh_degree()) check(store.set_sh_degree(cloud.sh_degree));
-  for (const ObjectLabel& o : objects) check(store.set_object(o.id, o.label, o.quality));
-  if (mesh) check(store.set_surface_chunk({0, Epoch{0}, *mesh}));
+  for (const ObjectLabel& o : prepared.objects) check(store.set_object(o.id, o.label, o.quality));
+  if (prepared.mesh) check(store.set_surface_chunk({0, Epoch{0}, std::move(*prepared.mesh)}));
   if (auto s = store.commit_epoch(); !s) return s.error();
   if (!first_error) return first_error.error();
   return report;
+}
+
+Expected<SnapshotApplyReport> apply_snapshot(SceneStore& store, GaussianCloud cloud, bool ids_given,
+                                             const IdentityTrackerConfig& identity,
+                                             const std::vector<ObjectLabel>& objects, const TriangleMesh* mesh) {
+  auto prepared = prepare_snapshot(store, std::move(cloud), ids_given, identity, objects,
+                                   mesh ? std::optional<TriangleMesh>(*mesh) : std::nullopt);
+  if (!prepared) return prepared.error();
+  return commit_snapshot(store, std::move(*prepared));
 }
 
 }  // namespace gauss

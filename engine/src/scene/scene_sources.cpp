@@ -6,8 +6,10 @@
 #include <limits>
 #include <new>
 #include <chrono>
+#include <future>
 #include <system_error>
 #include <tuple>
+#include <utility>
 
 #include "gauss/engine/labels_io.h"
 #include "gauss/engine/ply_gaussian.h"
@@ -113,8 +115,13 @@ class SnapshotSource final : public SceneSource {
         options_(std::move(options)),
         objects_(std::move(objects)) {}
 
+  ~SnapshotSource() override {
+    if (job_.valid()) job_.wait();  // it reads the store: done before the source goes
+  }
+
   Expected<bool> next_epoch(SceneStore& store) override {
     if (store.in_epoch()) return Error{"snapshot source: the store has an open epoch"};
+    if (options_.prepare_in_background && !single_) return next_epoch_in_background(store);
     std::vector<Entry> entries = list();
     std::optional<Error> last_failure;
     for (const Entry& e : entries) {
@@ -125,27 +132,16 @@ class SnapshotSource final : public SceneSource {
         ++produced_;
         return true;
       }
-      // A folder's file written within the settle time may be one a trainer is still
-      // writing: it is tried again on the next call instead of being skipped as corrupt.
-      const std::optional<double> age = single_ ? std::nullopt : age_of(e);
-      if (age && *age < options_.settle_s) {
-        if (waiting_for_ != e.ply) report("waiting for " + e.ply.string() + " (" + r.message() + "; still being written?)");
-        waiting_for_ = e.ply;
-        return false;
-      }
-      consumed_ = e;
-      if (!single_)  // a scene file alone is not skipped: its error is the source's
-        report("skipped snapshot " + e.ply.string() + ": " + r.message() + " (the store keeps epoch " +
-               std::to_string(to_underlying(store.epoch())) + ")");
-      last_failure = r.error();
+      if (!settle_failure(e, r.error(), store, last_failure)) return false;
     }
     if (produced_ == 0 && last_failure) {
       if (single_) return *last_failure;  // the file's own error names it
-      return Error{"snapshot folder " + root_.string() + ": no usable snapshot; last error: " + last_failure->message};
+      return no_usable_snapshot(*last_failure);
     }
     return false;
   }
   double epoch_period_s() const override { return 1.0 / options_.rate_hz; }
+  bool busy() const override { return job_.valid(); }
   std::string describe() const override {
     if (single_) return "scene file " + root_.string() + (format_.empty() ? "" : " (" + format_ + ")");
     char rate[32];
@@ -207,26 +203,116 @@ class SnapshotSource final : public SceneSource {
     return out;
   }
 
-  Status load_and_apply(const Entry& e, SceneStore& store) {
-    // A snapshot that does not fit in memory is skipped like a broken one: reading it and
-    // comparing it with the scene come before the store changes (apply_snapshot), and the
-    // store's own room is asked for before its epoch opens (SceneStore::reserve).
-    try {
-      return read_and_apply(e, store);
-    } catch (const std::bad_alloc&) {
-      return Error{"not enough memory to read " + e.ply.string() + " and compare it with the scene's " +
-                   std::to_string(store.size()) + " Gaussians"};
+  // A snapshot read, checked and matched with the scene (prepare_snapshot), not yet committed;
+  // what it has to say is said when it is taken up, on the caller's thread.
+  struct Prepared {
+    Status status{Ok{}};  // the first failure; nothing below counts then
+    std::optional<PreparedSnapshot> snapshot;
+    std::vector<std::string> before;  // said before the commit, whether it succeeds or not
+    std::vector<std::string> notes;   // the reader's notes, said once it is committed
+    std::string format;
+    std::optional<fs::path> mesh_path;  // the mesh it carries
+  };
+
+  // A failure to load `e`: a folder's file written within the settle time may be one a
+  // trainer is still writing, so it is tried again (false: stop looking now); anything else
+  // is skipped and noted in `failure` (true: go on with the next).
+  bool settle_failure(const Entry& e, const Error& error, const SceneStore& store, std::optional<Error>& failure) {
+    const std::optional<double> age = single_ ? std::nullopt : age_of(e);
+    if (age && *age < options_.settle_s) {
+      if (waiting_for_ != e.ply) report("waiting for " + e.ply.string() + " (" + error.message + "; still being written?)");
+      waiting_for_ = e.ply;
+      return false;
     }
+    consumed_ = e;
+    if (!single_)  // a scene file alone is not skipped: its error is the source's
+      report("skipped snapshot " + e.ply.string() + ": " + error.message + " (the store keeps epoch " +
+             std::to_string(to_underlying(store.epoch())) + ")");
+    failure = error;
+    return true;
   }
 
-  Status read_and_apply(const Entry& e, SceneStore& store) {
+  Error no_usable_snapshot(const Error& last) const {
+    return Error{"snapshot folder " + root_.string() + ": no usable snapshot; last error: " + last.message};
+  }
+
+  // One snapshot a call: the first call starts preparing the next entry on a thread and
+  // returns false, a later one commits it once it is ready (or says why it was not).
+  Expected<bool> next_epoch_in_background(SceneStore& store) {
+    if (job_.valid()) {
+      if (job_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return false;
+      Prepared p = job_.get();
+      const Entry e = std::move(job_entry_);
+      Status r = p.status;
+      if (r && p.snapshot->against != store.epoch()) {
+        r = load_and_apply(e, store);  // the store moved on meanwhile: prepared again, here
+      } else if (r) {
+        r = commit(std::move(p), store);
+      } else {
+        say(p.before);
+      }
+      if (r) {
+        consumed_ = e;
+        ++produced_;
+        return true;
+      }
+      if (!settle_failure(e, r.error(), store, background_failure_)) return false;
+    }
+    for (const Entry& e : list()) {
+      if (consumed_ && !(*consumed_ < e)) continue;
+      job_entry_ = e;
+      // The thread reads the store (identity tracking) while the caller's thread serves
+      // from it; nothing changes it until the commit (see prepare_in_background).
+      const SceneStore* scene = &store;
+      const fs::path last_mesh = last_mesh_;
+      job_ = std::async(std::launch::async, [this, e, scene, last_mesh] { return read_and_prepare(e, *scene, last_mesh); });
+      return false;
+    }
+    if (produced_ == 0 && background_failure_) {
+      const Error last = *std::exchange(background_failure_, std::nullopt);
+      return no_usable_snapshot(last);  // said once, as a call that tried them all says it
+    }
+    return false;
+  }
+
+  Status load_and_apply(const Entry& e, SceneStore& store) {
+    Prepared p = read_and_prepare(e, store, last_mesh_);
+    if (!p.status) {
+      say(p.before);
+      return p.status;
+    }
+    return commit(std::move(p), store);
+  }
+
+  void say(const std::vector<std::string>& lines) {
+    for (const std::string& line : lines) report(line);
+  }
+
+  // Reads `e` and prepares it against the store as it stands; reads the source's options only
+  // (a background job runs it).
+  Prepared read_and_prepare(const Entry& e, const SceneStore& store, const fs::path& last_mesh) const {
+    // A snapshot that does not fit in memory is skipped like a broken one: reading it and
+    // comparing it with the scene come before the store changes (prepare_snapshot), and the
+    // store's own room is asked for before its epoch opens (SceneStore::reserve).
+    Prepared p;
+    try {
+      p.status = read_into(e, store, last_mesh, p);
+    } catch (const std::bad_alloc&) {
+      p.snapshot.reset();
+      p.status = Error{"not enough memory to read " + e.ply.string() + " and compare it with the scene's " +
+                       std::to_string(store.size()) + " Gaussians"};
+    }
+    return p;
+  }
+
+  Status read_into(const Entry& e, const SceneStore& store, const fs::path& last_mesh, Prepared& p) const {
     auto scene = read_splat_file(e.ply);
     if (!scene) return scene.error();
     const std::size_t dropped = scene->report.dropped.size(), total = scene->report.count + dropped;
     if (!single_ && store.size() > 0 && double(dropped) > options_.max_non_finite_fraction * double(total))
       return Error{std::to_string(dropped) + " of its " + std::to_string(total) +
                    " Gaussians hold a NaN or Inf (the trainer diverged?), the first: " + scene->report.first_dropped};
-    format_ = std::string(to_string(scene->report.format));
+    p.format = std::string(to_string(scene->report.format));
     GaussianCloud cloud = std::move(scene->cloud);
     const std::optional<fs::path> labels_path = options_.labels ? options_.labels : e.labels;
     if (labels_path) {
@@ -237,27 +323,38 @@ class SnapshotSource final : public SceneSource {
           !s)
         return s;
       if (scene->report.has_object_id)
-        report(e.ply.string() + ": object_id property overridden by labels " + labels_path->string());
+        p.before.push_back(e.ply.string() + ": object_id property overridden by labels " + labels_path->string());
     }
     // Surface: the snapshot's own mesh, else the folder's mesh.ply; applied when it changes.
     std::optional<fs::path> mesh_path = options_.snapshot_meshes ? e.mesh : std::nullopt;
     if (!mesh_path && !single_ && options_.snapshot_meshes) mesh_path = if_file(root_ / "mesh.ply");
     if (options_.mesh) mesh_path = options_.mesh;
     std::optional<TriangleMesh> mesh;
-    if (mesh_path && *mesh_path != last_mesh_) {
+    if (mesh_path && *mesh_path != last_mesh) {
       auto m = read_mesh_ply(*mesh_path);
       if (m) {
         mesh = std::move(m->mesh);
+        p.mesh_path = mesh_path;
       } else {
-        report("ignored mesh " + mesh_path->string() + ": " + m.message() + " (Gaussians still applied)");
+        p.before.push_back("ignored mesh " + mesh_path->string() + ": " + m.message() + " (Gaussians still applied)");
       }
     }
-    auto applied = apply_snapshot(store, std::move(cloud), scene->report.has_gaussian_id, options_.identity, objects_,
-                                  mesh ? &*mesh : nullptr);
+    auto prepared = prepare_snapshot(store, std::move(cloud), scene->report.has_gaussian_id, options_.identity,
+                                     objects_, std::move(mesh));
+    if (!prepared) return prepared.error();
+    p.snapshot = std::move(*prepared);
+    for (const std::string& note : splat_load_notes(scene->report)) p.notes.push_back(e.ply.string() + ": " + note);
+    return Ok{};
+  }
+
+  Status commit(Prepared p, SceneStore& store) {
+    say(p.before);
+    auto applied = commit_snapshot(store, std::move(*p.snapshot));
     if (!applied) return applied.error();
-    if (mesh) last_mesh_ = *mesh_path;
+    if (p.mesh_path) last_mesh_ = *p.mesh_path;
+    format_ = std::move(p.format);
     last_report_ = *applied;
-    for (const std::string& note : splat_load_notes(scene->report)) report(e.ply.string() + ": " + note);
+    say(p.notes);
     return Ok{};
   }
 
@@ -280,6 +377,11 @@ class SnapshotSource final : public SceneSource {
   fs::path waiting_for_;  // the snapshot last reported as still being written
   std::string format_;    // of the last snapshot read
   SnapshotApplyReport last_report_;
+  // prepare_in_background: the snapshot being prepared and its entry, and a failure not yet
+  // said as "no usable snapshot".
+  std::future<Prepared> job_;
+  Entry job_entry_;
+  std::optional<Error> background_failure_;
 };
 
 Expected<std::vector<ObjectLabel>> load_objects(const fs::path& root, const SnapshotOptions& options) {

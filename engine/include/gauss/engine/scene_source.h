@@ -44,6 +44,9 @@ class SceneSource {
   virtual Expected<bool> next_epoch(SceneStore& store) = 0;
   // Seconds the host should wait between epochs (the configured replay rate).
   virtual double epoch_period_s() const = 0;
+  // A snapshot is being prepared in the background (SnapshotOptions::prepare_in_background):
+  // next_epoch's false meant "not yet", and the next call may commit it.
+  virtual bool busy() const { return false; }
   virtual std::string describe() const = 0;
   // Every message sent to the log so far.
   const std::vector<std::string>& messages() const { return messages_; }
@@ -86,6 +89,14 @@ struct SnapshotOptions {
   // an earlier snapshot: what was good is kept. Below it, or with nothing to keep (the first
   // snapshot, a scene file), the snapshot is applied without them (splat_file.h).
   double max_non_finite_fraction{0.01};
+  // A followed folder's snapshots are read, checked and matched with the scene (identity
+  // tracking) on a thread of the source's own, and next_epoch only commits them: at a million
+  // Gaussians that work is seconds, which a host's serving thread spent answering nobody.
+  // next_epoch then returns false while one is being read (busy()), and the store given to it
+  // must outlive the source and be changed by nothing else meanwhile (a commit finding it at
+  // another epoch prepares the snapshot again, on the caller's thread). A scene file is
+  // read at once either way.
+  bool prepare_in_background{false};
 };
 
 // A folder of snapshots (to open with open_snapshot_folder), as opposed to a scene file or a
@@ -122,6 +133,29 @@ Expected<SnapshotApplyReport> apply_snapshot(SceneStore& store, GaussianCloud cl
                                              const IdentityTrackerConfig& identity = {},
                                              const std::vector<ObjectLabel>& objects = {},
                                              const TriangleMesh* mesh = nullptr);
+
+// apply_snapshot in two steps, so the long one (the checks and the identity tracking: seconds
+// at a million Gaussians) can run on another thread while the store is read by others but
+// changed by nobody: prepare_snapshot only reads the store; commit_snapshot opens and commits
+// the epoch. Together they are apply_snapshot, id for id (the fresh ids tracking hands out are
+// placeholders until the commit allocates them, in the same order).
+struct PreparedSnapshot {
+  Epoch against{0};  // the store's epoch when prepared: a commit to any other is refused
+  GaussianCloud cloud;
+  std::vector<ObjectLabel> objects;
+  std::optional<TriangleMesh> mesh;
+  std::vector<GaussianId> gone;  // the store's ids the snapshot no longer has
+  std::size_t entering{0};       // its Gaussians new to the store
+  std::size_t fresh{0};          // of which given fresh ids at the commit (tracking)
+  SnapshotApplyReport report;    // tracked and identity so far
+};
+Expected<PreparedSnapshot> prepare_snapshot(const SceneStore& store, GaussianCloud cloud, bool ids_given,
+                                            const IdentityTrackerConfig& identity = {},
+                                            std::vector<ObjectLabel> objects = {},
+                                            std::optional<TriangleMesh> mesh = std::nullopt);
+// Fails, changing nothing, when the store has an open epoch or is no longer at the epoch the
+// snapshot was prepared against (prepare it again).
+Expected<SnapshotApplyReport> commit_snapshot(SceneStore& store, PreparedSnapshot prepared);
 
 // Sets Gaussian objects from per-Gaussian labels, one per Gaussian of the file in its order:
 // `dropped` are the file indices its reader left out (SplatFileReport::dropped, ascending),
