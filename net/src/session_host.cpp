@@ -53,7 +53,9 @@ void SessionHost::send_all(std::uint32_t client, const std::vector<wire::Message
 bool SessionHost::lod_busy() const {
   // Without a session nobody waits: the scene may move on, and the next update catches up
   // with every epoch since through the change log.
-  return config_.session.lod_in_background && !sessions_.empty() && config_.session.shared_lod->busy();
+  if (!config_.session.lod_in_background) return false;
+  const LodEpochHierarchy& lod = *config_.session.shared_lod;
+  return lod.reading_scene() || (!sessions_.empty() && lod.busy());
 }
 
 void SessionHost::advance_lod(const SceneStore& scene) {
@@ -62,7 +64,9 @@ void SessionHost::advance_lod(const SceneStore& scene) {
   // it can: a filter over the whole scene here cost this thread 25-38 ms an epoch at 1M.
   const auto& rule = config_.session.eligibility;
   LodEpochHierarchy& lod = *config_.session.shared_lod;
-  if (auto p = lod.update_in_background(scene, rule ? &*rule : nullptr); !p) {
+  // The worker copies what it needs from the scene itself: the loop holds the next epoch
+  // back meanwhile (lod_busy()), and this thread goes on serving.
+  if (auto p = lod.update_in_background(scene, rule ? &*rule : nullptr, /*read_on_worker=*/true); !p) {
     ++stats_.lod_failures;
     stats_.last_error = p.message();
     log(p.message());

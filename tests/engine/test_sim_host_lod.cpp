@@ -805,3 +805,55 @@ TEST(HostSessionLod, SessionsSharingAnEligibleSetFilterOncePerEpochAndSendWhatTh
     EXPECT_EQ(shared->filters(), std::uint64_t(e + 1)) << "one filter per epoch for both sessions";
   }
 }
+
+// update_in_background(read_on_worker): the worker copies the scene (a build) or the changed
+// Gaussians (the change log) itself, and says when it no longer reads the scene. The trees must
+// be what the caller's copy gives, node for node, through a build, churn and a rule's changes.
+TEST(HostSessionLod, AWorkerThatReadsTheSceneItselfBuildsWhatACallersCopyBuilds) {
+  World w;
+  const CodecParams params = lod_params(w);
+  LodEpochHierarchy copied(params.sh_degree, LodConfig{});
+  LodEpochHierarchy read(params.sh_degree, LodConfig{});
+  EligibilityConfig rule;
+  rule.min_opacity = 0.3f;
+  auto settle = [&](LodEpochHierarchy& h, bool on_worker, const EligibilityConfig* r) {
+    for (int k = 0; k < 4; ++k) {
+      auto p = h.update_in_background(w.store, r, on_worker);
+      ASSERT_TRUE(p.ok()) << p.message();
+      if (*p == LodEpochHierarchy::Progress::Ready) break;
+      h.wait_idle();
+      EXPECT_FALSE(h.reading_scene()) << "a finished job still reading the scene";
+    }
+    ASSERT_EQ(h.progress(w.store), LodEpochHierarchy::Progress::Ready);
+  };
+  auto expect_same = [&] {
+    ASSERT_NE(copied.hierarchy(), nullptr);
+    ASSERT_NE(read.hierarchy(), nullptr);
+    ASSERT_EQ(copied.hierarchy()->leaf_count(), read.hierarchy()->leaf_count());
+    expect_same_tree(*copied.hierarchy(), copied.hierarchy()->root(), *read.hierarchy(), read.hierarchy()->root());
+  };
+  ASSERT_NO_FATAL_FAILURE(settle(copied, false, nullptr));
+  ASSERT_NO_FATAL_FAILURE(settle(read, true, nullptr));
+  EXPECT_TRUE(read.last_update()->built);
+  ASSERT_NO_FATAL_FAILURE(expect_same());
+  std::vector<ObjectId> objects;
+  for (const auto& o : w.store.objects()) objects.push_back(o.id);
+  ASSERT_FALSE(objects.empty());
+  for (int e = 0; e < 4; ++e) {
+    churn_epoch(w, objects[std::size_t(e) % objects.size()], e);
+    ASSERT_NO_FATAL_FAILURE(settle(copied, false, nullptr));
+    ASSERT_NO_FATAL_FAILURE(settle(read, true, nullptr));
+    EXPECT_TRUE(read.last_update()->from_change_log);
+    ASSERT_NO_FATAL_FAILURE(expect_same());
+  }
+  // Under a rule: the first epoch compares every Gaussian (a new rule), the next follows the
+  // change log and drops the changed Gaussians that fail it.
+  for (int e = 0; e < 2; ++e) {
+    flip_opacities(w, rule.min_opacity, e);
+    ASSERT_NO_FATAL_FAILURE(settle(copied, false, &rule));
+    ASSERT_NO_FATAL_FAILURE(settle(read, true, &rule));
+    EXPECT_EQ(read.last_update()->from_change_log, e == 1);
+    ASSERT_NO_FATAL_FAILURE(expect_same());
+  }
+  EXPECT_FALSE(read.reading_scene());
+}

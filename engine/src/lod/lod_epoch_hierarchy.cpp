@@ -46,6 +46,7 @@ Status LodEpochHierarchy::update(const SceneStore& scene, const EligibleSet* eli
   // Once per epoch: a failed update is not retried (and reported again) every tick, and the
   // sessions sharing this one find it done.
   if (epoch_ && *epoch_ == scene.epoch()) return settled;
+  job_.scene = nullptr;  // this thread reads the scene
   Filter filter;
   filter.filtered = eligible != nullptr;
   filter.set = eligible;
@@ -63,7 +64,8 @@ Status LodEpochHierarchy::update(const SceneStore& scene, const EligibleSet* eli
 }
 
 Expected<LodEpochHierarchy::Progress> LodEpochHierarchy::update_in_background(const SceneStore& scene,
-                                                                              const EligibilityConfig* rule) {
+                                                                              const EligibilityConfig* rule,
+                                                                              bool read_on_worker) {
   std::unique_lock lock(mutex_);
   Status finished = Ok{};
   if (job_posted_) {
@@ -89,15 +91,20 @@ Expected<LodEpochHierarchy::Progress> LodEpochHierarchy::update_in_background(co
   } else if (rule) {
     filter.own_rule = *rule;
   }
+  // The eligible set computed here (surface rule) is this call's: its indices are copied
+  // here, the rest may be read by the worker.
+  job_.scene = read_on_worker ? &scene : nullptr;
   if (Status st = prepare(scene, filter, job_, /*copy_span=*/true); !st) {
     // Nothing can run (a LodConfig the hierarchy refuses, too little memory): the readers
     // must not wait for it, they select leaves for this epoch.
+    job_.scene = nullptr;
     epoch_ = scene.epoch();
     if (Status said = drop(scene.epoch(), st.message()); !said) return said.error();
     return Progress::Ready;
   }
   job_posted_ = true;
   job_done_ = false;
+  scene_read_ = job_.scene == nullptr;
   if (!worker_.joinable()) worker_ = std::thread([this] { worker_loop(); });
   lock.unlock();
   job_cv_.notify_one();
@@ -112,6 +119,11 @@ LodEpochHierarchy::Progress LodEpochHierarchy::progress(const SceneStore& scene)
 bool LodEpochHierarchy::busy() const {
   std::lock_guard lock(mutex_);
   return job_posted_;
+}
+
+bool LodEpochHierarchy::reading_scene() const {
+  std::lock_guard lock(mutex_);
+  return job_posted_ && !scene_read_;
 }
 
 void LodEpochHierarchy::wait_idle() const {
@@ -134,6 +146,10 @@ void LodEpochHierarchy::worker_loop() {
     if (job_posted_ && !job_done_) {
       // The job and the hierarchy are the worker's until job_done_: every reader waits for
       // Ready, which no call returns while a job is posted.
+      lock.unlock();
+      copy_from_scene(job_);
+      lock.lock();
+      scene_read_ = true;
       lock.unlock();
       run(job_);
       lock.lock();
@@ -174,6 +190,7 @@ Status LodEpochHierarchy::prepare(const SceneStore& scene, const Filter& filter,
   } catch (const std::bad_alloc&) {
     job.gaussians = {};
     job.upserts = {};
+    job.touched = {};
     job.subset = {};
     return Error{std::string(kNoMemory) + "copying " + std::to_string(scene.gaussians().size()) +
                  " Gaussians for the hierarchy's update ran out"};
@@ -196,9 +213,7 @@ Status LodEpochHierarchy::prepare_job(const SceneStore& scene, const Filter& fil
     // scene's change log says what changed, so apply it (work in the changes) instead of
     // comparing every Gaussian (work in N; 2.5x the cost at 1 %). A changed Gaussian that
     // fails the rule leaves (lenient: it may never have been a leaf).
-    std::optional<EligibilityOwnRules> rules;
-    if (filter.own_rule) rules.emplace(*filter.own_rule);
-    std::vector<GaussianId> touched;
+    job.touched.clear();
     bool reaches = true;
     for (std::uint64_t e = to_underlying(*epoch_) + 1; e <= to_underlying(scene.epoch()) && reaches; ++e) {
       const EpochChanges* c = scene.changes(Epoch{e});
@@ -206,31 +221,21 @@ Status LodEpochHierarchy::prepare_job(const SceneStore& scene, const Filter& fil
         reaches = false;  // the log no longer reaches back: compare everything
         break;
       }
-      touched.insert(touched.end(), c->inserted.begin(), c->inserted.end());
-      touched.insert(touched.end(), c->modified.begin(), c->modified.end());
+      job.touched.insert(job.touched.end(), c->inserted.begin(), c->inserted.end());
+      job.touched.insert(job.touched.end(), c->modified.begin(), c->modified.end());
       job.removed.insert(job.removed.end(), c->removed.begin(), c->removed.end());
     }
     if (reaches) {
-      std::sort(touched.begin(), touched.end());
-      touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
-      job.upserts.reserve(touched.size());
-      for (GaussianId id : touched) {
-        const Gaussian* g = scene.find(id);
-        if (!g) continue;  // inserted or modified, then removed: in `removed`
-        if (g->carrier || (rules && !rules->passes(*g)))
-          job.removed.push_back(id);  // turned carrier or ineligible: no longer a leaf
-        else
-          job.upserts.push_back(*g);
-      }
-      std::sort(job.removed.begin(), job.removed.end());
-      job.removed.erase(std::unique(job.removed.begin(), job.removed.end()), job.removed.end());
-      if (Status st = memory_for(hierarchy_->leaf_count() + job.upserts.size(), 0, 0); !st) return st;
+      // At most every touched Gaussian becomes a leaf.
+      if (Status st = memory_for(hierarchy_->leaf_count() + job.touched.size(), 0, 0); !st) return st;
       job.from_change_log = true;
       job.span = {};
       job.gaussians = {};  // a full job's copy is not kept for a scene that has a change log
+      if (!job.scene) gather_changes(scene, job);
       return Ok{};
     }
     job.removed.clear();
+    job.touched.clear();
   }
   const auto gaussians = scene.gaussians();
   // Checked before anything is copied or built: at most every Gaussian is a leaf.
@@ -245,14 +250,18 @@ Status LodEpochHierarchy::prepare_job(const SceneStore& scene, const Filter& fil
       job.gaussians.reserve(gaussians.size());
       advise_huge_pages_for_room(job.gaussians);
     }
-    job.gaussians.assign(gaussians.begin(), gaussians.end());
-    job.span = job.gaussians;
+    if (job.scene) {
+      job.span = {};  // copy_from_scene, on the worker
+    } else {
+      job.gaussians.assign(gaussians.begin(), gaussians.end());
+      job.span = job.gaussians;
+    }
   } else {
     job.span = gaussians;
   }
   if (filter.set) {
     job.subset.assign(filter.set->indices.begin(), filter.set->indices.end());
-  } else if (filter.filtered && copy_span) {
+  } else if (copy_span && (filter.filtered || job.scene)) {
     job.subset_on_worker = true;  // over the copy: nothing more in N on the caller's thread
   } else {
     job.subset = own_subset(job.span, filter);
@@ -264,6 +273,44 @@ Status LodEpochHierarchy::prepare_job(const SceneStore& scene, const Filter& fil
     ++lineage_;
   }
   return Ok{};
+}
+
+void LodEpochHierarchy::gather_changes(const SceneStore& scene, Job& job) {
+  std::optional<EligibilityOwnRules> rules;
+  if (job.filter.own_rule) rules.emplace(*job.filter.own_rule);
+  std::sort(job.touched.begin(), job.touched.end());
+  job.touched.erase(std::unique(job.touched.begin(), job.touched.end()), job.touched.end());
+  job.upserts.reserve(job.touched.size());
+  for (GaussianId id : job.touched) {
+    const Gaussian* g = scene.find(id);
+    if (!g) continue;  // inserted or modified, then removed: in `removed`
+    if (g->carrier || (rules && !rules->passes(*g)))
+      job.removed.push_back(id);  // turned carrier or ineligible: no longer a leaf
+    else
+      job.upserts.push_back(*g);
+  }
+  job.touched.clear();
+  std::sort(job.removed.begin(), job.removed.end());
+  job.removed.erase(std::unique(job.removed.begin(), job.removed.end()), job.removed.end());
+}
+
+void LodEpochHierarchy::copy_from_scene(Job& job) {
+  if (!job.scene) return;
+  const SceneStore& scene = *std::exchange(job.scene, nullptr);
+  try {
+    if (job.from_change_log) {
+      gather_changes(scene, job);
+    } else {
+      job.gaussians.assign(scene.gaussians().begin(), scene.gaussians().end());
+      job.span = job.gaussians;
+    }
+  } catch (const std::bad_alloc&) {
+    // run() says so: an update from nothing fails like one that ran out.
+    job.upserts = {};
+    job.gaussians = {};
+    job.span = {};
+    job.copy_failed = true;
+  }
 }
 
 std::vector<std::uint32_t> LodEpochHierarchy::own_subset(std::span<const Gaussian> gaussians, const Filter& filter) {
@@ -279,6 +326,13 @@ std::vector<std::uint32_t> LodEpochHierarchy::own_subset(std::span<const Gaussia
 void LodEpochHierarchy::run(Job& job) {
   const auto start = std::chrono::steady_clock::now();
   job.built = hierarchy_->leaf_count() == 0;
+  if (job.copy_failed) {
+    job.copy_failed = false;
+    hierarchy_.reset();
+    job.result = Error{std::string(kNoMemory) + "copying the scene for the hierarchy's update ran out"};
+    job.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return;
+  }
   try {
     if (job.subset_on_worker) job.subset = own_subset(job.span, job.filter);
     // Removed ids that were never leaves (carriers, unusable ones) are fine: lenient.

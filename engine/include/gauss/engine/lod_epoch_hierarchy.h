@@ -88,7 +88,14 @@ class LodEpochHierarchy {
   // once per reason; the next call then starts the update for the scene's epoch. `rule`: the
   // eligibility filter (null: every non-carrier), which this applies itself, and only where
   // it must (the changed Gaussians, when the change log serves).
-  Expected<Progress> update_in_background(const SceneStore& scene, const EligibilityConfig* rule);
+  // `read_on_worker`: the worker copies what it needs from the scene itself, so the caller's
+  // thread does not (a first build's copy of a million Gaussians was 70-550 ms of it, a
+  // snapshot moving every one 60-150 ms); the caller must then change the scene by nothing
+  // until reading_scene() is false. Else the caller's thread copies it before returning.
+  Expected<Progress> update_in_background(const SceneStore& scene, const EligibilityConfig* rule,
+                                          bool read_on_worker = false);
+  // A background update still reads the scene it was started for (read_on_worker).
+  bool reading_scene() const;
   // Updates so far that followed the scene's change log (the others compared every Gaussian).
   std::uint64_t change_log_updates() const;
   // What update_in_background() would say of the scene now, without starting or taking up
@@ -141,6 +148,11 @@ class LodEpochHierarchy {
     std::vector<Gaussian> gaussians;   //   copied here for the worker (the span then views it),
     std::vector<std::uint32_t> subset; //   and the indices of the eligible ones in it
     bool subset_on_worker{false};      //   (computed by run() from filter.own_rule)
+    // read_on_worker: the scene the worker copies from (the span, or the changes below)
+    // before it updates; null once copied, or when the caller's thread copied.
+    const SceneStore* scene{nullptr};
+    std::vector<GaussianId> touched;   // change log: inserted or modified, unsorted, repeats
+    bool copy_failed{false};           // copy_from_scene ran out of memory
     std::optional<Expected<LodUpdateReport>> result;
     bool built{false};                 // run(): the hierarchy had no leaf before
     double seconds{0.0};               // run(): how long the update took
@@ -158,6 +170,11 @@ class LodEpochHierarchy {
   Status memory_for(std::size_t leaves_after, std::size_t copy_bytes, std::size_t held_copy_bytes) const;
   // The indices of the non-carriers that pass the filter's own rule (every one without it).
   static std::vector<std::uint32_t> own_subset(std::span<const Gaussian> gaussians, const Filter& filter);
+  // Reads the change log's Gaussians into job.upserts (touched -> upserts, failing the rule
+  // or turned carrier -> removed): on the caller's thread, or the worker's (read_on_worker).
+  static void gather_changes(const SceneStore& scene, Job& job);
+  // Copies what a read_on_worker job needs from its scene; then the scene is released.
+  void copy_from_scene(Job& job);
   // Runs a prepared job on the hierarchy (the caller's thread or the worker).
   void run(Job& job);
   // Takes a finished job's result up: the epoch, the log, or a drop. Under mutex_.
@@ -190,6 +207,7 @@ class LodEpochHierarchy {
   Job job_;
   bool job_posted_{false};  // job_ handed to the worker and not yet taken up
   bool job_done_{false};    // the worker finished job_ (its result is in job_.result)
+  bool scene_read_{true};   // the posted job no longer reads the scene (read_on_worker)
   bool stopping_{false};
   mutable std::condition_variable job_cv_;   // worker: a job is posted or stopping
   mutable std::condition_variable done_cv_;  // waiters: the job is done

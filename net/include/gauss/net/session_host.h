@@ -86,7 +86,9 @@ class SessionHost {
   // Whether a background hierarchy update is still outstanding (lod_in_background) while a
   // session may be waiting for it: the host loop holds its next epoch back until it clears,
   // so the sessions serve every epoch they wait for instead of waiting on the next one's
-  // update. With no session it is false: the scene goes at its own pace meanwhile.
+  // update. With no session it is false once the update has copied what it needs from the
+  // scene (the worker copies it, not the serving thread: LodEpochHierarchy::reading_scene),
+  // and the scene goes at its own pace meanwhile. The scene must not change while it is true.
   bool lod_busy() const;
 
  private:
