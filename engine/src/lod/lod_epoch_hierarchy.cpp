@@ -91,8 +91,9 @@ Expected<LodEpochHierarchy::Progress> LodEpochHierarchy::update_in_background(co
   } else if (rule) {
     filter.own_rule = *rule;
   }
-  // The eligible set computed here (surface rule) is this call's: its indices are copied
-  // here, the rest may be read by the worker.
+  // read_on_worker: the worker copies the span or the changed Gaussians (copy_from_scene);
+  // an eligible set computed here (the surface rule) is this call's, so its indices are
+  // copied here all the same.
   job_.scene = read_on_worker ? &scene : nullptr;
   if (Status st = prepare(scene, filter, job_, /*copy_span=*/true); !st) {
     // Nothing can run (a LodConfig the hierarchy refuses, too little memory): the readers

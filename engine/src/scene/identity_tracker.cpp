@@ -179,8 +179,8 @@ Expected<IdentityReport> track_identity(std::span<const Gaussian> previous, std:
 
     // Previous Gaussians in cell order (neighbours in space are neighbours in memory), each
     // cell's range found through an index. What the distance test reads lies in arrays of its
-    // own (x, y, z, radius^2), which a query scans kChunk at a time in a loop the compiler
-    // vectorises: a cell of the automatic size holds about a hundred Gaussians at a million,
+    // own (x, y, z, radius^2), which a query scans kChunk at a time, four at once (near_mask):
+    // a cell of the automatic size holds about a hundred Gaussians at a million,
     // and a query reads eight cells, of which few lie within reach (most of the similarity
     // pass's time went to that scan). Only those are read further.
     const auto key_of = [&](const glm::vec3& p) {
@@ -194,7 +194,6 @@ Expected<IdentityReport> track_identity(std::span<const Gaussian> previous, std:
       glm::vec3 log_scale;
       float opacity_logit;
       glm::vec3 sh_dc;
-      float radius;
       std::uint32_t prev;
       bool carrier;
     };
@@ -214,7 +213,7 @@ Expected<IdentityReport> track_identity(std::span<const Gaussian> previous, std:
       ys[a] = q.position.y;
       zs[a] = q.position.z;
       r2s[a] = radius * radius;
-      candidates[a] = {q.log_scale, q.opacity_logit, q.sh_dc, radius, prev_left[k], q.carrier};
+      candidates[a] = {q.log_scale, q.opacity_logit, q.sh_dc, prev_left[k], q.carrier};
     }
     detail::IdIndex cell_at;  // cell key (< 2^63) -> its place in cell_range
     std::vector<std::pair<std::uint32_t, std::uint32_t>> cell_range;
@@ -266,7 +265,7 @@ Expected<IdentityReport> track_identity(std::span<const Gaussian> previous, std:
         const float dc = max_abs3(g.sh_dc - q.sh_dc) / config.max_sh_dc_change;
         const float dop = std::abs(g.opacity_logit - q.opacity_logit) / config.max_opacity_logit_change;
         if (ds > 1.0f || dc > 1.0f || dop > 1.0f) return;
-        const Pair p{dist2 / (q.radius * q.radius) + ds * ds + dc * dc + dop * dop, i, q.prev};
+        const Pair p{dist2 / r2s[a] + ds * ds + dc * dc + dop * dop, i, q.prev};
         // Keep the kCandidates cheapest (ties by previous index).
         const auto worse = [](const Pair& x, const Pair& y) { return x.cost != y.cost ? x.cost > y.cost : x.prev > y.prev; };
         if (n_best < kCandidates) {
