@@ -265,8 +265,19 @@ class SnapshotSource final : public SceneSource {
       // from it; nothing changes it until the commit (see prepare_in_background).
       const SceneStore* scene = &store;
       const fs::path last_mesh = last_mesh_;
-      job_ = std::async(std::launch::async, [this, e, scene, last_mesh] { return read_and_prepare(e, *scene, last_mesh); });
-      return false;
+      try {
+        job_ = std::async(std::launch::async, [this, e, scene, last_mesh] { return read_and_prepare(e, *scene, last_mesh); });
+        return false;
+      } catch (const std::system_error&) {
+        // No thread to be had: read here, as without prepare_in_background.
+      }
+      if (Status r = load_and_apply(e, store); r) {
+        consumed_ = e;
+        ++produced_;
+        return true;
+      } else if (!settle_failure(e, r.error(), store, background_failure_)) {
+        return false;
+      }
     }
     if (produced_ == 0 && background_failure_) {
       const Error last = *std::exchange(background_failure_, std::nullopt);
