@@ -370,6 +370,7 @@ int run_config(vk::Context& ctx, const RenderBenchOptions& o, const Config& c, s
   out["visible"] = last.visible;
   out["pairs"] = last.pairs;
   out["pair_overflow"] = last.overflow;
+  out["max_pairs"] = r.max_pairs();  // the pairs one view may hold (the memory plan's choice)
   if (c.stereo) out["views_together"] = last.together;
 
   // CRC-32 of each view's last image: a renderer change that must leave the images

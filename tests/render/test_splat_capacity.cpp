@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "gauss/render/splat_memory_plan.h"
 #include "gauss/render/splat_renderer.h"
 #include "gauss/render/vk_context.h"
 #include "golden.h"
@@ -105,6 +106,69 @@ TEST_F(SplatCapacity, RefusesMoreThanTheHeapWithTheNumbers) {
   EXPECT_TRUE(names_limit) << m;
   EXPECT_NE(m.find("at most "), std::string::npos) << m;
   EXPECT_TRUE(render::plan_splat_memory(context(), info(most, 0)).ok());
+}
+
+// Plans against devices this machine does not have (made-up limits, no Vulkan): the pairs a
+// view may hold grow with the scene where the device has room, instead of stopping at 32M.
+render::SplatDeviceLimits gpu_with(std::uint64_t heap_bytes) {
+  return {.name = "made-up GPU", .binding_range = 0xFFFFFFFFu, .heap_bytes = heap_bytes, .max_allocation = 1ull << 40};
+}
+
+render::SplatRendererCreateInfo sixteen_million_sh3_at_1080p(std::uint32_t max_pairs = 0) {
+  return {.capacity = 16'000'000, .sh_degree = 3, .max_width = 1920, .max_height = 1080, .max_pairs = max_pairs};
+}
+
+TEST(SplatMemoryPlan, SixteenMillionShDegree3FitA16GBGpuWithSixteenPairsPerSlot) {
+  const auto device = gpu_with(16'000'000'000ull);
+  auto plan = render::plan_splat_memory(device, sixteen_million_sh3_at_1080p());
+  ASSERT_TRUE(plan.ok()) << plan.message();
+  EXPECT_EQ(plan->max_pairs, 16u * 16'000'000u);  // a 16M box at 1080p needs about 130M
+  EXPECT_LE(plan->total_bytes, device.heap_bytes);
+}
+
+TEST(SplatMemoryPlan, PairsPast32MTakeAtMostHalfTheHeapTheRestLeavesFree) {
+  const auto device = gpu_with(10ull << 30);
+  auto floor = render::plan_splat_memory(device, sixteen_million_sh3_at_1080p(32u << 20));
+  ASSERT_TRUE(floor.ok()) << floor.message();
+  const std::uint64_t budget = floor->total_bytes + (device.heap_bytes - floor->total_bytes) / 2;
+  auto plan = render::plan_splat_memory(device, sixteen_million_sh3_at_1080p());
+  ASSERT_TRUE(plan.ok()) << plan.message();
+  EXPECT_GT(plan->max_pairs, 32u << 20);
+  EXPECT_LT(plan->max_pairs, 16u * 16'000'000u);
+  EXPECT_LE(plan->total_bytes, budget);
+  // The most that fit: one pair more would pass the budget.
+  auto one_more = render::plan_splat_memory(device, sixteen_million_sh3_at_1080p(plan->max_pairs + 1));
+  ASSERT_TRUE(one_more.ok()) << one_more.message();
+  EXPECT_GT(one_more->total_bytes, budget);
+}
+
+TEST(SplatMemoryPlan, AutomaticPairsPast32MNeverDecideWhetherACapacityFits) {
+  const auto device = gpu_with(10ull << 30);
+  auto info = sixteen_million_sh3_at_1080p();
+  const std::uint32_t most = render::max_splat_capacity(device, info);
+  info.capacity = most;
+  auto at_most = render::plan_splat_memory(device, info);
+  ASSERT_TRUE(at_most.ok()) << at_most.message();
+  EXPECT_EQ(at_most->max_pairs, 32u << 20);  // no room left for more
+  info.max_pairs = 32u << 20;  // the same capacity with 32M pairs asked for
+  EXPECT_TRUE(render::plan_splat_memory(device, info).ok());
+  info.capacity = most + 1;
+  info.max_pairs = 0;
+  auto over = render::plan_splat_memory(device, info);
+  ASSERT_FALSE(over.ok());
+  EXPECT_NE(over.message().find("heap"), std::string::npos) << over.message();
+}
+
+TEST(SplatMemoryPlan, LavapipesBindingsPlanThePairsTheyAlwaysDid) {
+  const render::SplatDeviceLimits lavapipe{
+      .name = "lavapipe-like", .binding_range = 128u << 20, .heap_bytes = 2ull << 30, .max_allocation = 2ull << 30};
+  for (std::uint32_t capacity : {1000u, 100'000u, 1'000'000u, 2'000'000u, 4'000'000u}) {
+    auto plan = render::plan_splat_memory(
+        lavapipe, {.capacity = capacity, .sh_degree = 3, .max_width = 320, .max_height = 240});
+    ASSERT_TRUE(plan.ok()) << plan.message();
+    EXPECT_EQ(plan->max_pairs, std::min<std::uint64_t>(32u << 20, std::max<std::uint64_t>(1u << 20, 16ull * capacity)))
+        << capacity;
+  }
 }
 
 }  // namespace

@@ -42,16 +42,6 @@ WideStrides wide_strides(int sh_degree) {
 // Per-slot arrays of 4 bytes (edit tints, tile counts, offsets), never split.
 constexpr std::uint64_t kNarrowBytesPerSlot = 3 * 4;
 
-std::uint64_t device_local_heap(const vk::Context& context) {
-  const VkPhysicalDeviceMemoryProperties& m = context.memory_properties();
-  std::uint64_t best = 0;
-  for (std::uint32_t h = 0; h < m.memoryHeapCount; ++h)
-    if (m.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) best = std::max<std::uint64_t>(best, m.memoryHeaps[h].size);
-  if (best == 0)
-    for (std::uint32_t h = 0; h < m.memoryHeapCount; ++h) best = std::max<std::uint64_t>(best, m.memoryHeaps[h].size);
-  return best;
-}
-
 std::string with_commas(std::uint64_t n) {
   // Built forward (g++ 12 warns falsely, -Wrestrict, on std::string::insert inlined here).
   const std::string digits = std::to_string(n);
@@ -68,24 +58,22 @@ struct Checked {
   std::string problem;  // empty when the plan fits the device
 };
 
-// The plan for `info` and, when the device cannot hold it, what is wrong (without the
-// "at most N slots" part, which needs this function again).
-Checked check(const vk::Context& context, const SplatRendererCreateInfo& info) {
+// The plan for `info` with `max_pairs` (tile, splat) pairs per view and, when the device
+// cannot hold it, what is wrong (without the "at most N slots" part, which needs this
+// function again).
+Checked check_with_pairs(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info, std::uint32_t max_pairs) {
   Checked out;
   SplatMemoryPlan& p = out.plan;
   p.capacity = info.capacity;
-  p.binding_range = context.max_storage_buffer_range();
+  p.binding_range = device.binding_range;
   if (info.max_binding_bytes != 0) p.binding_range = std::min<std::uint64_t>(p.binding_range, info.max_binding_bytes);
-  p.heap_bytes = device_local_heap(context);
-  p.max_allocation = context.max_memory_allocation_size();
+  p.heap_bytes = device.heap_bytes;
+  p.max_allocation = device.max_allocation;
   const std::uint64_t range = p.binding_range;
   const std::uint64_t cap = info.capacity;
 
   const std::uint64_t pair_limit = range / 4;
-  p.max_pairs = info.max_pairs != 0
-                    ? info.max_pairs
-                    : static_cast<std::uint32_t>(std::min<std::uint64_t>(
-                          {pair_limit, 32u << 20, std::max<std::uint64_t>(1u << 20, cap * 16)}));
+  p.max_pairs = max_pairs;
   if (p.max_pairs > pair_limit) {
     out.problem = "max_pairs " + with_commas(p.max_pairs) + " needs " + with_commas(std::uint64_t{p.max_pairs} * 4) +
                   " bytes per sort buffer, more than one storage binding covers (" + with_commas(range) + " bytes, " +
@@ -151,6 +139,39 @@ Checked check(const vk::Context& context, const SplatRendererCreateInfo& info) {
   return out;
 }
 
+// Automatic pairs: 16 per slot, at least 1M. Up to 32M (kPairsAlwaysPlanned) they are part of
+// what a capacity needs, as on lavapipe, whose 128 MiB binding holds 32M; past that a device
+// with larger bindings gives them at most half of the heap the rest of the plan leaves free.
+// A large scene on a GPU with room is then not cut at 32M pairs (a 16M-Gaussian scene at 1080p
+// needs about 130M), and one on a tight heap is not refused for pairs it may never need: the
+// capacities a device takes are those it took with 32M.
+constexpr std::uint64_t kPairsPerSlot = 16;
+constexpr std::uint64_t kPairsAlwaysPlanned = 32u << 20;
+constexpr std::uint64_t kPairsMost = 1u << 31;  // pair counts and offsets are 32-bit words
+
+Checked check(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info) {
+  if (info.max_pairs != 0) return check_with_pairs(device, info, info.max_pairs);
+  const std::uint64_t range =
+      info.max_binding_bytes != 0 ? std::min(device.binding_range, info.max_binding_bytes) : device.binding_range;
+  const std::uint64_t wanted = std::max<std::uint64_t>(1u << 20, std::uint64_t{info.capacity} * kPairsPerSlot);
+  const std::uint64_t floor = std::min({range / 4, kPairsAlwaysPlanned, wanted});
+  Checked out = check_with_pairs(device, info, static_cast<std::uint32_t>(floor));
+  const std::uint64_t most = std::min({range / 4, device.max_allocation / 4, kPairsMost, wanted});
+  if (!out.problem.empty() || most <= floor) return out;
+  const std::uint64_t budget = out.plan.total_bytes + (out.plan.heap_bytes - out.plan.total_bytes) / 2;
+  auto fits = [&](std::uint64_t pairs) {
+    const Checked c = check_with_pairs(device, info, static_cast<std::uint32_t>(pairs));
+    return c.problem.empty() && c.plan.total_bytes <= budget;
+  };
+  if (fits(most)) return check_with_pairs(device, info, static_cast<std::uint32_t>(most));
+  std::uint64_t lo = floor, hi = most;  // fits(lo), !fits(hi): the needs grow with the pairs
+  while (hi - lo > 1) {
+    const std::uint64_t mid = lo + (hi - lo) / 2;
+    (fits(mid) ? lo : hi) = mid;
+  }
+  return check_with_pairs(device, info, static_cast<std::uint32_t>(lo));
+}
+
 // The create-info checks that do not depend on the device (SplatRenderer::create's).
 Status check_fields(const SplatRendererCreateInfo& info) {
   if (info.capacity == 0) return Error{"SplatRenderer: capacity must be at least 1"};
@@ -181,11 +202,26 @@ std::uint32_t slot_chunk_slots(std::uint64_t binding_range, std::uint32_t capaci
   return static_cast<std::uint32_t>(std::bit_floor(std::min<std::uint64_t>(fit, 1u << 31)));
 }
 
-std::uint32_t max_splat_capacity(const vk::Context& context, const SplatRendererCreateInfo& info) {
+SplatDeviceLimits splat_device_limits(const vk::Context& context) {
+  SplatDeviceLimits d;
+  d.name = context.device_name();
+  d.binding_range = context.max_storage_buffer_range();
+  d.max_allocation = context.max_memory_allocation_size();
+  const VkPhysicalDeviceMemoryProperties& m = context.memory_properties();
+  for (std::uint32_t h = 0; h < m.memoryHeapCount; ++h)
+    if (m.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
+      d.heap_bytes = std::max<std::uint64_t>(d.heap_bytes, m.memoryHeaps[h].size);
+  if (d.heap_bytes == 0)
+    for (std::uint32_t h = 0; h < m.memoryHeapCount; ++h) d.heap_bytes = std::max<std::uint64_t>(d.heap_bytes, m.memoryHeaps[h].size);
+  return d;
+}
+
+std::uint32_t max_splat_capacity(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info) {
   SplatRendererCreateInfo probe = info;
   auto fits = [&](std::uint32_t capacity) {
     probe.capacity = capacity;
-    return check(context, probe).problem.empty();
+    // Automatic pairs past 32M never decide whether a capacity fits (see check()).
+    return check(device, probe).problem.empty();
   };
   if (!check_fields({.capacity = 1,
                      .sh_degree = info.sh_degree,
@@ -205,15 +241,23 @@ std::uint32_t max_splat_capacity(const vk::Context& context, const SplatRenderer
   return lo;
 }
 
-Expected<SplatMemoryPlan> plan_splat_memory(const vk::Context& context, const SplatRendererCreateInfo& info) {
+Expected<SplatMemoryPlan> plan_splat_memory(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info) {
   if (auto st = check_fields(info); !st) return st.error();
-  Checked c = check(context, info);
+  Checked c = check(device, info);
   if (c.problem.empty()) return c.plan;
-  const std::uint32_t most = max_splat_capacity(context, info);
+  const std::uint32_t most = max_splat_capacity(device, info);
   return Error{"SplatRenderer: " + with_commas(info.capacity) + " slots at SH degree " + std::to_string(info.sh_degree) +
-               " do not fit device '" + context.device_name() + "': " + c.problem + "; it holds at most " +
+               " do not fit device '" + device.name + "': " + c.problem + "; it holds at most " +
                with_commas(most) + " slots at this SH degree and " + std::to_string(info.max_width) + "x" +
                std::to_string(info.max_height)};
+}
+
+Expected<SplatMemoryPlan> plan_splat_memory(const vk::Context& context, const SplatRendererCreateInfo& info) {
+  return plan_splat_memory(splat_device_limits(context), info);
+}
+
+std::uint32_t max_splat_capacity(const vk::Context& context, const SplatRendererCreateInfo& info) {
+  return max_splat_capacity(splat_device_limits(context), info);
 }
 
 }  // namespace gauss::render

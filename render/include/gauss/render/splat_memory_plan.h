@@ -76,14 +76,30 @@ std::uint32_t slot_chunk_slots(std::uint64_t binding_range, std::uint32_t capaci
 // both; the GPU scans keep their block sums there too.
 std::uint64_t radix_histogram_bytes(std::uint64_t sort_keys);
 
+// What a plan is made against: a device's limits (splat_device_limits), or limits a test
+// makes up for a device it does not have.
+struct SplatDeviceLimits {
+  std::string name;
+  std::uint64_t binding_range{0};   // maxStorageBufferRange
+  std::uint64_t heap_bytes{0};      // the largest device-local heap (the largest heap if none is)
+  std::uint64_t max_allocation{0};  // maxMemoryAllocationSize
+};
+SplatDeviceLimits splat_device_limits(const vk::Context& context);
+
 // Errors (one message naming the limit, what the renderer needs and the most slots the
 // device takes at this SH degree and size): invalid fields of `info` (as
 // SplatRenderer::create), more chunks than kMaxSlotChunks, a 4-byte-per-slot or sort
 // buffer past one binding, a buffer past maxMemoryAllocationSize, a total past the heap.
+// Automatic pairs (`info.max_pairs` 0): 16 per slot, at least 2^20; up to 2^25 they count
+// towards what the capacity needs (lavapipe's binding holds 2^25), and beyond that, where
+// the bindings hold more, they take at most half of the heap the rest of the plan leaves
+// free, so they never decide whether a capacity fits.
+Expected<SplatMemoryPlan> plan_splat_memory(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info);
 Expected<SplatMemoryPlan> plan_splat_memory(const vk::Context& context, const SplatRendererCreateInfo& info);
 
 // The largest capacity plan_splat_memory accepts with the other fields of `info`
 // (0 when none does).
+std::uint32_t max_splat_capacity(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info);
 std::uint32_t max_splat_capacity(const vk::Context& context, const SplatRendererCreateInfo& info);
 
 }  // namespace gauss::render

@@ -107,7 +107,8 @@ struct SplatRendererCreateInfo {
   int sh_degree{0};             // 0..3, SH rest stored and evaluated up to this degree
   std::uint32_t max_width{1280};
   std::uint32_t max_height{720};
-  // (tile, splat) pairs one view may hold; 0 = automatic (16 per slot, 1M .. 32M).
+  // (tile, splat) pairs one view may hold; 0 = automatic (16 per slot from 1M, past 32M only
+  // where the bindings and half the heap left free hold them: plan_splat_memory).
   std::uint32_t max_pairs{0};
   // Frames that may be in flight at once (1 .. vk::kMaxFramesInFlight). A display loop
   // uses 2 so that recording frame k+1 overlaps the GPU work of frame k.
