@@ -3,7 +3,11 @@
 // refused before anything is allocated, with the numbers. The split is exercised on small
 // scenes by lowering the binding range (SplatRendererCreateInfo::max_binding_bytes): a
 // split renderer must give the very bytes of an unsplit one.
+#include <cmath>
+#include <optional>
+#include <span>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -106,6 +110,86 @@ TEST_F(SplatCapacity, RefusesMoreThanTheHeapWithTheNumbers) {
   EXPECT_TRUE(names_limit) << m;
   EXPECT_NE(m.find("at most "), std::string::npos) << m;
   EXPECT_TRUE(render::plan_splat_memory(context(), info(most, 0)).ok());
+}
+
+// Pairs that grow (SplatRendererCreateInfo::grow_pairs, the default with automatic pairs): a
+// view needing more pairs than the renderer holds drops its farthest splats' pairs in the
+// frames recorded before that was seen, and the next frame holds them all, with the image a
+// renderer with room gives. Two frames in flight: the second, recorded before the first was
+// read, overflows too and says so against the pairs it had. Without growth the pairs stay.
+TEST_F(SplatCapacity, PairsGrowToWhatAViewNeeds) {
+  // 100 splats over the whole 160x120 view (80 tiles): 8000 pairs. The near 60 are faint,
+  // the far 40 red and strong, so a frame that drops the far splats' pairs looks different.
+  std::vector<Gaussian> scene(100);
+  for (std::size_t i = 0; i < scene.size(); ++i) {
+    Gaussian& g = scene[i];
+    g.position = glm::vec3(0.0f, 0.0f, 3.0f + 0.05f * float(i));
+    g.log_scale = glm::vec3(std::log(40.0f), std::log(40.0f), std::log(0.01f));
+    g.opacity_logit = i < 60 ? -4.0f : -0.8f;
+    g.sh_dc = i < 60 ? glm::vec3(0.2f) : glm::vec3(1.5f, -1.0f, -1.0f);
+    g.id = GaussianId{i + 1};
+  }
+  const Camera cam = forward_camera(160, 120);
+  auto make = [&](std::uint32_t max_pairs, std::optional<bool> grow, std::uint32_t in_flight) {
+    auto r = render::SplatRenderer::create(context(), {.capacity = 100, .sh_degree = 0, .max_width = 160,
+                                                       .max_height = 120, .max_pairs = max_pairs, .grow_pairs = grow,
+                                                       .frames_in_flight = in_flight});
+    EXPECT_TRUE(r.ok()) << r.message();
+    if (r.ok()) {
+      EXPECT_TRUE((*r)->write_slots(0, scene).ok());
+    }
+    return r.ok() ? std::move(*r) : nullptr;
+  };
+  auto roomy = make(1u << 20, false, 1);
+  auto fixed = make(5000, std::nullopt, 1);  // an explicit max_pairs does not grow by default
+  auto growing = make(5000, true, 2);
+  ASSERT_TRUE(roomy && fixed && growing);
+
+  auto all = roomy->render(cam);
+  ASSERT_TRUE(all.ok()) << all.message();
+  ASSERT_FALSE(all->pair_overflow);
+  ASSERT_EQ(all->pairs, 8000u);
+  const auto want = roomy->read_image();
+  ASSERT_TRUE(want.ok());
+
+  for (int frame = 0; frame < 2; ++frame) {
+    auto s = fixed->render(cam);
+    ASSERT_TRUE(s.ok()) << s.message();
+    EXPECT_TRUE(s->pair_overflow);
+    EXPECT_EQ(s->pairs, 5000u);
+    EXPECT_EQ(s->pairs_needed, 8000u);
+  }
+  EXPECT_EQ(fixed->max_pairs(), 5000u);
+  const auto cut = fixed->read_image();
+  ASSERT_TRUE(cut.ok());
+  EXPECT_NE(cut->pixels, want->pixels) << "the far splats' pairs left no trace: the test shows nothing";
+
+  std::uint64_t serial[3];
+  for (auto& s : serial) {
+    auto r = growing->render_frame(std::span<const Camera>(&cam, 1));
+    ASSERT_TRUE(r.ok()) << r.message();
+    s = *r;
+  }
+  std::array<render::SplatFrameStats, 3> st;
+  for (std::size_t k = 0; k < 3; ++k) {
+    auto r = growing->frame_stats(serial[k]);
+    ASSERT_TRUE(r.ok()) << r.message();
+    st[k] = (*r)[0];
+  }
+  EXPECT_TRUE(st[0].pair_overflow);
+  EXPECT_EQ(st[0].pairs, 5000u);
+  EXPECT_TRUE(st[1].pair_overflow) << "recorded before the first frame was read";
+  EXPECT_FALSE(st[2].pair_overflow);
+  EXPECT_EQ(st[2].pairs, 8000u);
+  EXPECT_GE(growing->max_pairs(), 8000u);
+  const auto grown = growing->read_image();
+  ASSERT_TRUE(grown.ok());
+  EXPECT_TRUE(images_equal(*want, *grown, "splat_pairs_grown"));
+  // Later frames replay the passes recorded with the grown buffers: the same image.
+  ASSERT_TRUE(growing->render(cam).ok());
+  const auto again = growing->read_image();
+  ASSERT_TRUE(again.ok());
+  EXPECT_TRUE(images_equal(*want, *again, "splat_pairs_grown_replayed"));
 }
 
 // Plans against devices this machine does not have (made-up limits, no Vulkan): the pairs a

@@ -467,7 +467,7 @@ Expected<SplatFrameStats> SplatRenderer::Impl::read_stats(const FrameSlot& f, st
   s.visible = words[gpu::SPLAT_COUNTER_VISIBLE];
   s.pairs = words[gpu::SPLAT_COUNTER_PAIRS];
   s.pairs_needed = words[gpu::SPLAT_COUNTER_PAIRS_NEEDED];
-  s.pair_overflow = s.pairs_needed > info.max_pairs;
+  s.pair_overflow = s.pairs_needed > f.max_pairs;
   s.passes_replayed = view.replayed;
   s.views_together = f.together;
   auto ticks = view.timestamps.read_ticks();

@@ -1,6 +1,7 @@
 #pragma once
 // Internal state of SplatRenderer (render/src/splat only): the GPU buffers of a frame and
 // the recording of one view's passes.
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -90,6 +91,7 @@ struct FrameSlot {
   std::uint32_t view_count{0};
   bool together{false};  // its two views were recorded together
   std::uint32_t high_water{0};
+  std::uint32_t max_pairs{0};  // the pairs each of its views could hold
 };
 
 struct SplatRenderer::Impl {
@@ -142,6 +144,22 @@ struct SplatRenderer::Impl {
                        const SplatRenderOptions& options);
   // Makes `s` for the create info's capacity and sizes; `what` names its buffers.
   Status make_scratch(ViewScratch& s, const char* what);
+  // Makes the sort keys, values and histogram of `s` at `sizes`.
+  Status make_sort_buffers(ViewScratch& s, const ViewScratchBytes& sizes, const char* what);
+  // Pairs grow (SplatRendererCreateInfo::grow_pairs, by default with automatic pairs) once a
+  // finished frame shows that a view needed more than they hold: note_needed keeps the most
+  // any view needed, and the next frame's grow_pairs makes sort buffers for that and a
+  // quarter more, as far as the memory plan's bounds allow. Frames in flight keep the old
+  // buffers until they finish; the recorded passes are recorded anew. Until then (and beyond
+  // the bounds) the overflow drops the farthest splats' pairs and is reported.
+  bool grow_pairs_allowed{false};
+  bool pairs_grow_failed{false};  // an allocation failed: not tried again
+  std::uint64_t pairs_wanted{0};
+  SplatDeviceLimits device_limits;
+  void note_needed(const SplatFrameStats& s) {
+    if (s.pairs_needed > s.pairs) pairs_wanted = std::max<std::uint64_t>(pairs_wanted, s.pairs_needed);
+  }
+  Status grow_pairs();
   Status prepare_view(FrameSlot& f, std::uint32_t v, const Camera& camera, const SplatRenderOptions& options);
   Expected<SplatFrameStats> read_stats(const FrameSlot& f, std::uint32_t v) const;
   Expected<std::uint64_t> render_frame(std::span<const Camera> cameras, const SplatRenderOptions& options,

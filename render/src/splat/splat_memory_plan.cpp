@@ -144,19 +144,21 @@ Checked check_with_pairs(const SplatDeviceLimits& device, const SplatRendererCre
 // with larger bindings gives them at most half of the heap the rest of the plan leaves free.
 // A large scene on a GPU with room is then not cut at 32M pairs (a 16M-Gaussian scene at 1080p
 // needs about 130M), and one on a tight heap is not refused for pairs it may never need: the
-// capacities a device takes are those it took with 32M.
+// capacities a device takes are those it took with 32M. A renderer whose view needed more
+// pairs than that asks again with `grow_to`: beyond the 16 per slot (or 32M) the same half of
+// the free heap bounds them.
 constexpr std::uint64_t kPairsPerSlot = 16;
 constexpr std::uint64_t kPairsAlwaysPlanned = 32u << 20;
 constexpr std::uint64_t kPairsMost = 1u << 31;  // pair counts and offsets are 32-bit words
 
-Checked check(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info) {
+Checked check(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info, std::uint64_t grow_to = 0) {
   if (info.max_pairs != 0) return check_with_pairs(device, info, info.max_pairs);
   const std::uint64_t range =
       info.max_binding_bytes != 0 ? std::min(device.binding_range, info.max_binding_bytes) : device.binding_range;
-  const std::uint64_t wanted = std::max<std::uint64_t>(1u << 20, std::uint64_t{info.capacity} * kPairsPerSlot);
-  const std::uint64_t floor = std::min({range / 4, kPairsAlwaysPlanned, wanted});
+  const std::uint64_t per_slot = std::max<std::uint64_t>(1u << 20, std::uint64_t{info.capacity} * kPairsPerSlot);
+  const std::uint64_t floor = std::min({range / 4, kPairsAlwaysPlanned, per_slot});
   Checked out = check_with_pairs(device, info, static_cast<std::uint32_t>(floor));
-  const std::uint64_t most = std::min({range / 4, device.max_allocation / 4, kPairsMost, wanted});
+  const std::uint64_t most = std::min({range / 4, device.max_allocation / 4, kPairsMost, std::max(per_slot, grow_to)});
   if (!out.problem.empty() || most <= floor) return out;
   const std::uint64_t budget = out.plan.total_bytes + (out.plan.heap_bytes - out.plan.total_bytes) / 2;
   auto fits = [&](std::uint64_t pairs) {
@@ -241,9 +243,10 @@ std::uint32_t max_splat_capacity(const SplatDeviceLimits& device, const SplatRen
   return lo;
 }
 
-Expected<SplatMemoryPlan> plan_splat_memory(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info) {
+Expected<SplatMemoryPlan> plan_splat_memory(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info,
+                                            std::uint64_t grow_pairs_to) {
   if (auto st = check_fields(info); !st) return st.error();
-  Checked c = check(device, info);
+  Checked c = check(device, info, grow_pairs_to);
   if (c.problem.empty()) return c.plan;
   const std::uint32_t most = max_splat_capacity(device, info);
   return Error{"SplatRenderer: " + with_commas(info.capacity) + " slots at SH degree " + std::to_string(info.sh_degree) +

@@ -74,17 +74,62 @@ Status SplatRenderer::Impl::make_scratch(ViewScratch& s, const char* what) {
   } reqs[] = {
       {&made.tile_count, sizes.tile_counts, "splat tile counts"},
       {&made.offsets, sizes.offsets, "splat offsets"},
-      {&made.keys[0], sizes.sort_buffer, "sort keys A"},
-      {&made.keys[1], sizes.sort_buffer, "sort keys B"},
-      {&made.vals[0], sizes.sort_buffer, "sort values A"},
-      {&made.vals[1], sizes.sort_buffer, "sort values B"},
-      {&made.hist, sizes.histogram, "radix histogram"},
       {&made.tile_depth, sizes.tile_depth, "tile max mesh depth"},
       {&made.output, sizes.output, "splat output pixels"},
   };
   for (const auto& r : reqs)
     if (auto st = make(*r.out, r.bytes, r.name); !st) return st;
+  if (auto st = make_sort_buffers(made, sizes, what); !st) return st;
   s = std::move(made);
+  return Ok{};
+}
+
+Status SplatRenderer::Impl::make_sort_buffers(ViewScratch& s, const ViewScratchBytes& sizes, const char* what) {
+  const struct {
+    vk::Buffer* out;
+    std::uint64_t bytes;
+    const char* name;
+  } reqs[] = {
+      {&s.keys[0], sizes.sort_buffer, "sort keys A"},   {&s.keys[1], sizes.sort_buffer, "sort keys B"},
+      {&s.vals[0], sizes.sort_buffer, "sort values A"}, {&s.vals[1], sizes.sort_buffer, "sort values B"},
+      {&s.hist, sizes.histogram, "radix histogram"},
+  };
+  for (const auto& r : reqs)
+    if (auto st = make_buffer(*context, *r.out, r.bytes, std::string(r.name) + what); !st) return st;
+  return Ok{};
+}
+
+Status SplatRenderer::Impl::grow_pairs() {
+  // A quarter more than asked: a moving view's needs change from frame to frame, and each
+  // growth records the passes anew.
+  const std::uint64_t want = pairs_wanted + pairs_wanted / 4;
+  pairs_wanted = 0;
+  SplatRendererCreateInfo asked = info;
+  asked.max_pairs = 0;
+  auto grown = plan_splat_memory(device_limits, asked, want);
+  if (!grown || grown->max_pairs <= info.max_pairs) return Ok{};  // no room for more: the overflow stays
+  std::array<ViewScratch, 2> made;
+  for (std::size_t v = 0; v < scratch.size(); ++v) {
+    if (!scratch[v].valid()) continue;
+    if (auto st = make_sort_buffers(made[v], grown->view_scratch, v == 0 ? "" : " (view 1)"); !st) {
+      pairs_grow_failed = true;  // the device would not give it after all: keep what there is
+      return st;
+    }
+  }
+  for (std::size_t v = 0; v < scratch.size(); ++v) {
+    if (!scratch[v].valid()) continue;
+    auto old = std::make_shared<ViewScratch>();
+    std::swap(old->keys, scratch[v].keys);
+    std::swap(old->vals, scratch[v].vals);
+    std::swap(old->hist, scratch[v].hist);
+    ring->defer([old]() mutable { old.reset(); });  // frames in flight still sort in them
+    scratch[v].keys = std::move(made[v].keys);
+    scratch[v].vals = std::move(made[v].vals);
+    scratch[v].hist = std::move(made[v].hist);
+  }
+  plan = *grown;
+  info.max_pairs = grown->max_pairs;
+  ++targets_generation;  // the recorded passes bind the old buffers and push the old capacity
   return Ok{};
 }
 
@@ -92,7 +137,8 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
                                                                 const SplatRendererCreateInfo& info_in) {
   // Everything the renderer will allocate is sized and checked first: a scene the device
   // cannot hold is refused here, before any buffer exists.
-  auto plan = plan_splat_memory(context, info_in);
+  const SplatDeviceLimits limits = splat_device_limits(context);
+  auto plan = plan_splat_memory(limits, info_in);
   if (!plan) return plan.error();
   SplatRendererCreateInfo info = info_in;
   info.max_pairs = plan->max_pairs;
@@ -100,6 +146,8 @@ Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& cont
   auto impl = std::make_unique<Impl>();
   impl->plan = *plan;
   impl->context = &context;
+  impl->device_limits = limits;
+  impl->grow_pairs_allowed = info_in.grow_pairs.value_or(info_in.max_pairs == 0);
   auto ring = vk::FrameRing::create(context, info.frames_in_flight);
   if (!ring) return Error{"SplatRenderer: " + ring.message()};
   impl->ring = std::move(*ring);
@@ -259,7 +307,13 @@ Expected<std::uint64_t> SplatRenderer::Impl::render_frame(std::span<const Camera
     if (ok) finished_stats[f.serial] = prev;
     while (finished_stats.size() > 2 * frame_slots.size() + 2) finished_stats.erase(finished_stats.begin());
     f.serial = 0;
+    for (std::uint32_t v = 0; v < f.view_count && ok; ++v) note_needed(prev[v]);
   }
+  if (grow_pairs_allowed && !pairs_grow_failed && pairs_wanted > info.max_pairs)
+    if (auto st = grow_pairs(); !st) {
+      ring->abandon();
+      return st.error();
+    }
   const auto views = static_cast<std::uint32_t>(cameras.size());
   const bool together = views == 2 && cameras[0].width == cameras[1].width && cameras[0].height == cameras[1].height &&
                         second_scratch_ready();
@@ -317,6 +371,7 @@ Expected<std::uint64_t> SplatRenderer::Impl::render_frame(std::span<const Camera
   f.view_count = views;
   f.together = together;
   f.high_water = slots.high_water();
+  f.max_pairs = info.max_pairs;
   ++display_frame;
   return frame->serial;
 }
@@ -350,6 +405,7 @@ Expected<std::array<SplatFrameStats, 2>> SplatRenderer::Impl::frame_stats(std::u
     auto s = read_stats(*f, v);
     if (!s) return s.error();
     out[v] = *s;
+    note_needed(*s);
   }
   return out;
 }

@@ -93,8 +93,11 @@ SplatDeviceLimits splat_device_limits(const vk::Context& context);
 // Automatic pairs (`info.max_pairs` 0): 16 per slot, at least 2^20; up to 2^25 they count
 // towards what the capacity needs (lavapipe's binding holds 2^25), and beyond that, where
 // the bindings hold more, they take at most half of the heap the rest of the plan leaves
-// free, so they never decide whether a capacity fits.
-Expected<SplatMemoryPlan> plan_splat_memory(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info);
+// free, so they never decide whether a capacity fits. `grow_pairs_to` asks for more pairs
+// than 16 per slot (a renderer whose view needed more grows its sort buffers): as many of
+// them as the same bounds allow.
+Expected<SplatMemoryPlan> plan_splat_memory(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info,
+                                            std::uint64_t grow_pairs_to = 0);
 Expected<SplatMemoryPlan> plan_splat_memory(const vk::Context& context, const SplatRendererCreateInfo& info);
 
 // The largest capacity plan_splat_memory accepts with the other fields of `info`

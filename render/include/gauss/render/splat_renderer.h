@@ -13,7 +13,9 @@
 //
 // Pair overflow: when a view needs more (tile, splat) pairs than max_pairs, the pairs of
 // the farthest splats are dropped (the emitted pairs follow depth order), deterministically;
-// SplatFrameStats::pair_overflow and pairs_needed report it. Never garbage.
+// SplatFrameStats::pair_overflow and pairs_needed report it. Never garbage. Where the pairs
+// grow (grow_pairs, the default with automatic pairs), the frames after the overflow was
+// seen hold what the view needed, within the memory plan's bounds.
 //
 // Frames in flight: render_frame() records and submits a frame without waiting for it
 // (frames_in_flight of them may run at once; the renderer's FrameRing paces them), and
@@ -110,6 +112,10 @@ struct SplatRendererCreateInfo {
   // (tile, splat) pairs one view may hold; 0 = automatic (16 per slot from 1M, past 32M only
   // where the bindings and half the heap left free hold them: plan_splat_memory).
   std::uint32_t max_pairs{0};
+  // Whether the pairs grow once a finished frame shows that a view needed more (to that and
+  // a quarter more, within the same bounds as automatic pairs; the frames recorded before
+  // drop their farthest splats' pairs and report it). Unset: when max_pairs is automatic.
+  std::optional<bool> grow_pairs{};
   // Frames that may be in flight at once (1 .. vk::kMaxFramesInFlight). A display loop
   // uses 2 so that recording frame k+1 overlaps the GPU work of frame k.
   std::uint32_t frames_in_flight{1};
