@@ -153,13 +153,13 @@ struct SplatRenderer::Impl {
   // buffers until they finish; the recorded passes are recorded anew. Until then (and beyond
   // the bounds) the overflow drops the farthest splats' pairs and is reported.
   bool grow_pairs_allowed{false};
-  bool pairs_grow_failed{false};  // an allocation failed: not tried again
+  bool pairs_grow_failed{false};  // the device refused an allocation: not tried again
   std::uint64_t pairs_wanted{0};
   SplatDeviceLimits device_limits;
   void note_needed(const SplatFrameStats& s) {
     if (s.pairs_needed > s.pairs) pairs_wanted = std::max<std::uint64_t>(pairs_wanted, s.pairs_needed);
   }
-  Status grow_pairs();
+  void grow_pairs();
   Status prepare_view(FrameSlot& f, std::uint32_t v, const Camera& camera, const SplatRenderOptions& options);
   Expected<SplatFrameStats> read_stats(const FrameSlot& f, std::uint32_t v) const;
   Expected<std::uint64_t> render_frame(std::span<const Camera> cameras, const SplatRenderOptions& options,

@@ -99,7 +99,7 @@ Status SplatRenderer::Impl::make_sort_buffers(ViewScratch& s, const ViewScratchB
   return Ok{};
 }
 
-Status SplatRenderer::Impl::grow_pairs() {
+void SplatRenderer::Impl::grow_pairs() {
   // A quarter more than asked: a moving view's needs change from frame to frame, and each
   // growth records the passes anew.
   const std::uint64_t want = pairs_wanted + pairs_wanted / 4;
@@ -107,13 +107,15 @@ Status SplatRenderer::Impl::grow_pairs() {
   SplatRendererCreateInfo asked = info;
   asked.max_pairs = 0;
   auto grown = plan_splat_memory(device_limits, asked, want);
-  if (!grown || grown->max_pairs <= info.max_pairs) return Ok{};  // no room for more: the overflow stays
+  if (!grown || grown->max_pairs <= info.max_pairs) return;  // no room for more: the overflow stays
   std::array<ViewScratch, 2> made;
   for (std::size_t v = 0; v < scratch.size(); ++v) {
     if (!scratch[v].valid()) continue;
-    if (auto st = make_sort_buffers(made[v], grown->view_scratch, v == 0 ? "" : " (view 1)"); !st) {
-      pairs_grow_failed = true;  // the device would not give it after all: keep what there is
-      return st;
+    if (!make_sort_buffers(made[v], grown->view_scratch, v == 0 ? "" : " (view 1)")) {
+      // The device would not give it after all: the frames go on with what there is (their
+      // overflow reported), and this is not tried again.
+      pairs_grow_failed = true;
+      return;
     }
   }
   for (std::size_t v = 0; v < scratch.size(); ++v) {
@@ -130,7 +132,6 @@ Status SplatRenderer::Impl::grow_pairs() {
   plan = *grown;
   info.max_pairs = grown->max_pairs;
   ++targets_generation;  // the recorded passes bind the old buffers and push the old capacity
-  return Ok{};
 }
 
 Expected<std::unique_ptr<SplatRenderer>> SplatRenderer::create(vk::Context& context,
@@ -309,11 +310,7 @@ Expected<std::uint64_t> SplatRenderer::Impl::render_frame(std::span<const Camera
     f.serial = 0;
     for (std::uint32_t v = 0; v < f.view_count && ok; ++v) note_needed(prev[v]);
   }
-  if (grow_pairs_allowed && !pairs_grow_failed && pairs_wanted > info.max_pairs)
-    if (auto st = grow_pairs(); !st) {
-      ring->abandon();
-      return st.error();
-    }
+  if (grow_pairs_allowed && !pairs_grow_failed && pairs_wanted > info.max_pairs) grow_pairs();
   const auto views = static_cast<std::uint32_t>(cameras.size());
   const bool together = views == 2 && cameras[0].width == cameras[1].width && cameras[0].height == cameras[1].height &&
                         second_scratch_ready();
