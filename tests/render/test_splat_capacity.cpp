@@ -117,9 +117,9 @@ TEST_F(SplatCapacity, RefusesMoreThanTheHeapWithTheNumbers) {
 // frames recorded before that was seen, and the next frame holds them all, with the image a
 // renderer with room gives. Two frames in flight: the second, recorded before the first was
 // read, overflows too and says so against the pairs it had. Without growth the pairs stay.
-TEST_F(SplatCapacity, PairsGrowToWhatAViewNeeds) {
-  // 100 splats over the whole 160x120 view (80 tiles): 8000 pairs. The near 60 are faint,
-  // the far 40 red and strong, so a frame that drops the far splats' pairs looks different.
+// 100 splats over the whole 160x120 view (80 tiles): 8000 pairs. The near 60 are faint, the
+// far 40 red and strong, so a frame that drops the far splats' pairs looks different.
+std::vector<Gaussian> layers_over_the_view() {
   std::vector<Gaussian> scene(100);
   for (std::size_t i = 0; i < scene.size(); ++i) {
     Gaussian& g = scene[i];
@@ -129,6 +129,11 @@ TEST_F(SplatCapacity, PairsGrowToWhatAViewNeeds) {
     g.sh_dc = i < 60 ? glm::vec3(0.2f) : glm::vec3(1.5f, -1.0f, -1.0f);
     g.id = GaussianId{i + 1};
   }
+  return scene;
+}
+
+TEST_F(SplatCapacity, PairsGrowToWhatAViewNeeds) {
+  const std::vector<Gaussian> scene = layers_over_the_view();
   const Camera cam = forward_camera(160, 120);
   auto make = [&](std::uint32_t max_pairs, std::optional<bool> grow, std::uint32_t in_flight) {
     auto r = render::SplatRenderer::create(context(), {.capacity = 100, .sh_degree = 0, .max_width = 160,
@@ -190,6 +195,45 @@ TEST_F(SplatCapacity, PairsGrowToWhatAViewNeeds) {
   const auto again = growing->read_image();
   ASSERT_TRUE(again.ok());
   EXPECT_TRUE(images_equal(*want, *again, "splat_pairs_grown_replayed"));
+}
+
+// Two views recorded together grow both views' sort buffers (the second view's scratch is
+// made at the first such frame, with the pairs of that time).
+TEST_F(SplatCapacity, PairsGrowForTwoViewsRecordedTogether) {
+  const std::vector<Gaussian> scene = layers_over_the_view();
+  const Camera left = forward_camera(160, 120);
+  Camera right = left;
+  right.cx += 3.0;
+  auto make = [&](std::uint32_t max_pairs, bool grow) {
+    auto r = render::SplatRenderer::create(context(), {.capacity = 100, .sh_degree = 0, .max_width = 160,
+                                                       .max_height = 120, .max_pairs = max_pairs, .grow_pairs = grow,
+                                                       .views_together = true});
+    EXPECT_TRUE(r.ok()) << r.message();
+    if (r.ok()) {
+      EXPECT_TRUE((*r)->write_slots(0, scene).ok());
+    }
+    return r.ok() ? std::move(*r) : nullptr;
+  };
+  auto roomy = make(1u << 20, false);
+  auto growing = make(5000, true);
+  ASSERT_TRUE(roomy && growing);
+  auto all = roomy->render_stereo(left, right);
+  ASSERT_TRUE(all.ok()) << all.message();
+  ASSERT_TRUE((*all)[0].views_together);
+  auto first = growing->render_stereo(left, right);
+  ASSERT_TRUE(first.ok()) << first.message();
+  EXPECT_TRUE((*first)[0].pair_overflow && (*first)[1].pair_overflow);
+  auto second = growing->render_stereo(left, right);
+  ASSERT_TRUE(second.ok()) << second.message();
+  for (std::uint32_t v = 0; v < 2; ++v) {
+    EXPECT_TRUE((*second)[v].views_together);
+    EXPECT_FALSE((*second)[v].pair_overflow) << "view " << v;
+    EXPECT_EQ((*second)[v].pairs, (*all)[v].pairs) << "view " << v;
+    const auto want = roomy->read_image(v);
+    const auto got = growing->read_image(v);
+    ASSERT_TRUE(want.ok() && got.ok());
+    EXPECT_TRUE(images_equal(*want, *got, v == 0 ? "splat_pairs_grown_left" : "splat_pairs_grown_right"));
+  }
 }
 
 // Plans against devices this machine does not have (made-up limits, no Vulkan): the pairs a

@@ -108,6 +108,8 @@ void SplatRenderer::Impl::grow_pairs() {
   asked.max_pairs = 0;
   auto grown = plan_splat_memory(device_limits, asked, want);
   if (!grown || grown->max_pairs <= info.max_pairs) return;  // no room for more: the overflow stays
+  // The plan counts one view's scratch; two views recorded together grow both.
+  if (scratch[1].valid() && grown->total_bytes + grown->second_view_bytes() > grown->heap_bytes) return;
   std::array<ViewScratch, 2> made;
   for (std::size_t v = 0; v < scratch.size(); ++v) {
     if (!scratch[v].valid()) continue;
