@@ -234,10 +234,11 @@ int main(int argc, char** argv) {
   (*host)->close_all();  // --dump-sent: the still-connected clients' dumps
   const auto c = (*host)->net().counters();
   const auto& hs = (*host)->stats();
-  std::printf("gauss-host: stopping after %.1f s: %zu epochs served (last %llu), %llu sessions, %llu edits in %llu "
+  std::printf("gauss-host: stopping after %.1f s: %zu epochs served (last %llu), %llu session%s, %llu edits in %llu "
               "batches, %.2f MB sent, %llu messages rejected\n",
               seconds(), epochs_served, static_cast<unsigned long long>(gauss::to_underlying(store.epoch())),
-              static_cast<unsigned long long>(hs.sessions_opened), static_cast<unsigned long long>(edits_total),
+              static_cast<unsigned long long>(hs.sessions_opened), hs.sessions_opened == 1 ? "" : "s",
+              static_cast<unsigned long long>(edits_total),
               static_cast<unsigned long long>(closed_batches), double(c.bytes_sent) / 1e6,
               static_cast<unsigned long long>(c.rejected()));
   return exit_code;
