@@ -4,6 +4,7 @@
 // scenes by lowering the binding range (SplatRendererCreateInfo::max_binding_bytes): a
 // split renderer must give the very bytes of an unsplit one.
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -24,6 +25,21 @@ namespace {
 // 1024 SH3 slots per chunk: the widest array (SH bands 1-2) is 96 bytes per slot.
 constexpr std::uint64_t kSmallBinding = 96 * 1024;
 
+// 100 splats over the whole 160x120 view (80 tiles): 8000 pairs. The near 60 are faint, the
+// far 40 red and strong, so a frame that drops the far splats' pairs looks different.
+std::vector<Gaussian> layers_over_the_view() {
+  std::vector<Gaussian> scene(100);
+  for (std::size_t i = 0; i < scene.size(); ++i) {
+    Gaussian& g = scene[i];
+    g.position = glm::vec3(0.0f, 0.0f, 3.0f + 0.05f * float(i));
+    g.log_scale = glm::vec3(std::log(40.0f), std::log(40.0f), std::log(0.01f));
+    g.opacity_logit = i < 60 ? -4.0f : -0.8f;
+    g.sh_dc = i < 60 ? glm::vec3(0.2f) : glm::vec3(1.5f, -1.0f, -1.0f);
+    g.id = GaussianId{i + 1};
+  }
+  return scene;
+}
+
 class SplatCapacity : public VkTest {
  protected:
   render::SplatRendererCreateInfo info(std::uint32_t capacity, std::uint64_t binding_bytes) const {
@@ -39,6 +55,17 @@ class SplatCapacity : public VkTest {
     auto img = r.read_image();
     EXPECT_TRUE(img.ok()) << (img.ok() ? "" : img.message());
     return img.ok() ? *img : ImageRGBA8{};
+  }
+  // A 160x120 renderer holding layers_over_the_view(), with these pairs.
+  std::unique_ptr<render::SplatRenderer> layered(std::uint32_t max_pairs, std::optional<bool> grow,
+                                                 std::uint32_t in_flight, std::optional<bool> together = {}) {
+    auto r = render::SplatRenderer::create(context(), {.capacity = 100, .sh_degree = 0, .max_width = 160,
+                                                       .max_height = 120, .max_pairs = max_pairs, .grow_pairs = grow,
+                                                       .frames_in_flight = in_flight, .views_together = together});
+    EXPECT_TRUE(r.ok()) << r.message();
+    if (!r.ok()) return nullptr;
+    EXPECT_TRUE((*r)->write_slots(0, layers_over_the_view()).ok());
+    return std::move(*r);
   }
 };
 
@@ -117,37 +144,11 @@ TEST_F(SplatCapacity, RefusesMoreThanTheHeapWithTheNumbers) {
 // frames recorded before that was seen, and the next frame holds them all, with the image a
 // renderer with room gives. Two frames in flight: the second, recorded before the first was
 // read, overflows too and says so against the pairs it had. Without growth the pairs stay.
-// 100 splats over the whole 160x120 view (80 tiles): 8000 pairs. The near 60 are faint, the
-// far 40 red and strong, so a frame that drops the far splats' pairs looks different.
-std::vector<Gaussian> layers_over_the_view() {
-  std::vector<Gaussian> scene(100);
-  for (std::size_t i = 0; i < scene.size(); ++i) {
-    Gaussian& g = scene[i];
-    g.position = glm::vec3(0.0f, 0.0f, 3.0f + 0.05f * float(i));
-    g.log_scale = glm::vec3(std::log(40.0f), std::log(40.0f), std::log(0.01f));
-    g.opacity_logit = i < 60 ? -4.0f : -0.8f;
-    g.sh_dc = i < 60 ? glm::vec3(0.2f) : glm::vec3(1.5f, -1.0f, -1.0f);
-    g.id = GaussianId{i + 1};
-  }
-  return scene;
-}
-
 TEST_F(SplatCapacity, PairsGrowToWhatAViewNeeds) {
-  const std::vector<Gaussian> scene = layers_over_the_view();
   const Camera cam = forward_camera(160, 120);
-  auto make = [&](std::uint32_t max_pairs, std::optional<bool> grow, std::uint32_t in_flight) {
-    auto r = render::SplatRenderer::create(context(), {.capacity = 100, .sh_degree = 0, .max_width = 160,
-                                                       .max_height = 120, .max_pairs = max_pairs, .grow_pairs = grow,
-                                                       .frames_in_flight = in_flight});
-    EXPECT_TRUE(r.ok()) << r.message();
-    if (r.ok()) {
-      EXPECT_TRUE((*r)->write_slots(0, scene).ok());
-    }
-    return r.ok() ? std::move(*r) : nullptr;
-  };
-  auto roomy = make(1u << 20, false, 1);
-  auto fixed = make(5000, std::nullopt, 1);  // an explicit max_pairs does not grow by default
-  auto growing = make(5000, true, 2);
+  auto roomy = layered(1u << 20, false, 1);
+  auto fixed = layered(5000, std::nullopt, 1);  // an explicit max_pairs does not grow by default
+  auto growing = layered(5000, true, 2);
   ASSERT_TRUE(roomy && fixed && growing);
 
   auto all = roomy->render(cam);
@@ -200,22 +201,11 @@ TEST_F(SplatCapacity, PairsGrowToWhatAViewNeeds) {
 // Two views recorded together grow both views' sort buffers (the second view's scratch is
 // made at the first such frame, with the pairs of that time).
 TEST_F(SplatCapacity, PairsGrowForTwoViewsRecordedTogether) {
-  const std::vector<Gaussian> scene = layers_over_the_view();
   const Camera left = forward_camera(160, 120);
   Camera right = left;
   right.cx += 3.0;
-  auto make = [&](std::uint32_t max_pairs, bool grow) {
-    auto r = render::SplatRenderer::create(context(), {.capacity = 100, .sh_degree = 0, .max_width = 160,
-                                                       .max_height = 120, .max_pairs = max_pairs, .grow_pairs = grow,
-                                                       .views_together = true});
-    EXPECT_TRUE(r.ok()) << r.message();
-    if (r.ok()) {
-      EXPECT_TRUE((*r)->write_slots(0, scene).ok());
-    }
-    return r.ok() ? std::move(*r) : nullptr;
-  };
-  auto roomy = make(1u << 20, false);
-  auto growing = make(5000, true);
+  auto roomy = layered(1u << 20, false, 1, true);
+  auto growing = layered(5000, true, 1, true);
   ASSERT_TRUE(roomy && growing);
   auto all = roomy->render_stereo(left, right);
   ASSERT_TRUE(all.ok()) << all.message();

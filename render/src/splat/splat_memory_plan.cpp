@@ -58,6 +58,11 @@ struct Checked {
   std::string problem;  // empty when the plan fits the device
 };
 
+// The bytes one binding may cover: the device's, or less where the create info says.
+std::uint64_t binding_range_of(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info) {
+  return info.max_binding_bytes != 0 ? std::min(device.binding_range, info.max_binding_bytes) : device.binding_range;
+}
+
 // The plan for `info` with `max_pairs` (tile, splat) pairs per view and, when the device
 // cannot hold it, what is wrong (without the "at most N slots" part, which needs this
 // function again).
@@ -65,8 +70,7 @@ Checked check_with_pairs(const SplatDeviceLimits& device, const SplatRendererCre
   Checked out;
   SplatMemoryPlan& p = out.plan;
   p.capacity = info.capacity;
-  p.binding_range = device.binding_range;
-  if (info.max_binding_bytes != 0) p.binding_range = std::min<std::uint64_t>(p.binding_range, info.max_binding_bytes);
+  p.binding_range = binding_range_of(device, info);
   p.heap_bytes = device.heap_bytes;
   p.max_allocation = device.max_allocation;
   const std::uint64_t range = p.binding_range;
@@ -151,14 +155,24 @@ constexpr std::uint64_t kPairsPerSlot = 16;
 constexpr std::uint64_t kPairsAlwaysPlanned = 32u << 20;
 constexpr std::uint64_t kPairsMost = 1u << 31;  // pair counts and offsets are 32-bit words
 
+std::uint64_t pairs_per_slot(const SplatRendererCreateInfo& info) {
+  return std::max<std::uint64_t>(1u << 20, std::uint64_t{info.capacity} * kPairsPerSlot);
+}
+
+// The pairs that count towards what the capacity needs: the asked ones, or the automatic
+// ones up to kPairsAlwaysPlanned. Whether a capacity fits is decided with these alone.
+std::uint32_t planned_pairs(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info) {
+  if (info.max_pairs != 0) return info.max_pairs;
+  return static_cast<std::uint32_t>(
+      std::min({binding_range_of(device, info) / 4, kPairsAlwaysPlanned, pairs_per_slot(info)}));
+}
+
 Checked check(const SplatDeviceLimits& device, const SplatRendererCreateInfo& info, std::uint64_t grow_to = 0) {
-  if (info.max_pairs != 0) return check_with_pairs(device, info, info.max_pairs);
-  const std::uint64_t range =
-      info.max_binding_bytes != 0 ? std::min(device.binding_range, info.max_binding_bytes) : device.binding_range;
-  const std::uint64_t per_slot = std::max<std::uint64_t>(1u << 20, std::uint64_t{info.capacity} * kPairsPerSlot);
-  const std::uint64_t floor = std::min({range / 4, kPairsAlwaysPlanned, per_slot});
+  const std::uint64_t floor = planned_pairs(device, info);
   Checked out = check_with_pairs(device, info, static_cast<std::uint32_t>(floor));
-  const std::uint64_t most = std::min({range / 4, device.max_allocation / 4, kPairsMost, std::max(per_slot, grow_to)});
+  if (info.max_pairs != 0) return out;
+  const std::uint64_t most = std::min({binding_range_of(device, info) / 4, device.max_allocation / 4, kPairsMost,
+                                       std::max(pairs_per_slot(info), grow_to)});
   if (!out.problem.empty() || most <= floor) return out;
   const std::uint64_t budget = out.plan.total_bytes + (out.plan.heap_bytes - out.plan.total_bytes) / 2;
   auto fits = [&](std::uint64_t pairs) {
@@ -222,8 +236,7 @@ std::uint32_t max_splat_capacity(const SplatDeviceLimits& device, const SplatRen
   SplatRendererCreateInfo probe = info;
   auto fits = [&](std::uint32_t capacity) {
     probe.capacity = capacity;
-    // Automatic pairs past 32M never decide whether a capacity fits (see check()).
-    return check(device, probe).problem.empty();
+    return check_with_pairs(device, probe, planned_pairs(device, probe)).problem.empty();
   };
   if (!check_fields({.capacity = 1,
                      .sh_degree = info.sh_degree,

@@ -122,14 +122,11 @@ void SplatRenderer::Impl::grow_pairs() {
   }
   for (std::size_t v = 0; v < scratch.size(); ++v) {
     if (!scratch[v].valid()) continue;
-    auto old = std::make_shared<ViewScratch>();
-    std::swap(old->keys, scratch[v].keys);
-    std::swap(old->vals, scratch[v].vals);
-    std::swap(old->hist, scratch[v].hist);
+    std::swap(scratch[v].keys, made[v].keys);
+    std::swap(scratch[v].vals, made[v].vals);
+    std::swap(scratch[v].hist, made[v].hist);
+    auto old = std::make_shared<ViewScratch>(std::move(made[v]));
     ring->defer([old]() mutable { old.reset(); });  // frames in flight still sort in them
-    scratch[v].keys = std::move(made[v].keys);
-    scratch[v].vals = std::move(made[v].vals);
-    scratch[v].hist = std::move(made[v].hist);
   }
   plan = *grown;
   info.max_pairs = grown->max_pairs;
